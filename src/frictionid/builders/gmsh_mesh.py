@@ -1,0 +1,99 @@
+"""Conversion of the current gmsh model (or a .msh file) into a frictionid Mesh, physical groups as names."""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+
+import gmsh
+import numpy as np
+from meshio.gmsh.common import _gmsh_to_meshio_order, _gmsh_to_meshio_type
+
+from ..errors import InputError
+from ..model.mesh import CELL_DIM, FACET_NODES, FACET_TYPE, Mesh
+
+
+@contextlib.contextmanager
+def gmsh_session(name: str = "frictionid"):
+    """Initialise gmsh quietly for the duration of a block and always finalise it."""
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
+def _elements(dim: int, tag: int = -1) -> dict[str, np.ndarray]:
+    """Node tags per meshio cell type (meshio node order) of the entities of dimension dim (or one entity)."""
+    out = {}
+    types, _, node_tags = gmsh.model.mesh.getElements(dim, tag)
+    for gmsh_type, nodes in zip(types, node_tags):
+        cell_type = _gmsh_to_meshio_type[int(gmsh_type)]
+        n = gmsh.model.mesh.getElementProperties(int(gmsh_type))[3]
+        out[cell_type] = _gmsh_to_meshio_order(cell_type, np.asarray(nodes, dtype=np.int64).reshape(-1, n))
+    return out
+
+
+def _groups(dim: int, source: str) -> dict[str, list[np.ndarray]]:
+    groups: dict[str, list[np.ndarray]] = {}
+    for d, tag in gmsh.model.getPhysicalGroups(dim):
+        name = gmsh.model.getPhysicalName(d, tag) or f"{d}:{tag}"
+        for entity in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
+            for cells in _elements(d, int(entity)).values():
+                groups.setdefault(name, []).append(cells)
+    return groups
+
+
+def mesh_from_gmsh(source: str = "gmsh model") -> Mesh:
+    """The mesh of the current gmsh model as a :class:`Mesh`.
+
+    Regions are the physical groups of the top dimension, boundaries those one dimension lower.
+    Nodes not used by any cell are dropped and the rest numbered 0..n-1.
+    """
+    dim = gmsh.model.getDimension()
+    if dim not in (2, 3):
+        raise InputError(f"{source}: has no 2-D or 3-D mesh (dimension {dim})")
+    cells_by_type = _elements(dim)
+    if len(cells_by_type) != 1:
+        raise InputError(f"{source}: needs exactly one cell type, found {sorted(cells_by_type) or 'none'}")
+    (cell_type, cells), = cells_by_type.items()
+    if cell_type not in FACET_TYPE or CELL_DIM[cell_type] != dim:
+        raise InputError(f"{source}: cell type {cell_type!r} is not supported; expected one of {sorted(FACET_TYPE)}")
+    node_tags, coords, _ = gmsh.model.mesh.getNodes()
+    coords = np.asarray(coords).reshape(-1, 3)[:, :dim]
+    used = np.unique(cells)
+    index = np.full(int(max(node_tags.max(), used.max())) + 1, -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+    points = np.empty((len(used), dim))
+    points[index[node_tags[np.isin(node_tags, used)]]] = coords[np.isin(node_tags, used)]
+
+    # cells of a region are found by their sorted node tags: gmsh numbers elements globally
+    key_of = {tuple(sorted(c)): i for i, c in enumerate(cells.tolist())}
+    regions = {}
+    for name, parts in _groups(dim, source).items():
+        regions[name] = np.array([key_of[tuple(sorted(c))] for part in parts for c in part.tolist()], dtype=np.int64)
+    boundaries = {}
+    for name, parts in _groups(dim - 1, source).items():
+        facets = [p for p in parts if p.shape[1] == FACET_NODES[FACET_TYPE[cell_type]]]
+        if not facets:
+            continue
+        stacked = np.vstack(facets)
+        if np.any(index[stacked] < 0):
+            raise InputError(f"{source}: boundary {name!r} has nodes that belong to no cell")
+        boundaries[name] = index[stacked]
+    return Mesh(points=points, cell_type=cell_type, cells=index[cells], regions=regions, boundaries=boundaries)
+
+
+def read_msh(path: str | Path) -> Mesh:
+    """Read a gmsh .msh file; physical groups become regions and boundaries."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: mesh file not found")
+    with gmsh_session():
+        try:
+            gmsh.open(str(path))
+        except Exception as exc:  # gmsh raises a bare Exception with its own message
+            raise InputError(f"{path}: gmsh could not read it ({exc})") from None
+        return mesh_from_gmsh(str(path))

@@ -1,0 +1,1 @@
+"""The embedded finite element solver: assembly, interface discretisation, condensation, contact, sensitivities."""

@@ -1,0 +1,130 @@
+"""Space: the scikit-fem basis of a model's mesh and the map from its dofs to frictionid's node-major dofs.
+
+frictionid numbers dofs node-major, ``dof = dim * node + component``, with nodes as in :class:`Mesh`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import meshio
+import numpy as np
+import skfem
+from skfem.io.meshio import from_meshio
+
+from ..errors import InputError
+from ..model import Mesh
+
+ELEMENTS = {
+    "triangle": skfem.ElementTriP1,
+    "triangle6": skfem.ElementTriP2,
+    "quad": skfem.ElementQuad1,
+    "quad9": skfem.ElementQuad2,
+    "tetra": skfem.ElementTetP1,
+    "tetra10": skfem.ElementTetP2,
+    "hexahedron": skfem.ElementHex1,
+    "hexahedron27": skfem.ElementHex2,
+}
+N_CORNERS = {"line": 2, "line3": 2, "triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}
+
+
+def _local_permutation(mesh: Mesh, basis: skfem.CellBasis) -> np.ndarray:
+    """perm[e, j]: position in cell e's node list of the basis' local dof j, found by matching coordinates.
+
+    scikit-fem may reorder a cell's vertices (orientation), so the permutation is per cell.
+    """
+    dofs = basis.element_dofs
+    locs = basis.doflocs[:, dofs].transpose(2, 1, 0)            # (n_cells, n_local, dim)
+    nodes = mesh.points[mesh.cells]                            # (n_cells, n_local, dim)
+    distance = np.linalg.norm(locs[:, :, None, :] - nodes[:, None, :, :], axis=-1)
+    perm = distance.argmin(axis=2)                             # (n_cells, n_local)
+    size = np.linalg.norm(np.ptp(nodes, axis=1), axis=1)[:, None]
+    if np.any(distance.min(axis=2) > 1e-8 * size):
+        raise InputError("mesh: cell node order is not the one expected for "
+                         f"{mesh.cell_type} cells (gmsh/meshio order)")
+    return perm
+
+
+@dataclass(frozen=True)
+class Space:
+    """A vector H1 space on the mesh (isoparametric Lagrange elements of the mesh's order).
+
+    Attributes
+    ----------
+    mesh : the frictionid mesh
+    skmesh : the scikit-fem mesh
+    basis : vector basis, scalar : scalar basis of the same element
+    dof_of : (basis.N,) frictionid dof of each scikit-fem vector dof
+    node_of : (scalar.N,) frictionid node of each scikit-fem scalar dof
+    """
+
+    mesh: Mesh
+    skmesh: skfem.Mesh
+    basis: skfem.CellBasis
+    scalar: skfem.CellBasis
+    dof_of: np.ndarray
+    node_of: np.ndarray
+
+    @classmethod
+    def build(cls, mesh: Mesh) -> "Space":
+        element = ELEMENTS[mesh.cell_type]()
+        skmesh = from_meshio(meshio.Mesh(np.asarray(mesh.points), [(mesh.cell_type, np.asarray(mesh.cells))]))
+        scalar = skfem.Basis(skmesh, element)
+        basis = skfem.Basis(skmesh, skfem.ElementVector(element))
+        perm = _local_permutation(mesh, scalar)
+        node_of = np.empty(scalar.N, dtype=np.int64)
+        node_of[scalar.element_dofs] = np.take_along_axis(mesh.cells, perm, axis=1).T
+        dim = mesh.dim
+        dof_of = np.empty(basis.N, dtype=np.int64)
+        for c in range(dim):
+            dof_of[basis.element_dofs[c::dim]] = dim * node_of[scalar.element_dofs] + c
+        return cls(mesh, skmesh, basis, scalar, dof_of, node_of)
+
+    @property
+    def dim(self) -> int:
+        return self.mesh.dim
+
+    @property
+    def n_dofs(self) -> int:
+        return self.dim * self.mesh.n_nodes
+
+    def to_dofs(self, matrix):
+        """A scikit-fem assembled sparse matrix or vector renumbered to frictionid dofs."""
+        if np.ndim(matrix) == 1:
+            out = np.zeros(self.n_dofs)
+            out[self.dof_of] = matrix
+            return out
+        coo = matrix.tocoo()
+        import scipy.sparse as sp
+        return sp.csr_matrix((coo.data, (self.dof_of[coo.row], self.dof_of[coo.col])),
+                             shape=(self.n_dofs, self.n_dofs))
+
+    def nodal(self, vector: np.ndarray) -> np.ndarray:
+        """A scikit-fem scalar dof vector as a per-node array (n_nodes,)."""
+        out = np.zeros(self.mesh.n_nodes)
+        out[self.node_of] = vector
+        return out
+
+    @cached_property
+    def _facet_index(self) -> dict:
+        vertex_of_node = np.full(self.mesh.n_nodes, -1, dtype=np.int64)
+        vertex_of_node[self.node_of[self.scalar.nodal_dofs[0]]] = np.arange(self.scalar.nodal_dofs.shape[1])
+        keys = np.sort(self.skmesh.facets, axis=0).T
+        return {"vertex_of_node": vertex_of_node, "facet": {tuple(k): i for i, k in enumerate(keys.tolist())}}
+
+    def facets(self, name: str) -> np.ndarray:
+        """scikit-fem facet indices of the named boundary."""
+        facets = self.mesh.boundary(name)
+        corners = self._facet_index["vertex_of_node"][facets[:, :N_CORNERS[self.mesh.facet_type]]]
+        lookup = self._facet_index["facet"]
+        try:
+            return np.array([lookup[tuple(sorted(c))] for c in corners.tolist()], dtype=np.int64)
+        except KeyError:
+            raise InputError(f"mesh: boundary {name!r} has a facet that is not a face of any cell") from None
+
+    def facet_basis(self, name: str, vector: bool = True) -> skfem.FacetBasis:
+        """Facet basis (outward normals of the adjacent cell) on the named boundary."""
+        element = self.basis.elem if vector else self.scalar.elem
+        return skfem.FacetBasis(self.skmesh, element, facets=self.facets(name),
+                                intorder=2 * self.scalar.elem.maxdeg + 1)

@@ -1,0 +1,196 @@
+"""Model: mesh + materials + supports + load path + contact interfaces split into friction zones."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import InputError
+from .mesh import Mesh
+
+KINDS = ("3d", "plane_strain", "axisymmetric")
+_COMPONENTS = {"x": 0, "y": 1, "z": 2, "r": 0}
+
+
+def component_index(component, dim: int, where: str) -> int:
+    """Index of a displacement component given as 0..dim-1 or 'x', 'y', 'z' ('r' = 'x' in axisymmetry)."""
+    index = _COMPONENTS.get(component, component) if isinstance(component, str) else component
+    if not isinstance(index, (int, np.integer)) or not 0 <= index < dim:
+        raise InputError(f"{where}: component {component!r} is not one of x, y{', z' if dim == 3 else ''}")
+    return int(index)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Linear elastic isotropic material: Young's modulus E [MPa], Poisson's ratio nu."""
+
+    E: float
+    nu: float
+    name: str = ""
+
+    def __post_init__(self):
+        if not self.E > 0 or not -1.0 < self.nu < 0.5:
+            raise InputError(f"material {self.name!r}: need E > 0 and -1 < nu < 0.5, got E={self.E}, nu={self.nu}")
+
+    @property
+    def lame(self) -> tuple[float, float]:
+        """(lambda, mu) [MPa]."""
+        lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+        return lam, self.E / (2 * (1 + self.nu))
+
+
+@dataclass(frozen=True)
+class Support:
+    """Displacement components held at zero on a named boundary for the whole load path."""
+
+    boundary: str
+    components: tuple = (0, 1, 2)
+
+
+@dataclass(frozen=True)
+class Displacement:
+    """Prescribed displacement [mm] of one component on a boundary; ``values[s]`` is reached at the end of stage s."""
+
+    boundary: str
+    component: int | str
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Pressure:
+    """Normal pressure [MPa] on a boundary, positive pushing into the body; ``values[s]`` at the end of stage s."""
+
+    boundary: str
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class SurfaceForce:
+    """Total force [N] in one component, spread uniformly over a boundary's area; ``values[s]`` at end of stage s.
+
+    Axisymmetric models count the whole ring (360 deg); plane-strain models count per mm of thickness.
+    """
+
+    boundary: str
+    component: int | str
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of the load path: loads ramp linearly from the previous stage's end values in n_increments."""
+
+    name: str
+    n_increments: int = 1
+
+    def __post_init__(self):
+        if int(self.n_increments) < 1:
+            raise InputError(f"stage {self.name!r}: n_increments must be at least 1, got {self.n_increments}")
+
+
+@dataclass(frozen=True)
+class ContactInterface:
+    """A contact interface: the contact side is the union of its zones, each a named boundary of the mesh.
+
+    Each zone carries its own Coulomb coefficient. ``target`` is the named boundary on the other body.
+    """
+
+    name: str
+    zones: tuple[str, ...]
+    target: str
+
+
+Load = Displacement | Pressure | SurfaceForce
+
+
+@dataclass(frozen=True)
+class Model:
+    """Everything a forward solver needs except the friction coefficients.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    kind : "3d" | "plane_strain" | "axisymmetric"
+        Plane strain counts forces per mm of thickness; axisymmetric uses x = r, y = axis, whole-ring forces.
+    materials : mapping region name -> Material
+    supports : Supports (zero displacement) on named boundaries.
+    loads : Displacement, Pressure and SurfaceForce entries, each with one value per stage.
+    stages : the load path.
+    interfaces : contact interfaces with their friction zones.
+    """
+
+    mesh: Mesh
+    kind: str
+    materials: Mapping[str, Material]
+    supports: tuple[Support, ...] = ()
+    loads: tuple[Load, ...] = ()
+    stages: tuple[Stage, ...] = (Stage("load"),)
+    interfaces: tuple[ContactInterface, ...] = ()
+    zone_names: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "materials", MappingProxyType(dict(self.materials)))
+        object.__setattr__(self, "supports", tuple(self.supports))
+        object.__setattr__(self, "loads", tuple(self.loads))
+        object.__setattr__(self, "stages", tuple(self.stages))
+        object.__setattr__(self, "interfaces", tuple(self.interfaces))
+        object.__setattr__(self, "zone_names", tuple(z for i in self.interfaces for z in i.zones))
+        self._validate()
+
+    @property
+    def dim(self) -> int:
+        return self.mesh.dim
+
+    @property
+    def n_stages(self) -> int:
+        return len(self.stages)
+
+    @property
+    def n_zones(self) -> int:
+        return len(self.zone_names)
+
+    def _validate(self):
+        mesh = self.mesh
+        if self.kind not in KINDS:
+            raise InputError(f"model: kind {self.kind!r} is not one of {KINDS}")
+        if (self.kind == "3d") != (mesh.dim == 3):
+            raise InputError(f"model: kind {self.kind!r} does not fit a {mesh.dim}-D mesh")
+        for name in self.materials:
+            if name not in mesh.regions:
+                raise InputError(f"model: material given for region {name!r}, which the mesh does not have; "
+                                 f"regions are {sorted(mesh.regions)}")
+        without = [r for r in mesh.regions if r not in self.materials]
+        if without:
+            raise InputError(f"model: region(s) {without} have no material")
+        if np.any(mesh.cell_region < 0):
+            raise InputError(f"model: {int(np.sum(mesh.cell_region < 0))} cell(s) belong to no named region, "
+                             "so they have no material")
+        for support in self.supports:
+            mesh.boundary(support.boundary)
+            for c in support.components:
+                component_index(c, self.dim, f"support on {support.boundary!r}")
+        for load in self.loads:
+            mesh.boundary(load.boundary)
+            if len(load.values) != self.n_stages:
+                raise InputError(f"model: {type(load).__name__} on {load.boundary!r} has {len(load.values)} "
+                                 f"value(s), expected one per stage ({self.n_stages})")
+            if hasattr(load, "component"):
+                component_index(load.component, self.dim, f"{type(load).__name__} on {load.boundary!r}")
+        self._validate_zones()
+
+    def _validate_zones(self):
+        seen: dict[frozenset, str] = {}
+        if len(set(self.zone_names)) != len(self.zone_names):
+            raise InputError(f"model: a zone name is used twice in {self.zone_names}")
+        for interface in self.interfaces:
+            self.mesh.boundary(interface.target)
+            for zone in interface.zones:
+                for facet in self.mesh.boundary(zone):
+                    key = frozenset(facet.tolist())
+                    if key in seen:
+                        raise InputError(f"model: zones {seen[key]!r} and {zone!r} overlap (they share a facet); "
+                                         "each contact facet must belong to exactly one zone")
+                    seen[key] = zone
