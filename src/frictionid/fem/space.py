@@ -65,9 +65,11 @@ class Space:
     scalar: skfem.CellBasis
     dof_of: np.ndarray
     node_of: np.ndarray
+    kind: str = "3d"
 
     @classmethod
-    def build(cls, mesh: Mesh) -> "Space":
+    def build(cls, mesh: Mesh, kind: str | None = None) -> "Space":
+        """The space of a mesh; ``kind`` ("3d" | "plane_strain" | "axisymmetric") defaults by dimension."""
         element = ELEMENTS[mesh.cell_type]()
         skmesh = from_meshio(meshio.Mesh(np.asarray(mesh.points), [(mesh.cell_type, np.asarray(mesh.cells))]))
         scalar = skfem.Basis(skmesh, element)
@@ -79,11 +81,19 @@ class Space:
         dof_of = np.empty(basis.N, dtype=np.int64)
         for c in range(dim):
             dof_of[basis.element_dofs[c::dim]] = dim * node_of[scalar.element_dofs] + c
-        return cls(mesh, skmesh, basis, scalar, dof_of, node_of)
+        kind = kind or ("3d" if dim == 3 else "plane_strain")
+        return cls(mesh, skmesh, basis, scalar, dof_of, node_of, kind)
 
     @property
     def dim(self) -> int:
         return self.mesh.dim
+
+    def ring(self, x: np.ndarray) -> np.ndarray:
+        """Measure factor at quadrature points x (dim, ...): 2 pi r for axisymmetric models, else 1.
+
+        Multiplying integrands by it makes every axisymmetric force and area a whole-ring (360 deg) quantity.
+        """
+        return 2 * np.pi * x[0] if self.kind == "axisymmetric" else np.ones_like(x[0])
 
     @property
     def n_dofs(self) -> int:

@@ -96,11 +96,20 @@ class ContactInterface:
     """A contact interface: the contact side is the union of its zones, each a named boundary of the mesh.
 
     Each zone carries its own Coulomb coefficient. ``target`` is the named boundary on the other body.
+    ``discretisation``: "node-to-node" (conforming meshes: every contact node has a target node at the same
+    place, up to an initial gap), "mortar" (non-matching 2-D meshes) or "auto" (node-to-node when conforming).
     """
 
     name: str
     zones: tuple[str, ...]
     target: str
+    discretisation: str = "auto"
+
+    def __post_init__(self):
+        object.__setattr__(self, "zones", tuple(self.zones))
+        if self.discretisation not in ("auto", "node-to-node", "mortar"):
+            raise InputError(f"interface {self.name!r}: discretisation {self.discretisation!r} is not one of "
+                             "'auto', 'node-to-node', 'mortar'")
 
 
 Load = Displacement | Pressure | SurfaceForce
