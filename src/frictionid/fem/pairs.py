@@ -63,10 +63,9 @@ class ContactPairs:
         return self.zone_share @ np.asarray(zone_mu, dtype=float)
 
     @staticmethod
-    def concatenate(parts: list["ContactPairs"], n_dofs: int, n_zones: int) -> "ContactPairs":
+    def concatenate(parts: list["ContactPairs"], n_dofs: int, n_zones: int, dim: int) -> "ContactPairs":
         """All interfaces' pairs as one object (pairs in the order of ``parts``)."""
         if not parts:
-            dim = 0
             return ContactPairs(np.zeros(0, int), np.zeros((0, dim)), np.zeros((0, dim, dim)), np.zeros(0),
                                 np.zeros((0, n_zones)), np.zeros(0), sp.csr_matrix((0, n_dofs)), np.zeros(0, int))
         return ContactPairs(

@@ -1,0 +1,32 @@
+"""Contact pairs of all interfaces of a model, each discretised as it asks (node-to-node or mortar)."""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ..model import Model
+from .node_to_node import node_to_node_pairs
+from .pairs import ContactPairs
+from .space import Space
+
+
+def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
+    if space.dim != 2:
+        raise InputError(f"interface {model.interfaces[index].name!r}: mortar is available for 2-D models only")
+    from .mortar import mortar_pairs
+    return mortar_pairs(space, model, index)
+
+
+def contact_pairs(space: Space, model: Model) -> ContactPairs:
+    """Pairs of every interface in model order; "auto" tries node-to-node and falls back to mortar in 2-D."""
+    parts = []
+    for index, interface in enumerate(model.interfaces):
+        if interface.discretisation == "mortar":
+            parts.append(_mortar(space, model, index))
+            continue
+        try:
+            parts.append(node_to_node_pairs(space, model, index))
+        except InputError:
+            if interface.discretisation == "node-to-node" or space.dim != 2:
+                raise
+            parts.append(_mortar(space, model, index))
+    return ContactPairs.concatenate(parts, space.n_dofs, model.n_zones, space.dim)

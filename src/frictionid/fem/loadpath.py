@@ -1,0 +1,121 @@
+"""The load path: increments solved in order, cut when Newton fails, sensitivities carried along (DDM).
+
+Direct differentiation of the converged increment n (NUMERICS.md section 4):
+
+    J_n S_n = -(dF/dmu + dF/dw_prev W_full S_{n-1}),   S = dx/dmu,   S_0 = 0,
+
+with dF_T/dmu_z = -lam_hat t share_z on slipping pairs and dF_T/dw_prev_T = -Q_TT (stick and slip rows).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as la
+
+from ..errors import SolverError
+from .condense import Condensed
+from .contact import Increment, Linearisation, NewtonResult, bonded_start, newton
+from .pairs import ContactPairs
+
+log = logging.getLogger(__name__)
+MAX_CUTS = 8
+
+
+@dataclass
+class _Path:
+    """Running state along the path: x, tangential w, sensitivities."""
+
+    x: np.ndarray
+    w_T: np.ndarray
+    S: np.ndarray | None
+    first: bool = True
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Converged state at the end of one nominal increment."""
+
+    x: np.ndarray
+    lin: Linearisation
+    w: np.ndarray
+    S: np.ndarray | None
+    n_newton: int
+    n_cuts: int
+
+
+class LoadPathSolver:
+    """Solves a condensed problem along the load path for one vector of zone coefficients."""
+
+    def __init__(self, condensed: Condensed, pairs: ContactPairs, rtol: float = 1e-10):
+        self.c, self.pairs = condensed, pairs
+        ops = condensed.gap_ops
+        self.Wfull = ops.full
+        self.Wa_T = condensed.equilibrium.on_lam
+        diag = np.diag(ops.on_lam)
+        self.r = 1.0 / np.mean(diag) if diag.size else 1.0
+        self.rtol = rtol
+
+    def _increment(self, amplitude, w_prev_T) -> Increment:
+        return Increment(self.c.gap_ops.channels.T @ amplitude, w_prev_T,
+                         self.c.equilibrium.channels.T @ amplitude)
+
+    def _atol(self, inc: Increment, x) -> float:
+        n_w = len(self.pairs.gap) * self.pairs.dim
+        scale = max(np.max(np.abs(x[:n_w]), initial=0.0), self.r * np.max(np.abs(inc.w0), initial=0.0),
+                    np.max(np.abs(inc.h0), initial=0.0), 1e-300)
+        return self.rtol * scale
+
+    def _newton(self, path: _Path, amplitude, mu) -> NewtonResult:
+        inc = self._increment(amplitude, path.w_T)
+        x0 = path.x
+        if path.first and self.c.n_modes:
+            tol = 1e-9 * (np.ptp(self.pairs.position) or 1.0)
+            x0 = bonded_start(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, tol)
+        result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0))
+        if not result.converged:
+            # the tolerance scales with the solution, which may have grown during the iterations
+            atol = self._atol(inc, result.x)
+            if result.residual <= atol:
+                return NewtonResult(result.x, result.lin, True, result.n_iterations, result.residual, False)
+        return result
+
+    def _sensitivity(self, path: _Path, lin: Linearisation, zone_share) -> np.ndarray:
+        n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
+        n_z = zone_share.shape[1]
+        rhs = np.zeros((len(lin.F), n_z))
+        slip = lin.state == 2
+        top = rhs[:n_pairs * dim].reshape(n_pairs, dim, n_z)
+        top[slip, 1:, :] = -(lin.lam_hat[slip, None, None] * lin.direction[slip, :, None]
+                             * zone_share[slip, None, :])
+        if path.S is not None:
+            dw_prev = (self.Wfull @ path.S).reshape(n_pairs, dim, n_z)[:, 1:, :]
+            top[:, 1:, :] -= np.einsum("nij,njz->niz", lin.Q[:, 1:, 1:], dw_prev)
+        return la.lu_solve(la.lu_factor(lin.J, check_finite=False), -rhs, check_finite=False)
+
+    def step(self, path: _Path, start, end, mu, sensitivities: bool, where: str) -> tuple[int, int]:
+        """Advance ``path`` from amplitude ``start`` to ``end``, halving the step on failure."""
+        pending = [(start, end, 0)]
+        n_newton = n_cuts = 0
+        while pending:
+            a, b, depth = pending.pop()
+            result = self._newton(path, b, mu)
+            n_newton += result.n_iterations
+            if not result.converged:
+                if depth >= MAX_CUTS:
+                    raise SolverError(
+                        f"contact did not converge in {where}: residual {result.residual:.3g} N after "
+                        f"{result.n_iterations} Newton iterations and {depth} increment cuts"
+                        + ("; the active set cycles" if result.cycling else ""))
+                n_cuts += 1
+                middle = 0.5 * (a + b)
+                pending += [(middle, b, depth + 1), (a, middle, depth + 1)]
+                continue
+            if sensitivities:
+                path.S = self._sensitivity(path, result.lin, self.pairs.zone_share)
+            w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
+            path.x, path.w_T, path.first = result.x, w[:, 1:], False
+            self._last = result
+        return n_newton, n_cuts

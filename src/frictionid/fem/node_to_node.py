@@ -1,0 +1,73 @@
+"""Node-to-node contact pairs for conforming interfaces, weighted by tributary area (= dual mortar, diagonal D)."""
+
+from __future__ import annotations
+
+import numpy as np
+import skfem
+from scipy.spatial import cKDTree
+
+from ..errors import InputError
+from ..model import Model
+from .pairs import ContactPairs, relative_operator, tangent_frames
+from .space import Space
+
+
+def facet_integral(space: Space, boundary: str, vector: bool = False) -> np.ndarray:
+    """Per-node integrals over a boundary: int N_i dS (n_nodes,) or int N_i n dS (n_nodes, dim) [mm^2].
+
+    Axisymmetric integrals include the ring factor 2 pi r; ``n`` is the outward normal of the adjacent cell.
+    """
+    basis = space.facet_basis(boundary, vector=False)
+    if not vector:
+        return space.nodal(skfem.asm(skfem.LinearForm(lambda v, w: v * space.ring(w.x)), basis))
+    out = np.column_stack([
+        space.nodal(skfem.asm(skfem.LinearForm(lambda v, w, c=c: v * w.n[c] * space.ring(w.x)), basis))
+        for c in range(space.dim)])
+    return out
+
+
+def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, name: str) -> np.ndarray:
+    """The target node coinciding (up to a small normal gap) with each contact node."""
+    points = space.mesh.points
+    distance, index = cKDTree(points[target]).query(points[contact])
+    facets = space.mesh.boundary(name)
+    h = np.median(np.linalg.norm(points[facets[:, 0]] - points[facets[:, 1]], axis=1))
+    far = distance > 0.25 * h
+    if np.any(far):
+        i = int(np.argmax(far))
+        raise InputError(f"interface {name!r}: contact node at {np.round(points[contact[i]], 6).tolist()} has no "
+                         f"target node within {0.25 * h:.3g} mm; the meshes do not match: use "
+                         "discretisation = 'mortar' (2-D) or make the meshes conforming")
+    return target[index]
+
+
+def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> ContactPairs:
+    """Contact pairs of a conforming interface: each contact-side node paired with its coincident target node.
+
+    The frame normal is the area-weighted outward normal of the target side at the target node; the initial
+    gap is the normal distance between the two nodes (negative for an interference).
+    """
+    interface = model.interfaces[interface_index]
+    zone_offset = model.zone_names.index(interface.zones[0])
+    area = np.column_stack([facet_integral(space, zone) for zone in interface.zones])
+    contact = np.flatnonzero(area.sum(axis=1) != 0)
+    weight = area[contact].sum(axis=1)
+    if np.any(weight <= 0):
+        raise InputError(f"interface {interface.name!r}: a contact node has a non-positive tributary area; "
+                         "the facet type gives negative corner weights (use hexahedra/quads or linear facets)")
+    target_all = space.mesh.boundary_nodes(interface.target)
+    if np.intersect1d(target_all, contact).size:
+        raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
+                         "the two bodies must have separate nodes at the interface")
+    target = _pair_targets(space, contact, target_all, interface.target)
+    normal = facet_integral(space, interface.target, vector=True)[target]
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    frames = tangent_frames(normal)
+    points = space.mesh.points
+    share = np.zeros((len(contact), model.n_zones))
+    share[:, zone_offset:zone_offset + len(interface.zones)] = area[contact] / weight[:, None]
+    return ContactPairs(
+        nodes=contact, position=points[contact].copy(), frames=frames, weight=weight, zone_share=share,
+        gap=np.sum((points[contact] - points[target]) * normal, axis=1),
+        B=relative_operator(frames, contact, target[:, None], np.ones((len(contact), 1)), space.n_dofs),
+        interface=np.full(len(contact), interface_index))

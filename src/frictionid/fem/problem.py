@@ -1,0 +1,143 @@
+"""Problem: a model condensed once per geometry, solved for any vector of zone coefficients."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import InputError
+from ..model import Displacement, Model
+from ..model.model import component_index
+from .assembly import LoadChannels, load_channels, stiffness
+from .condense import Condensed, condense
+from .interface import contact_pairs
+from .loadpath import LoadPathSolver, _Path
+from .pairs import ContactPairs
+from .rigid import free_rigid_modes
+from .solution import Solution
+from .space import Space
+
+log = logging.getLogger(__name__)
+_AXES = "xyz"
+
+
+def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
+    """Rows summing the reactions of each supported/driven boundary component, labelled 'boundary.x'."""
+    dim, position = model.dim, {int(d): i for i, d in enumerate(prescribed)}
+    entries = [(s.boundary, component_index(c, dim, s.boundary)) for s in model.supports for c in s.components]
+    entries += [(l.boundary, component_index(l.component, dim, l.boundary))
+                for l in model.loads if isinstance(l, Displacement)]
+    rows, cols, labels = [], [], []
+    for boundary, c in dict.fromkeys(entries):
+        dofs = dim * model.mesh.boundary_nodes(boundary) + c
+        cols.append([position[int(d)] for d in dofs])
+        rows.append(np.full(len(dofs), len(labels)))
+        labels.append(f"{boundary}.{_AXES[c]}")
+    if not labels:
+        return sp.csr_matrix((0, len(prescribed))), ()
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(labels), len(prescribed))), tuple(labels)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A model's condensed operators; :meth:`solve` runs the load path for given zone coefficients."""
+
+    model: Model
+    space: Space
+    pairs: ContactPairs
+    channels: LoadChannels
+    condensed: Condensed
+    observation_labels: tuple[str, ...]
+    reaction_labels: tuple[str, ...]
+
+    @classmethod
+    def build(cls, model: Model, observe: sp.spmatrix | None = None,
+              observation_labels: tuple[str, ...] = ()) -> "Problem":
+        """Assemble, discretise the interfaces and condense.
+
+        Parameters
+        ----------
+        observe : (n_obs, n_dofs) sparse rows mapping the dof vector to observed values (e.g. from
+            :func:`frictionid.fem.points.point_operator`); none by default.
+        """
+        space = Space.build(model.mesh, model.kind)
+        pairs = contact_pairs(space, model)
+        channels = load_channels(space, model)
+        modes = free_rigid_modes(model.mesh, model.kind, channels.prescribed)
+        sums, labels = _reaction_sums(model, channels.prescribed)
+        observe = sp.csr_matrix((0, space.n_dofs)) if observe is None else sp.csr_matrix(observe)
+        if observe.shape[1] != space.n_dofs:
+            raise InputError(f"observation rows have {observe.shape[1]} columns, the model {space.n_dofs} dofs")
+        labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(observe.shape[0]))
+        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums)
+        return cls(model, space, pairs, channels, condensed, labels_obs, labels)
+
+    def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""
+        stages, amps, previous = [], [], np.zeros(self.channels.amplitudes.shape[1])
+        for s, stage in enumerate(self.model.stages):
+            end = self.channels.amplitudes[s]
+            for k in range(1, stage.n_increments + 1):
+                stages.append(s)
+                amps.append(previous + (end - previous) * k / stage.n_increments)
+            previous = end
+        return np.array(stages), np.array(amps)
+
+    def _mu(self, mu) -> np.ndarray:
+        if isinstance(mu, dict):
+            unknown = set(mu) - set(self.model.zone_names)
+            if unknown:
+                raise InputError(f"friction: unknown zone(s) {sorted(unknown)}; the model's zones are "
+                                 f"{list(self.model.zone_names)}")
+            missing = [z for z in self.model.zone_names if z not in mu]
+            if missing:
+                raise InputError(f"friction: no coefficient for zone(s) {missing}")
+            mu = [mu[z] for z in self.model.zone_names]
+        mu = np.asarray(mu, dtype=float).reshape(-1)
+        if mu.shape != (self.model.n_zones,) or not np.all(np.isfinite(mu)) or np.any(mu < 0):
+            raise InputError(f"friction: need {self.model.n_zones} finite non-negative coefficients, got {mu}")
+        return mu
+
+    def solve(self, mu, sensitivities: bool = False) -> Solution:
+        """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value)."""
+        mu = self._mu(mu)
+        c, pairs = self.condensed, self.pairs
+        solver = LoadPathSolver(c, pairs)
+        n_x = pairs.n_pairs * pairs.dim + c.n_modes
+        path = _Path(np.zeros(n_x), np.zeros((pairs.n_pairs, pairs.dim - 1)), None)
+        stages, amps = self.amplitudes()
+        mu_pair = pairs.mu(mu)
+        records = []
+        previous = np.zeros(amps.shape[1])
+        for i, (stage, amp) in enumerate(zip(stages, amps)):
+            where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
+            n_newton, n_cuts = solver.step(path, previous, amp, mu_pair, sensitivities, where)
+            records.append((path.x.copy(), solver._last.lin.state, None if path.S is None else path.S.copy(),
+                            n_newton, n_cuts))
+            log.debug("%s: %d Newton iterations, %d cuts", where, n_newton, n_cuts)
+            previous = amp
+        return self._solution(mu, stages, amps, records, sensitivities)
+
+    def _solution(self, mu, stages, amps, records, sensitivities) -> Solution:
+        c, pairs = self.condensed, self.pairs
+        n_w = pairs.n_pairs * pairs.dim
+        X = np.array([r[0] for r in records])
+        outputs = {name: np.array([ops(a, x) for a, x in zip(amps, X)])
+                   for name, ops in (("w", c.gap_ops), ("obs", c.obs_ops), ("reac", c.reac_ops))}
+        d_obs = d_reac = None
+        if sensitivities:
+            S = np.array([r[2] for r in records])                               # (n_inc, n_x, n_z)
+            d_obs = np.einsum("ox,ixz->ioz", c.obs_ops.full, S)
+            d_reac = np.einsum("ox,ixz->ioz", c.reac_ops.full, S)
+        return Solution(
+            mu=mu, zone_names=self.model.zone_names, observation_labels=self.observation_labels,
+            reaction_labels=self.reaction_labels, stage=stages, amplitude=amps,
+            lam=X[:, :n_w].reshape(len(X), pairs.n_pairs, pairs.dim), alpha=X[:, n_w:],
+            w=outputs["w"].reshape(len(X), pairs.n_pairs, pairs.dim),
+            state=np.array([r[1] for r in records]), observations=outputs["obs"], reactions=outputs["reac"],
+            d_observations=d_obs, d_reactions=d_reac,
+            n_newton=np.array([r[3] for r in records]), n_cuts=np.array([r[4] for r in records]), pairs=pairs)

@@ -1,0 +1,98 @@
+"""Solution: the results of one forward solve at every nominal increment of the load path."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .pairs import ContactPairs
+
+STATE_NAMES = ("open", "stick", "slip")
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Forward solve results; index 0 of every per-increment array is the first increment.
+
+    Attributes
+    ----------
+    mu : (n_zones,) zone coefficients used
+    zone_names, observation_labels, reaction_labels : names of the columns below
+    stage : (n_inc,) stage index of each increment; amplitude : (n_inc, n_channels)
+    lam : (n_inc, n_pairs, dim) [N] contact force on the contact side in the pair frame (N, T1[, T2])
+    alpha : (n_inc, m) rigid-mode amplitudes of floating bodies
+    w : (n_inc, n_pairs, dim) [mm] relative displacement (normal gap change, tangential)
+    state : (n_inc, n_pairs) 0 open, 1 stick, 2 slip
+    observations : (n_inc, n_obs); reactions : (n_inc, n_reac) [N]
+    d_observations : (n_inc, n_obs, n_zones) or None; d_reactions : (n_inc, n_reac, n_zones) or None
+    n_newton : (n_inc,) Newton iterations; n_cuts : (n_inc,) increment cuts
+    pairs : the contact pairs (positions, frames, weights, zone shares)
+    """
+
+    mu: np.ndarray
+    zone_names: tuple[str, ...]
+    observation_labels: tuple[str, ...]
+    reaction_labels: tuple[str, ...]
+    stage: np.ndarray
+    amplitude: np.ndarray
+    lam: np.ndarray
+    alpha: np.ndarray
+    w: np.ndarray
+    state: np.ndarray
+    observations: np.ndarray
+    reactions: np.ndarray
+    d_observations: np.ndarray | None
+    d_reactions: np.ndarray | None
+    n_newton: np.ndarray
+    n_cuts: np.ndarray
+    pairs: ContactPairs
+
+    @property
+    def n_increments(self) -> int:
+        return len(self.stage)
+
+    def stage_end(self, stage: int) -> int:
+        """Index of the last increment of a stage (0-based stage index)."""
+        hits = np.flatnonzero(self.stage == stage)
+        if not hits.size:
+            raise IndexError(f"no stage {stage}")
+        return int(hits[-1])
+
+    @property
+    def gap(self) -> np.ndarray:
+        """(n_inc, n_pairs) [mm] current normal gap."""
+        return self.pairs.gap + self.w[:, :, 0]
+
+    @property
+    def pressure(self) -> np.ndarray:
+        """(n_inc, n_pairs) [MPa] contact pressure lam_N / tributary area."""
+        return self.lam[:, :, 0] / self.pairs.weight
+
+    @property
+    def traction(self) -> np.ndarray:
+        """(n_inc, n_pairs, dim - 1) [MPa] tangential traction."""
+        return self.lam[:, :, 1:] / self.pairs.weight[:, None]
+
+    @property
+    def slip(self) -> np.ndarray:
+        """(n_inc, n_pairs, dim - 1) [mm] accumulated tangential relative displacement since the start."""
+        return self.w[:, :, 1:]
+
+    @property
+    def zone_normal_force(self) -> np.ndarray:
+        """(n_inc, n_zones) [N] normal force per zone (border pairs shared by area)."""
+        return self.lam[:, :, 0] @ self.pairs.zone_share
+
+    @property
+    def zone_tangential_force(self) -> np.ndarray:
+        """(n_inc, n_zones, dim - 1) [N] tangential force per zone in the pair frames' components."""
+        return np.einsum("ipk,pz->izk", self.lam[:, :, 1:], self.pairs.zone_share)
+
+    def zone_state(self, increment: int = -1) -> dict[str, dict[str, float]]:
+        """Area fraction of each zone that is open, sticking and slipping at an increment."""
+        share = self.pairs.zone_share * self.pairs.weight[:, None]
+        state = self.state[increment]
+        return {zone: {name: float(share[state == k, z].sum() / share[:, z].sum())
+                       for k, name in enumerate(STATE_NAMES)}
+                for z, zone in enumerate(self.zone_names)}
