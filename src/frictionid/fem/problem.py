@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import InputError
+from ..errors import InputError, SolverError
 from ..model import Displacement, Model
 from ..model.model import component_index
 from .assembly import LoadChannels, load_channels, stiffness
@@ -102,8 +102,37 @@ class Problem:
             raise InputError(f"friction: need {self.model.n_zones} finite non-negative coefficients, got {mu}")
         return mu
 
-    def solve(self, mu, sensitivities: bool = False) -> Solution:
-        """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value)."""
+    def pair_length(self) -> np.ndarray:
+        """(n_pairs,) [mm] size of the largest contact facet at each pair (corner-to-corner edge length)."""
+        mesh = self.model.mesh
+        length = np.zeros(mesh.n_nodes)
+        for zone in self.model.zone_names:
+            facets = mesh.boundary(zone)
+            edge = np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1)
+            np.maximum.at(length, facets, np.repeat(edge[:, None], facets.shape[1], axis=1))
+        return length[self.pairs.nodes]
+
+    def check_small_sliding(self, solution: Solution, limit: float = 1.0) -> None:
+        """Raise :class:`SolverError` where the accumulated slip exceeds ``limit`` local element lengths.
+
+        The pairing is fixed in the undeformed configuration, so a larger slip would give a wrong answer.
+        """
+        slip = np.linalg.norm(solution.slip, axis=2)                      # (n_inc, n_pairs)
+        ratio = slip / self.pair_length()
+        if ratio.size and ratio.max() > limit:
+            inc, pair = np.unravel_index(np.argmax(ratio), ratio.shape)
+            raise SolverError(
+                f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
+                f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds the "
+                f"small-sliding range ({limit:g} x the local element length {self.pair_length()[pair]:.3g} mm); "
+                "reduce the imposed sliding or coarsen the contact mesh; finite sliding is not supported")
+
+    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0) -> Solution:
+        """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value).
+
+        ``max_slip``: small-sliding limit in local element lengths (None: no check), see
+        :meth:`check_small_sliding`.
+        """
         mu = self._mu(mu)
         c, pairs = self.condensed, self.pairs
         solver = LoadPathSolver(c, pairs)
@@ -120,7 +149,10 @@ class Problem:
                             n_newton, n_cuts))
             log.debug("%s: %d Newton iterations, %d cuts", where, n_newton, n_cuts)
             previous = amp
-        return self._solution(mu, stages, amps, records, sensitivities)
+        solution = self._solution(mu, stages, amps, records, sensitivities)
+        if max_slip is not None:
+            self.check_small_sliding(solution, max_slip)
+        return solution
 
     def _solution(self, mu, stages, amps, records, sensitivities) -> Solution:
         c, pairs = self.condensed, self.pairs
