@@ -1,0 +1,339 @@
+"""Reference test 1: the block on a plane (3-D hexahedra) and its plane-strain analogue, with conforming contact."""
+
+from __future__ import annotations
+
+import logging
+import math
+import string
+
+import gmsh
+import numpy as np
+
+from ..errors import InputError
+from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
+from .gmsh_mesh import gmsh_session, mesh_from_gmsh
+
+logger = logging.getLogger(__name__)
+
+#: plate / base material (DESIGN.md, reference test 1)
+EPOXY = Material(E=3500.0, nu=0.35, name="epoxy")
+#: block material (DESIGN.md, reference test 1)
+ALUMINIUM = Material(E=71000.0, nu=0.33, name="aluminium")
+
+#: 3-D geometry [mm]: block side and height, plate half-width and thickness
+BLOCK_SIDE, BLOCK_HEIGHT, PLATE_HALF, PLATE_THICKNESS = 10.0, 10.0, 20.0, 5.0
+#: growth ratio of the element sizes in the plate outside the block's footprint
+PLATE_GROWTH = 1.2
+#: zone names of the 3-D model by quadrant: A (x<0, y<0), B (x>0, y<0), C (x<0, y>0), D (x>0, y>0)
+QUADRANT_ZONES = {(-1, -1): "A", (1, -1): "B", (-1, 1): "C", (1, 1): "D"}
+_TOL = 1e-6  # [mm] geometric tolerance for classifying gmsh entities
+
+
+# ---------------------------------------------------------------------------------------------- arguments
+
+def _positive(name: str, value) -> float:
+    if not isinstance(value, (int, float, np.integer, np.floating)) or not value > 0 or not math.isfinite(value):
+        raise InputError(f"`{name}` must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def _count(name: str, value, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InputError(f"`{name}` must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _order(value) -> int:
+    if isinstance(value, bool) or value not in (1, 2):
+        raise InputError(f"`order` must be 1 or 2, got {value!r}")
+    return int(value)
+
+
+def _stages(n_press: int, n_pull: int) -> tuple[Stage, Stage]:
+    return Stage("press", _count("n_press", n_press)), Stage("pull", _count("n_pull", n_pull))
+
+
+def _set_order(order: int):
+    if order == 2:
+        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
+        gmsh.model.mesh.setOrder(2)
+
+
+# ---------------------------------------------------------------------------------------------- 3-D model
+
+def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0, order: int = 1,
+                n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None) -> Model:
+    """The 3-D block-on-plate reference test (DESIGN.md, reference test 1) on a conforming hexahedral mesh.
+
+    Parameters
+    ----------
+    pull : float [mm]
+        Displacement of the block's top face in y at the end of the "pull" stage.
+    force : float [N]
+        Total normal force on the block's top face (uniform pressure ``force / 100 mm^2``).
+    mesh_size : float [mm]
+        Element size in the block and under it; the block height has ``ceil(10 / mesh_size)`` layers,
+        the plate thickness ``ceil(5 / mesh_size)`` (at least 2 each); the plate outside the footprint grows
+        geometrically (ratio 1.2) away from the block.
+    order : 1 | 2
+        1: "hexahedron" (8 nodes), 2: "hexahedron27".
+    n_press, n_pull : int
+        Increments of the two stages.
+    block_divisions : int, optional
+        Elements along each side of the block's bottom (x and y), even; default ``2 * round(5 / mesh_size)``.
+
+    Returns
+    -------
+    Model
+        Regions "plate", "block"; boundaries "plate_bottom", "plate_top", "block_top" and the zones
+        "A", "B", "C", "D" (block bottom by quadrant, see :data:`QUADRANT_ZONES`); one interface
+        "block_plate" with target "plate_top". Block and plate have separate, coincident interface nodes.
+
+    Examples
+    --------
+    >>> model = block_model(mesh_size=2.5)
+    >>> model.zone_names
+    ('A', 'B', 'C', 'D')
+    """
+    pull, force, mesh_size = _positive("pull", pull), _positive("force", force), _positive("mesh_size", mesh_size)
+    order, stages = _order(order), _stages(n_press, n_pull)
+    if block_divisions is None:
+        block_divisions = 2 * max(1, round(BLOCK_SIDE / 2 / mesh_size))
+    block_divisions = _count("block_divisions", block_divisions, minimum=2)
+    if block_divisions % 2:
+        raise InputError(f"`block_divisions` must be even (the zones split the block bottom in half), "
+                         f"got {block_divisions}")
+    n_block_z = max(2, math.ceil(BLOCK_HEIGHT / mesh_size - 1e-9))
+    n_plate_z = max(2, math.ceil(PLATE_THICKNESS / mesh_size - 1e-9))
+    mesh = block_mesh(block_divisions, n_block_z, n_plate_z, order)
+    pressure = force / BLOCK_SIDE ** 2
+    return Model(
+        mesh=mesh, kind="3d", materials={"plate": EPOXY, "block": ALUMINIUM},
+        supports=(Support("plate_bottom", (0, 1, 2)),),
+        loads=(Pressure("block_top", (pressure, pressure)),
+               Displacement("block_top", 0, (0.0, 0.0)),
+               Displacement("block_top", 1, (0.0, pull))),
+        stages=stages,
+        interfaces=(ContactInterface("block_plate", tuple(QUADRANT_ZONES.values()), "plate_top"),),
+    )
+
+
+def block_mesh(block_divisions: int, n_block_z: int, n_plate_z: int, order: int = 1) -> Mesh:
+    """Hexahedral mesh of block and plate, built as 4 x 4 plate columns and 4 block quarters (all transfinite).
+
+    The plate columns break at x, y = -20, -5, 0, 5, 20, so each block quarter stands on a plate column with
+    the same edge divisions: the interface nodes coincide but belong to separate bodies.
+    """
+    with gmsh_session("block"):
+        occ = gmsh.model.occ
+        plate = _fragmented_boxes([-PLATE_HALF, -BLOCK_SIDE / 2, 0.0, BLOCK_SIDE / 2, PLATE_HALF],
+                                  -PLATE_THICKNESS, 0.0)
+        block = _fragmented_boxes([-BLOCK_SIDE / 2, 0.0, BLOCK_SIDE / 2], 0.0, BLOCK_HEIGHT)
+        occ.synchronize()
+        _set_transfinite_3d(block_divisions // 2, n_block_z, n_plate_z)
+        _add_groups_3d(plate, block)
+        gmsh.model.mesh.generate(3)
+        _set_order(order)
+        mesh = mesh_from_gmsh("block model")
+    logger.info("block mesh: %d nodes, %d %s cells", mesh.n_nodes, mesh.n_cells, mesh.cell_type)
+    return mesh
+
+
+def _fragmented_boxes(breaks: list[float], z0: float, z1: float) -> list[int]:
+    """Volume tags of the boxes between consecutive x and y breaks, fragmented so that they share faces."""
+    boxes = [(3, gmsh.model.occ.addBox(x0, y0, z0, x1 - x0, y1 - y0, z1 - z0))
+             for x0, x1 in zip(breaks, breaks[1:]) for y0, y1 in zip(breaks, breaks[1:])]
+    pieces, _ = gmsh.model.occ.fragment(boxes[:1], boxes[1:])
+    return [tag for dim, tag in pieces if dim == 3]
+
+
+def _point(tag: int) -> np.ndarray:
+    return np.asarray(gmsh.model.getValue(0, tag, []))
+
+
+def _set_transfinite_3d(n_quarter: int, n_block_z: int, n_plate_z: int):
+    """Structured hexahedra everywhere: node counts per curve by its direction and place, then all entities."""
+    h = BLOCK_SIDE / 2 / n_quarter
+    outer = PLATE_HALF - BLOCK_SIDE / 2
+    n_outer = max(1, math.ceil(math.log(1 + outer * (PLATE_GROWTH - 1) / h) / math.log(PLATE_GROWTH)))
+    for _, curve in gmsh.model.getEntities(1):
+        start, end = (_point(abs(p)) for _, p in gmsh.model.getBoundary([(1, curve)], oriented=False))
+        axis = int(np.argmax(np.abs(end - start)))
+        if axis == 2:
+            n = n_block_z if start[2] + end[2] > 0 else n_plate_z
+            gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
+        elif max(abs(start[axis]), abs(end[axis])) <= BLOCK_SIDE / 2 + _TOL:
+            gmsh.model.mesh.setTransfiniteCurve(curve, n_quarter + 1)
+        else:   # outside the footprint: small elements next to the block, growing outwards
+            growth = PLATE_GROWTH if abs(start[axis]) < abs(end[axis]) else 1 / PLATE_GROWTH
+            gmsh.model.mesh.setTransfiniteCurve(curve, n_outer + 1, "Progression", growth)
+    for _, surface in gmsh.model.getEntities(2):
+        gmsh.model.mesh.setTransfiniteSurface(surface)
+        gmsh.model.mesh.setRecombine(2, surface)
+    for _, volume in gmsh.model.getEntities(3):
+        gmsh.model.mesh.setTransfiniteVolume(volume)
+
+
+def _faces_at(volumes: list[int], axis: int, value: float) -> list[int]:
+    """Faces of the given volumes lying in the plane ``x[axis] = value``."""
+    faces = {abs(t) for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)}
+    out = []
+    for face in sorted(faces):
+        box = np.reshape(gmsh.model.getBoundingBox(2, face), (2, 3))
+        if abs(box[0, axis] - value) < _TOL and abs(box[1, axis] - value) < _TOL:
+            out.append(face)
+    return out
+
+
+def _add_groups_3d(plate: list[int], block: list[int]):
+    add = gmsh.model.addPhysicalGroup
+    add(3, plate, name="plate")
+    add(3, block, name="block")
+    add(2, _faces_at(plate, 2, -PLATE_THICKNESS), name="plate_bottom")
+    add(2, _faces_at(plate, 2, 0.0), name="plate_top")
+    add(2, _faces_at(block, 2, BLOCK_HEIGHT), name="block_top")
+    for face in _faces_at(block, 2, 0.0):
+        centre = gmsh.model.occ.getCenterOfMass(2, face)
+        add(2, [face], name=QUADRANT_ZONES[(int(np.sign(centre[0])), int(np.sign(centre[1])))])
+
+
+# ---------------------------------------------------------------------------------------------- 2-D model
+
+def block_model_2d(kind: str = "plane_strain", pull: float = 0.2, force: float = 200.0, width: float = 10.0,
+                   height: float = 10.0, base_width: float = 40.0, base_height: float = 5.0,
+                   mesh_size: float = 1.0, contact_size: float | None = None, order: int = 2, n_zones: int = 2,
+                   n_press: int = 1, n_pull: int = 10, quads: bool = False) -> Model:
+    """Plane-strain analogue of the block test: x lateral and pull direction, y up, forces per mm thickness.
+
+    Parameters
+    ----------
+    kind : "plane_strain"
+        The only kind this geometry has (a block pulled sideways is not axisymmetric).
+    pull : float [mm]
+        Displacement of the block's top edge in x at the end of the "pull" stage (0 while pressing).
+    force : float [N/mm]
+        Total normal force on the block's top edge (uniform pressure ``force / width``); its y motion is free.
+    width, height : float [mm]
+        Block [-width/2, width/2] x [0, height] (aluminium, region "block").
+    base_width, base_height : float [mm]
+        Base [-base_width/2, base_width/2] x [-base_height, 0] (epoxy, region "base"), bottom fixed.
+    mesh_size : float [mm]
+        Element size away from the interface.
+    contact_size : float [mm], optional
+        Element size on the interface (default ``mesh_size``); it grows to ``mesh_size`` within
+        ``base_height`` of the interface.
+    order : 1 | 2
+        Element order: "triangle" / "triangle6", or "quad" / "quad9" with ``quads``.
+    n_zones : int
+        Equal-width zones on the block bottom, named "A", "B", ... from -x to +x.
+    n_press, n_pull : int
+        Increments of the two stages.
+    quads : bool
+        Quadrilaterals (recombined, then subdivided once so that no triangle is left) instead of triangles.
+
+    Returns
+    -------
+    Model
+        Boundaries "base_bottom", "base_top" (the base's whole top edge), "block_top" and the zones; one
+        interface "block_base" with target "base_top". Block and base have separate, coincident interface nodes.
+
+    Examples
+    --------
+    >>> model = block_model_2d(mesh_size=2.0)
+    >>> model.mesh.cell_type, model.zone_names
+    ('triangle6', ('A', 'B'))
+    """
+    if kind != "plane_strain":
+        raise InputError(f"`kind` must be 'plane_strain' for the 2-D block model, got {kind!r}")
+    pull, force = _positive("pull", pull), _positive("force", force)
+    sizes = {name: _positive(name, value) for name, value in
+             [("width", width), ("height", height), ("base_width", base_width), ("base_height", base_height),
+              ("mesh_size", mesh_size), ("contact_size", mesh_size if contact_size is None else contact_size)]}
+    if not sizes["base_width"] > sizes["width"]:
+        raise InputError(f"`base_width` must exceed `width` ({width}), got {base_width}")
+    n_zones = _count("n_zones", n_zones)
+    if n_zones > len(string.ascii_uppercase):
+        raise InputError(f"`n_zones` must be at most {len(string.ascii_uppercase)}, got {n_zones}")
+    order, stages = _order(order), _stages(n_press, n_pull)
+    mesh = block_mesh_2d(**sizes, n_zones=n_zones, order=order, quads=bool(quads))
+    pressure = force / sizes["width"]
+    return Model(
+        mesh=mesh, kind=kind, materials={"base": EPOXY, "block": ALUMINIUM},
+        supports=(Support("base_bottom", (0, 1)),),
+        loads=(Pressure("block_top", (pressure, pressure)), Displacement("block_top", 0, (0.0, pull))),
+        stages=stages,
+        interfaces=(ContactInterface("block_base", zone_names(n_zones), "base_top"),),
+    )
+
+
+def zone_names(n_zones: int) -> tuple[str, ...]:
+    """"A", "B", ... for the zones of the 2-D block from -x to +x."""
+    return tuple(string.ascii_uppercase[:n_zones])
+
+
+def block_mesh_2d(width: float, height: float, base_width: float, base_height: float, mesh_size: float,
+                  contact_size: float, n_zones: int, order: int = 2, quads: bool = False) -> Mesh:
+    """Triangle (or quadrilateral) mesh of block and base whose interface segments carry identical node rows."""
+    # subdividing quadrilaterals halves every edge: mesh twice as coarse first
+    scale = 2.0 if quads else 1.0
+    borders = np.linspace(-width / 2, width / 2, n_zones + 1)
+    with gmsh_session("block_2d"):
+        occ = gmsh.model.occ
+        base = _polygon([(-base_width / 2, -base_height), (base_width / 2, -base_height), (base_width / 2, 0.0)]
+                        + [(x, 0.0) for x in borders[::-1]] + [(-base_width / 2, 0.0)])
+        block = _polygon([(x, 0.0) for x in borders] + [(width / 2, height), (-width / 2, height)])
+        occ.synchronize()
+        n_nodes = max(2, math.ceil(width / n_zones / (scale * contact_size) - 1e-9)) + 1
+        interface = base["lines"][3:3 + n_zones] + block["lines"][:n_zones]
+        for line in interface:
+            gmsh.model.mesh.setTransfiniteCurve(line, n_nodes)
+        _size_field(interface, scale * contact_size, scale * mesh_size, base_height)
+        _add_groups_2d(base, block, n_zones)
+        _generate_2d(quads)
+        _set_order(order)
+        mesh = mesh_from_gmsh("2-D block model")
+    logger.info("2-D block mesh: %d nodes, %d %s cells", mesh.n_nodes, mesh.n_cells, mesh.cell_type)
+    return mesh
+
+
+def _polygon(corners: list[tuple[float, float]]) -> dict:
+    """A plane surface bounded by straight lines between consecutive corners: its tag and its line tags in order."""
+    occ = gmsh.model.occ
+    points = [occ.addPoint(x, y, 0.0) for x, y in corners]
+    lines = [occ.addLine(a, b) for a, b in zip(points, points[1:] + points[:1])]
+    return {"surface": occ.addPlaneSurface([occ.addCurveLoop(lines)]), "lines": lines}
+
+
+def _size_field(curves: list[int], size_min: float, size_max: float, distance: float):
+    """Element size ``size_min`` on the curves, growing linearly to ``size_max`` at ``distance`` from them."""
+    field = gmsh.model.mesh.field
+    near = field.add("Distance")
+    field.setNumbers(near, "CurvesList", curves)
+    field.setNumber(near, "Sampling", 100)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", near)
+    for name, value in [("SizeMin", size_min), ("SizeMax", max(size_min, size_max)),
+                        ("DistMin", 0.0), ("DistMax", distance)]:
+        field.setNumber(threshold, name, value)
+    field.setAsBackgroundMesh(threshold)
+    for option in ("Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature", "Mesh.MeshSizeExtendFromBoundary"):
+        gmsh.option.setNumber(option, 0)
+
+
+def _add_groups_2d(base: dict, block: dict, n_zones: int):
+    add = gmsh.model.addPhysicalGroup
+    add(2, [base["surface"]], name="base")
+    add(2, [block["surface"]], name="block")
+    add(1, [base["lines"][0]], name="base_bottom")
+    add(1, base["lines"][2:-1], name="base_top")
+    add(1, [block["lines"][n_zones + 1]], name="block_top")
+    for line, name in zip(block["lines"][:n_zones], zone_names(n_zones)):
+        add(1, [line], name=name)
+
+
+def _generate_2d(quads: bool):
+    if quads:
+        gmsh.option.setNumber("Mesh.Algorithm", 8)             # frontal-Delaunay for quads
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # all quadrilaterals
+    gmsh.model.mesh.generate(2)
