@@ -1,0 +1,62 @@
+"""Command line: ``frictionid <command>``; user errors exit 2 without a traceback, run failures exit 1."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+
+import numpy as np
+
+from .errors import InputError, SolverError
+
+
+def _add_demo(sub):
+    parser = sub.add_parser("demo", help="the block reference test end to end on the embedded solver")
+    parser.add_argument("--mesh-size", type=float, default=1.0, help="block mesh size [mm] (default 1.0)")
+    parser.set_defaults(run=_run_demo)
+
+
+def _run_demo(args) -> int:
+    from .builders.block import block_model
+    from .fem.problem import Problem
+    from .report.tables import solution_summary
+
+    start = time.perf_counter()
+    model = block_model(mesh_size=args.mesh_size)
+    built = time.perf_counter()
+    problem = Problem.build(model)
+    condensed = time.perf_counter()
+    mu = {"A": 0.3, "B": 0.2, "C": 0.4, "D": 0.25}
+    solution = problem.solve(mu, sensitivities=True)
+    solved = time.perf_counter()
+    print(f"Block on a plane (DESIGN.md reference test 1), 3-D, {model.mesh.n_nodes * 3} dofs, "
+          f"{problem.pairs.n_pairs} contact pairs")
+    print(f"mesh {built - start:.2f} s, condensation {condensed - built:.2f} s, "
+          f"forward + sensitivities {solved - condensed:.3f} s ({int(solution.n_newton.sum())} Newton iterations)")
+    print(solution_summary(solution))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``frictionid`` console script."""
+    parser = argparse.ArgumentParser(prog="frictionid", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true", help="log solver progress")
+    sub = parser.add_subparsers(dest="command", required=True)
+    _add_demo(sub)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")
+    np.set_printoptions(precision=4, suppress=True)
+    try:
+        return args.run(args)
+    except InputError as exc:
+        print(f"frictionid: error: {exc}", file=sys.stderr)
+        return 2
+    except SolverError as exc:
+        print(f"frictionid: run failed: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
