@@ -26,6 +26,10 @@ ELEMENTS = {
     "hexahedron": skfem.ElementHex1,
     "hexahedron27": skfem.ElementHex2,
 }
+#: quadrature order of the stiffness: exact for affine cells (tensor Gauss 2^d for Q1, 3^d for Q2);
+#: axisymmetric models get one order more for the 1/r hoop terms
+INTORDER = {"triangle": 2, "triangle6": 4, "quad": 3, "quad9": 5,
+            "tetra": 2, "tetra10": 4, "hexahedron": 3, "hexahedron27": 5}
 N_CORNERS = {"line": 2, "line3": 2, "triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}
 
 
@@ -72,8 +76,10 @@ class Space:
         """The space of a mesh; ``kind`` ("3d" | "plane_strain" | "axisymmetric") defaults by dimension."""
         element = ELEMENTS[mesh.cell_type]()
         skmesh = from_meshio(meshio.Mesh(np.asarray(mesh.points), [(mesh.cell_type, np.asarray(mesh.cells))]))
-        scalar = skfem.Basis(skmesh, element)
-        basis = skfem.Basis(skmesh, skfem.ElementVector(element))
+        kind = kind or ("3d" if mesh.dim == 3 else "plane_strain")
+        intorder = INTORDER[mesh.cell_type] + (kind == "axisymmetric")
+        scalar = skfem.Basis(skmesh, element, intorder=intorder)
+        basis = skfem.Basis(skmesh, skfem.ElementVector(element), intorder=intorder)
         perm = _local_permutation(mesh, scalar)
         node_of = np.empty(scalar.N, dtype=np.int64)
         node_of[scalar.element_dofs] = np.take_along_axis(mesh.cells, perm, axis=1).T
@@ -81,7 +87,6 @@ class Space:
         dof_of = np.empty(basis.N, dtype=np.int64)
         for c in range(dim):
             dof_of[basis.element_dofs[c::dim]] = dim * node_of[scalar.element_dofs] + c
-        kind = kind or ("3d" if dim == 3 else "plane_strain")
         return cls(mesh, skmesh, basis, scalar, dof_of, node_of, kind)
 
     @property
