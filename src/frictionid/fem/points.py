@@ -1,0 +1,309 @@
+"""Point observation operators: displacement and strain components at arbitrary points as sparse matrices."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+from skfem import ElementHex1, ElementQuad1, ElementTetP1, ElementTriP1
+from skfem.refdom import RefHex, RefQuad, RefTet, RefTri
+
+from ..errors import InputError
+from .space import Space
+
+#: quantities each model kind can observe; "ezz" of plane strain is identically zero
+QUANTITIES = {
+    "3d": ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"),
+    "plane_strain": ("ux", "uy", "exx", "eyy", "ezz", "exy"),
+    "axisymmetric": ("ux", "uy", "exx", "eyy", "ezz", "exy"),
+}
+_AXIS = {"x": 0, "y": 1, "z": 2}
+
+#: a point belongs to a cell if its reference coordinates are inside up to this (dimensionless) margin
+REFERENCE_TOL = 1e-8
+#: Newton on the isoparametric map stops when the update is below this (reference units)
+NEWTON_TOL = 1e-13
+NEWTON_MAX_ITER = 30
+#: linear element of each reference domain: the straight-sided geometry under a quadratic cell
+LINEAR = {RefTri: ElementTriP1, RefQuad: ElementQuad1, RefTet: ElementTetP1, RefHex: ElementHex1}
+#: bound of sum_k |N_k| (Lebesgue constant) over the reference cell for P2 / Q2 (tet P2: 2, hex Q2: 1.95)
+LEBESGUE_BOUND = 2.0
+
+
+def point_operator(space: Space, points, quantities: Sequence[str],
+                   regions: Sequence[str | None] | None = None) -> sp.csr_matrix:
+    """Sparse matrix evaluating displacement and strain components at points from a frictionid dof vector.
+
+    Parameters
+    ----------
+    space : Space
+        The model's space; ``space.kind`` decides how strains are formed.
+    points : (n, dim) [mm]
+        Undeformed coordinates in the mesh's frame (axisymmetric: x = r >= 0, y = axis).
+    quantities : sequence of str
+        Any of "ux", "uy", "uz" [mm] and the small-strain tensor components "exx", "eyy", "ezz", "exy",
+        "eyz", "exz" (tensor shear, exy = gamma_xy / 2). Plane strain: "ezz" is a zero row; "uz", "eyz",
+        "exz" are errors. Axisymmetric (x = r, y = axis): "ux" = u_r, "exx" = du_r/dr, "ezz" = u_r / r
+        (hoop strain; on the axis, r <= 1e-9 of the mesh extent, its limit du_r/dr, which assumes
+        u_r = 0 there as symmetry requires), "exy" = e_ry = (du_r/dy + du_y/dr) / 2.
+    regions : sequence of (str or None), optional
+        ``regions[i]`` restricts point i to the cells of that mesh region (needed where two bodies touch
+        and a point lies on both surfaces); None allows any cell.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix, shape (n * len(quantities), space.n_dofs)
+        Row ``i * len(quantities) + q`` is quantity ``quantities[q]`` at point i (point-major).
+
+    Raises
+    ------
+    InputError
+        For an unknown quantity, a badly shaped point array, an unknown region, or a point outside the mesh
+        (or outside its region), naming the point index and coordinates.
+
+    Examples
+    --------
+    >>> H = point_operator(space, [[1.0, 2.0]], ["uy", "eyy"])   # doctest: +SKIP
+    >>> uy, eyy = H @ u                                            # doctest: +SKIP
+    """
+    quantities = _checked_quantities(space.kind, quantities)
+    points = _checked_points(space, points)
+    cells, reference = locate(space, points, regions)
+    phi, grad = _shape_functions(space, cells, reference)
+    nodes = space.node_of[space.scalar.element_dofs[:, cells]].T
+    n_points = len(nodes)
+    rows, cols, values = [], [], []
+    for q, name in enumerate(quantities):
+        for component, coefficient in _terms(space, name, points, phi, grad):
+            rows.append(np.broadcast_to((np.arange(n_points) * len(quantities) + q)[:, None], nodes.shape))
+            cols.append(space.dim * nodes + component)
+            values.append(coefficient)
+    shape = (n_points * len(quantities), space.n_dofs)
+    if not rows:
+        return sp.csr_matrix(shape)
+    return sp.csr_matrix((np.concatenate(values, axis=None),
+                          (np.concatenate(rows, axis=None), np.concatenate(cols, axis=None))), shape=shape)
+
+
+def locate(space: Space, points, regions: Sequence[str | None] | None = None):
+    """The cell holding each point and the point's reference coordinates in it.
+
+    Parameters
+    ----------
+    space : Space
+    points : (n, dim) [mm]
+    regions : sequence of (str or None), optional
+        As in :func:`point_operator`.
+
+    Returns
+    -------
+    cells : (n,) int
+        Cell index (same numbering as ``space.mesh.cells``). A point on a face shared by several cells
+        goes to the one it is deepest inside (ties: the lowest index).
+    reference : (dim, n)
+        Reference coordinates of the scikit-fem element (unit simplex or unit square/cube).
+    """
+    points = _checked_points(space, points)
+    point_region = _point_regions(space.mesh, regions, len(points))
+    nodes_xyz = _cell_nodes(space)
+    pair_point, pair_cell = _candidate_pairs(space, nodes_xyz, points)
+    allowed = (point_region[pair_point] < 0) | (space.mesh.cell_region[pair_cell] == point_region[pair_point])
+    pair_point, pair_cell = pair_point[allowed], pair_cell[allowed]
+    reference, converged = _inverse_map(space, nodes_xyz[pair_cell], points[pair_point])
+    margin = np.where(converged, _inside_margin(space, reference), -np.inf)
+    hit = margin >= -REFERENCE_TOL
+    order = np.lexsort((pair_cell[hit], -margin[hit], pair_point[hit]))
+    best_point, first = np.unique(pair_point[hit][order], return_index=True)
+    missing = np.setdiff1d(np.arange(len(points)), best_point)
+    if missing.size:
+        raise InputError(_outside_message(points, missing, point_region, space.mesh.region_names))
+    chosen = np.flatnonzero(hit)[order[first]]
+    return pair_cell[chosen], reference[:, chosen]
+
+
+def _checked_quantities(kind: str, quantities) -> tuple[str, ...]:
+    if isinstance(quantities, str):
+        quantities = [quantities]
+    quantities = tuple(quantities)
+    if not quantities:
+        raise InputError("point operator: `quantities` must name at least one quantity")
+    allowed = QUANTITIES[kind]
+    for name in quantities:
+        if name not in allowed:
+            raise InputError(f"point operator: quantity {name!r} is not available for a {kind} model; "
+                             f"expected one of {list(allowed)}")
+    return quantities
+
+
+def _checked_points(space: Space, points) -> np.ndarray:
+    points = np.asarray(points, dtype=float)
+    if points.ndim != 2 or points.shape[1] != space.dim:
+        raise InputError(f"point operator: `points` must have shape (n, {space.dim}) [mm], got {points.shape}")
+    bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
+    if bad.size:
+        raise InputError(f"point operator: point {bad[0]} has a non-finite coordinate {points[bad[0]].tolist()}")
+    return points
+
+
+def _point_regions(mesh, regions, n_points: int) -> np.ndarray:
+    """(n,) index into mesh.region_names of each point's region, -1 for any cell."""
+    if regions is None:
+        return np.full(n_points, -1, dtype=np.int64)
+    if isinstance(regions, str) or len(regions) != n_points:
+        raise InputError(f"point operator: `regions` must be a sequence of {n_points} region names or None")
+    index = {name: i for i, name in enumerate(mesh.region_names)}
+    for i, name in enumerate(regions):
+        if name is not None and name not in index:
+            raise InputError(f"point operator: point {i} asks for region {name!r}; the mesh has "
+                             f"{sorted(index) or 'no named regions'}")
+    return np.array([-1 if name is None else index[name] for name in regions], dtype=np.int64)
+
+
+def _outside_message(points, missing, point_region, region_names) -> str:
+    def where(i):
+        region = point_region[i]
+        return "the mesh" if region < 0 else f"region {region_names[region]!r}"
+    listed = "; ".join(f"point {i} at {points[i].tolist()} [mm] is outside {where(i)}" for i in missing[:5])
+    more = f" (and {missing.size - 5} more points)" if missing.size > 5 else ""
+    return f"point operator: {listed}{more}"
+
+
+def _cell_nodes(space: Space) -> np.ndarray:
+    """(n_cells, n_local, dim) [mm] node coordinates of each cell in the element's local dof order."""
+    nodes = space.node_of[space.scalar.element_dofs]
+    return space.mesh.points[nodes.T]
+
+
+def _candidate_pairs(space: Space, nodes_xyz: np.ndarray, points: np.ndarray):
+    """(point, cell) pairs whose (widened) cell bounding box holds the point.
+
+    Cells are grouped by size (factors of two) so that each group's ball search finds few cells per point
+    even on meshes graded from 0.1 mm to several mm.
+    """
+    low, high = _bounding_boxes(space, nodes_xyz)
+    centre, radius = (low + high) / 2, np.linalg.norm(high - low, axis=1) / 2
+    smallest = max(radius.min(), 1e-12 * radius.max())   # a collapsed cell must not break the grouping
+    size_class = np.floor(np.log2(np.maximum(radius, smallest) / smallest)).astype(np.int64)
+    point_tree = cKDTree(points)
+    pair_point, pair_cell = [], []
+    for group in np.unique(size_class):
+        cells = np.flatnonzero(size_class == group)
+        close = point_tree.sparse_distance_matrix(cKDTree(centre[cells]), radius[cells].max(),
+                                                  output_type="ndarray")
+        pair_point.append(close["i"].astype(np.int64))
+        pair_cell.append(cells[close["j"]])
+    pair_point, pair_cell = np.concatenate(pair_point), np.concatenate(pair_cell)
+    inside = np.all((points[pair_point] >= low[pair_cell]) & (points[pair_point] <= high[pair_cell]), axis=1)
+    return pair_point[inside], pair_cell[inside]
+
+
+def _bounding_boxes(space: Space, nodes_xyz: np.ndarray):
+    """Boxes (n_cells, dim) [mm] low, high that hold each whole cell, curved ones included.
+
+    A quadratic cell departs from its straight-sided (corner) geometry by at most LEBESGUE_BOUND times the
+    largest offset of a node from that geometry; the straight-sided cell lies in its corners' box.
+    """
+    element = space.scalar.elem
+    linear = LINEAR[element.refdom]()
+    n_corners = linear.doflocs.shape[0]
+    corner_weights = np.stack([linear.lbasis(element.doflocs.T, j)[0] for j in range(n_corners)], axis=1)
+    straight = np.einsum("kj,cjd->ckd", corner_weights, nodes_xyz[:, :n_corners])
+    offset = np.linalg.norm(nodes_xyz - straight, axis=2).max(axis=1)
+    corners = nodes_xyz[:, :n_corners]
+    low, high = corners.min(axis=1), corners.max(axis=1)
+    pad = LEBESGUE_BOUND * offset + 2 * REFERENCE_TOL * (high - low).max(axis=1)
+    return low - pad[:, None], high + pad[:, None]
+
+
+def _reference_basis(space: Space, reference: np.ndarray):
+    """Shape functions (n, n_local) and their reference gradients (n, n_local, dim) at reference points."""
+    element = space.scalar.elem
+    values, grads = zip(*(element.lbasis(reference, k) for k in range(space.scalar.Nbfun)))
+    return np.stack(values, axis=1), np.stack(grads, axis=1).transpose(2, 1, 0)
+
+
+def _inverse_map(space: Space, cell_xyz: np.ndarray, targets: np.ndarray):
+    """Reference coordinates (dim, n) of each target in its cell by Newton, and whether Newton converged.
+
+    cell_xyz (n, n_local, dim) [mm], targets (n, dim) [mm]. Iterates are kept in a box around the reference
+    element so that cells that do not hold their target cannot run away; those are rejected afterwards.
+    """
+    # coordinates relative to each cell's first node keep the round-off at the cell's scale, not the model's
+    origin = cell_xyz[:, 0, :]
+    cell_xyz, targets = cell_xyz - origin[:, None, :], targets - origin
+    centroid = space.scalar.elem.refdom.p.mean(axis=1)
+    reference = np.repeat(centroid[:, None], len(targets), axis=1)
+    active = np.arange(len(targets))
+    for iteration in range(1 if _is_affine(space) else NEWTON_MAX_ITER):
+        residual, jacobian = _forward_map(space, cell_xyz[active], reference[:, active], targets[active])
+        jacobian[np.abs(np.linalg.det(jacobian)) < 1e-300] = np.eye(space.dim)
+        step = np.linalg.solve(jacobian, residual[..., None])[..., 0].T
+        unclipped = reference[:, active] + step
+        reference[:, active] = np.clip(unclipped, -1.0, 2.0)
+        # a target still thrown out of the box after two steps is far outside this cell: stop following it
+        far_out = (iteration >= 2) & np.any(unclipped != reference[:, active], axis=0)
+        active = active[(np.abs(step).max(axis=0) >= NEWTON_TOL) & ~far_out]
+        if not active.size:
+            break
+    residual, _ = _forward_map(space, cell_xyz, reference, targets)
+    size = np.ptp(cell_xyz, axis=1).max(axis=1)
+    converged = np.linalg.norm(residual, axis=1) <= 1e-9 * size
+    return reference, converged
+
+
+def _forward_map(space: Space, cell_xyz, reference, targets):
+    """Residual targets - x(X) (n, dim) [mm] and Jacobian dx/dX (n, dim, dim) of the isoparametric map."""
+    phi, dphi = _reference_basis(space, reference)
+    x = np.einsum("nk,nkd->nd", phi, cell_xyz)
+    jacobian = np.einsum("nka,nkb->nab", cell_xyz, dphi)
+    return targets - x, jacobian
+
+
+def _is_simplex(space: Space) -> bool:
+    return space.scalar.elem.refdom not in (RefQuad, RefHex)
+
+
+def _is_affine(space: Space) -> bool:
+    """Linear simplices map affinely: one Newton step from anywhere is exact."""
+    return _is_simplex(space) and space.scalar.elem.maxdeg == 1
+
+
+def _inside_margin(space: Space, reference: np.ndarray) -> np.ndarray:
+    """(n,) signed distance-like margin to the reference element's boundary, negative outside."""
+    if _is_simplex(space):
+        return np.minimum(reference.min(axis=0), 1.0 - reference.sum(axis=0))
+    return np.minimum(reference, 1.0 - reference).min(axis=0)
+
+
+def _shape_functions(space: Space, cells: np.ndarray, reference: np.ndarray):
+    """Shape function values (n, n_local) and physical gradients (n, n_local, dim) [1/mm] at located points."""
+    cell_xyz = _cell_nodes(space)[cells]
+    phi, dphi = _reference_basis(space, reference)
+    jacobian = np.einsum("nka,nkb->nab", cell_xyz, dphi)
+    # grad_x phi = J^-T grad_X phi
+    grad = np.linalg.solve(np.swapaxes(jacobian, 1, 2), np.swapaxes(dphi, 1, 2))
+    return phi, np.swapaxes(grad, 1, 2)
+
+
+def _terms(space: Space, name: str, points: np.ndarray, phi: np.ndarray, grad: np.ndarray):
+    """(component, coefficients (n, n_local)) pairs whose sum over nodes gives quantity `name`."""
+    if name[0] == "u":
+        return [(_AXIS[name[1]], phi)]
+    a, b = _AXIS[name[1]], _AXIS[name[2]]
+    if a == b == 2 and space.kind == "plane_strain":
+        return []
+    if a == b == 2 and space.kind == "axisymmetric":
+        return [(0, _hoop(space, points, phi, grad))]
+    if a == b:
+        return [(a, grad[:, :, a])]
+    return [(a, 0.5 * grad[:, :, b]), (b, 0.5 * grad[:, :, a])]
+
+
+def _hoop(space: Space, points: np.ndarray, phi: np.ndarray, grad: np.ndarray) -> np.ndarray:
+    """Coefficients of e_thetatheta = u_r / r; on the axis its limit du_r/dr (u_r = 0 there by symmetry)."""
+    r = points[:, 0]
+    on_axis = r <= 1e-9 * np.ptp(space.mesh.points, axis=0).max()
+    safe_r = np.where(on_axis, 1.0, r)
+    return np.where(on_axis[:, None], grad[:, :, 0], phi / safe_r[:, None])
