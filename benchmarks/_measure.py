@@ -1,0 +1,28 @@
+"""Timing and memory helpers shared by the benchmark scripts."""
+
+import resource
+import time
+from contextlib import contextmanager
+
+
+@contextmanager
+def timed(figures: dict, name: str):
+    """Store the wall time of the block in ``figures[name]`` [s]."""
+    start = time.perf_counter()
+    yield
+    figures[name] = time.perf_counter() - start
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process so far [MB] (Linux ru_maxrss is in kB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def best_of(repeat: int, function):
+    """Smallest wall time of ``repeat`` calls [s] and the last result."""
+    best, result = float("inf"), None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = function()
+        best = min(best, time.perf_counter() - start)
+    return best, result
