@@ -26,19 +26,33 @@ def facet_integral(space: Space, boundary: str, vector: bool = False) -> np.ndar
     return out
 
 
-def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, name: str) -> np.ndarray:
-    """The target node coinciding (up to a small normal gap) with each contact node."""
+def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal: np.ndarray,
+                  name: str) -> np.ndarray:
+    """Index into ``target`` of the node facing each contact node along its normal (an initial gap is allowed).
+
+    Among the 32 nearest target nodes, the one whose normal line passes closest to the contact node is taken.
+    It must pass within 5 % of the local target facet size plus the initial gap: where curved surfaces gape
+    apart, nodes matched along another direction are accepted (those pairs stay open under small sliding).
+    """
     points = space.mesh.points
-    distance, index = cKDTree(points[target]).query(points[contact])
     facets = space.mesh.boundary(name)
     h = np.median(np.linalg.norm(points[facets[:, 0]] - points[facets[:, 1]], axis=1))
-    far = distance > 0.25 * h
-    if np.any(far):
-        i = int(np.argmax(far))
+    k = min(32, len(target))
+    _, near = cKDTree(points[target]).query(points[contact], k=k)
+    near = near.reshape(len(contact), k)
+    offset = points[contact][:, None, :] - points[target][near]              # (n_contact, k, dim)
+    n = normal[near]
+    tangential = np.linalg.norm(offset - np.sum(offset * n, axis=2)[:, :, None] * n, axis=2)
+    best = np.argmin(tangential, axis=1)
+    pick = np.arange(len(contact)), best
+    gap = np.abs(np.sum(offset * n, axis=2))[pick]
+    miss = tangential[pick] > 0.05 * h + gap
+    if np.any(miss):
+        i = int(np.argmax(miss))
         raise InputError(f"interface {name!r}: contact node at {np.round(points[contact[i]], 6).tolist()} has no "
-                         f"target node within {0.25 * h:.3g} mm; the meshes do not match: use "
-                         "discretisation = 'mortar' (2-D) or make the meshes conforming")
-    return target[index]
+                         f"target node facing it (within {0.05 * h:.3g} mm across the normal); the meshes do not "
+                         "match: use discretisation = 'mortar' (2-D) or make the meshes conforming")
+    return near[np.arange(len(contact)), best]
 
 
 def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> ContactPairs:
@@ -61,9 +75,10 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     if np.intersect1d(target_all, contact).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
-    target = _pair_targets(space, contact, target_all, interface.target)
-    normal = facet_integral(space, interface.target, vector=True)[target]
-    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    normal_all = facet_integral(space, interface.target, vector=True)[target_all]
+    normal_all /= np.linalg.norm(normal_all, axis=1)[:, None]
+    index = _pair_targets(space, contact, target_all, normal_all, interface.target)
+    target, normal = target_all[index], normal_all[index]
     frames = tangent_frames(normal)
     points = space.mesh.points
     share = np.zeros((len(contact), model.n_zones))
