@@ -131,25 +131,28 @@ def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50)
     return NewtonResult(x, lin, False, iteration, float(np.max(np.abs(lin.F), initial=0.0)), cycling)
 
 
-def bonded_start(inc: Increment, Wfull, Wa_T, gap, r, tol) -> np.ndarray:
-    """Start for a first increment: pairs with gap <= tol held closed and stuck, the others open.
+def stick_predictor(inc: Increment, Wfull, Wa_T, gap, r, held: np.ndarray) -> np.ndarray | None:
+    """Elastic predictor: the ``held`` pairs closed and stuck (no slip increment), the others open.
 
-    Needed when floating bodies make the all-open Jacobian singular.
+    It starts every increment: with floating bodies under force control the previous solution is a poor
+    start (a new load moves the pinned particular solution), while holding the previously closed pairs
+    gives the equilibrium the increment departs from. None when that system is singular.
     """
     n_pairs = len(gap)
     dim = Wfull.shape[0] // n_pairs
-    n_w = n_pairs * dim
-    touching = np.repeat(gap <= tol, dim)
-    m = Wa_T.shape[0]
+    n_w, m = n_pairs * dim, Wa_T.shape[0]
+    rows = np.repeat(held, dim)
     A = np.zeros((n_w + m, n_w + m))
     rhs = np.zeros(n_w + m)
-    A[:n_w][touching] = r * Wfull[touching]
-    rhs[:n_w][touching] = -r * (inc.w0 + np.repeat(np.c_[gap, np.zeros((n_pairs, dim - 1))], 1, axis=0).ravel()
-                                - np.c_[np.zeros(n_pairs), inc.w_prev_T].ravel())[touching]
-    A[np.flatnonzero(~touching), np.flatnonzero(~touching)] = 1.0
+    A[:n_w][rows] = Wfull[rows]
+    target = np.column_stack([-gap, inc.w_prev_T]).ravel() - inc.w0         # g = 0 and ds = 0
+    rhs[:n_w][rows] = target[rows]
+    free = np.flatnonzero(~rows)
+    A[free, free] = 1.0
     A[n_w:, :n_w] = Wa_T
     rhs[n_w:] = -inc.h0
     try:
-        return la.solve(A, rhs)
+        x = la.solve(A, rhs, check_finite=False)
     except la.LinAlgError:
-        return np.zeros(n_w + m)
+        return None
+    return x if np.all(np.isfinite(x)) else None

@@ -17,7 +17,7 @@ import scipy.linalg as la
 
 from ..errors import SolverError
 from .condense import Condensed
-from .contact import Increment, Linearisation, NewtonResult, bonded_start, newton
+from .contact import OPEN, Increment, Linearisation, NewtonResult, newton, stick_predictor
 from .pairs import ContactPairs
 
 log = logging.getLogger(__name__)
@@ -31,7 +31,7 @@ class _Path:
     x: np.ndarray
     w_T: np.ndarray
     S: np.ndarray | None
-    first: bool = True
+    state: np.ndarray | None = None   # contact state of the last converged increment
 
 
 @dataclass(frozen=True)
@@ -69,17 +69,21 @@ class LoadPathSolver:
         return self.rtol * scale
 
     def _newton(self, path: _Path, amplitude, mu) -> NewtonResult:
+        """Newton from the stick predictor; from the previous solution if that fails."""
         inc = self._increment(amplitude, path.w_T)
-        x0 = path.x
-        if path.first and self.c.n_modes:
-            tol = 1e-9 * (np.ptp(self.pairs.position) or 1.0)
-            x0 = bonded_start(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, tol)
-        result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0))
-        if not result.converged:
-            # the tolerance scales with the solution, which may have grown during the iterations
-            atol = self._atol(inc, result.x)
-            if result.residual <= atol:
-                return NewtonResult(result.x, result.lin, True, result.n_iterations, result.residual, False)
+        if path.state is None:
+            held = self.pairs.gap <= 1e-9 * (np.ptp(self.pairs.position) or 1.0)
+        else:
+            held = path.state != OPEN
+        starts = [x for x in (stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held), path.x)
+                  if x is not None]
+        for x0 in starts:
+            result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0))
+            if not result.converged and result.residual <= self._atol(inc, result.x):
+                # the tolerance scales with the solution, which may have grown during the iterations
+                result = NewtonResult(result.x, result.lin, True, result.n_iterations, result.residual, False)
+            if result.converged:
+                return result
         return result
 
     def _sensitivity(self, path: _Path, lin: Linearisation, zone_share) -> np.ndarray:
@@ -116,6 +120,6 @@ class LoadPathSolver:
             if sensitivities:
                 path.S = self._sensitivity(path, result.lin, self.pairs.zone_share)
             w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
-            path.x, path.w_T, path.first = result.x, w[:, 1:], False
+            path.x, path.w_T, path.state = result.x, w[:, 1:], result.lin.state
             self._last = result
         return n_newton, n_cuts
