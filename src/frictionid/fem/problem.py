@@ -116,8 +116,10 @@ class Problem:
         """Raise :class:`SolverError` where the accumulated slip exceeds ``limit`` local element lengths.
 
         The pairing is fixed in the undeformed configuration, so a larger slip would give a wrong answer.
+        Pairs that stay open along the whole path are not checked: their pairing never acts.
         """
         slip = np.linalg.norm(solution.slip, axis=2)                      # (n_inc, n_pairs)
+        slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         ratio = slip / self.pair_length()
         if ratio.size and ratio.max() > limit:
             inc, pair = np.unravel_index(np.argmax(ratio), ratio.shape)
