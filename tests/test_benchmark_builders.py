@@ -12,7 +12,7 @@ from frictionid.builders.benchmarks import (hertz_gap, hertz_model, hertz_refere
                                             sleeve_model)
 from frictionid.errors import InputError
 from frictionid.fem.space import Space
-from frictionid.model import SurfaceForce
+from frictionid.model import Displacement, SurfaceForce
 
 MATCH_TOL = 1e-9  # [mm] contact and target node must share the tangential coordinate to this (builder brief)
 
@@ -124,10 +124,13 @@ def test_axisymmetric_gap_and_zone_spans(models, name, gap, bore):
 
 
 def test_mindlin_loads_carry_no_moment_about_the_contact(models):
-    """With balance_moment the flat-face forces sum to (Q, -P) with zero moment about the origin."""
+    """With balance_moment the flat-face forces plus the expected Q (at height R) sum to (Q, -P), no moment."""
     model, mesh = models["mindlin"], models["mindlin"].mesh
-    force, moment = np.zeros(2), 0.0
+    force, moment = np.array([0.936, 0.0]), -8.0 * 0.936          # Q_expected acting at the flat face, y = R
     for load in model.loads:
+        if isinstance(load, Displacement):
+            assert (load.boundary, load.component, load.values) == ("upper_flat", 0, (0.0, 0.0285))
+            continue
         assert isinstance(load, SurfaceForce)
         ends = mesh.points[mesh.boundary(load.boundary)[:, :2]]              # straight facets
         length = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)

@@ -7,7 +7,7 @@ import pytest
 from frictionid.builders import benchmarks as bm
 from frictionid.builders.block import block_model
 from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
-from frictionid.fem.contact import OPEN, SLIP
+from frictionid.fem.contact import OPEN, SLIP, STICK
 from frictionid.fem.problem import Problem
 from frictionid.model import ContactInterface, Material, Model, Pressure, Stage, Support
 
@@ -155,3 +155,28 @@ def test_contact_patch_test_across_non_matching_meshes(order):
     solution = problem.solve([0.0])
     assert problem.pairs.n_pairs > 10
     np.testing.assert_allclose(solution.pressure[-1], 10.0, rtol=1e-6)   # uniform pressure reproduced exactly
+
+
+@pytest.fixture(scope="module")
+def mindlin():
+    return Problem.build(bm.mindlin_model())
+
+
+@pytest.mark.parametrize("mu", [0.2, 0.3])
+def test_cattaneo_mindlin_stick_zone_and_traction(mindlin, mu):
+    """NUMERICS.md 5.3 (VM272-like data): theory evaluated at the computed tangential force Q."""
+    solution = mindlin.solve([mu, mu])
+    Q = abs(solution.reactions[-1][solution.reaction_labels.index("upper_flat.x")])
+    assert Q == pytest.approx(0.936, rel=0.005)                     # the NUMERICS.md load
+    ref = bm.mindlin_reference(mu, Q=Q)
+    x, state = mindlin.pairs.position[:, 0], solution.state[-1]
+    stick = x[state == STICK]
+    element = 0.02                                                  # contact_size of the default model
+    for edge in (-stick.min(), stick.max()):
+        assert abs(edge - ref["c"]) <= element
+    c = 0.5 * (stick.max() - stick.min())
+    assert c == pytest.approx(ref["c"], rel=0.03)
+    inside = np.abs(x) < ref["a"]
+    q = np.abs(solution.traction[-1][inside, 0])
+    q_ref = np.array([ref["q"](v) for v in x[inside]])
+    assert np.sqrt(np.mean((q - q_ref) ** 2)) < 0.03 * mu * ref["p0"]

@@ -55,11 +55,28 @@ def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal:
     return near[np.arange(len(contact)), best]
 
 
+def _pair_normals(offset: np.ndarray, target_normal: np.ndarray) -> np.ndarray:
+    """Unit normal of each pair: the direction joining its nodes where they are apart, else the target normal.
+
+    The gap is measured along the line joining the nodes, so that line must be the normal: with the target's
+    surface normal instead, closing a gap between curved surfaces paired along another direction (Hertz,
+    Cattaneo-Mindlin: nodes at the same abscissa) would show up as spurious tangential slip, gap * sin(tilt).
+    The direction is oriented like the target normal (an interference points the other way).
+    """
+    length = np.linalg.norm(offset, axis=1)
+    scale = np.max(length, initial=0.0)
+    apart = length > 1e-6 * max(scale, 1e-300)
+    direction = np.divide(offset, length[:, None], out=np.zeros_like(offset), where=apart[:, None])
+    direction *= np.sign(np.sum(direction * target_normal, axis=1))[:, None]
+    return np.where(apart[:, None], direction, target_normal)
+
+
 def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> ContactPairs:
     """Contact pairs of a conforming interface: each contact-side node paired with its coincident target node.
 
-    The frame normal is the area-weighted outward normal of the target side at the target node; the initial
-    gap is the normal distance between the two nodes (negative for an interference).
+    The frame normal is the direction joining the two nodes where they are apart (see :func:`_pair_normals`),
+    else the area-weighted outward normal of the target side at the target node; the initial gap is the
+    distance between the nodes along it (negative for an interference).
     """
     interface = model.interfaces[interface_index]
     zone_offset = model.zone_names.index(interface.zones[0])
@@ -78,7 +95,8 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     normal_all = facet_integral(space, interface.target, vector=True)[target_all]
     normal_all /= np.linalg.norm(normal_all, axis=1)[:, None]
     index = _pair_targets(space, contact, target_all, normal_all, interface.target)
-    target, normal = target_all[index], normal_all[index]
+    target = target_all[index]
+    normal = _pair_normals(space.mesh.points[contact] - space.mesh.points[target], normal_all[index])
     frames = tangent_frames(normal)
     points = space.mesh.points
     share = np.zeros((len(contact), model.n_zones))
