@@ -88,6 +88,19 @@ class Condensed:
     def n_modes(self) -> int:
         return self.modes.shape[1]
 
+    def displacement(self, B: sp.csr_matrix, prescribed_values: np.ndarray, amplitude: np.ndarray,
+                     x: np.ndarray) -> np.ndarray:
+        """Full dof vector u [mm] for load amplitudes and x = (lam, alpha): one solve with the stored factor.
+
+        ``prescribed_values`` (n_channels, n_prescribed) are the unit prescribed displacements of the channels.
+        """
+        n_w = B.shape[0]
+        u = np.zeros(len(self.free) + len(self.prescribed))
+        load = B[:, self.free].T @ x[:n_w]
+        u[self.free] = amplitude @ self.particular + self.inverse.solve(load) + self.modes @ x[n_w:]
+        u[self.prescribed] = amplitude @ prescribed_values
+        return u
+
 
 def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: np.ndarray,
              observe: sp.csr_matrix, reaction_sums: sp.csr_matrix) -> Condensed:

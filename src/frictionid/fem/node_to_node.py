@@ -80,14 +80,15 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     """
     interface = model.interfaces[interface_index]
     zone_offset = model.zone_names.index(interface.zones[0])
+    contact = np.unique(np.concatenate([space.mesh.boundary_nodes(zone) for zone in interface.zones]))
     area = np.column_stack([facet_integral(space, zone) for zone in interface.zones])
     # shape functions of nodes off a facet evaluate to round-off (1e-36) there: not part of the zone
     area[np.abs(area) <= 1e-12 * np.abs(area).max(initial=0.0)] = 0.0
-    contact = np.flatnonzero(area.sum(axis=1) != 0)
     weight = area[contact].sum(axis=1)
     if np.any(weight <= 0):
-        raise InputError(f"interface {interface.name!r}: a contact node has a non-positive tributary area; "
-                         "the facet type gives negative corner weights (use hexahedra/quads or linear facets)")
+        raise InputError(f"interface {interface.name!r}: contact node {int(contact[np.argmin(weight)])} has a "
+                         f"tributary area of {weight.min():.3g} mm^2; {space.mesh.facet_type} facets give corner "
+                         "nodes zero or negative weights: use hexahedra or linear tetrahedra in 3-D")
     target_all = space.mesh.boundary_nodes(interface.target)
     if np.intersect1d(target_all, contact).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "

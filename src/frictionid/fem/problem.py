@@ -55,16 +55,23 @@ class Problem:
     reaction_labels: tuple[str, ...]
 
     @classmethod
-    def build(cls, model: Model, observe: sp.spmatrix | None = None,
-              observation_labels: tuple[str, ...] = ()) -> "Problem":
+    def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
+              points=None, quantities=("ux", "uy"), regions=None) -> "Problem":
         """Assemble, discretise the interfaces and condense.
 
         Parameters
         ----------
-        observe : (n_obs, n_dofs) sparse rows mapping the dof vector to observed values (e.g. from
-            :func:`frictionid.fem.points.point_operator`); none by default.
+        observe : (n_obs, n_dofs) sparse rows mapping the dof vector to observed values; none by default.
+        points : (n, dim) [mm], optional
+            Observation points instead of ``observe``: ``quantities`` (e.g. "ux", "eyy") at each point,
+            labelled "P<i>.<quantity>", point-major; ``regions`` optionally names the region of each point
+            (see :func:`frictionid.fem.points.point_operator`).
         """
         space = Space.build(model.mesh, model.kind)
+        if points is not None:
+            from .points import point_operator
+            observe = point_operator(space, points, quantities, regions)
+            observation_labels = tuple(f"P{i}.{q}" for i in range(len(points)) for q in quantities)
         pairs = contact_pairs(space, model)
         channels = load_channels(space, model)
         modes = free_rigid_modes(model.mesh, model.kind, channels.prescribed)
@@ -75,6 +82,13 @@ class Problem:
         labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(observe.shape[0]))
         condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels)
+
+    def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
+        """(n_nodes, dim) [mm] nodal displacements at an increment of a solution of this problem."""
+        x = np.concatenate([solution.lam[increment].ravel(), solution.alpha[increment]])
+        u = self.condensed.displacement(self.pairs.B, self.channels.displacements,
+                                        solution.amplitude[increment], x)
+        return u.reshape(-1, self.space.dim)
 
     def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
         """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""

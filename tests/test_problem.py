@@ -1,0 +1,116 @@
+"""Problem: observations at points and the full field agree with the condensed operators; bad input."""
+
+import gmsh
+import numpy as np
+import pytest
+
+from frictionid.builders.block import block_model_2d
+from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
+from frictionid.errors import InputError, SolverError
+from frictionid.fem.points import point_operator
+from frictionid.fem.problem import Problem
+from frictionid.model import ContactInterface, Material, Model, Stage, Support, SurfaceForce
+
+QUANTITIES = ("ux", "uy", "exx", "eyy", "exy")
+
+
+@pytest.fixture(scope="module")
+def observed():
+    model = block_model_2d("plane_strain", pull=0.1, height=4.0, mesh_size=1.0)
+    points = np.array([[-4.0, 1.0], [0.5, 3.5], [2.0, -1.0], [-15.0, -4.0]])
+    regions = ["block", "block", "base", None]
+    problem = Problem.build(model, points=points, quantities=QUANTITIES, regions=regions)
+    return problem, problem.solve([0.2, 0.3], sensitivities=True), points, regions
+
+
+def test_observations_equal_the_point_operator_on_the_reconstructed_field(observed):
+    problem, solution, points, regions = observed
+    rows = point_operator(problem.space, points, QUANTITIES, regions)
+    for increment in (0, 5, -1):
+        u = problem.displacement(solution, increment).ravel()
+        np.testing.assert_allclose(rows @ u, solution.observations[increment], rtol=1e-9,
+                                   atol=1e-9 * np.abs(solution.observations).max())
+    assert solution.observation_labels[:2] == ("P0.ux", "P0.uy")
+
+
+def test_reconstructed_field_meets_the_supports_and_the_pull(observed):
+    problem, solution, _, _ = observed
+    u = problem.displacement(solution)
+    mesh = problem.model.mesh
+    np.testing.assert_allclose(u[mesh.boundary_nodes("base_bottom")], 0.0, atol=1e-14)
+    np.testing.assert_allclose(u[mesh.boundary_nodes("block_top"), 0], 0.1, rtol=1e-12)
+
+
+def test_observation_sensitivities_match_central_differences(observed):
+    problem, solution, _, _ = observed
+    mu, h = np.array([0.2, 0.3]), 1e-6
+    for zone in range(2):
+        step = np.eye(2)[zone] * h
+        central = (problem.solve(mu + step).observations - problem.solve(mu - step).observations) / (2 * h)
+        np.testing.assert_allclose(solution.d_observations[:, :, zone], central, rtol=1e-6,
+                                   atol=1e-6 * np.abs(central).max())
+
+
+def _block(**changes):
+    model = block_model_2d("plane_strain", mesh_size=2.0)
+    fields = dict(mesh=model.mesh, kind=model.kind, materials=model.materials, supports=model.supports,
+                  loads=model.loads, stages=model.stages, interfaces=model.interfaces)
+    fields.update(changes)
+    return Model(**fields)
+
+
+def test_a_boundary_the_mesh_does_not_have_is_named():
+    with pytest.raises(InputError, match="no boundary named 'plate_top'.*base_top"):
+        _block(interfaces=(ContactInterface("i", ("A", "B"), "plate_top"),))
+
+
+def test_overlapping_zones_are_refused():
+    with pytest.raises(InputError, match="zones 'A' and 'A2' overlap"):
+        model = block_model_2d("plane_strain", mesh_size=2.0)
+        boundaries = dict(model.mesh.boundaries, A2=model.mesh.boundary("A"))
+        mesh = type(model.mesh)(model.mesh.points, model.mesh.cell_type, model.mesh.cells, model.mesh.regions,
+                                boundaries)
+        _block(mesh=mesh, interfaces=(ContactInterface("i", ("A", "B", "A2"), "base_top"),))
+
+
+def test_a_region_without_material_is_named():
+    with pytest.raises(InputError, match=r"region\(s\) \['base'\] have no material"):
+        _block(materials={"block": Material(71000.0, 0.33)})
+
+
+def test_unknown_zone_and_negative_coefficient_are_refused():
+    problem = Problem.build(_block())
+    with pytest.raises(InputError, match=r"unknown zone\(s\) \['C'\]"):
+        problem.solve({"A": 0.1, "B": 0.1, "C": 0.2})
+    with pytest.raises(InputError, match="non-negative"):
+        problem.solve([0.1, -0.1])
+
+
+def test_a_body_pulled_off_its_contact_reports_the_increment():
+    """Lifting the block with a force leaves it held by nothing: no increment can converge."""
+    model = _block(loads=(SurfaceForce("block_top", 1, (50.0,)),), stages=(Stage("lift", 2),),
+                   supports=(Support("base_bottom", (0, 1)),))
+    with pytest.raises(SolverError, match=r"did not converge in stage 1 \(lift\), increment 1: residual"):
+        Problem.build(model).solve([0.2, 0.2])
+
+
+def test_quadratic_tetrahedra_are_refused_for_node_to_node_contact():
+    """6-node triangle faces give their corner nodes zero tributary area: refused, never silently dropped."""
+    with gmsh_session():
+        lower, upper = gmsh.model.occ.addBox(0, 0, -1, 2, 2, 1), gmsh.model.occ.addBox(0, 0, 0, 2, 2, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [lower], name="lower")
+        gmsh.model.addPhysicalGroup(3, [upper], name="upper")
+        for body, name in ((lower, "lower_top"), (upper, "upper_bottom")):
+            faces = [f for _, f in gmsh.model.getBoundary([(3, body)], oriented=False)
+                     if abs(gmsh.model.occ.getCenterOfMass(2, f)[2]) < 1e-9]
+            gmsh.model.addPhysicalGroup(2, faces, name=name)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 1.0)
+        gmsh.model.mesh.generate(3)
+        gmsh.model.mesh.setOrder(2)
+        mesh = mesh_from_gmsh()
+    steel = Material(210000.0, 0.3)
+    model = Model(mesh, "3d", {"lower": steel, "upper": steel},
+                  interfaces=(ContactInterface("i", ("upper_bottom",), "lower_top"),))
+    with pytest.raises(InputError, match="triangle6 facets give corner nodes zero or negative weights"):
+        Problem.build(model)
