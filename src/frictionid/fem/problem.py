@@ -80,7 +80,7 @@ class Problem:
         if observe.shape[1] != space.n_dofs:
             raise InputError(f"observation rows have {observe.shape[1]} columns, the model {space.n_dofs} dofs")
         labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(observe.shape[0]))
-        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums)
+        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.dim)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
