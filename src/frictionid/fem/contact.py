@@ -14,6 +14,7 @@ is ``P dlam_i + Q dw_i`` with d×d blocks P, Q; dw = [W | W_a] dx (Alart & Curni
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -151,8 +152,10 @@ def stick_predictor(inc: Increment, Wfull, Wa_T, gap, r, held: np.ndarray) -> np
     A[free, free] = 1.0
     A[n_w:, :n_w] = Wa_T
     rhs[n_w:] = -inc.h0
-    try:
-        x = la.solve(A, rhs, check_finite=False)
-    except la.LinAlgError:
-        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", la.LinAlgWarning)
+        try:
+            x = la.solve(A, rhs, check_finite=False)
+        except (la.LinAlgError, la.LinAlgWarning):
+            return None
     return x if np.all(np.isfinite(x)) else None
