@@ -10,7 +10,7 @@ import skfem
 from skfem.helpers import ddot, sym_grad, trace
 
 from ..errors import InputError
-from ..model import Displacement, Model, Pressure, SurfaceForce
+from ..model import Displacement, Model, Pressure
 from ..model.model import component_index
 from .space import Space
 

@@ -36,12 +36,9 @@ class _Path:
 
 @dataclass(frozen=True)
 class StepResult:
-    """Converged state at the end of one nominal increment."""
+    """How one nominal increment went: the converged state's contact states, Newton iterations and cuts."""
 
-    x: np.ndarray
-    lin: Linearisation
-    w: np.ndarray
-    S: np.ndarray | None
+    state: np.ndarray
     n_newton: int
     n_cuts: int
 
@@ -57,6 +54,11 @@ class LoadPathSolver:
         diag = np.diag(ops.on_lam)
         self.r = 1.0 / np.mean(diag) if diag.size else 1.0
         self.rtol = rtol
+
+    def start(self) -> _Path:
+        """The unloaded state the load path starts from."""
+        n_x = self.pairs.n_pairs * self.pairs.dim + self.c.n_modes
+        return _Path(np.zeros(n_x), np.zeros((self.pairs.n_pairs, self.pairs.dim - 1)), None)
 
     def _increment(self, amplitude, w_prev_T) -> Increment:
         return Increment(self.c.gap_ops.channels.T @ amplitude, w_prev_T,
@@ -99,7 +101,7 @@ class LoadPathSolver:
             top[:, 1:, :] -= np.einsum("nij,njz->niz", lin.Q[:, 1:, 1:], dw_prev)
         return la.lu_solve(la.lu_factor(lin.J, check_finite=False), -rhs, check_finite=False)
 
-    def step(self, path: _Path, start, end, mu, sensitivities: bool, where: str) -> tuple[int, int]:
+    def step(self, path: _Path, start, end, mu, sensitivities: bool, where: str) -> StepResult:
         """Advance ``path`` from amplitude ``start`` to ``end``, halving the step on failure."""
         pending = [(start, end, 0)]
         n_newton = n_cuts = 0
@@ -114,6 +116,8 @@ class LoadPathSolver:
                         f"{result.n_iterations} Newton iterations and {depth} increment cuts"
                         + ("; the active set cycles" if result.cycling else ""))
                 n_cuts += 1
+                log.info("%s: Newton stalled at residual %.3g N, cutting the increment (cut %d)",
+                         where, result.residual, depth + 1)
                 middle = 0.5 * (a + b)
                 pending += [(middle, b, depth + 1), (a, middle, depth + 1)]
                 continue
@@ -121,5 +125,4 @@ class LoadPathSolver:
                 path.S = self._sensitivity(path, result.lin, self.pairs.zone_share)
             w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
             path.x, path.w_T, path.state = result.x, w[:, 1:], result.lin.state
-            self._last = result
-        return n_newton, n_cuts
+        return StepResult(path.state, n_newton, n_cuts)

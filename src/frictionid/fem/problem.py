@@ -14,7 +14,7 @@ from ..model.model import component_index
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
 from .interface import contact_pairs
-from .loadpath import LoadPathSolver, _Path
+from .loadpath import LoadPathSolver
 from .pairs import ContactPairs
 from .rigid import free_rigid_modes
 from .solution import Solution
@@ -150,20 +150,18 @@ class Problem:
         :meth:`check_small_sliding`.
         """
         mu = self._mu(mu)
-        c, pairs = self.condensed, self.pairs
-        solver = LoadPathSolver(c, pairs)
-        n_x = pairs.n_pairs * pairs.dim + c.n_modes
-        path = _Path(np.zeros(n_x), np.zeros((pairs.n_pairs, pairs.dim - 1)), None)
+        solver = LoadPathSolver(self.condensed, self.pairs)
+        path = solver.start()
         stages, amps = self.amplitudes()
-        mu_pair = pairs.mu(mu)
+        mu_pair = self.pairs.mu(mu)
         records = []
         previous = np.zeros(amps.shape[1])
         for i, (stage, amp) in enumerate(zip(stages, amps)):
             where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
-            n_newton, n_cuts = solver.step(path, previous, amp, mu_pair, sensitivities, where)
-            records.append((path.x.copy(), solver._last.lin.state, None if path.S is None else path.S.copy(),
-                            n_newton, n_cuts))
-            log.debug("%s: %d Newton iterations, %d cuts", where, n_newton, n_cuts)
+            step = solver.step(path, previous, amp, mu_pair, sensitivities, where)
+            records.append((path.x.copy(), step.state, None if path.S is None else path.S.copy(),
+                            step.n_newton, step.n_cuts))
+            log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
             previous = amp
         solution = self._solution(mu, stages, amps, records, sensitivities)
         if max_slip is not None:
