@@ -9,7 +9,7 @@ from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
 from frictionid.errors import InputError, SolverError
 from frictionid.fem.points import point_operator
 from frictionid.fem.problem import Problem
-from frictionid.model import ContactInterface, Material, Model, Stage, Support, SurfaceForce
+from frictionid.model import ContactInterface, Material, Model, Pressure, Stage, Support, SurfaceForce
 
 QUANTITIES = ("ux", "uy", "exx", "eyy", "exy")
 
@@ -114,3 +114,14 @@ def test_quadratic_tetrahedra_are_refused_for_node_to_node_contact():
                   interfaces=(ContactInterface("i", ("upper_bottom",), "lower_top"),))
     with pytest.raises(InputError, match="triangle6 facets give corner nodes zero or negative weights"):
         Problem.build(model)
+
+
+def test_a_model_without_contact_is_plain_elasticity():
+    """Block held at its top, base loaded by 20 MPa on its 40 mm top: the base's support carries 800 N/mm."""
+    model = _block(interfaces=(), supports=(Support("base_bottom", (0, 1)), Support("block_top", (0, 1))),
+                   loads=(Pressure("base_top", (20.0,)),), stages=(Stage("load", 1),))
+    solution = Problem.build(model).solve([], sensitivities=True)
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert reactions["base_bottom.y"] == pytest.approx(800.0, rel=1e-10)
+    assert reactions["block_top.y"] == pytest.approx(0.0, abs=1e-9)
+    assert solution.lam.shape == (1, 0, 2)

@@ -46,7 +46,7 @@ class Increment:
 
 def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r) -> Linearisation:
     """Residual F(x) and generalised Jacobian of the increment (vectorised over pairs)."""
-    n_pairs, dim = len(gap), Wfull.shape[0] // len(gap) if len(gap) else 1
+    n_pairs, dim = len(gap), inc.w_prev_T.shape[1] + 1
     n_w = n_pairs * dim
     lam = x[:n_w].reshape(n_pairs, dim)
     w = (inc.w0 + Wfull @ x).reshape(n_pairs, dim)
@@ -80,7 +80,7 @@ def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r) -> Linearisation:
 
     m = Wa_T.shape[0]
     J = np.zeros((n_w + m, n_w + m))
-    J[:n_w] = np.einsum("nij,njk->nik", Q, Wfull.reshape(n_pairs, dim, -1)).reshape(n_w, -1)
+    J[:n_w] = np.einsum("nij,njk->nik", Q, Wfull.reshape(n_pairs, dim, Wfull.shape[1])).reshape(n_w, Wfull.shape[1])
     blocks = J[:n_w, :n_w].reshape(n_pairs, dim, n_pairs, dim)
     index = np.arange(n_pairs)
     blocks[index, :, index, :] += P
@@ -139,8 +139,7 @@ def stick_predictor(inc: Increment, Wfull, Wa_T, gap, r, held: np.ndarray) -> np
     start (a new load moves the pinned particular solution), while holding the previously closed pairs
     gives the equilibrium the increment departs from. None when that system is singular.
     """
-    n_pairs = len(gap)
-    dim = Wfull.shape[0] // n_pairs
+    n_pairs, dim = len(gap), inc.w_prev_T.shape[1] + 1
     n_w, m = n_pairs * dim, Wa_T.shape[0]
     rows = np.repeat(held, dim)
     A = np.zeros((n_w + m, n_w + m))

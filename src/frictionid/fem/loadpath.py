@@ -74,7 +74,8 @@ class LoadPathSolver:
         """Newton from the stick predictor; from the previous solution if that fails."""
         inc = self._increment(amplitude, path.w_T)
         if path.state is None:
-            held = self.pairs.gap <= 1e-9 * (np.ptp(self.pairs.position) or 1.0)
+            extent = np.ptp(self.pairs.position) if self.pairs.n_pairs else 1.0
+            held = self.pairs.gap <= 1e-9 * (extent or 1.0)
         else:
             held = path.state != OPEN
         starts = [x for x in (stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held), path.x)
