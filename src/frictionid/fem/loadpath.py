@@ -17,7 +17,7 @@ import scipy.linalg as la
 
 from ..errors import SolverError
 from .condense import Condensed
-from .contact import OPEN, Increment, Linearisation, NewtonResult, newton, stick_predictor
+from .contact import OPEN, SLIP, Increment, Linearisation, NewtonResult, newton, stick_predictor
 from .pairs import ContactPairs
 
 log = logging.getLogger(__name__)
@@ -93,7 +93,7 @@ class LoadPathSolver:
         n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
         n_z = zone_share.shape[1]
         rhs = np.zeros((len(lin.F), n_z))
-        slip = lin.state == 2
+        slip = lin.state == SLIP
         top = rhs[:n_pairs * dim].reshape(n_pairs, dim, n_z)
         top[slip, 1:, :] = -(lin.lam_hat[slip, None, None] * lin.direction[slip, :, None]
                              * zone_share[slip, None, :])
