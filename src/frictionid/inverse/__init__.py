@@ -1,0 +1,1 @@
+"""Identification: parameters, observations, objective, Jacobians, optimisers, uncertainty."""

@@ -1,0 +1,67 @@
+"""LeastSquares: what every optimiser sees, and OptimiseResult: what every optimiser returns.
+
+The objective is J(x) = ||r(x)||^n with r the weighted residuals of the free parameters x (penalties and
+Tikhonov terms are extra residual rows, so n = 2 is a plain least-squares problem). Optimisers never see the
+forward model: they call ``residuals`` and ``jacobian``, which the identification layer backs with the
+forward solver, the run store and the chosen Jacobian (analytic or finite differences).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LeastSquares:
+    """A bounded (weighted) least-squares problem in the free parameters.
+
+    Attributes
+    ----------
+    residuals : x (n_free,) -> r (n_res,)
+    jacobian : x (n_free,) -> dr/dx (n_res, n_free); a finite-difference or analytic Jacobian
+    x0, lower, upper : (n_free,) start and bounds (lower <= x0 <= upper; +-inf allowed)
+    names : parameter names, for messages and progress
+    power : n in J = ||r||^n (2: least squares)
+    progress : called after each accepted iteration with (iteration, x, J); may raise to stop the run
+    """
+
+    residuals: Callable[[np.ndarray], np.ndarray]
+    jacobian: Callable[[np.ndarray], np.ndarray]
+    x0: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    names: tuple[str, ...]
+    power: float = 2.0
+    progress: Callable[[int, np.ndarray, float], None] = lambda iteration, x, objective: None
+
+    def objective(self, r: np.ndarray) -> float:
+        """J = ||r||^power."""
+        return float(np.linalg.norm(r) ** self.power)
+
+    def gradient(self, r: np.ndarray, jac: np.ndarray) -> np.ndarray:
+        """dJ/dx = power ||r||^(power - 2) jac^T r."""
+        norm = np.linalg.norm(r)
+        if norm == 0:
+            return np.zeros(jac.shape[1])
+        return self.power * norm ** (self.power - 2) * (jac.T @ r)
+
+
+@dataclass(frozen=True)
+class OptimiseResult:
+    """Outcome of an optimiser run.
+
+    status: "converged" | "max_iterations" | "failed"; history: one row per accepted iteration
+    (iteration 0 = start) with x and J; n_iterations counts accepted iterations.
+    """
+
+    x: np.ndarray
+    objective: float
+    status: str
+    message: str
+    n_iterations: int
+    history_x: np.ndarray
+    history_objective: np.ndarray
+    options: dict = field(default_factory=dict)
