@@ -1,0 +1,259 @@
+"""Measurement files: the generic CSV of DESIGN.md, read with file:line:column errors and written to read back equal.
+
+The table itself (:class:`Measurements`) and the axisymmetric mapping live in :mod:`.table` and are re-exported
+here, so that ``frictionid.data.measurements`` is the one import for measured data.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .table import QUANTITIES, REQUIRED, UNITS_COMMENT, Measurements, comment_text, map_to_axisymmetric
+
+SIGMAS = tuple(f"sigma_{q}" for q in QUANTITIES)
+KNOWN = REQUIRED + ("force",) + QUANTITIES + SIGMAS
+#: rows of one stage must give the same machine force up to this relative difference
+FORCE_RTOL = 1e-9
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+_INTEGER = re.compile(r"\+?\d+")
+
+__all__ = ["Measurements", "QUANTITIES", "REQUIRED", "UNITS_COMMENT", "map_to_axisymmetric", "read_measurements",
+           "write_measurements"]
+
+
+def _at(source: str, line: int, column: str | None = None) -> str:
+    """Message prefix ``file:line: column 'name': ``."""
+    return f"{source}:{line}: " + (f"column {column!r}: " if column else "")
+
+
+def read_measurements(path) -> Measurements:
+    """Read a measurement CSV (DESIGN.md "Measurement CSV (generic)").
+
+    ``#`` comment lines (kept), a header ``point,x,y,z,stage[,force][,ux,...,exz][,sigma_<quantity>...]``
+    in any column order, then one row per (point, stage). Empty cells of optional columns are missing values.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the 1-based line (comment lines counted) and the column: missing file, no header
+        or no data rows, missing / unknown / duplicate columns, a sigma column without its value column,
+        a row with the wrong number of fields, a cell that is not a finite number (``nan``, ``inf`` written
+        out), a stage that is not a positive integer, a sigma <= 0, a (point, stage) given twice, a quantity
+        column with no value, and rows of one stage with different forces.
+
+    Examples
+    --------
+    >>> m = read_measurements("measured.csv")  # doctest: +SKIP
+    >>> m.select(quantities=["uy"], stages=[2]).observations()[:1]  # doctest: +SKIP
+    [(0, 'uy', 0.0123, nan)]
+    """
+    source = str(path)
+    comments, header, rows = _split(source, _read_lines(path))
+    columns = _check_header(source, *header)
+    if not rows:
+        raise InputError(f"{_at(source, header[0])}no data rows after the header")
+    cells = {name: [] for name in columns}
+    for line, fields in rows:
+        _check_width(source, line, fields, header)
+        for name, index in columns.items():
+            cells[name].append(_cell(source, line, name, fields[index]))
+    _check_rows(source, header[0], rows, cells)
+    return Measurements(
+        points=tuple(cells["point"]), coordinates=np.column_stack([cells[c] for c in "xyz"]),
+        stage=np.array(cells["stage"], dtype=int), force=np.array(cells.get("force", [np.nan] * len(rows))),
+        values={q: np.array(cells[q]) for q in QUANTITIES if q in cells},
+        sigma={q: np.array(cells[f"sigma_{q}"]) for q in QUANTITIES if f"sigma_{q}" in cells},
+        comments=tuple(comments), source=source)
+
+
+def _read_lines(path) -> list[str]:
+    try:
+        # utf-8-sig: spreadsheet programs start CSV files with a byte-order mark
+        return Path(path).read_text(encoding="utf-8-sig").splitlines()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such measurement file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, not a measurement file") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte {exc.start}); save the CSV as UTF-8") from None
+
+
+def _split(source: str, lines: list[str]):
+    """Comment texts, (line, header fields), [(line, fields)] of the data rows; blank lines are skipped."""
+    comments, header, rows = [], None, []
+    for number, text in enumerate(lines, start=1):
+        if text.lstrip().startswith("#"):
+            comments.append(comment_text(text))
+        elif text.strip():
+            fields = [f.strip() for f in next(csv.reader([text]))]
+            if header is None:
+                header = (number, fields)
+            else:
+                rows.append((number, fields))
+    if header is None:
+        raise InputError(f"{source}: no header and no data (expected '#' comment lines, a header "
+                         f"{','.join(REQUIRED)},... and one row per point and stage)")
+    return comments, header, rows
+
+
+def _check_header(source: str, line: int, names: list[str]) -> dict[str, int]:
+    """Column name -> field index, after checking the header's names."""
+    at = _at(source, line)
+    seen = {}
+    for index, name in enumerate(names):
+        if name in seen:
+            raise InputError(f"{_at(source, line, name)}appears twice in the header "
+                             f"(fields {seen[name] + 1} and {index + 1})")
+        seen[name] = index
+    unknown = [_unknown(name, index) for index, name in enumerate(names) if name not in KNOWN]
+    if unknown:
+        raise InputError(f"{at}unknown column{'s' if len(unknown) > 1 else ''} {'; '.join(unknown)}. Known: "
+                         f"{', '.join(REQUIRED + ('force',) + QUANTITIES)} and sigma_<quantity>")
+    missing = [name for name in REQUIRED if name not in seen]
+    if missing:
+        raise InputError(f"{at}missing required column{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(map(repr, missing))} (required: {', '.join(REQUIRED)})")
+    for q in QUANTITIES:
+        if f"sigma_{q}" in seen and q not in seen:
+            raise InputError(f"{_at(source, line, 'sigma_' + q)}standard deviations without the column {q!r}")
+    return seen
+
+
+def _unknown(name: str, index: int) -> str:
+    if not name:
+        return f"'' (field {index + 1} of the header is empty)"
+    close = difflib.get_close_matches(name.lower(), KNOWN, n=2, cutoff=0.6)
+    hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+    return f"{name!r}{hint}"
+
+
+def _check_width(source: str, line: int, fields: list[str], header) -> None:
+    if len(fields) != len(header[1]):
+        raise InputError(f"{_at(source, line)}{len(fields)} fields, but the header (line {header[0]}) "
+                         f"has {len(header[1])}: {','.join(header[1])}")
+
+
+def _cell(source: str, line: int, name: str, text: str):
+    """The value of one cell: label (point), int (stage), float, or nan for an empty optional cell."""
+    if name == "point":
+        if not text:
+            raise InputError(f"{_at(source, line, name)}a point label is required")
+        return text
+    if name == "stage":
+        if not _INTEGER.fullmatch(text) or int(text) < 1:
+            raise InputError(f"{_at(source, line, name)}the stage must be a positive integer (1-based stage of "
+                             f"the model's load path), got {text!r}")
+        return int(text)
+    if not text:
+        if name in REQUIRED:
+            raise InputError(f"{_at(source, line, name)}a value is required (undeformed coordinate, mm)")
+        return np.nan
+    value = _number(source, line, name, text)
+    if name.startswith("sigma_") and not value > 0:
+        raise InputError(f"{_at(source, line, name)}a standard deviation must be positive, got {text}")
+    return value
+
+
+def _number(source: str, line: int, name: str, text: str) -> float:
+    if text.lower() in ("nan", "-nan", "+nan"):
+        raise InputError(f"{_at(source, line, name)}{text!r} is not allowed: leave the cell empty for a "
+                         f"missing value")
+    if not _NUMBER.fullmatch(text):
+        finite = "a finite number" if text.lower().lstrip("+-") in ("inf", "infinity") else "a number"
+        raise InputError(f"{_at(source, line, name)}{text!r} is not {finite}")
+    value = float(text)
+    if not np.isfinite(value):
+        raise InputError(f"{_at(source, line, name)}{text!r} is not a finite number")
+    return value
+
+
+def _check_rows(source: str, header_line: int, rows, cells: dict) -> None:
+    """Checks across rows: unique (point, stage), one force per stage, no empty quantity column."""
+    lines = [line for line, _ in rows]
+    first = {}
+    for line, key in zip(lines, zip(cells["point"], cells["stage"])):
+        if key in first:
+            raise InputError(f"{_at(source, line, 'point')}point {key[0]!r} at stage {key[1]} is already on "
+                             f"line {first[key]}")
+        first[key] = line
+    _check_forces(source, lines, cells)
+    for q in QUANTITIES:
+        if q in cells and np.all(np.isnan(cells[q])):
+            raise InputError(f"{_at(source, header_line, q)}no row has a value; leave the column out")
+
+
+def _check_forces(source: str, lines: list[int], cells: dict) -> None:
+    first = {}
+    for line, stage, force in zip(lines, cells["stage"], cells.get("force", ())):
+        if np.isnan(force):
+            continue
+        if stage not in first:
+            first[stage] = (line, force)
+            continue
+        first_line, reference = first[stage]
+        if abs(force - reference) > FORCE_RTOL * max(abs(force), abs(reference)):
+            raise InputError(f"{_at(source, line, 'force')}{force!r} N differs from {reference!r} N of stage "
+                             f"{stage} on line {first_line}; a stage has one machine force")
+
+
+def write_measurements(path, measurements: Measurements) -> None:
+    """Write ``measurements`` as a measurement CSV that :func:`read_measurements` reads back equal.
+
+    Comment lines first (``# `` + text), then the header (required columns, ``force`` if any row has one,
+    each quantity followed by its sigma column), then one row per point and stage; missing values are
+    empty cells and floats are written with ``repr`` (shortest text that reads back to the same float).
+
+    Raises
+    ------
+    InputError
+        A value that is not finite, a point label the reader would not read back (empty, starting with
+        ``#``, surrounding spaces), or a comment with a line break.
+    """
+    m = measurements
+    _check_writable(m)
+    columns = list(REQUIRED) + (["force"] if np.any(~np.isnan(m.force)) else [])
+    for q in m.quantities:
+        columns += [q] + ([f"sigma_{q}"] if q in m.sigma else [])
+    with open(path, "w", newline="", encoding="utf-8") as stream:
+        stream.writelines(f"# {text}\n" if text else "#\n" for text in m.comments)
+        writer = csv.writer(stream, lineterminator="\n")
+        writer.writerow(columns)
+        writer.writerows([_text(m, i, name) for name in columns] for i in range(m.n_rows))
+
+
+def _text(m: Measurements, i: int, name: str) -> str:
+    if name == "point":
+        return m.points[i]
+    if name == "stage":
+        return str(int(m.stage[i]))
+    if name in ("x", "y", "z"):
+        value = m.coordinates[i, "xyz".index(name)]
+    elif name == "force":
+        value = m.force[i]
+    else:
+        value = m.sigma[name[6:]][i] if name.startswith("sigma_") else m.values[name][i]
+    return "" if np.isnan(value) else repr(float(value))
+
+
+def _check_writable(m: Measurements) -> None:
+    where = m.source or "measurements"
+    for p in m.points:
+        if not p or p != p.strip() or p.startswith("#") or "\n" in p:
+            raise InputError(f"{where}: point label {p!r} would not read back (empty, leading '#', surrounding "
+                             f"spaces or a line break)")
+    if any("\n" in c or "\r" in c for c in m.comments):
+        raise InputError(f"{where}: a comment must be a single line")
+    if np.any(m.stage < 1):
+        raise InputError(f"{where}: stages must be positive integers")
+    for name, column in [("coordinates", m.coordinates), ("force", m.force), *m.values.items()]:
+        if np.any(np.isinf(column)) or (name == "coordinates" and np.any(np.isnan(column))):
+            raise InputError(f"{where}: {name} must be finite numbers (nan only for missing optional values)")
+    for q, column in m.sigma.items():
+        if np.any(~(column[~np.isnan(column)] > 0)) or np.any(np.isinf(column)):
+            raise InputError(f"{where}: sigma of {q} must be positive finite numbers (nan where not given)")
