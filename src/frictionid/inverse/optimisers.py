@@ -1,0 +1,228 @@
+"""optimise: minimise J(x) = ||r(x)||^n of a LeastSquares problem within its bounds with a method chosen by name."""
+
+from __future__ import annotations
+
+import logging
+from numbers import Integral, Real
+
+import numpy as np
+from scipy.optimize import Bounds, least_squares, minimize
+
+from ..errors import InputError, SolverError
+from . import gradient_descent as descent
+from .iterates import Iterates, Option, resolve_options
+from .least_squares import LeastSquares, OptimiseResult
+
+log = logging.getLogger(__name__)
+
+
+def _positive(value) -> bool:
+    return value > 0
+
+
+def _scale(value) -> bool:
+    return value == "jac" or value > 0
+
+
+_TOLERANCE = Option("float", lambda n, tol, n_free: tol, _positive, "> 0")
+
+TRF_OPTIONS = {
+    "ftol": _TOLERANCE, "xtol": _TOLERANCE, "gtol": _TOLERANCE,
+    "max_nfev": Option("int", lambda n, tol, n_free: 5 * (n + 1), _positive, "> 0"),
+    "x_scale": Option("scale", lambda n, tol, n_free: "jac", _scale, "(> 0)"),
+}
+"""Options of "trf" (scipy.optimize.least_squares): ftol, xtol, gtol (default tol), max_nfev (residual
+evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale."""
+
+LBFGSB_OPTIONS = {
+    "ftol": _TOLERANCE, "gtol": _TOLERANCE,
+    "max_nfev": Option("int", lambda n, tol, n_free: 5 * (n + 1), _positive, "> 0"),
+    "maxcor": Option("int", lambda n, tol, n_free: 10, _positive, "> 0"),
+    "maxls": Option("int", lambda n, tol, n_free: 20, _positive, "> 0"),
+}
+"""Options of "lbfgsb" (scipy L-BFGS-B on J / J(x0)): ftol, gtol (default tol), max_nfev (evaluations of r and
+its Jacobian; default 5 (max_iterations + 1)), maxcor, maxls."""
+
+NELDER_MEAD_OPTIONS = {
+    "xatol": Option("float", lambda n, tol, n_free: float(np.sqrt(tol)), _positive, "> 0"),
+    "fatol": _TOLERANCE,
+    # the simplex costs n_free + 1 evaluations, an iteration at most n_free + 2 (reflect, contract, shrink)
+    "max_nfev": Option("int", lambda n, tol, n_free: n_free + 1 + (n_free + 2) * n, _positive, "> 0"),
+    "adaptive": Option("bool", lambda n, tol, n_free: False),
+}
+"""Options of "nelder-mead" (scipy Nelder-Mead on J / J(x0) with bounds): xatol (default sqrt(tol): J changes
+quadratically in x near a minimum), fatol (default tol), max_nfev (default n_free + 1 + (n_free + 2)
+max_iterations, so that max_iterations is the limit that binds), adaptive."""
+
+
+class _IterationLimit(Exception):
+    """Stops least_squares from inside its Jacobian call once max_iterations iterates are accepted."""
+
+
+def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
+    """Bounded trust-region reflective Gauss-Newton (scipy.optimize.least_squares, method "trf").
+
+    least_squares evaluates the Jacobian at the start and at every accepted iterate and nowhere else, so the
+    Jacobian call is where an iterate is recorded; at the max_iterations-th one the run stops before the
+    (expensive) Jacobian is evaluated. Its start is moved strictly inside the bounds (by 1e-10 relative)
+    when x0 lies on one. It works on r / ||r(x0)||: its gtol is absolute, and residuals in mm are small.
+    """
+    problem = run.problem
+    x0 = np.array(problem.x0, dtype=float)
+    norm = float(np.linalg.norm(run.residuals(x0)))
+    if not np.isfinite(norm):
+        raise SolverError(f"the residuals at the start x0 = {x0.tolist()} are not finite")
+    scale = 1.0 / norm if norm > 0 else 1.0
+
+    def jacobian(x):
+        if run.accept(x) >= max_iterations:
+            raise _IterationLimit
+        return run.jacobian(x) * scale
+
+    try:
+        fit = least_squares(lambda x: run.residuals(x) * scale, x0, jac=jacobian, method="trf",
+                            bounds=(problem.lower, problem.upper), x_scale=options["x_scale"],
+                            ftol=options["ftol"], xtol=options["xtol"], gtol=options["gtol"],
+                            max_nfev=options["max_nfev"])
+    except _IterationLimit:
+        return "max_iterations", f"stopped after max_iterations = {max_iterations} iterations"
+    if fit.status == 0:
+        return "max_iterations", f"{fit.message} (max_nfev = {options['max_nfev']})"
+    return ("converged" if fit.status > 0 else "failed"), fit.message
+
+
+def _lbfgsb(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
+    """L-BFGS-B on J / J(x0) with gradient ``problem.gradient``; the scaling makes ftol relative to J(x0)."""
+    problem = run.problem
+    x0 = np.array(problem.x0, dtype=float)
+    scale = _objective_scale(run, x0)
+
+    def objective_and_gradient(x):
+        r = run.residuals(x)
+        return problem.objective(r) * scale, problem.gradient(r, run.jacobian(x)) * scale
+
+    fit = minimize(objective_and_gradient, x0, jac=True, method="L-BFGS-B", callback=_recorder(run),
+                   bounds=Bounds(problem.lower, problem.upper),
+                   options={"maxiter": max_iterations, "maxfun": options["max_nfev"], "ftol": options["ftol"],
+                            "gtol": options["gtol"], "maxcor": options["maxcor"], "maxls": options["maxls"]})
+    return {0: "converged", 1: "max_iterations"}.get(fit.status, "failed"), str(fit.message)
+
+
+def _nelder_mead(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
+    """Derivative-free Nelder-Mead on J / J(x0) within the bounds; never evaluates the Jacobian."""
+    problem = run.problem
+    x0 = np.array(problem.x0, dtype=float)
+    scale = _objective_scale(run, x0)
+    fit = minimize(lambda x: run.objective(x) * scale, x0, method="Nelder-Mead", callback=_recorder(run),
+                   bounds=Bounds(problem.lower, problem.upper),
+                   # scipy counts building the simplex as its first iteration
+                   options={"maxiter": max_iterations + 1, "maxfev": options["max_nfev"], "xatol": options["xatol"],
+                            "fatol": options["fatol"], "adaptive": options["adaptive"]})
+    return ("converged" if fit.status == 0 else "max_iterations"), str(fit.message)
+
+
+def _objective_scale(run: Iterates, x0: np.ndarray) -> float:
+    """Record the start and return 1 / J(x0) (1 if J(x0) = 0): scipy's absolute tolerances become relative."""
+    run.accept(x0)
+    objective = run.objective(x0)
+    return 1.0 / objective if objective > 0 else 1.0
+
+
+def _recorder(run: Iterates):
+    def callback(intermediate_result):  # scipy passes the result object only to a parameter of this name
+        run.accept(intermediate_result.x)
+    return callback
+
+
+METHODS = {
+    "trf": (_trf, TRF_OPTIONS),
+    "lbfgsb": (_lbfgsb, LBFGSB_OPTIONS),
+    "gradient-descent": (descent.gradient_descent, descent.OPTIONS),
+    "nelder-mead": (_nelder_mead, NELDER_MEAD_OPTIONS),
+}
+"""Method name -> (function(run, max_iterations, tol, options) -> (status, message), its options)."""
+
+
+def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int = 100, tol: float = 1e-10,
+             options: dict | None = None) -> OptimiseResult:
+    """Minimise J(x) = ||r(x)||^power of ``problem`` with the named method.
+
+    Parameters
+    ----------
+    problem : LeastSquares
+        Residuals, Jacobian, start and bounds; never modified (``problem.x0`` included).
+    method : str
+        "trf" (bounded trust-region Gauss-Newton, power 2 only), "lbfgsb" (L-BFGS-B within the bounds),
+        "gradient-descent" (the seed paper's steepest descent with Armijo steps; unbounded unless
+        ``options={"bounds": True}``) or "nelder-mead" (derivative-free, within the bounds).
+    max_iterations : int
+        Accepted iterations at most (>= 0).
+    tol : float
+        Convergence tolerance (> 0), passed to each method's own tolerances (see its options).
+    options : dict, optional
+        Method options, see ``TRF_OPTIONS``, ``LBFGSB_OPTIONS``, ``NELDER_MEAD_OPTIONS`` and
+        ``gradient_descent.OPTIONS``.
+
+    Returns
+    -------
+    OptimiseResult
+        Last accepted iterate and the history of all of them (row 0: the start); ``options`` holds the
+        resolved method options. ``problem.progress(iteration, x, J)`` was called for every row.
+
+    Raises
+    ------
+    InputError
+        Unknown method, bad option (the key is named), bad limits or problem, power != 2 with "trf".
+    SolverError
+        Non-finite residuals at the start, or whatever the problem's callables raise. An exception raised
+        by ``problem.progress`` (e.g. KeyboardInterrupt) propagates unchanged.
+
+    Examples
+    --------
+    >>> problem = LeastSquares(lambda x: x - 2.0, lambda x: np.eye(1), np.array([0.0]), np.array([0.0]),
+    ...                        np.array([1.0]), ("mu",))
+    >>> result = optimise(problem, "trf")
+    >>> result.status, round(float(result.x[0]), 8)
+    ('converged', 1.0)
+    """
+    if method not in METHODS:
+        raise InputError(f"method {method!r} is not known; the methods are {sorted(METHODS)}")
+    _check_limits(max_iterations, tol)
+    _check_problem(problem, method)
+    run_method, spec = METHODS[method]
+    resolved = resolve_options(method, spec, options, max_iterations, tol, len(problem.names))
+    log.info("%s on %d parameters %s, max_iterations = %d, tol = %g, options %s", method, len(problem.names),
+             list(problem.names), max_iterations, tol, resolved)
+    run = Iterates(problem)
+    if max_iterations == 0:
+        run.accept(np.array(problem.x0, dtype=float))
+        return run.result("max_iterations", "max_iterations = 0: the start only", resolved)
+    status, message = run_method(run, max_iterations, tol, resolved)
+    return run.result(status, message, resolved)
+
+
+def _check_limits(max_iterations, tol) -> None:
+    if not isinstance(max_iterations, Integral) or isinstance(max_iterations, bool) or max_iterations < 0:
+        raise InputError(f"max_iterations must be an integer >= 0, not {max_iterations!r}")
+    if not isinstance(tol, Real) or isinstance(tol, bool) or not tol > 0:
+        raise InputError(f"tol must be a number > 0, not {tol!r}")
+
+
+def _check_problem(problem: LeastSquares, method: str) -> None:
+    """Shapes, start within the bounds, lower < upper, a usable power; InputError naming what is wrong."""
+    n_free = len(problem.names)
+    arrays = {"x0": problem.x0, "lower": problem.lower, "upper": problem.upper}
+    for name, values in arrays.items():
+        if np.shape(values) != (n_free,):
+            raise InputError(f"problem.{name} has shape {np.shape(values)}; expected ({n_free},), one value "
+                             f"per parameter {list(problem.names)}")
+    x0, lower, upper = (np.asarray(a, dtype=float) for a in arrays.values())
+    for k, name in enumerate(problem.names):
+        if not (np.isfinite(x0[k]) and lower[k] <= x0[k] <= upper[k] and lower[k] < upper[k]):
+            raise InputError(f"parameter {name!r}: start {x0[k]} and bounds [{lower[k]}, {upper[k]}] must "
+                             "satisfy lower <= start <= upper, lower < upper, start finite")
+    if not problem.power > 0:
+        raise InputError(f"power must be > 0, not {problem.power}")
+    if method == "trf" and problem.power != 2:
+        raise InputError(f"method 'trf' solves least-squares problems (power 2), not power {problem.power}; "
+                         "use 'lbfgsb', 'gradient-descent' or 'nelder-mead'")

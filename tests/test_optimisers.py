@@ -1,0 +1,319 @@
+"""Optimisers on analytic least-squares problems: one test class per method, shared checks through mixins."""
+
+import dataclasses
+from typing import ClassVar
+
+import numpy as np
+import pytest
+
+from frictionid.errors import InputError, SolverError
+from frictionid.inverse.least_squares import LeastSquares
+from frictionid.inverse.optimisers import METHODS, optimise
+
+INF = np.inf
+
+
+def problem(residuals, jacobian, x0, lower, upper, power=2.0, progress=None):
+    """A LeastSquares problem with parameter names p0, p1, ..."""
+    x0 = np.array(x0, dtype=float)
+    extra = {} if progress is None else {"progress": progress}
+    return LeastSquares(residuals, jacobian, x0, np.broadcast_to(np.asarray(lower, float), x0.shape).copy(),
+                        np.broadcast_to(np.asarray(upper, float), x0.shape).copy(),
+                        tuple(f"p{k}" for k in range(x0.size)), power, **extra)
+
+
+def linear(lower=-10.0, upper=10.0, **kwargs):
+    """r = A x - b, A (8, 3) seeded; the minimiser is numpy's lstsq solution (nonzero residual)."""
+    rng = np.random.default_rng(7)
+    a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
+    x_star = np.linalg.lstsq(a, b, rcond=None)[0]
+    return problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), lower, upper, **kwargs), x_star
+
+
+def rosenbrock(**kwargs):
+    """Rosenbrock in residual form r = (10 (x1 - x0^2), 1 - x0) from the classic start (-1.2, 1); minimum (1, 1)."""
+    return problem(lambda x: np.array([10 * (x[1] - x[0] ** 2), 1 - x[0]]),
+                   lambda x: np.array([[-20 * x[0], 10.0], [-1.0, 0.0]]), [-1.2, 1.0], -5.0, 5.0, **kwargs)
+
+
+def exponential_decay(**kwargs):
+    """Fit y = a exp(-k t) to exact data from a = 2, k = 1.3 on t in [0, 3], starting from a = 1, k = 0.5."""
+    t = np.linspace(0.0, 3.0, 20)
+    y = 2.0 * np.exp(-1.3 * t)
+    return problem(lambda x: x[0] * np.exp(-x[1] * t) - y,
+                   lambda x: np.column_stack([np.exp(-x[1] * t), -x[0] * t * np.exp(-x[1] * t)]),
+                   [1.0, 0.5], 0.0, 10.0, **kwargs), np.array([2.0, 1.3])
+
+
+OUTSIDE = np.array([-0.2, 0.3])
+
+
+def outside_bounds(**kwargs):
+    """r = x - (-0.2, 0.3) with bounds [0, 1]: the unconstrained minimum has a negative coefficient."""
+    return problem(lambda x: x - OUTSIDE, lambda x: np.eye(2), [0.1, 0.1], 0.0, 1.0, **kwargs)
+
+
+def ill_conditioned():
+    """r = diag(1, 30) x - (1, 2): Hessian condition number 900, trivial for Gauss-Newton."""
+    a = np.diag([1.0, 30.0])
+    return problem(lambda x: a @ x - np.array([1.0, 2.0]), lambda x: a, [0.0, 0.0], -10.0, 10.0)
+
+
+class Progress:
+    """Records progress calls; raises KeyboardInterrupt at iteration ``stop_at``."""
+
+    def __init__(self, stop_at=None):
+        self.calls, self.stop_at = [], stop_at
+
+    def __call__(self, iteration, x, objective):
+        self.calls.append((iteration, x.copy(), objective))
+        if iteration == self.stop_at:
+            raise KeyboardInterrupt
+
+
+class BaseMixin:
+    method: str
+    options: ClassVar[dict] = {}
+    atol = 1e-6          # accuracy of the recovered x on the smooth test problems
+    max_iterations = 500
+    bad_type = ("gtol", "small")
+
+    def run(self, prob, **kwargs):
+        kwargs.setdefault("max_iterations", self.max_iterations)
+        kwargs.setdefault("options", self.options)
+        return optimise(prob, self.method, **kwargs)
+
+    def test_linear_least_squares_recovers_the_lstsq_solution(self):
+        prob, x_star = linear()
+        result = self.run(prob)
+        assert result.status == "converged"
+        np.testing.assert_allclose(result.x, x_star, atol=self.atol)
+
+    def test_exponential_decay_fit_recovers_amplitude_and_rate(self):
+        prob, x_true = exponential_decay()
+        result = self.run(prob)
+        assert result.status == "converged"
+        np.testing.assert_allclose(result.x, x_true, atol=self.atol)
+
+    def test_progress_called_for_iterations_0_to_n_matching_the_history(self):
+        progress = Progress()
+        prob, _ = exponential_decay(progress=progress)
+        result = self.run(prob)
+        assert [call[0] for call in progress.calls] == list(range(result.n_iterations + 1))
+        assert result.n_iterations >= 2
+        assert result.history_x.shape == (result.n_iterations + 1, 2)
+        assert result.history_objective.shape == (result.n_iterations + 1,)
+        np.testing.assert_array_equal(np.array([call[1] for call in progress.calls]), result.history_x)
+        np.testing.assert_array_equal([call[2] for call in progress.calls], result.history_objective)
+        np.testing.assert_array_equal(result.history_x[0], prob.x0)
+        assert result.history_objective[0] == prob.objective(prob.residuals(prob.x0))
+        np.testing.assert_array_equal(result.x, result.history_x[-1])
+        assert result.objective == result.history_objective[-1] == prob.objective(prob.residuals(result.x))
+
+    @pytest.mark.parametrize("make", [exponential_decay, linear])
+    def test_history_is_monotone_non_increasing(self, make):
+        result = self.run(make()[0])
+        assert np.all(np.diff(result.history_objective) <= 0)
+        assert result.history_objective[-1] < result.history_objective[0]
+
+    def test_no_point_is_evaluated_twice(self):
+        # each residual evaluation is a forward solve: recording iterates must not repeat any
+        prob, _ = exponential_decay()
+        seen = {"residuals": [], "jacobian": []}
+
+        def counted(name, evaluate):
+            return lambda x: seen[name].append(x.tobytes()) or evaluate(x)
+
+        self.run(dataclasses.replace(prob, residuals=counted("residuals", prob.residuals),
+                                     jacobian=counted("jacobian", prob.jacobian)))
+        assert len(seen["residuals"]) > 3
+        for name, keys in seen.items():
+            assert len(set(keys)) == len(keys), name
+
+    def test_x0_not_mutated_and_result_frozen(self):
+        prob, _ = exponential_decay()
+        x0 = prob.x0.copy()
+        result = self.run(prob)
+        np.testing.assert_array_equal(prob.x0, x0)
+        assert not np.shares_memory(result.x, prob.x0)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            result.x = x0
+        with pytest.raises(ValueError):
+            result.history_x[0, 0] = 99.0
+
+    def test_interrupt_raised_by_progress_propagates(self):
+        progress = Progress(stop_at=2)
+        prob, _ = exponential_decay(progress=progress)
+        with pytest.raises(KeyboardInterrupt):
+            self.run(prob)
+        assert [call[0] for call in progress.calls] == [0, 1, 2]
+
+    def test_stops_at_max_iterations(self):
+        result = self.run(rosenbrock(), max_iterations=3)
+        assert (result.status, result.n_iterations, result.history_x.shape) == ("max_iterations", 3, (4, 2))
+
+    def test_max_iterations_zero_returns_the_start(self):
+        prob, _ = exponential_decay()
+        result = self.run(prob, max_iterations=0)
+        assert (result.status, result.n_iterations) == ("max_iterations", 0)
+        np.testing.assert_array_equal(result.x, prob.x0)
+
+    def test_unknown_option_is_named(self):
+        with pytest.raises(InputError, match="'stepsize'.*options are"):
+            self.run(linear()[0], options={"stepsize": 1.0})
+
+    def test_option_of_wrong_type_is_named(self):
+        key, value = self.bad_type
+        with pytest.raises(InputError, match=f"option '{key}'"):
+            self.run(linear()[0], options={key: value})
+
+    def test_non_finite_residuals_at_the_start_raise_solver_error(self):
+        prob = problem(lambda x: np.array([np.nan, 1.0]), lambda x: np.eye(2), [0.5, 0.5], 0.0, 1.0)
+        with pytest.raises(SolverError, match="start"):
+            self.run(prob)
+
+
+class BoundsMixin:
+    def test_minimum_outside_the_bounds_ends_on_the_lower_bound(self):
+        result = self.run(outside_bounds())
+        assert result.status == "converged"
+        assert result.x[0] == pytest.approx(0.0, abs=1e-9)   # active at the lower bound
+        assert result.x[1] == pytest.approx(0.3, abs=self.atol)
+        assert np.all(result.history_x >= 0.0) and np.all(result.history_x <= 1.0)
+
+
+class RosenbrockMixin:
+    def test_rosenbrock_reaches_the_minimum_at_one_one(self):
+        result = self.run(rosenbrock())
+        assert result.status == "converged"
+        np.testing.assert_allclose(result.x, [1.0, 1.0], atol=10 * self.atol)
+
+
+class PowerMixin:
+    @pytest.mark.parametrize("power", [1.0, 4.0])
+    def test_other_powers_have_the_same_bounded_minimiser(self, power):
+        result = self.run(outside_bounds(power=power))
+        assert result.x[0] == pytest.approx(0.0, abs=1e-9)
+        assert result.x[1] == pytest.approx(0.3, abs=1e-5)
+        assert result.objective == pytest.approx(0.2 ** power, rel=1e-5)
+
+
+class ScaleMixin:
+    def test_tiny_objective_is_not_taken_for_convergence(self):
+        # displacements in mm give J ~ 1e-10 and less; scipy's absolute tolerances must not stop at the start
+        prob, x_true = exponential_decay()
+        tiny = dataclasses.replace(prob, residuals=lambda x: 1e-5 * prob.residuals(x),
+                                   jacobian=lambda x: 1e-5 * prob.jacobian(x))
+        result = self.run(tiny)
+        assert result.status == "converged"
+        np.testing.assert_allclose(result.x, x_true, atol=self.atol)
+
+
+class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
+    method = "trf"
+    atol = 1e-8
+
+    def test_other_powers_are_refused(self):
+        with pytest.raises(InputError, match="power"):
+            self.run(outside_bounds(power=1.0))
+
+    def test_gauss_newton_needs_few_iterations_on_an_ill_conditioned_problem(self):
+        result = self.run(ill_conditioned())
+        assert result.status == "converged" and result.n_iterations <= 5
+        np.testing.assert_allclose(result.x, [1.0, 2.0 / 30.0], atol=1e-10)
+
+    def test_resolved_options_are_reported(self):
+        result = self.run(linear()[0], tol=1e-9, max_iterations=20)
+        assert result.options == {"ftol": 1e-9, "xtol": 1e-9, "gtol": 1e-9, "max_nfev": 105, "x_scale": "jac"}
+
+    def test_no_jacobian_at_the_iterate_where_max_iterations_stops(self):
+        calls = []
+        prob = rosenbrock()
+        result = self.run(dataclasses.replace(prob, jacobian=lambda x: calls.append(1) or prob.jacobian(x)),
+                          max_iterations=3)
+        assert (result.n_iterations, len(calls)) == (3, 3)
+
+    def test_evaluation_budget_exhausted_is_max_iterations(self):
+        result = self.run(rosenbrock(), options={"max_nfev": 3})
+        assert result.status == "max_iterations" and result.n_iterations < 3
+
+
+class TestLBFGSB(BaseMixin, BoundsMixin, RosenbrockMixin, PowerMixin, ScaleMixin):
+    method = "lbfgsb"
+    atol = 1e-6
+    bad_type = ("maxcor", 2.5)
+
+
+class TestNelderMead(BaseMixin, BoundsMixin, RosenbrockMixin, PowerMixin, ScaleMixin):
+    method = "nelder-mead"
+    atol = 1e-5          # xatol defaults to sqrt(tol) = 1e-5
+    bad_type = ("adaptive", "yes")
+
+    def test_never_calls_the_jacobian(self):
+        def jacobian(x):
+            raise AssertionError("Nelder-Mead evaluated the Jacobian")
+        prob, x_true = exponential_decay()
+        result = self.run(dataclasses.replace(prob, jacobian=jacobian))
+        np.testing.assert_allclose(result.x, x_true, atol=self.atol)
+
+
+class TestGradientDescent(BaseMixin):
+    method = "gradient-descent"
+    max_iterations = 5000
+    # it stops on the relative decrease of J, quadratic in the distance to a minimum with nonzero residual,
+    # so x is only good to about sqrt(tol) times the problem's scale there
+    atol = 1e-4
+    bad_type = ("bounds", 1)
+
+    def test_without_bounds_goes_negative_like_the_paper(self):
+        # r = x - c: the unit step 2c - x0 fails Armijo (no decrease), its half lands on c exactly
+        result = self.run(outside_bounds())
+        assert result.status == "converged"
+        np.testing.assert_allclose(result.history_x[1], OUTSIDE, atol=1e-15)
+        assert result.x[0] < 0
+
+    def test_needs_many_more_iterations_than_trf_when_ill_conditioned(self):
+        descent = self.run(ill_conditioned(), max_iterations=300)
+        gauss_newton = optimise(ill_conditioned(), "trf")
+        assert descent.status == "max_iterations" and gauss_newton.status == "converged"
+        assert descent.n_iterations >= 50 * gauss_newton.n_iterations
+        assert descent.objective > 1e3 * gauss_newton.objective
+
+    def test_uphill_gradient_fails_the_armijo_search_without_moving(self):
+        prob = outside_bounds()
+        result = self.run(dataclasses.replace(prob, jacobian=lambda x: -np.eye(2)))
+        assert (result.status, result.n_iterations) == ("failed", 0)
+        assert "Armijo" in result.message
+
+    @pytest.mark.parametrize("key, value", [("beta", 1.0), ("c1", 0.0), ("initial_step", -1.0),
+                                            ("max_backtracks", 0)])
+    def test_armijo_parameters_out_of_range_are_named(self, key, value):
+        with pytest.raises(InputError, match=f"option '{key}'"):
+            self.run(linear()[0], options={key: value})
+
+
+class TestProjectedGradientDescent(BaseMixin, BoundsMixin, PowerMixin):
+    method = "gradient-descent"
+    options: ClassVar[dict] = {"bounds": True}
+    max_iterations = 5000
+    atol = 1e-4          # as TestGradientDescent
+
+
+def test_unknown_method_names_the_known_ones():
+    with pytest.raises(InputError, match="'bfgs'.*gradient-descent.*lbfgsb.*nelder-mead.*trf"):
+        optimise(linear()[0], "bfgs")
+    assert set(METHODS) == {"trf", "lbfgsb", "gradient-descent", "nelder-mead"}
+
+
+@pytest.mark.parametrize("kwargs, match", [({"max_iterations": -1}, "max_iterations"),
+                                           ({"max_iterations": 2.5}, "max_iterations"),
+                                           ({"tol": 0.0}, "tol"), ({"options": [1]}, "options")])
+def test_bad_limits_are_named(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        optimise(linear()[0], "trf", **kwargs)
+
+
+def test_start_outside_the_bounds_names_the_parameter():
+    prob = dataclasses.replace(outside_bounds(), x0=np.array([0.1, 1.5]))
+    with pytest.raises(InputError, match="'p1'"):
+        optimise(prob, "lbfgsb")
