@@ -39,11 +39,75 @@ def _run_demo(args) -> int:
     return 0
 
 
+def _add_identify(sub):
+    parser = sub.add_parser("identify", help="identify the zone coefficients a config describes")
+    parser.add_argument("config", help="TOML config file")
+    parser.add_argument("--resume", action="store_true", help="continue an interrupted run from its store")
+    parser.set_defaults(run=_run_identify)
+
+
+def _progress(iteration, mu, objective, evaluator):
+    values = "  ".join(f"{name}={value:.4f}" for name, value in zip(evaluator.params.names, mu))
+    print(f"iter {iteration:3d}  J={objective:.6e}  {values}  "
+          f"(solves {evaluator.n_forward} + {evaluator.n_sensitivity} with sensitivities, "
+          f"{evaluator.n_replayed} replayed)", flush=True)
+
+
+def _run_identify(args) -> int:
+    from .config import read_config
+    from .identify import identify
+    from .report.tables import result_summary
+
+    config = read_config(args.config, need=("model", "friction", "data", "run"))
+    try:
+        result = identify(config, resume=args.resume, progress=_progress)
+    except KeyboardInterrupt:
+        print(f"frictionid: interrupted; every finished evaluation is stored in "
+              f"{config.resolve(config.run['dir'])}; continue with --resume", file=sys.stderr)
+        return 1
+    print(result_summary(result))
+    print(f"results in {config.resolve(config.run['dir'])}")
+    return 0
+
+
+def _add_simulate(sub):
+    parser = sub.add_parser("simulate", help="one forward solve with the [friction] values")
+    parser.add_argument("config", help="TOML config file")
+    parser.add_argument("--out", required=True, help="measurement CSV to write")
+    parser.set_defaults(run=_run_simulate)
+
+
+def _run_simulate(args) -> int:
+    from .config import read_config
+    from .simulate import simulate
+
+    config = read_config(args.config, need=("model", "friction", "data"))
+    path = simulate(config, args.out)
+    print(f"wrote {path}")
+    return 0
+
+
+def _add_check_data(sub):
+    parser = sub.add_parser("check-data", help="validate a measurement file and print a summary")
+    parser.add_argument("file", help="measurement CSV")
+    parser.set_defaults(run=_run_check_data)
+
+
+def _run_check_data(args) -> int:
+    from .data.measurements import read_measurements
+
+    print(read_measurements(args.file).summary())
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``frictionid`` console script."""
     parser = argparse.ArgumentParser(prog="frictionid", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="log solver progress")
     sub = parser.add_subparsers(dest="command", required=True)
+    _add_identify(sub)
+    _add_simulate(sub)
+    _add_check_data(sub)
     _add_demo(sub)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")

@@ -31,3 +31,43 @@ def solution_summary(solution: Solution, increment: int = -1) -> str:
             row += "".join(f"{v:>12.4f}" for v in solution.d_reactions[increment, r])
         lines.append(row)
     return "\n".join(lines)
+
+
+def result_summary(result: dict) -> str:
+    """lmfit-style report of an identification: fit statistics, variables, correlations, identifiability."""
+    fit = result["fit"]
+    lines = ["[[Fit Statistics]]",
+             f"    status             {result['status']} ({result['method']}, {result['jacobian']} Jacobian, "
+             f"{result['backend']} backend)",
+             f"    iterations         {result['n_iterations']}",
+             f"    forward solves     {result['n_forward_solves']} (+ {result['n_sensitivity_solves']} with "
+             f"sensitivities, {result['n_replayed']} replayed from the store)",
+             f"    observations       {fit['n_obs']}",
+             f"    objective          {result['objective']['initial']:.6e} -> {result['objective']['final']:.6e}",
+             f"    chi-square / dof   {fit['chi2']:.4g} / {fit['dof']}"
+             + ("" if fit["noise_known"] else " (no stated noise: errors scaled by the residual)"),
+             f"    wall time          {result['wall_time_s']:.2f} s",
+             "[[Variables]]"]
+    for name, p in result["parameters"].items():
+        if p["fixed"]:
+            lines.append(f"    {name:<10} {p['value']:.6f} (fixed)")
+            continue
+        if p["stderr"] is None:
+            spread = "+/- (cannot be estimated" + (" at a bound)" if p["at_bound"] else ")")
+        else:
+            spread = f"+/- {p['stderr']:.6f}"
+        flags = (" at boundary" if p["at_bound"] else "") + ("" if p["identifiable"] else " NOT RESOLVED BY THE DATA")
+        lines.append(f"    {name:<10} {p['value']:.6f} {spread} (init = {p['initial']:.4f}){flags}")
+    ident = result["identifiability"]
+    lines.append("[[Identifiability]]")
+    lines.append("    singular values of the weighted Jacobian: "
+                 + ", ".join(f"{v:.3g}" for v in ident["singular_values"]))
+    if ident["message"]:
+        lines.append(f"    {ident['message']}")
+    names = [n for n, p in result["parameters"].items() if not p["fixed"]]
+    pairs = [(names[i], names[j], c) for i, row in enumerate(ident["correlation"]) for j, c in enumerate(row)
+             if j > i and c is not None and abs(c) > 0.1]
+    if pairs:
+        lines.append("[[Correlations]] (|C| > 0.1)")
+        lines += [f"    C({a}, {b}) = {c:+.3f}" for a, b, c in sorted(pairs, key=lambda t: -abs(t[2]))]
+    return "\n".join(lines)

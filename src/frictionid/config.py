@@ -1,0 +1,89 @@
+"""Config: the TOML file of an identification or simulation, validated key by key (DESIGN.md)."""
+
+from __future__ import annotations
+
+import difflib
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import InputError
+
+#: allowed keys per table, with defaults (None: required or no default)
+SCHEMA = {
+    "model": {"builder": None},                      # builder options are checked against the builder
+    "friction": {"zones": None, "bounds": [0.0, 1.0], "fixed": {}},
+    "data": {"file": None, "observables": None, "stages": None, "noise": {}, "regions": {}},
+    "solver": {"backend": "embedded"},
+    "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
+                 "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {}},
+    "run": {"dir": None, "workers": 1, "scheduler": None},
+}
+OPEN_TABLES = {"model"}
+
+
+@dataclass(frozen=True)
+class Config:
+    """A validated configuration: one dict per table with defaults filled in; paths are absolute."""
+
+    path: Path
+    text: str
+    model: dict
+    friction: dict
+    data: dict
+    solver: dict
+    identify: dict
+    run: dict
+
+    def resolve(self, value: str) -> Path:
+        """A path from the config, relative to the config file's folder."""
+        path = Path(value)
+        return path if path.is_absolute() else (self.path.parent / path).resolve()
+
+
+def _suggest(key: str, known) -> str:
+    close = difflib.get_close_matches(key, list(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _table(raw: dict, name: str, path: Path) -> dict:
+    value = raw.get(name, {})
+    if not isinstance(value, dict):
+        raise InputError(f"{path}: [{name}] must be a table")
+    schema = SCHEMA[name]
+    if name not in OPEN_TABLES:
+        for key in value:
+            if key not in schema:
+                raise InputError(f"{path}: unknown key {name}.{key}{_suggest(key, schema)}; "
+                                 f"known keys are {sorted(schema)}")
+    return {**{k: v for k, v in schema.items() if v is not None or k in ("prior", "scheduler")}, **value}
+
+
+def read_config(path: str | Path, need: tuple[str, ...] = ("model", "friction")) -> Config:
+    """Read and validate a config file; ``need`` lists the tables that must be present."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the config ({exc.strerror})") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    for table in raw:
+        if table not in SCHEMA:
+            raise InputError(f"{path}: unknown table [{table}]{_suggest(table, SCHEMA)}; "
+                             f"known tables are {sorted(SCHEMA)}")
+    for table in need:
+        if table not in raw:
+            raise InputError(f"{path}: missing table [{table}]")
+    tables = {name: _table(raw, name, path) for name in SCHEMA}
+    for table, key in (("model", "builder"), ("friction", "zones")):
+        if table in need and key not in tables[table]:
+            raise InputError(f"{path}: missing key {table}.{key}")
+    for key in ("file", "observables", "stages"):
+        if "data" in need and key not in tables["data"]:
+            raise InputError(f"{path}: missing key data.{key}")
+    if "run" in need and "dir" not in tables["run"]:
+        raise InputError(f"{path}: missing key run.dir")
+    return Config(path=path.resolve(), text=text, **tables)

@@ -1,0 +1,143 @@
+"""identify: a config in, coefficients with uncertainty out; every evaluation stored, runs resumable."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .backends.embedded import EmbeddedBackend
+from .builders.registry import build_model
+from .config import Config
+from .data.measurements import read_measurements
+from .errors import InputError, SolverError
+from .inverse.evaluator import JACOBIANS, Evaluator
+from .inverse.least_squares import LeastSquares, OptimiseResult
+from .inverse.observations import observations_from
+from .inverse.optimisers import optimise
+from .inverse.parameters import Parameters
+from .inverse.uncertainty import estimate
+from .run.store import RunStore
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """Everything an identification needs, built and validated from a config before anything runs."""
+
+    model: object
+    observations: object
+    parameters: Parameters
+    fingerprint: str
+
+
+def fingerprint(config: Config) -> str:
+    """Hash of everything that determines forward results: model, data (file bytes), observables, solver."""
+    data_file = config.resolve(config.data["file"])
+    content = {"model": config.model, "data": {k: v for k, v in config.data.items() if k != "file"},
+               "data_bytes": hashlib.sha256(data_file.read_bytes()).hexdigest(),
+               "solver": config.solver, "fixed": config.friction.get("fixed", {}),
+               "jacobian": config.identify["jacobian"], "step": config.identify["step"]}
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def prepare(config: Config) -> Setup:
+    """Build the model, read and map the data, validate the parameters and options."""
+    ident = config.identify
+    if ident["jacobian"] not in JACOBIANS:
+        raise InputError(f"{config.path}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
+    if config.solver["backend"] != "embedded":
+        raise InputError(f"{config.path}: solver.backend = {config.solver['backend']!r} is not available; "
+                         "use 'embedded'")
+    model = build_model(config.model)
+    parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
+                                        config.friction.get("fixed"))
+    measurements = read_measurements(config.resolve(config.data["file"]))
+    observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
+                                     config.data.get("noise"), config.data.get("regions"))
+    return Setup(model, observations, parameters, fingerprint(config))
+
+
+def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config, store: RunStore,
+                   progress) -> LeastSquares:
+    done = {row["iteration"] for row in store.iterations()}
+
+    def on_iteration(iteration, x, objective):
+        if iteration not in done:
+            store.record_iteration(iteration, x, objective)
+            done.add(iteration)
+        progress(iteration, parameters.full(x), objective, evaluator)
+
+    return LeastSquares(evaluator.residuals, evaluator.jacobian, parameters.x0, parameters.lower,
+                        parameters.upper, parameters.free_names, float(config.identify["power"]), on_iteration)
+
+
+def identify(config: Config, resume: bool = False, progress=lambda *args: None) -> dict:
+    """Run (or resume) the identification a config describes; returns and writes result.json."""
+    setup = prepare(config)
+    run_dir = config.resolve(config.run["dir"])
+    store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
+    start = time.perf_counter()
+    evaluator = Evaluator(EmbeddedBackend(setup.model, setup.observations.points, setup.observations.quantities,
+                                          setup.observations.point_regions),
+                          setup.observations, setup.parameters, store, config.identify["jacobian"],
+                          float(config.identify["step"]), float(config.identify["tikhonov"]),
+                          config.identify["prior"], float(config.identify["penalty"]))
+    problem = _least_squares(evaluator, setup.parameters, config, store, progress)
+    store.set_status("running")
+    try:
+        outcome = optimise(problem, config.identify["method"], max_iterations=int(config.identify["max_iterations"]),
+                           tol=float(config.identify["tol"]), options=dict(config.identify["options"]))
+    except KeyboardInterrupt:
+        store.set_status("interrupted", "stopped by the user; continue with --resume")
+        raise
+    except SolverError as exc:
+        store.set_status("failed", str(exc))
+        raise
+    result = _result(config, setup, evaluator, problem, outcome, time.perf_counter() - start)
+    store.put_result(result)
+    store.set_status(result["status"])
+    from .report.outputs import write_outputs
+    write_outputs(run_dir, result, store)
+    return result
+
+
+def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, wall: float) -> dict:
+    params, obs = setup.parameters, setup.observations
+    r = evaluator.residuals(outcome.x)
+    jac = evaluator.jacobian(outcome.x)
+    unc = estimate(jac[:obs.n_obs], r[:obs.n_obs], outcome.x, params.lower, params.upper, obs.noise_known)
+    free = list(params.free_names)
+    parameters = {}
+    for p in params.items:
+        entry = {"value": p.value, "initial": p.value, "fixed": not p.vary}
+        if p.vary:
+            k = free.index(p.name)
+            stderr = unc.stderr[k]
+            entry.update(value=float(outcome.x[k]), stderr=None if np.isnan(stderr) else float(stderr),
+                         ci95=None if np.isnan(stderr) else [float(v) for v in unc.ci95[k]],
+                         at_bound=bool(unc.at_bound[k]), identifiable=bool(unc.identifiable[k]))
+        parameters[p.name] = entry
+    f = evaluator.model_values(outcome.x)
+    return {
+        "status": outcome.status, "message": outcome.message, "method": config.identify["method"],
+        "jacobian": config.identify["jacobian"], "backend": config.solver["backend"], "parameters": parameters,
+        "objective": {"initial": float(outcome.history_objective[0]), "final": float(outcome.objective)},
+        "fit": {"n_obs": obs.n_obs, "chi2": unc.chi2, "dof": unc.dof, "noise_known": obs.noise_known,
+                "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2)))},
+        "identifiability": {"singular_values": unc.singular_values.tolist(),
+                            "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
+                            "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),
+                            "message": unc.message},
+        "n_iterations": int(outcome.n_iterations), "n_forward_solves": evaluator.n_forward,
+        "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
+        "wall_time_s": wall,
+        "history": {"objective": outcome.history_objective.tolist(),
+                    "coefficients": [params.full(x).tolist() for x in outcome.history_x]},
+    }

@@ -1,0 +1,125 @@
+"""Observations: measured values mapped onto model points, quantities and stage ends, with weights."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..model import Model
+
+DISPLACEMENTS = ("ux", "uy", "uz")
+STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
+
+
+def _kind(quantity: str) -> str:
+    return "u" if quantity in DISPLACEMENTS else "e"
+
+
+@dataclass(frozen=True)
+class Observations:
+    """The measured values an identification fits.
+
+    Attributes
+    ----------
+    points : (n_points, dim) [mm] model coordinates of the measurement points
+    point_regions : region name (or None) each point must lie in
+    quantities : observed quantities, in the order of the backend's rows per point
+    row : (n_obs,) backend row (point * n_quantities + quantity) of each observation
+    stage : (n_obs,) 0-based stage of each observation
+    y : (n_obs,) measured values; sigma : (n_obs,) standard deviations (from the file or data.noise)
+    labels : "point:quantity@stage" per observation
+    noise_known : whether sigma is a stated noise level (then chi^2 / dof should be about 1)
+    """
+
+    points: np.ndarray
+    point_regions: tuple
+    quantities: tuple[str, ...]
+    row: np.ndarray
+    stage: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    labels: tuple[str, ...]
+    noise_known: bool
+
+    @property
+    def n_obs(self) -> int:
+        return len(self.y)
+
+    @property
+    def weight(self) -> np.ndarray:
+        return 1.0 / self.sigma
+
+    def predicted(self, values: np.ndarray) -> np.ndarray:
+        """(n_obs,) model values from backend rows at stage ends (n_stages, n_rows)."""
+        return values[self.stage, self.row]
+
+    def derivatives(self, derivatives: np.ndarray) -> np.ndarray:
+        """(n_obs, n_zones) from (n_stages, n_rows, n_zones)."""
+        return derivatives[self.stage, self.row]
+
+
+def _coordinates(measurements, model: Model):
+    if model.kind == "axisymmetric":
+        from ..data.measurements import map_to_axisymmetric
+        measurements = map_to_axisymmetric(measurements)
+        return measurements, measurements.coordinates[:, :2]
+    if model.kind == "plane_strain":
+        if np.any(np.abs(measurements.coordinates[:, 2]) > 0):
+            raise InputError(f"{measurements.source}: a plane-strain model needs points with z = 0")
+        return measurements, measurements.coordinates[:, :2]
+    return measurements, measurements.coordinates
+
+
+def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.ndarray:
+    given = measurements.sigma.get(quantity)
+    sigma = np.full(len(rows), np.nan) if given is None else given[rows].astype(float)
+    default = noise.get(quantity, noise.get(_kind(quantity)))
+    if default is not None:
+        if not isinstance(default, (int, float)) or not default > 0:
+            raise InputError(f"data.noise.{quantity}: must be a positive number, got {default!r}")
+        sigma = np.where(np.isnan(sigma), float(default), sigma)
+    return sigma
+
+
+def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
+                      regions: dict | None = None) -> Observations:
+    """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model."""
+    noise, regions = dict(noise or {}), dict(regions or {})
+    for stage in stages:
+        if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
+            raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
+    wanted = list(observables)
+    if model.kind == "axisymmetric" and "ux" in wanted and "uz" in measurements.quantities and "uz" not in wanted:
+        wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
+    measurements = measurements.select(quantities=wanted, stages=list(stages))
+    measurements, coordinates = _coordinates(measurements, model)
+    labels_of = list(dict.fromkeys(measurements.points))
+    point_index = {p: i for i, p in enumerate(labels_of)}
+    first = {p: i for i, p in reversed(list(enumerate(measurements.points)))}
+    points = np.array([coordinates[first[p]] for p in labels_of])
+    quantities = tuple(observables)
+    row, stage, y, sigma, labels = [], [], [], [], []
+    for q_index, quantity in enumerate(quantities):
+        values = measurements.values[quantity]
+        present = np.flatnonzero(~np.isnan(values))
+        sig = _sigma(measurements, quantity, present, noise)
+        for i, s in zip(present, sig):
+            p = point_index[measurements.points[i]]
+            row.append(p * len(quantities) + q_index)
+            stage.append(int(measurements.stage[i]) - 1)
+            y.append(values[i])
+            sigma.append(s)
+            labels.append(f"{measurements.points[i]}:{quantity}@{measurements.stage[i]}")
+    if not y:
+        raise InputError(f"{measurements.source}: no measured values for {list(observables)} at stages {list(stages)}")
+    sigma = np.array(sigma)
+    noise_known = not np.any(np.isnan(sigma))
+    kinds = {_kind(q) for q in quantities}
+    if not noise_known and len(kinds) > 1:
+        raise InputError("data: displacements and strains are observed together without standard deviations; "
+                         "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5 })")
+    return Observations(points=points, point_regions=tuple(regions.get(p, regions.get("*")) for p in labels_of),
+                        quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
+                        sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known)

@@ -1,0 +1,47 @@
+"""simulate: one forward solve with the [friction] values, written in the measurement CSV format."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .backends.embedded import EmbeddedBackend
+from .builders.registry import build_model
+from .config import Config
+from .data.measurements import Measurements, read_measurements, write_measurements
+from .errors import InputError
+from .inverse.parameters import Parameters
+
+DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
+                                                                   "eyz", "exz")}
+
+
+def simulate(config: Config, out: str | Path) -> Path:
+    """Solve at the configured coefficients; one row per point of the data file and model stage."""
+    model = build_model(config.model)
+    friction = config.friction
+    mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
+    source = read_measurements(config.resolve(config.data["file"]))
+    labels = list(dict.fromkeys(source.points))
+    first = {p: i for i, p in reversed(list(enumerate(source.points)))}
+    xyz = np.array([source.coordinates[first[p]] for p in labels])
+    if model.kind != "3d" and np.any(xyz[:, 2] != 0):
+        raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
+    quantities = tuple(config.data.get("observables") or DEFAULT_QUANTITIES[model.dim])
+    regions = config.data.get("regions", {})
+    backend = EmbeddedBackend(model, xyz[:, :model.dim], quantities,
+                              [regions.get(p, regions.get("*")) for p in labels])
+    prediction = backend.predict(mu.full(mu.x0))
+    n_points, n_stages = len(labels), model.n_stages
+    values = prediction.values.reshape(n_stages, n_points, len(quantities))
+    measurements = Measurements(
+        points=tuple(labels) * n_stages, coordinates=np.tile(xyz, (n_stages, 1)),
+        stage=np.repeat(np.arange(1, n_stages + 1), n_points), force=np.full(n_points * n_stages, np.nan),
+        values={q: values[:, :, k].ravel() for k, q in enumerate(quantities)}, sigma={},
+        comments=(f"frictionid simulate {config.path.name}: {model.kind} model, builder "
+                  f"{config.model.get('builder')!r}", "units: mm, N; strains dimensionless (tensor shear)",
+                  "coefficients: " + ", ".join(f"{n}={v:g}" for n, v in zip(mu.names, mu.full(mu.x0)))),
+        source=str(out))
+    write_measurements(out, measurements)
+    return Path(out)

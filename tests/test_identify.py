@@ -1,0 +1,122 @@
+"""identify end to end through the command line: recovery, outputs, kill -9 and --resume, bad input."""
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from frictionid.cli import main
+
+TRUE = {"A": 0.32, "B": 0.18, "C": 0.41}
+POINTS = """# observation points on the block's sides and the base top (plane strain, z = 0)
+point,x,y,z,stage,uy
+P1,-5.0,0.5,0.0,1,0.0
+P2,-5.0,1.5,0.0,1,0.0
+P3,5.0,0.5,0.0,1,0.0
+P4,5.0,1.5,0.0,1,0.0
+P5,-7.0,0.0,0.0,1,0.0
+P6,7.0,0.0,0.0,1,0.0
+"""
+MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
+REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
+
+
+def _config(folder: Path, name: str, zones: str, data: str, extra: str = "", run: str = "runs/r") -> Path:
+    path = folder / name
+    path.write_text(MODEL + f"[friction]\nzones = {{ {zones} }}\n"
+                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
+                    + REGIONS + extra + f'[run]\ndir = "{run}"\n')
+    return path
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory):
+    """Data made by `frictionid simulate` with the true coefficients (same mesh: a check of the machinery)."""
+    folder = tmp_path_factory.mktemp("identify")
+    (folder / "points.csv").write_text(POINTS)
+    truth = _config(folder, "truth.toml", ", ".join(f"{k} = {v}" for k, v in TRUE.items()), "points.csv")
+    assert main(["simulate", str(truth), "--out", str(folder / "measured.csv")]) == 0
+    return folder
+
+
+def test_trf_recovers_the_coefficients_and_writes_its_files(measured, capsys):
+    config = _config(measured, "trf.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", run="runs/trf")
+    assert main(["identify", str(config)]) == 0
+    out = capsys.readouterr().out
+    assert "iter   0" in out and "[[Variables]]" in out
+    result = json.loads((measured / "runs/trf/result.json").read_text())
+    assert result["status"] == "converged"
+    for zone, value in TRUE.items():
+        assert result["parameters"][zone]["value"] == pytest.approx(value, abs=1e-6)
+        assert result["parameters"][zone]["stderr"] > 0
+    assert result["n_sensitivity_solves"] < 15 and result["n_forward_solves"] == 0
+    assert (measured / "runs/trf/history.csv").read_text().startswith("iteration,objective,A,B,C")
+    assert (measured / "runs/trf/convergence.png").stat().st_size > 1000
+
+
+def test_a_fixed_zone_stays_put(measured):
+    config = _config(measured, "fixed.toml", "A = 0.1, B = 0.1", "measured.csv", run="runs/fixed")
+    config.write_text(config.read_text().replace("[data]", "fixed = { C = 0.41 }\n[data]"))
+    assert main(["identify", str(config)]) == 0
+    result = json.loads((measured / "runs/fixed/result.json").read_text())
+    assert result["parameters"]["C"] == {"value": 0.41, "initial": 0.41, "fixed": True}
+    assert result["parameters"]["A"]["value"] == pytest.approx(TRUE["A"], abs=1e-6)
+
+
+def _evaluations(store: Path) -> int:
+    try:
+        with sqlite3.connect(store) as db:
+            return db.execute("select count(*) from evaluations").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_run_ends(measured):
+    extra = '[identify]\nmethod = "gradient-descent"\njacobian = "forward"\nmax_iterations = 30\n'
+    whole = _config(measured, "whole.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", extra, "runs/whole")
+    assert main(["identify", str(whole)]) == 0
+    reference = json.loads((measured / "runs/whole/result.json").read_text())
+    killed = _config(measured, "killed.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", extra, "runs/killed")
+    store = measured / "runs/killed/store.sqlite"
+    child = subprocess.Popen([sys.executable, "-m", "frictionid.cli", "identify", str(killed)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while _evaluations(store) < 20 and time.monotonic() < deadline and child.poll() is None:
+        time.sleep(0.02)
+    os.kill(child.pid, signal.SIGKILL)
+    child.wait()
+    before = _evaluations(store)
+    assert 20 <= before < reference["n_forward_solves"], "the kill must land in the middle of the run"
+    assert main(["identify", str(killed), "--resume"]) == 0
+    resumed = json.loads((measured / "runs/killed/result.json").read_text())
+    assert [p["value"] for p in resumed["parameters"].values()] == [p["value"] for p in reference["parameters"].values()]
+    assert resumed["n_replayed"] >= before - 1          # at most the evaluation in flight is lost
+    assert _evaluations(store) == reference["n_forward_solves"]   # nothing evaluated twice
+
+
+@pytest.mark.parametrize("change, message", [
+    (("A = 0.1, B = 0.1, C = 0.1", "A = 0.1, B = 0.1, Z = 0.1"), "unknown zone(s) ['Z']"),
+    (("A = 0.1, B = 0.1, C = 0.1", "A = 1.5, B = 0.1, C = 0.1"), "zones.A = 1.5 lies outside bounds"),
+    (('observables = ["ux", "uy"]', 'observables = ["ux", "exx"]'), "no measured quantity 'exx'"),
+    (('stages = [2]', 'stages = [3]'), "stage 3 is not one of the model's stages 1..2"),
+    (('mesh_size = 1.0', 'mesh_sise = 1.0'), "did you mean 'mesh_size'"),
+])
+def test_bad_config_exits_2_with_a_message(measured, capsys, change, message):
+    config = _config(measured, "bad.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", run="runs/bad")
+    config.write_text(config.read_text().replace(*change))
+    assert main(["identify", str(config)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_empty_data_exits_2(measured, capsys):
+    (measured / "empty.csv").write_text("point,x,y,z,stage,ux\n")
+    config = _config(measured, "empty.toml", "A = 0.1, B = 0.1, C = 0.1", "empty.csv", run="runs/empty")
+    assert main(["identify", str(config)]) == 2
+    assert "no data rows" in capsys.readouterr().err
