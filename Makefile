@@ -21,6 +21,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/forward_block2d.py
 	$(PY) benchmarks/forward_block3d.py
+	$(PY) benchmarks/identify_block.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
