@@ -120,3 +120,24 @@ def test_empty_data_exits_2(measured, capsys):
     config = _config(measured, "empty.toml", "A = 0.1, B = 0.1, C = 0.1", "empty.csv", run="runs/empty")
     assert main(["identify", str(config)]) == 2
     assert "no data rows" in capsys.readouterr().err
+
+
+def test_an_interrupted_run_leaves_its_result_and_store(measured, monkeypatch):
+    """Ctrl-C after the second iteration: exit 1, result.json says interrupted with the last iterate."""
+    import frictionid.cli as cli_module
+    calls = []
+
+    def interrupt(iteration, mu, objective, evaluator):
+        calls.append(iteration)
+        if iteration == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli_module, "_progress", interrupt)
+    config = _config(measured, "ctrlc.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", run="runs/ctrlc")
+    assert main(["identify", str(config)]) == 1
+    result = json.loads((measured / "runs/ctrlc/result.json").read_text())
+    assert result["status"] == "interrupted" and result["n_iterations"] == 2
+    assert result["parameters"]["A"]["value"] != 0.1
+    monkeypatch.undo()
+    assert main(["identify", str(config), "--resume"]) == 0
+    assert json.loads((measured / "runs/ctrlc/result.json").read_text())["status"] == "converged"

@@ -95,10 +95,11 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None) 
         outcome = optimise(problem, config.identify["method"], max_iterations=int(config.identify["max_iterations"]),
                            tol=float(config.identify["tol"]), options=dict(config.identify["options"]))
     except KeyboardInterrupt:
-        store.set_status("interrupted", "stopped by the user; continue with --resume")
+        _stopped(config, setup, evaluator, store, run_dir, "interrupted",
+                 "stopped by the user; continue with --resume", time.perf_counter() - start)
         raise
     except SolverError as exc:
-        store.set_status("failed", str(exc))
+        _stopped(config, setup, evaluator, store, run_dir, "failed", str(exc), time.perf_counter() - start)
         raise
     result = _result(config, setup, evaluator, problem, outcome, time.perf_counter() - start)
     store.put_result(result)
@@ -106,6 +107,24 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None) 
     from .report.outputs import write_outputs
     write_outputs(run_dir, result, store)
     return result
+
+
+def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path, status: str, message: str,
+             wall: float) -> None:
+    """result.json of a run that did not finish: the last stored iterate, the counts, the reason."""
+    iterations = store.iterations()
+    x = iterations[-1].x if iterations else setup.parameters.x0
+    mu = setup.parameters.full(np.asarray(x))
+    result = {"status": status, "message": message, "method": config.identify["method"],
+              "jacobian": config.identify["jacobian"], "backend": config.solver["backend"],
+              "parameters": {p.name: {"value": float(v), "initial": p.value, "fixed": not p.vary}
+                             for p, v in zip(setup.parameters.items, mu)},
+              "n_iterations": len(iterations) - 1 if iterations else 0, "n_forward_solves": evaluator.n_forward,
+              "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
+              "wall_time_s": wall}
+    store.set_status(status, message)
+    store.put_result(result)
+    (run_dir / "result.json").write_text(json.dumps(result, indent=2) + "\n")
 
 
 def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, wall: float) -> dict:

@@ -49,6 +49,13 @@ def _order(value) -> int:
     return int(value)
 
 
+def _grading(value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value) or not value >= 1:
+        raise InputError(f"`grading` must be a finite number >= 1, got {value!r}")
+    return float(value)
+
+
 def _stages(n_press: int, n_pull: int) -> tuple[Stage, Stage]:
     return Stage("press", _count("n_press", n_press)), Stage("pull", _count("n_pull", n_pull))
 
@@ -62,7 +69,8 @@ def _set_order(order: int):
 # ---------------------------------------------------------------------------------------------- 3-D model
 
 def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0, order: int = 1,
-                n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None) -> Model:
+                n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None,
+                grading: float = 1.0) -> Model:
     """The 3-D block-on-plate reference test (DESIGN.md, reference test 1) on a conforming hexahedral mesh.
 
     Parameters
@@ -81,6 +89,15 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
         Increments of the two stages.
     block_divisions : int, optional
         Elements along each side of the block's bottom (x and y), even; default ``2 * round(5 / mesh_size)``.
+    grading : float >= 1
+        Ratio of the largest to the smallest element size (approximately, exact as the divisions grow)
+        along each half side of the footprint and along the block height and the plate thickness. The nodes
+        of block and plate under the footprint are moved in x and y by the same smooth map of each coordinate
+        (so the interface stays conforming): elements are smallest at the footprint edges and at the
+        quadrant borders, largest half-way between; in z they are smallest at the interface, largest at the
+        block top and the plate bottom. The plate outside the footprint grows from the graded edge size.
+        Quadratic elements keep their mid-nodes at the mapped positions (isoparametric, straight faces).
+        1 (default): uniform, as before.
 
     Returns
     -------
@@ -105,7 +122,8 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
                          f"got {block_divisions}")
     n_block_z = max(2, math.ceil(BLOCK_HEIGHT / mesh_size - 1e-9))
     n_plate_z = max(2, math.ceil(PLATE_THICKNESS / mesh_size - 1e-9))
-    mesh = block_mesh(block_divisions, n_block_z, n_plate_z, order)
+    grading = _grading(grading)
+    mesh = block_mesh(block_divisions, n_block_z, n_plate_z, order, grading)
     pressure = force / BLOCK_SIDE ** 2
     return Model(
         mesh=mesh, kind="3d", materials={"plate": EPOXY, "block": ALUMINIUM},
@@ -118,11 +136,13 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     )
 
 
-def block_mesh(block_divisions: int, n_block_z: int, n_plate_z: int, order: int = 1) -> Mesh:
+def block_mesh(block_divisions: int, n_block_z: int, n_plate_z: int, order: int = 1,
+               grading: float = 1.0) -> Mesh:
     """Hexahedral mesh of block and plate, built as 4 x 4 plate columns and 4 block quarters (all transfinite).
 
     The plate columns break at x, y = -20, -5, 0, 5, 20, so each block quarter stands on a plate column with
-    the same edge divisions: the interface nodes coincide but belong to separate bodies.
+    the same edge divisions (and the same grading, see :func:`block_model`): the interface nodes coincide but
+    belong to separate bodies.
     """
     with gmsh_session("block"):
         occ = gmsh.model.occ
@@ -130,11 +150,15 @@ def block_mesh(block_divisions: int, n_block_z: int, n_plate_z: int, order: int 
                                   -PLATE_THICKNESS, 0.0)
         block = _fragmented_boxes([-BLOCK_SIDE / 2, 0.0, BLOCK_SIDE / 2], 0.0, BLOCK_HEIGHT)
         occ.synchronize()
-        _set_transfinite_3d(block_divisions // 2, n_block_z, n_plate_z)
+        grading = _grading(grading)
+        _set_transfinite_3d(block_divisions // 2, n_block_z, n_plate_z, grading)
         _add_groups_3d(plate, block)
         gmsh.model.mesh.generate(3)
         _set_order(order)
         mesh = mesh_from_gmsh("block model")
+    if grading != 1.0:
+        mesh = Mesh(points=_grade_points(mesh.points, grading), cell_type=mesh.cell_type, cells=mesh.cells,
+                    regions=dict(mesh.regions), boundaries=dict(mesh.boundaries))
     logger.info("block mesh: %d nodes, %d %s cells", mesh.n_nodes, mesh.n_cells, mesh.cell_type)
     return mesh
 
@@ -151,9 +175,48 @@ def _point(tag: int) -> np.ndarray:
     return np.asarray(gmsh.model.getValue(0, tag, []))
 
 
-def _set_transfinite_3d(n_quarter: int, n_block_z: int, n_plate_z: int):
-    """Structured hexahedra everywhere: node counts per curve by its direction and place, then all entities."""
-    h = BLOCK_SIDE / 2 / n_quarter
+def _graded(s: np.ndarray, grading: float, both_ends: bool = True) -> np.ndarray:
+    """Monotone map of [0, 1] onto itself with end points fixed and slope ratio ``grading`` (largest / smallest).
+
+    ``both_ends``: slope ``1 - c cos(2 pi s)``, smallest at both ends, largest in the middle; otherwise
+    ``1 - c cos(pi s)``, smallest at s = 0, largest at s = 1; ``c = (grading - 1) / (grading + 1)``.
+    The slopes are smooth, so a graded side joins its graded neighbour without a jump in element size.
+    """
+    c = (grading - 1.0) / (grading + 1.0)
+    k = 2.0 if both_ends else 1.0
+    return s - c * np.sin(k * np.pi * s) / (k * np.pi)
+
+
+def _grade_points(points: np.ndarray, grading: float) -> np.ndarray:
+    """Node coordinates of the uniform mesh moved by :func:`_graded`: in x and y on every half side of the
+    footprint (small at the footprint edges and the quadrant borders), in z in block and plate (small at z = 0).
+
+    Each coordinate is mapped on its own by a function of that coordinate alone, so nodes that coincide stay
+    coincident (the interface stays conforming) and planes of constant x, y or z stay planes.
+    """
+    if grading == 1.0:
+        return points
+    out = points.copy()
+    half = BLOCK_SIDE / 2
+    for axis in (0, 1):
+        x = points[:, axis]
+        inside = np.abs(x) <= half + _TOL
+        sign = np.where(x < 0, -1.0, 1.0)
+        s = np.clip(np.abs(x[inside]) / half, 0.0, 1.0)
+        out[inside, axis] = sign[inside] * half * _graded(s, grading)
+    z = points[:, 2]
+    up = z > 0
+    out[up, 2] = BLOCK_HEIGHT * _graded(z[up] / BLOCK_HEIGHT, grading, both_ends=False)
+    out[~up, 2] = -PLATE_THICKNESS * _graded(-z[~up] / PLATE_THICKNESS, grading, both_ends=False)
+    return out
+
+
+def _set_transfinite_3d(n_quarter: int, n_block_z: int, n_plate_z: int, grading: float = 1.0):
+    """Structured hexahedra everywhere: node counts per curve by its direction and place, then all entities.
+
+    With ``grading`` the plate outside the footprint grows from the size the graded edge element will have.
+    """
+    h = BLOCK_SIDE / 2 * _graded(np.array([1.0 / n_quarter]), grading)[0]
     outer = PLATE_HALF - BLOCK_SIDE / 2
     n_outer = max(1, math.ceil(math.log(1 + outer * (PLATE_GROWTH - 1) / h) / math.log(PLATE_GROWTH)))
     for _, curve in gmsh.model.getEntities(1):
