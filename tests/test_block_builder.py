@@ -123,6 +123,66 @@ def test_3d_block_divisions():
     assert len(mesh.boundary("A")) == 9
 
 
+@pytest.fixture(scope="module")
+def graded_3d():
+    """Graded 4:1: linear 8 x 8 block bottom with 3 plate layers and its uniform twin; quadratic 4 x 4 (whose
+    mid-nodes at the quarter points move)."""
+    kwargs = dict(mesh_size=1.7, block_divisions=8)
+    return {1: block_model(**kwargs, order=1, grading=4.0), "uniform": block_model(**kwargs, order=1),
+            2: block_model(mesh_size=2.5, order=2, grading=4.0)}
+
+
+def ticks(mesh, axis, region, where):
+    """Sorted distinct node coordinates along ``axis`` of the region's nodes selected by ``where(points)``."""
+    points = mesh.points[region_nodes(mesh, region)]
+    return np.unique(np.round(points[where(points), axis], 9))
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_3d_graded_interface_stays_conforming(graded_3d, order):
+    model = graded_3d[order]
+    matched = assert_conforming(model, "block", "plate")
+    top = model.mesh.boundary_nodes("plate_top")
+    inside = top[np.all(np.abs(model.mesh.points[top, :2]) <= 5.0 + MATCH_TOL, axis=1)]
+    np.testing.assert_array_equal(matched, inside)
+    if order == 2:
+        return                                        # areas: the map moves only node coordinates, as order 1
+    area = measures(model, model.zone_names + ("block_top", "plate_top"))
+    for zone in model.zone_names:
+        assert area[zone] == pytest.approx(25.0, rel=1e-12)
+    assert area["plate_top"] == pytest.approx(1600.0, rel=1e-12)
+
+
+def test_3d_grading_refines_edges_borders_and_interface(graded_3d):
+    graded, uniform = graded_3d[1].mesh, graded_3d["uniform"].mesh
+    assert (graded.n_cells >= uniform.n_cells) and len(graded.regions["block"]) == len(uniform.regions["block"])
+    bottom = lambda p: np.abs(p[:, 2]) < MATCH_TOL                              # noqa: E731
+    for axis in (0, 1):
+        x = ticks(graded, axis, "block", bottom)
+        np.testing.assert_allclose(x[[0, 4, 8]], [-5.0, 0.0, 5.0], atol=1e-12)  # zone borders stay put
+        np.testing.assert_allclose(x, -x[::-1], atol=1e-12)
+        h = np.diff(x[4:])                                                       # 4 elements on 0 < x < 5
+        np.testing.assert_allclose(np.diff(ticks(uniform, axis, "block", bottom)), 1.25, atol=1e-12)
+        assert h[0] < 1.25 and h[-1] < 1.25 and h[1] > 1.25 and h[2] > 1.25   # small at border and edge
+        s = np.linspace(0.0, 1.0, 5)                   # the documented map, slopes 1 -/+ 0.6 cos(2 pi s)
+        np.testing.assert_allclose(x[4:], 5.0 * (s - 0.6 * np.sin(2 * np.pi * s) / (2 * np.pi)), atol=1e-12)
+        # the plate column under the block carries the same ticks; outside, it grows from the edge size
+        plate = ticks(graded, axis, "plate", lambda p: np.abs(p[:, 2]) < MATCH_TOL)
+        np.testing.assert_allclose(plate[np.abs(plate) <= 5.0 + MATCH_TOL], x, atol=1e-12)
+        outside = np.diff(plate[plate >= 5.0 - MATCH_TOL])
+        assert outside[0] == pytest.approx(h[-1] * 1.2, rel=0.25) and np.all(np.diff(outside) > 0)
+    for region, far in [("block", 10.0), ("plate", -5.0)]:
+        z = ticks(graded, 2, region, lambda p: np.abs(p[:, 0]) < MATCH_TOL)
+        dz = np.abs(np.diff(z if far > 0 else z[::-1]))                          # from the interface outwards
+        assert z[0 if far > 0 else -1] == pytest.approx(0.0, abs=1e-12) and np.abs(z).max() == pytest.approx(abs(far))
+        assert np.all(np.diff(dz) > 0)                                           # smallest at the interface
+
+
+def test_3d_grading_one_is_the_uniform_mesh(coarse_3d):
+    np.testing.assert_array_equal(block_model(mesh_size=2.5, order=1, grading=1.0).mesh.points,
+                                  coarse_3d[1].mesh.points)
+
+
 # ---------------------------------------------------------------------------------------------- 2-D
 
 def test_2d_named_groups_and_loads(coarse_2d):
@@ -188,6 +248,8 @@ def test_2d_contact_size_refines_the_interface_only():
     (block_model, {"n_press": 0}, "n_press"),
     (block_model, {"n_pull": 2.5}, "n_pull"),
     (block_model, {"block_divisions": 5}, "block_divisions"),
+    (block_model, {"grading": 0.5}, "grading"),
+    (block_model, {"grading": float("inf")}, "grading"),
     (block_model_2d, {"kind": "axisymmetric"}, "kind"),
     (block_model_2d, {"width": 0.0}, "width"),
     (block_model_2d, {"base_width": 8.0}, "base_width"),
