@@ -106,6 +106,10 @@ def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_r
     (('observables = ["ux", "uy"]', 'observables = ["ux", "exx"]'), "no measured quantity 'exx'"),
     (('stages = [2]', 'stages = [3]'), "stage 3 is not one of the model's stages 1..2"),
     (('mesh_size = 1.0', 'mesh_sise = 1.0'), "did you mean 'mesh_size'"),
+    (('stages = [2]', 'stages = 2'), "data.stages must be a list of stage numbers"),
+    (('zones = { A = 0.1, B = 0.1, C = 0.1 }', 'zones = 0.1'), "friction.zones must be a table"),
+    (('observables = ["ux", "uy"]', 'observables = ["ux", 3]'), "data.observables has 3"),
+    (("[run]", "[identify]\nmethod = \"newton\"\n[run]"), "'newton'"),
 ])
 def test_bad_config_exits_2_with_a_message(measured, capsys, change, message):
     config = _config(measured, "bad.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", run="runs/bad")

@@ -21,6 +21,45 @@ SCHEMA = {
 }
 OPEN_TABLES = {"model"}
 
+#: expected type of each value (key -> (types, what to say)); checked before anything is built
+TYPES = {
+    "friction.zones": (dict, "a table of zone = start value"),
+    "friction.fixed": (dict, "a table of zone = value"),
+    "friction.bounds": (list, "a pair [lower, upper]"),
+    "data.file": (str, "a file name"),
+    "data.observables": (list, 'a list of quantity names, e.g. ["ux", "uy"]'),
+    "data.stages": (list, "a list of stage numbers, e.g. [2]"),
+    "data.noise": (dict, "a table of standard deviations, e.g. { u = 0.0005 }"),
+    "data.regions": (dict, 'a table of point = region, e.g. { "*" = "block" }'),
+    "solver.backend": (str, "a backend name"),
+    "identify.method": (str, "a method name"),
+    "identify.jacobian": (str, '"analytic", "forward" or "central"'),
+    "identify.max_iterations": (int, "a whole number"),
+    "identify.tol": ((int, float), "a number"),
+    "identify.step": ((int, float), "a number"),
+    "identify.power": ((int, float), "a number"),
+    "identify.tikhonov": ((int, float), "a number"),
+    "identify.penalty": ((int, float), "a number"),
+    "identify.options": (dict, "a table"),
+    "run.dir": (str, "a folder name"),
+    "run.workers": (int, "a whole number"),
+}
+
+
+def _check_types(tables: dict, path: Path) -> None:
+    for dotted, (types, what) in TYPES.items():
+        table, key = dotted.split(".")
+        value = tables[table].get(key)
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, types):
+            raise InputError(f"{path}: {dotted} must be {what}, got {value!r}")
+    for dotted, kind in (("data.observables", str), ("data.stages", int)):
+        table, key = dotted.split(".")
+        for item in tables[table].get(key) or []:
+            if isinstance(item, bool) or not isinstance(item, kind):
+                raise InputError(f"{path}: {dotted} has {item!r}; expected {TYPES[dotted][1]}")
+
 
 @dataclass(frozen=True)
 class Config:
@@ -78,6 +117,7 @@ def read_config(path: str | Path, need: tuple[str, ...] = ("model", "friction"))
         if table not in raw:
             raise InputError(f"{path}: missing table [{table}]")
     tables = {name: _table(raw, name, path) for name in SCHEMA}
+    _check_types(tables, path)
     for table, key in (("model", "builder"), ("friction", "zones")):
         if table in need and key not in tables[table]:
             raise InputError(f"{path}: missing key {table}.{key}")
