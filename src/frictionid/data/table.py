@@ -173,7 +173,7 @@ class Measurements:
 
     def summary(self) -> str:
         """A few lines describing the measurements (what ``frictionid check-data`` prints)."""
-        stages = ", ".join(f"{s} ({np.count_nonzero(self.stage == s)} rows, force {_number(self.stage_force(s))} N)"
+        stages = ", ".join(f"{s} ({np.count_nonzero(self.stage == s)} rows, {_force(self.stage_force(s))})"
                            for s in self.stages)
         n_missing = sum(int(np.isnan(v).sum()) for v in self.values.values())
         sigmas = [f"sigma_{q} ({np.count_nonzero(~np.isnan(s))} given)" for q, s in self.sigma.items()]
@@ -188,8 +188,8 @@ class Measurements:
         return "\n".join(lines)
 
 
-def _number(value: float) -> str:
-    return "not given" if np.isnan(value) else f"{value:.6g}"
+def _force(value: float) -> str:
+    return "no force given" if np.isnan(value) else f"force {value:.6g} N"
 
 
 def _quantity_line(q: str, column: np.ndarray) -> str:
