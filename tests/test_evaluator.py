@@ -114,3 +114,23 @@ def test_noisy_twin_recovers_within_three_standard_errors():
     unc = estimate(evaluator.jacobian(x), evaluator.residuals(x), x, params.lower, params.upper, True)
     assert np.all(np.abs(x - truth) < 3 * unc.stderr)
     assert np.all(unc.stderr < 0.05)                 # and the statement is not vacuous
+
+
+@pytest.mark.parametrize("kind", ["forward", "central"])
+def test_parallel_finite_differences_equal_the_serial_ones(kind, tmp_path):
+    from frictionid.run.store import RunStore
+    model = block_model_2d("plane_strain", pull=0.2, height=4.0, mesh_size=1.5, n_zones=3)
+    points = np.array([[-5.0, 0.5], [5.0, 0.5], [-7.0, 0.0], [7.0, 0.0]])
+    backend = EmbeddedBackend(model, points, ("ux", "uy"), ["block", "block", "base", "base"])
+    params = Parameters.from_config(model.zone_names, {"A": 0.3, "B": 0.2, "C": 0.4}, bounds=(0.0, 1.0))
+    obs = Observations(points, (None,) * 4, ("ux", "uy"), np.arange(8), np.ones(8, int), np.zeros(8),
+                       np.full(8, 1e-3), tuple(map(str, range(8))), True)
+    jacobians, counts = [], []
+    for workers in (1, 2):
+        store = RunStore.open(tmp_path / f"w{workers}", "", "f", resume=False)
+        evaluator = Evaluator(backend, obs, params, store, jacobian=kind, workers=workers)
+        jacobians.append(evaluator.jacobian(params.x0))
+        evaluator.close()
+        counts.append((evaluator.n_forward, store.n_evaluations("forward")))
+    np.testing.assert_array_equal(jacobians[0], jacobians[1])
+    assert counts[0] == counts[1] == ((4, 4) if kind == "forward" else (6, 6))   # x + 3 steps, or +- 3 steps

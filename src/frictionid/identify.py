@@ -55,6 +55,11 @@ def prepare(config: Config) -> Setup:
     if config.solver["backend"] != "embedded":
         raise InputError(f"{config.path}: solver.backend = {config.solver['backend']!r} is not available; "
                          "use 'embedded'")
+    if int(config.run["workers"]) < 1:
+        raise InputError(f"{config.path}: run.workers must be at least 1, got {config.run['workers']}")
+    if config.run.get("scheduler"):
+        raise InputError(f"{config.path}: run.scheduler (a Dask cluster) is not available yet; use run.workers "
+                         "for parallel evaluations on this machine")
     model = build_model(config.model)
     parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                         config.friction.get("fixed"))
@@ -88,9 +93,18 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None) 
                                           setup.observations.point_regions),
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),
-                          config.identify["prior"], float(config.identify["penalty"]))
+                          config.identify["prior"], float(config.identify["penalty"]), int(config.run["workers"]))
     problem = _least_squares(evaluator, setup.parameters, config, store, progress)
     store.set_status("running")
+    try:
+        return _finish(config, setup, evaluator, problem, store, run_dir, start)
+    finally:
+        evaluator.close()
+
+
+def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: RunStore, run_dir: Path,
+            start: float) -> dict:
+    """Optimise, then write the result; an interruption or a solver failure still leaves result.json."""
     try:
         outcome = optimise(problem, config.identify["method"], max_iterations=int(config.identify["max_iterations"]),
                            tol=float(config.identify["tol"]), options=dict(config.identify["options"]))

@@ -9,6 +9,7 @@ for them; the penalty is what keeps a run from going there.
 from __future__ import annotations
 
 import logging
+import multiprocessing
 import time
 
 import numpy as np
@@ -18,6 +19,12 @@ from .parameters import Parameters
 
 log = logging.getLogger(__name__)
 JACOBIANS = ("analytic", "forward", "central")
+_BACKEND = None   # the backend a forked worker inherits (fork start method: nothing is pickled)
+
+
+def _worker_predict(mu: np.ndarray):
+    """A forward solve in a worker process; returns the stage-end values."""
+    return _BACKEND.predict(mu, False).values
 
 
 class Evaluator:
@@ -30,13 +37,14 @@ class Evaluator:
 
     def __init__(self, backend, observations: Observations, parameters: Parameters, store=None,
                  jacobian: str = "analytic", step: float = 1e-4, tikhonov: float = 0.0, prior=None,
-                 penalty: float = 0.0):
+                 penalty: float = 0.0, workers: int = 1):
         self.backend, self.obs, self.params, self.store = backend, observations, parameters, store
         self.jacobian_kind, self.step = jacobian, step
         self.tikhonov, self.penalty = tikhonov, penalty
         self.prior = parameters.x0 if prior is None else np.broadcast_to(np.asarray(prior, float), parameters.x0.shape)
         self.n_forward = self.n_sensitivity = self.n_replayed = 0
         self._memo: dict[tuple[bytes, bool], tuple] = {}
+        self.workers, self._pool = max(int(workers), 1), None
 
     def _predict(self, x: np.ndarray, sensitivities: bool):
         """(f (n_obs,), df/dmu (n_obs, n_zones) or None) at free coefficients x, from the store if known."""
@@ -96,15 +104,45 @@ class Evaluator:
         return np.vstack(blocks)
 
     def _finite_differences(self, x: np.ndarray) -> np.ndarray:
-        """Forward (the paper's) or central differences with step max(step |x|, step) per coefficient."""
-        f0 = self.model_values(x)
-        columns = []
-        for k in range(len(x)):
-            h = self.step * max(abs(x[k]), 1.0)
-            e = np.zeros_like(x)
-            e[k] = h
-            if self.jacobian_kind == "forward":
-                columns.append((self.model_values(x + e) - f0) / h)
-            else:
-                columns.append((self.model_values(x + e) - self.model_values(x - e)) / (2 * h))
-        return np.column_stack(columns)
+        """Forward (the paper's) or central differences with step max(step |x|, step) per coefficient.
+
+        With ``workers`` > 1 the perturbed points are solved in parallel worker processes.
+        """
+        h = self.step * np.maximum(np.abs(x), 1.0)
+        steps = np.diag(h)
+        points = [x + e for e in steps] + ([] if self.jacobian_kind == "forward" else [x - e for e in steps])
+        if self.workers > 1:
+            self._solve_in_parallel(points)
+        if self.jacobian_kind == "forward":
+            f0 = self.model_values(x)
+            return np.column_stack([(self.model_values(p) - f0) / hk for p, hk in zip(points, h)])
+        n = len(x)
+        return np.column_stack([(self.model_values(points[k]) - self.model_values(points[n + k])) / (2 * h[k])
+                                for k in range(n)])
+
+    def _solve_in_parallel(self, points: list[np.ndarray]) -> None:
+        """Solve the points not known yet in the worker pool; record and memoise them here, in order."""
+        missing = [p for p in points if (p.tobytes(), False) not in self._memo
+                   and (self.store is None or self.store.lookup(p, "forward") is None)]
+        if len(missing) < 2:
+            return
+        if self._pool is None:
+            global _BACKEND
+            _BACKEND = self.backend
+            self._pool = multiprocessing.get_context("fork").Pool(self.workers)
+        start = time.perf_counter()
+        results = self._pool.map(_worker_predict, [np.maximum(self.params.full(p), 0.0) for p in missing])
+        wall = (time.perf_counter() - start) / len(missing)
+        for p, values in zip(missing, results):
+            f = self.obs.predicted(values)
+            self.n_forward += 1
+            if self.store is not None:
+                self.store.record(p, "forward", {"f": f}, wall_time=wall)
+            self._memo[(p.tobytes(), False)] = f, None
+
+    def close(self) -> None:
+        """Stop the worker processes, if any."""
+        if self._pool is not None:
+            self._pool.close()
+            self._pool.join()
+            self._pool = None
