@@ -9,15 +9,17 @@ from pathlib import Path
 
 from .errors import InputError
 
-#: allowed keys per table, with defaults (None: required or no default)
+REQUIRED = object()   # marks a key without a default
+
+#: allowed keys per table, with their defaults
 SCHEMA = {
-    "model": {"builder": None},                      # builder options are checked against the builder
-    "friction": {"zones": None, "bounds": [0.0, 1.0], "fixed": {}},
-    "data": {"file": None, "observables": None, "stages": None, "noise": {}, "regions": {}},
+    "model": {"builder": REQUIRED},                  # builder options are checked against the builder
+    "friction": {"zones": REQUIRED, "bounds": [0.0, 1.0], "fixed": {}},
+    "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {}},
     "solver": {"backend": "embedded"},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {}},
-    "run": {"dir": None, "workers": 1, "scheduler": None},
+    "run": {"dir": REQUIRED, "workers": 1, "scheduler": None},
 }
 OPEN_TABLES = {"model"}
 
@@ -95,7 +97,7 @@ def _table(raw: dict, name: str, path: Path) -> dict:
             if key not in schema:
                 raise InputError(f"{path}: unknown key {name}.{key}{_suggest(key, schema)}; "
                                  f"known keys are {sorted(schema)}")
-    return {**{k: v for k, v in schema.items() if v is not None or k in ("prior", "scheduler")}, **value}
+    return {**{k: v for k, v in schema.items() if v is not REQUIRED}, **value}
 
 
 def read_config(path: str | Path, need: tuple[str, ...] = ("model", "friction")) -> Config:

@@ -22,6 +22,7 @@ from .inverse.observations import observations_from
 from .inverse.optimisers import optimise
 from .inverse.parameters import Parameters
 from .inverse.uncertainty import estimate
+from .report.outputs import write_outputs
 from .run.store import RunStore
 
 log = logging.getLogger(__name__)
@@ -63,6 +64,13 @@ def prepare(config: Config) -> Setup:
     model = build_model(config.model)
     parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                         config.friction.get("fixed"))
+    prior = config.identify["prior"]
+    if prior is not None and not (isinstance(prior, (int, float)) and not isinstance(prior, bool)
+                                  or isinstance(prior, list) and len(prior) == len(parameters.free_names)
+                                  and all(isinstance(v, (int, float)) for v in prior)):
+        raise InputError(f"{config.path}: identify.prior must be a number or a list of "
+                         f"{len(parameters.free_names)} numbers (one per free zone {list(parameters.free_names)}), "
+                         f"got {prior!r}")
     measurements = read_measurements(config.resolve(config.data["file"]))
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
                                      config.data.get("noise"), config.data.get("regions"))
@@ -118,7 +126,6 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     result = _result(config, setup, evaluator, problem, outcome, time.perf_counter() - start)
     store.put_result(result)
     store.set_status(result["status"])
-    from .report.outputs import write_outputs
     write_outputs(run_dir, result, store)
     return result
 

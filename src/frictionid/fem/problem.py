@@ -68,6 +68,8 @@ class Problem:
             (see :func:`frictionid.fem.points.point_operator`).
         """
         space = Space.build(model.mesh, model.kind)
+        if points is not None and observe is not None:
+            raise InputError("observation: give either observe rows or points, not both")
         if points is not None:
             from .points import point_operator
             observe = point_operator(space, points, quantities, regions)
