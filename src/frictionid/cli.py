@@ -56,11 +56,12 @@ def _progress(iteration, mu, objective, evaluator):
 def _run_identify(args) -> int:
     from .config import read_config
     from .identify import identify
-    from .report.tables import result_summary
+    from .report.tables import prefit_summary, result_summary
 
     config = read_config(args.config, need=("model", "friction", "data", "run"))
     try:
-        result = identify(config, resume=args.resume, progress=_progress)
+        result = identify(config, resume=args.resume, progress=_progress,
+                          on_prefit=lambda report: print(prefit_summary(report.as_dict()), flush=True))
     except KeyboardInterrupt:
         print(f"frictionid: interrupted; every finished evaluation is stored in "
               f"{config.resolve(config.run['dir'])}; continue with --resume", file=sys.stderr)

@@ -18,7 +18,8 @@ SCHEMA = {
     "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {}},
     "solver": {"backend": "embedded"},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
-                 "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {}},
+                 "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
+                 "resolution": 0.02, "suggestions": 5},
     "run": {"dir": REQUIRED, "workers": 1, "scheduler": None},
 }
 OPEN_TABLES = {"model"}
@@ -43,6 +44,8 @@ TYPES = {
     "identify.tikhonov": ((int, float), "a number"),
     "identify.penalty": ((int, float), "a number"),
     "identify.options": (dict, "a table"),
+    "identify.resolution": ((int, float), "a positive number (largest predicted standard error of a resolved zone)"),
+    "identify.suggestions": (int, "a whole number (0: propose no extra observations)"),
     "run.dir": (str, "a folder name"),
     "run.workers": (int, "a whole number"),
 }

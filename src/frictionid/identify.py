@@ -22,6 +22,7 @@ from .inverse.observations import observations_from
 from .inverse.optimisers import optimise
 from .inverse.parameters import Parameters
 from .inverse.uncertainty import estimate
+from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .run.store import RunStore
 
@@ -56,6 +57,9 @@ def prepare(config: Config) -> Setup:
     if config.solver["backend"] != "embedded":
         raise InputError(f"{config.path}: solver.backend = {config.solver['backend']!r} is not available; "
                          "use 'embedded'")
+    if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
+        raise InputError(f"{config.path}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
+                         f"{ident['resolution']!r} and {ident['suggestions']!r}")
     if int(config.run["workers"]) < 1:
         raise InputError(f"{config.path}: run.workers must be at least 1, got {config.run['workers']}")
     if config.run.get("scheduler"):
@@ -91,8 +95,12 @@ def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config,
                         parameters.upper, parameters.free_names, float(config.identify["power"]), on_iteration)
 
 
-def identify(config: Config, resume: bool = False, progress=lambda *args: None) -> dict:
-    """Run (or resume) the identification a config describes; returns and writes result.json."""
+def identify(config: Config, resume: bool = False, progress=lambda *args: None, on_prefit=lambda report: None) -> dict:
+    """Run (or resume) the identification a config describes; returns and writes result.json.
+
+    ``progress(iteration, mu, objective, evaluator)`` is called after each iteration, ``on_prefit(Prefit)``
+    once before fitting with the resolution of the planned data (see :mod:`frictionid.prefit`).
+    """
     setup = prepare(config)
     run_dir = config.resolve(config.run["dir"])
     store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
@@ -105,15 +113,20 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None) 
     problem = _least_squares(evaluator, setup.parameters, config, store, progress)
     store.set_status("running")
     try:
-        return _finish(config, setup, evaluator, problem, store, run_dir, start)
+        return _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit)
     finally:
         evaluator.close()
 
 
 def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: RunStore, run_dir: Path,
-            start: float) -> dict:
-    """Optimise, then write the result; an interruption or a solver failure still leaves result.json."""
+            start: float, on_prefit) -> dict:
+    """Check the resolution, optimise, then write the result; an interruption or a solver failure still
+    leaves result.json."""
     try:
+        factory = EmbeddedBackend if config.solver["backend"] == "embedded" else None
+        report = prefit(evaluator, setup.model, float(config.identify["resolution"]),
+                        int(config.identify["suggestions"]), factory)
+        on_prefit(report)
         outcome = optimise(problem, config.identify["method"], max_iterations=int(config.identify["max_iterations"]),
                            tol=float(config.identify["tol"]), options=dict(config.identify["options"]))
     except KeyboardInterrupt:
@@ -123,7 +136,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     except SolverError as exc:
         _stopped(config, setup, evaluator, store, run_dir, "failed", str(exc), time.perf_counter() - start)
         raise
-    result = _result(config, setup, evaluator, problem, outcome, time.perf_counter() - start)
+    result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start)
     store.put_result(result)
     store.set_status(result["status"])
     write_outputs(run_dir, result, store)
@@ -148,11 +161,13 @@ def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path
     (run_dir / "result.json").write_text(json.dumps(result, indent=2) + "\n")
 
 
-def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, wall: float) -> dict:
+def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, report: Prefit,
+            wall: float) -> dict:
     params, obs = setup.parameters, setup.observations
     r = evaluator.residuals(outcome.x)
     jac = evaluator.jacobian(outcome.x)
-    unc = estimate(jac[:obs.n_obs], r[:obs.n_obs], outcome.x, params.lower, params.upper, obs.noise_known)
+    unc = estimate(jac[:obs.n_obs], r[:obs.n_obs], outcome.x, params.lower, params.upper, obs.noise_known,
+                   float(config.identify["resolution"]))
     free = list(params.free_names)
     parameters = {}
     for p in params.items:
@@ -174,7 +189,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
                             "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),
-                            "message": unc.message},
+                            "message": unc.message, "prefit": report.as_dict()},
         "n_iterations": int(outcome.n_iterations), "n_forward_solves": evaluator.n_forward,
         "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
         "wall_time_s": wall,

@@ -3,8 +3,8 @@
 Covariance C = s^2 (J^T J)^-1 over the parameters not held at a bound, with s^2 = 1 when the weights are
 stated standard deviations (noise known) and s^2 = ||r||^2 / (n_obs - n_free) otherwise. A parameter is
 reported identifiable when the data see it (its Jacobian column is not negligible) and, unless it sits at a
-bound, its standard error is below a quarter of its bound interval; parameters at a bound get no standard
-error ("cannot be estimated at a bound").
+bound, its standard error is within a tolerance (by default a quarter of its bound interval); parameters at a
+bound get no standard error ("cannot be estimated at a bound").
 """
 
 from __future__ import annotations
@@ -39,8 +39,12 @@ def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
     return (x - lower <= rtol * width) | (upper - x <= rtol * width)
 
 
-def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool) -> Uncertainty:
-    """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x."""
+def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
+             tolerance: float | None = None) -> Uncertainty:
+    """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x.
+
+    ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds).
+    """
     n_obs, n_free = jac.shape
     bound = at_bounds(np.asarray(x), np.asarray(lower), np.asarray(upper))
     inner = ~bound
@@ -66,6 +70,7 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool)
     column = np.linalg.norm(jac, axis=0)
     seen = column > 1e-12 * max(column.max(initial=0.0), 1e-300)
     width = np.asarray(upper) - np.asarray(lower)
-    precise = np.where(bound, True, np.nan_to_num(stderr, nan=np.inf) < 0.25 * width)
+    limit = 0.25 * width if tolerance is None else tolerance
+    precise = np.where(bound, True, np.nan_to_num(stderr, nan=np.inf) <= limit)
     identifiable = seen & precise
     return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message)

@@ -29,6 +29,13 @@ CELL_DIM = {"triangle": 2, "triangle6": 2, "quad": 2, "quad9": 2,
 #: number of nodes per facet type
 FACET_NODES = {"line": 2, "line3": 3, "triangle": 3, "triangle6": 6, "quad": 4, "quad9": 9}
 
+_TRI, _QUAD = ((0, 1), (1, 2), (2, 0)), ((0, 1), (1, 2), (2, 3), (3, 0))
+_TET = ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3))
+_HEX = ((0, 1, 2, 3), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
+#: corner nodes of each facet of a cell, in meshio's local node numbering
+CELL_FACETS = {"triangle": _TRI, "triangle6": _TRI, "quad": _QUAD, "quad9": _QUAD,
+               "tetra": _TET, "tetra10": _TET, "hexahedron": _HEX, "hexahedron27": _HEX}
+
 
 def _frozen(array, dtype):
     out = np.array(array, dtype=dtype)
@@ -128,6 +135,15 @@ class Mesh:
         except KeyError:
             raise InputError(f"mesh: no boundary named {name!r}; the mesh has "
                              f"{sorted(self.boundaries) or 'no named boundaries'}") from None
+
+    def surface_nodes(self, region: str) -> np.ndarray:
+        """Sorted corner nodes on the surface of a region: its facets that no second cell of it shares."""
+        if region not in self.regions:
+            raise InputError(f"mesh: no region named {region!r}; the mesh has {sorted(self.regions)}")
+        cells = self.cells[self.regions[region]]
+        facets = np.concatenate([cells[:, list(local)] for local in CELL_FACETS[self.cell_type]])
+        _, index, count = np.unique(np.sort(facets, axis=1), axis=0, return_index=True, return_counts=True)
+        return np.unique(facets[index[count == 1]])
 
     def boundary_nodes(self, name: str) -> np.ndarray:
         """Sorted unique node indices of the named boundary."""

@@ -71,3 +71,38 @@ def result_summary(result: dict) -> str:
         lines.append("[[Correlations]] (|C| > 0.1)")
         lines += [f"    C({a}, {b}) = {c:+.3f}" for a, b, c in sorted(pairs, key=lambda t: -abs(t[2]))]
     return "\n".join(lines)
+
+
+def _se(value) -> str:
+    return "not seen" if value is None else f"{value:.4f}"
+
+
+def prefit_summary(prefit: dict) -> str:
+    """What the planned data can resolve before fitting (the "prefit" entry of result.json).
+
+    >>> print(prefit_summary(result["identifiability"]["prefit"]))  # doctest: +SKIP
+    """
+    names = list(prefit["stderr"])
+    lines = ["[[Resolution before fitting]] (linearised at the start values, at the stated noise)",
+             "    singular values of the weighted Jacobian: "
+             + ", ".join("0" if v is None else f"{v:.3g}" for v in prefit["singular_values"]),
+             f"    {'zone':<10}{'predicted stderr':>18}  {'resolved':<9}most correlated with"]
+    for i, name in enumerate(names):
+        row = [abs(c) if c is not None and j != i else -1.0 for j, c in enumerate(prefit["correlation"][i])]
+        j = max(range(len(row)), key=row.__getitem__) if row else 0
+        partner = f"{names[j]} ({prefit['correlation'][i][j]:+.2f})" if row and row[j] >= 0 else "-"
+        lines.append(f"    {name:<10}{_se(prefit['stderr'][name]):>18}  "
+                     f"{'yes' if prefit['resolved'][name] else 'NO':<9}{partner}")
+    missing = [n for n in names if not prefit["resolved"][n]]
+    if not missing:
+        return "\n".join(lines)
+    lines.append(f"    warning: the data cannot resolve zone(s) {', '.join(missing)} to +/- {prefit['tolerance']:g}; "
+                 "their fitted values will be reported as not resolved")
+    if prefit["note"]:
+        lines.append(f"    {prefit['note']}")
+    if prefit["suggestions"]:
+        lines.append("    observations that would resolve them (added in this order; predicted stderr after):")
+    for s in prefit["suggestions"]:
+        after = ", ".join(f"{n} {_se(s['stderr_after'][n])}" for n in missing)
+        lines.append(f"      + {s['observation']}: {after}")
+    return "\n".join(lines)

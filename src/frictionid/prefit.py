@@ -1,0 +1,145 @@
+"""Pre-fit check: before fitting, which zones the planned data resolve, and which added points or stages would.
+
+The weighted Jacobian of the planned observations at the start coefficients is taken from the evaluator (so
+the identification reuses it, and a resumed run replays it from the store). When a zone is not resolved, the
+observed quantities at candidate points spread over the visible surfaces of every region, and the observed
+points at stages not used, are solved once with sensitivities and ranked by :func:`inverse.resolution.suggest`.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from .inverse.observations import DISPLACEMENTS, Observations
+from .inverse.resolution import Addition, Resolution, resolution, suggest
+from .model import Model
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Prefit:
+    """The resolution of the planned data and, where zones are unresolved, the suggested additions."""
+
+    resolution: Resolution
+    additions: tuple[Addition, ...]
+    note: str = ""
+
+    def as_dict(self) -> dict:
+        names = self.resolution.names
+        return {**self.resolution.as_dict(), "note": self.note,
+                "suggestions": [{"observation": a.label,
+                                 "stderr_after": {n: (float(v) if np.isfinite(v) else None)
+                                                  for n, v in zip(names, a.stderr)}} for a in self.additions]}
+
+
+def spread_points(points: np.ndarray, n_max: int) -> np.ndarray:
+    """Indices of at most n_max points spread evenly (farthest-point sampling from the first point).
+
+    >>> spread_points(np.array([[0.0], [0.1], [1.0], [2.0]]), 3).tolist()
+    [0, 3, 2]
+    """
+    if len(points) <= n_max:
+        return np.arange(len(points))
+    chosen = [0]
+    distance = np.linalg.norm(points - points[0], axis=1)
+    for _ in range(n_max - 1):
+        k = int(np.argmax(distance))
+        chosen.append(k)
+        distance = np.minimum(distance, np.linalg.norm(points - points[k], axis=1))
+    return np.array(chosen)
+
+
+def _contact_surface(model: Model) -> tuple[np.ndarray, float]:
+    """Nodes on contact zones and targets (hidden surfaces in most tests) and their median facet edge [mm]."""
+    names = [n for i in model.interfaces for n in (*i.zones, i.target)]
+    if not names:
+        return np.zeros(0, dtype=np.int64), 0.0
+    facets = np.concatenate([model.mesh.boundary(n) for n in names])
+    points = model.mesh.points
+    return np.unique(facets), float(np.median(np.linalg.norm(points[facets[:, 1]] - points[facets[:, 0]], axis=1)))
+
+
+def _near(points: np.ndarray, nodes_xyz: np.ndarray, distance: float) -> bool:
+    """Whether any point lies within ``distance`` of any node."""
+    if not len(points) or not len(nodes_xyz):
+        return False
+    return bool(np.any(np.linalg.norm(points[:, None, :] - nodes_xyz[None, :, :], axis=2).min(axis=1) <= distance))
+
+
+def candidate_points(model: Model, observed: np.ndarray, n_max: int = 120) -> tuple[np.ndarray, list[str]]:
+    """(n, dim) points spread over the surfaces of every region, and the region of each.
+
+    Contact surfaces are candidates only where an observed point already lies on one (a cut-out that shows
+    the thread flanks): elsewhere they are hidden and cannot be measured.
+    """
+    names = list(model.mesh.regions)
+    contact, edge = _contact_surface(model)
+    if _near(np.asarray(observed, float), model.mesh.points[contact], edge / 2):
+        contact = contact[:0]
+    points, owner = [], []
+    for name in names:
+        nodes = np.setdiff1d(model.mesh.surface_nodes(name), contact)
+        xyz = model.mesh.points[nodes]
+        keep = spread_points(xyz, max(n_max // len(names), 1))
+        points.append(xyz[keep])
+        owner += [name] * len(keep)
+    return np.concatenate(points), owner
+
+
+def _sigma_of(obs: Observations, quantity: str) -> float | None:
+    """Median standard deviation of the observed quantities of the same kind (displacement or strain)."""
+    def is_displacement(q):
+        return q in DISPLACEMENTS
+    observed = np.array([obs.quantities[r % len(obs.quantities)] for r in obs.row])
+    same = np.array([is_displacement(q) == is_displacement(quantity) for q in observed], dtype=bool)
+    return float(np.median(obs.sigma[same])) if same.any() else None
+
+
+def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.ndarray, free: np.ndarray,
+                      n_points: int):
+    """(label, weighted rows) per candidate point and stage: surface points, and the observed points at
+    stages not observed; quantities = the observed ones plus every displacement component."""
+    quantities = tuple(dict.fromkeys(obs.quantities + DISPLACEMENTS[:model.dim]))
+    sigma = np.array([_sigma_of(obs, q) or np.nan for q in quantities])
+    quantities = tuple(q for q, s in zip(quantities, sigma) if np.isfinite(s))
+    sigma = sigma[np.isfinite(sigma)]
+    surface, owner = candidate_points(model, obs.points, n_points)
+    points = np.concatenate([obs.points, surface])
+    regions = list(obs.point_regions) + owner
+    derivatives = backend_factory(model, points, quantities, regions).predict(mu, True).derivatives
+    n_q, observed = len(quantities), set(zip(obs.row // len(obs.quantities), obs.stage))
+    groups = []
+    for stage in range(model.n_stages):
+        for p, xyz in enumerate(points):
+            if p < len(obs.points) and (p, stage) in observed:
+                continue
+            rows = derivatives[stage, p * n_q:(p + 1) * n_q][:, free] / sigma[:, None]
+            where = ", ".join(f"{v:.3f}" for v in xyz)
+            name = f"observed point {p}" if p < len(obs.points) else f"({where}) in {regions[p]}"
+            groups.append((f"{'+'.join(quantities)} at {name}, stage {stage + 1}", rows))
+    return groups
+
+
+def prefit(evaluator, model: Model, tolerance: float, max_additions: int = 5, backend_factory=None,
+           n_points: int = 120) -> Prefit:
+    """The pre-fit resolution at the evaluator's start point, with suggestions for unresolved zones.
+
+    ``backend_factory(model, points, quantities, regions)`` makes a backend with sensitivities for the
+    candidate points; without one (or with ``max_additions`` = 0) no additions are proposed.
+    """
+    params, obs = evaluator.params, evaluator.obs
+    jacobian = evaluator.jacobian(params.x0)[:obs.n_obs]
+    found = resolution(jacobian, params.free_names, tolerance)
+    if found.resolved.all():
+        return Prefit(found, ())
+    if backend_factory is None or max_additions <= 0:
+        return Prefit(found, (), "no candidate observations were evaluated (backend without sensitivities "
+                                 "or suggestions switched off)")
+    groups = _candidate_groups(backend_factory, model, obs, params.full(params.x0), params.free, n_points)
+    additions = tuple(suggest(jacobian, groups, tolerance, max_additions))
+    note = "" if additions else "no candidate point or stage lowers the unresolved zones' standard errors"
+    return Prefit(found, additions, note)
