@@ -90,13 +90,17 @@ def candidate_points(model: Model, observed: np.ndarray, n_max: int = 120) -> tu
     return np.concatenate(points), owner
 
 
+def _point_rows(obs: Observations) -> np.ndarray:
+    """(n_obs,) bool: observations of a quantity at a point (not a reaction row such as the machine force)."""
+    return obs.row < len(obs.points) * len(obs.quantities)
+
+
 def _sigma_of(obs: Observations, quantity: str) -> float | None:
-    """Median standard deviation of the observed quantities of the same kind (displacement or strain)."""
-    def is_displacement(q):
-        return q in DISPLACEMENTS
-    observed = np.array([obs.quantities[r % len(obs.quantities)] for r in obs.row])
-    same = np.array([is_displacement(q) == is_displacement(quantity) for q in observed], dtype=bool)
-    return float(np.median(obs.sigma[same])) if same.any() else None
+    """Median standard deviation of the observed point quantities of the same kind (displacement or strain)."""
+    at_points = _point_rows(obs)
+    observed = [obs.quantities[r % len(obs.quantities)] for r in obs.row[at_points]]
+    same = np.array([(q in DISPLACEMENTS) == (quantity in DISPLACEMENTS) for q in observed], dtype=bool)
+    return float(np.median(obs.sigma[at_points][same])) if same.any() else None
 
 
 def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.ndarray, free: np.ndarray,
@@ -111,7 +115,9 @@ def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.n
     points = np.concatenate([obs.points, surface])
     regions = list(obs.point_regions) + owner
     derivatives = backend_factory(model, points, quantities, regions).predict(mu, True).derivatives
-    n_q, observed = len(quantities), set(zip(obs.row // len(obs.quantities), obs.stage))
+    at_points = _point_rows(obs)
+    n_q = len(quantities)
+    observed = set(zip(obs.row[at_points] // max(len(obs.quantities), 1), obs.stage[at_points]))
     groups = []
     for stage in range(model.n_stages):
         for p, xyz in enumerate(points):
