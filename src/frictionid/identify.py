@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .backends import check_backend, make_backend, solver_options
 from .backends.embedded import EmbeddedBackend
 from .builders.registry import build_model
 from .config import Config
@@ -54,9 +55,7 @@ def prepare(config: Config) -> Setup:
     ident = config.identify
     if ident["jacobian"] not in JACOBIANS:
         raise InputError(f"{config.path}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
-    if config.solver["backend"] != "embedded":
-        raise InputError(f"{config.path}: solver.backend = {config.solver['backend']!r} is not available; "
-                         "use 'embedded'")
+    check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{config.path}: [solver]")
     if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
         raise InputError(f"{config.path}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
                          f"{ident['resolution']!r} and {ident['suggestions']!r}")
@@ -105,8 +104,10 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
     run_dir = config.resolve(config.run["dir"])
     store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     start = time.perf_counter()
-    evaluator = Evaluator(EmbeddedBackend(setup.model, setup.observations.points, setup.observations.quantities,
-                                          setup.observations.point_regions),
+    backend = make_backend(config.solver["backend"], setup.model, setup.observations.points,
+                           setup.observations.quantities, setup.observations.point_regions, solver_options(config),
+                           f"{config.path}: [solver]")
+    evaluator = Evaluator(backend,
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),
                           config.identify["prior"], float(config.identify["penalty"]), int(config.run["workers"]))

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .backends.embedded import EmbeddedBackend
+from .backends import check_backend, make_backend, solver_options
 from .builders.registry import build_model
 from .config import Config
 from .data.measurements import Measurements, read_measurements, write_measurements
@@ -19,6 +19,7 @@ DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz"
 
 def simulate(config: Config, out: str | Path) -> Path:
     """Solve at the configured coefficients; one row per point of the data file and model stage."""
+    check_backend(config.solver["backend"], None, solver_options(config), f"{config.path}: [solver]")
     model = build_model(config.model)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
@@ -30,8 +31,9 @@ def simulate(config: Config, out: str | Path) -> Path:
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
     quantities = tuple(config.data.get("observables") or DEFAULT_QUANTITIES[model.dim])
     regions = config.data.get("regions", {})
-    backend = EmbeddedBackend(model, xyz[:, :model.dim], quantities,
-                              [regions.get(p, regions.get("*")) for p in labels])
+    backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
+                           [regions.get(p, regions.get("*")) for p in labels], solver_options(config),
+                           f"{config.path}: [solver]")
     prediction = backend.predict(mu.full(mu.x0))
     n_points, n_stages = len(labels), model.n_stages
     values = prediction.values.reshape(n_stages, n_points, len(quantities))

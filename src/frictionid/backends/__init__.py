@@ -1,1 +1,67 @@
-"""Forward solver backends: each turns zone coefficients into observations (and, if it can, their derivatives)."""
+"""Forward solver backends: each turns zone coefficients into observations (and, if it can, their derivatives).
+
+``make_backend`` picks one by name ([solver] backend of a config): "embedded" (the condensed solver of
+frictionid.fem, with analytic sensitivities) or "calculix" (ccx runs, finite differences only).
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+
+BACKENDS = ("embedded", "calculix")
+
+
+def make_backend(name: str, model, points, quantities, regions=None, options: dict | None = None,
+                 where: str = "[solver]", reactions: tuple[str, ...] = ()):
+    """The backend called ``name`` for a model and its observation points.
+
+    Parameters
+    ----------
+    name : "embedded" | "calculix"
+    model : Model
+    points : (n, dim) [mm]; quantities : observed quantities; regions : region of each point (or None)
+    options : the [solver] keys (``ccx``, ``timeout``, ``keep_work``, ``work_dir``, ``threads``, ``contact``,
+        ``normal_stiffness``, ``stick_slope``: see :class:`~frictionid.backends.calculix.backend.CalculixSettings`);
+        the embedded backend has none and ignores them.
+    where : how messages name the options' origin
+    reactions : labels of reaction sums ("boundary.axis") appended as rows after the point rows
+
+    Raises
+    ------
+    InputError
+        For an unknown backend, a bad option, or ccx not found.
+    """
+    if name == "embedded":
+        from .embedded import EmbeddedBackend
+
+        extra = {"reactions": tuple(reactions)} if reactions else {}
+        return EmbeddedBackend(model, points, quantities, regions, **extra)
+    if name == "calculix":
+        from .calculix.backend import CalculixBackend, CalculixSettings
+
+        return CalculixBackend(model, points, quantities, regions, CalculixSettings.from_options(options or {}, where),
+                               reactions=reactions)
+    raise InputError(f"{where} backend = {name!r} is not one of {list(BACKENDS)}")
+
+
+def check_backend(name: str, jacobian: str | None = None, options: dict | None = None,
+                  where: str = "[solver]") -> None:
+    """Refuse, before anything is built, a backend that does not exist, cannot run, or cannot give ``jacobian``."""
+    if name not in BACKENDS:
+        raise InputError(f"{where} backend = {name!r} is not one of {list(BACKENDS)}")
+    if name == "calculix":
+        from .calculix.backend import CalculixSettings
+        from .calculix.runner import find_ccx
+
+        if jacobian == "analytic":
+            raise InputError(f"{where} backend = 'calculix' has no analytic sensitivities; set identify.jacobian "
+                             "= 'forward' or 'central' (finite differences, parallel with run.workers)")
+        find_ccx(CalculixSettings.from_options(options or {}, where).ccx)
+
+
+def solver_options(config) -> dict:
+    """The [solver] table of a config with ``work_dir`` resolved against the config's folder."""
+    options = dict(config.solver)
+    if options.get("work_dir"):
+        options["work_dir"] = str(config.resolve(options["work_dir"]))
+    return options

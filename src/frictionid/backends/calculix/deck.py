@@ -1,0 +1,244 @@
+"""The CalculiX input deck (.inp) of a frictionid model at given zone coefficients.
+
+Numbering: CalculiX node k + 1 is frictionid node k, element e + 1 is cell e. Sets and surfaces get
+upper-case names from their position (``N3``, ``SZ2``) because CalculiX folds case and limits names;
+a ``**`` comment next to each gives the frictionid name. Loads are written as nodal forces (``*CLOAD``)
+computed by the same consistent load integration as the embedded solver, so that both backends see identical
+loads; axisymmetric nodal forces are divided by 180 because CalculiX takes them for a 2-degree segment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import InputError
+from ...model import Displacement, Model
+from ...model.model import component_index
+from .elements import ELEMENT_TYPE, calculix_cells, face_lookup
+
+#: CalculiX applies axisymmetric nodal forces to a 2-degree segment: whole-ring forces are divided by this
+AXISYMMETRIC_SEGMENTS = 180.0
+_PER_LINE = 8
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Penalty contact parameters of every pair.
+
+    Attributes
+    ----------
+    normal_stiffness : float [N/mm^3]
+        Slope of the linear pressure-overclosure law (penetration = pressure / slope).
+    stick_slope : float [N/mm^3]
+        Tangential penalty of *FRICTION (elastic slip = shear stress / slope while sticking).
+    pair_type : str
+        "SURFACE TO SURFACE" (per-zone contact forces are only printed for it) or "NODE TO SURFACE".
+    """
+
+    normal_stiffness: float
+    stick_slope: float
+    pair_type: str = "SURFACE TO SURFACE"
+
+
+def _lines(values, per_line: int = _PER_LINE) -> list[str]:
+    values = list(values)
+    return [", ".join(str(v) for v in values[i:i + per_line]) for i in range(0, len(values), per_line)]
+
+
+def _nodes(model: Model) -> list[str]:
+    points = np.asarray(model.mesh.points)
+    if points.shape[1] == 2:
+        points = np.column_stack([points, np.zeros(len(points))])
+    out = ["*NODE, NSET=NALL"]
+    out += [f"{i + 1}, {x:.15g}, {y:.15g}, {z:.15g}" for i, (x, y, z) in enumerate(points)]
+    return out
+
+
+def _elements(model: Model, cells: np.ndarray) -> list[str]:
+    mesh = model.mesh
+    element_type = ELEMENT_TYPE[model.kind][mesh.cell_type]
+    out = []
+    for index, (name, region_cells) in enumerate(mesh.regions.items(), start=1):
+        out += [f"** region {name}", f"*ELEMENT, TYPE={element_type}, ELSET=E{index}"]
+        for cell in region_cells:
+            out += _lines([cell + 1] + [n + 1 for n in cells[cell]], per_line=16)
+    return out
+
+
+def _node_sets(model: Model, names: list[str]) -> list[str]:
+    out = []
+    for name in names:
+        out += [f"** boundary {name}", f"*NSET, NSET={set_name(model, name)}"]
+        out += _lines(model.mesh.boundary_nodes(name) + 1)
+    axis = axis_nodes(model)
+    if axis.size:
+        out += ["** nodes on the axis of revolution", "*NSET, NSET=NAXIS"] + _lines(axis + 1)
+    return out
+
+
+def set_name(model: Model, boundary: str) -> str:
+    """The CalculiX node set name of a named boundary."""
+    return f"N{list(model.mesh.boundaries).index(boundary) + 1}"
+
+
+def axis_nodes(model: Model) -> np.ndarray:
+    """Nodes on the axis (r = 0) of an axisymmetric model, whose radial displacement is held (as embedded)."""
+    if model.kind != "axisymmetric":
+        return np.zeros(0, dtype=np.int64)
+    points = model.mesh.points
+    scale = np.ptp(points[:, 1]) or 1.0
+    return np.flatnonzero(np.abs(points[:, 0]) <= 1e-9 * scale)
+
+
+def _surface(model: Model, boundary: str, name: str, faces: dict) -> list[str]:
+    n_corners = {"line": 2, "line3": 2, "triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}[model.mesh.facet_type]
+    out = [f"** boundary {boundary}", f"*SURFACE, NAME={name}, TYPE=ELEMENT"]
+    for facet in model.mesh.boundary(boundary):
+        key = frozenset(facet[:n_corners].tolist())
+        if key not in faces:
+            raise InputError(f"CalculiX deck: boundary {boundary!r} has a facet (nodes {facet.tolist()}) that is "
+                             "not a face of any cell")
+        cell, face = faces[key]
+        out.append(f"{cell + 1}, S{face}")
+    return out
+
+
+def _materials(model: Model) -> list[str]:
+    out = []
+    thickness = [] if model.kind == "3d" else ["1."]
+    for index, name in enumerate(model.mesh.regions, start=1):
+        material = model.materials[name]
+        out += [f"** region {name}: {material.name or 'material'}", f"*MATERIAL, NAME=M{index}", "*ELASTIC",
+                f"{material.E:.15g}, {material.nu:.15g}",
+                f"*SOLID SECTION, ELSET=E{index}, MATERIAL=M{index}"] + thickness
+    return out
+
+
+def _contact(model: Model, mu: np.ndarray, contact: ContactSettings) -> list[str]:
+    out = []
+    zone_index = 0
+    for interface in model.interfaces:
+        target = f"ST{model.interfaces.index(interface) + 1}"
+        for zone in interface.zones:
+            zone_index += 1
+            value = float(mu[zone_index - 1])
+            out += [f"** zone {zone} of interface {interface.name}, mu = {value:.15g}",
+                    f"*SURFACE INTERACTION, NAME=I{zone_index}",
+                    "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{contact.normal_stiffness:.15g}"]
+            if value > 0:
+                out += ["*FRICTION", f"{value:.15g}, {contact.stick_slope:.15g}"]
+            out += [f"*CONTACT PAIR, INTERACTION=I{zone_index}, TYPE={contact.pair_type}", f"SZ{zone_index}, {target}"]
+    return out
+
+
+def _surfaces(model: Model, cells: np.ndarray) -> list[str]:
+    faces = face_lookup(model.mesh.cell_type, cells)
+    out = []
+    zone_index = 0
+    for k, interface in enumerate(model.interfaces, start=1):
+        out += _surface(model, interface.target, f"ST{k}", faces)
+        for zone in interface.zones:
+            zone_index += 1
+            out += _surface(model, zone, f"SZ{zone_index}", faces)
+    return out
+
+
+def _supports(model: Model) -> list[str]:
+    out = ["*BOUNDARY"]
+    for support in model.supports:
+        for c in support.components:
+            k = component_index(c, model.dim, f"support on {support.boundary!r}") + 1
+            out.append(f"{set_name(model, support.boundary)}, {k}, {k}")
+    if axis_nodes(model).size:
+        out.append("NAXIS, 1, 1")
+    return out if len(out) > 1 else []
+
+
+def stage_forces(model: Model, forces: np.ndarray, amplitudes: np.ndarray) -> np.ndarray:
+    """(n_stages, n_nodes, dim) [N] nodal forces at each stage end as CalculiX takes them.
+
+    ``forces`` (n_channels, n_dofs) unit nodal force of each load channel, ``amplitudes`` (n_stages, n_channels).
+    """
+    total = amplitudes @ forces
+    if model.kind == "axisymmetric":
+        total = total / AXISYMMETRIC_SEGMENTS
+    return total.reshape(model.n_stages, -1, model.dim)
+
+
+def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reaction_sets: list[str],
+          contact: ContactSettings, observed: bool) -> list[str]:
+    n = model.stages[stage].n_increments
+    dt = 1.0 / n
+    out = [f"** stage {stage + 1}: {model.stages[stage].name}", "*STEP, INC=10000",
+           "*STATIC", f"{dt:.15g}, 1., {dt * 1e-6:.15g}, {dt:.15g}"]
+    moves = [load for load in model.loads if isinstance(load, Displacement)]
+    if moves:
+        out.append("*BOUNDARY")
+        for load in moves:
+            k = component_index(load.component, model.dim, f"Displacement on {load.boundary!r}") + 1
+            out.append(f"{set_name(model, load.boundary)}, {k}, {k}, {load.values[stage]:.15g}")
+    if loaded.size:
+        out.append("*CLOAD")
+        for node, c in loaded:
+            out.append(f"{node + 1}, {c + 1}, {forces[stage, node, c]:.15g}")
+    out += ["*NODE FILE", "U"] + (["*NODE PRINT, NSET=NOBS", "U"] if observed else [])
+    for name in reaction_sets:
+        out += [f"*NODE PRINT, NSET={name}, TOTALS=ONLY", "RF"]
+    if contact.pair_type == "SURFACE TO SURFACE":
+        for slave, master in contact_pairs(model):
+            out += [f"*CONTACT PRINT, SLAVE={slave}, MASTER={master}", "CF"]
+    return out + ["*END STEP"]
+
+
+def contact_pairs(model: Model) -> list[tuple[str, str]]:
+    """(slave, master) surface names of the contact pair of each zone, in ``model.zone_names`` order."""
+    return [(f"SZ{z + 1}", f"ST{model.interfaces.index(i) + 1}")
+            for z, i in enumerate(i for i in model.interfaces for _ in i.zones)]
+
+
+def reaction_boundaries(model: Model) -> list[str]:
+    """Named boundaries whose reactions are printed: supported ones and driven ones, in the embedded order."""
+    names = [s.boundary for s in model.supports] + [l.boundary for l in model.loads if isinstance(l, Displacement)]
+    return list(dict.fromkeys(names))
+
+
+def write_deck(model: Model, mu, contact: ContactSettings, forces: np.ndarray, amplitudes: np.ndarray,
+               observed_nodes=()) -> str:
+    """The complete .inp text of a model at zone coefficients ``mu`` (n_zones,).
+
+    Parameters
+    ----------
+    model : Model
+    mu : (n_zones,) Coulomb coefficients in ``model.zone_names`` order
+    contact : ContactSettings
+    forces : (n_channels, n_dofs) [N] unit nodal forces per load channel (frictionid node-major dofs)
+    amplitudes : (n_stages, n_channels) channel amplitudes at each stage end
+    observed_nodes : 0-based nodes whose displacements are printed to the .dat file (set NOBS)
+
+    Returns
+    -------
+    str
+        The deck; it prints reaction totals per supported / driven boundary and contact forces per zone to the
+        .dat file and the displacement field to the .frd file at every increment.
+    """
+    mu = np.asarray(mu, dtype=float).reshape(-1)
+    if mu.shape != (model.n_zones,):
+        raise InputError(f"CalculiX deck: need {model.n_zones} coefficients, got {mu.shape[0]}")
+    cells = calculix_cells(np.asarray(model.mesh.points), model.mesh.cell_type, model.mesh.cells)
+    per_stage = stage_forces(model, forces, amplitudes)
+    scale = np.abs(per_stage).max() if per_stage.size else 0.0
+    loaded = np.argwhere(np.any(np.abs(per_stage) > 1e-14 * scale, axis=0)) if scale > 0 else np.zeros((0, 2), int)
+    boundaries = reaction_boundaries(model)
+    used = list(dict.fromkeys(boundaries + [l.boundary for l in model.loads if isinstance(l, Displacement)]))
+    sets = [set_name(model, b) for b in boundaries]
+    observed = np.unique(np.asarray(observed_nodes, dtype=np.int64))
+    lines = ["*HEADING", f"frictionid {model.kind} model, zones {', '.join(model.zone_names)}; units mm, N, MPa"]
+    lines += _nodes(model) + _elements(model, cells) + _node_sets(model, used) + _surfaces(model, cells)
+    if observed.size:
+        lines += ["** nodes of the cells holding observation points", "*NSET, NSET=NOBS"] + _lines(observed + 1)
+    lines += _materials(model) + _contact(model, mu, contact) + _supports(model)
+    for stage in range(model.n_stages):
+        lines += _step(model, stage, per_stage, loaded, sets, contact, observed.size > 0)
+    return "\n".join(lines) + "\n"

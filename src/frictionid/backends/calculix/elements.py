@@ -1,0 +1,81 @@
+"""CalculiX element types, node orders and face numbers for each frictionid cell type and model kind.
+
+Node orders: meshio (VTK) and CalculiX (Abaqus) agree on the corners and edge mid-nodes of every type used here;
+"hexahedron27" and "quad9" have no CalculiX counterpart and are written as their serendipity elements
+(C3D20 / CPE8 / CAX8) without the face and centre nodes, whose displacements are interpolated back
+(:func:`fill_dropped_nodes`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: CalculiX element type per model kind and meshio cell type
+ELEMENT_TYPE = {
+    "3d": {"hexahedron": "C3D8", "hexahedron27": "C3D20", "tetra": "C3D4", "tetra10": "C3D10"},
+    "plane_strain": {"triangle": "CPE3", "triangle6": "CPE6", "quad": "CPE4", "quad9": "CPE8"},
+    "axisymmetric": {"triangle": "CAX3", "triangle6": "CAX6", "quad": "CAX4", "quad9": "CAX8"},
+}
+#: number of leading meshio nodes of a cell that CalculiX keeps
+N_KEPT = {"hexahedron": 8, "hexahedron27": 20, "tetra": 4, "tetra10": 10,
+          "triangle": 3, "triangle6": 6, "quad": 4, "quad9": 8}
+#: corner nodes (0-based, CalculiX order) of faces S1, S2, ... (CalculiX manual, section 6.2 / 6.7)
+FACES = {
+    "hex": ((0, 1, 2, 3), (4, 7, 6, 5), (0, 4, 5, 1), (1, 5, 6, 2), (2, 6, 7, 3), (3, 7, 4, 0)),
+    "tet": ((0, 1, 2), (0, 3, 1), (1, 3, 2), (2, 3, 0)),
+    "tri": ((0, 1), (1, 2), (2, 0)),
+    "quad": ((0, 1), (1, 2), (2, 3), (3, 0)),
+}
+SHAPE = {"hexahedron": "hex", "hexahedron27": "hex", "tetra": "tet", "tetra10": "tet",
+         "triangle": "tri", "triangle6": "tri", "quad": "quad", "quad9": "quad"}
+#: node permutation reversing the orientation of a 2-D cell (clockwise -> counter-clockwise)
+REVERSED_2D = {"triangle": [0, 2, 1], "triangle6": [0, 2, 1, 5, 4, 3],
+               "quad": [0, 3, 2, 1], "quad9": [0, 3, 2, 1, 7, 6, 5, 4, 8]}
+
+
+def calculix_cells(points: np.ndarray, cell_type: str, cells: np.ndarray) -> np.ndarray:
+    """(n_cells, n_kept) node indices in CalculiX order; 2-D cells turned counter-clockwise (CalculiX needs it)."""
+    cells = np.array(cells)
+    if points.shape[1] == 2:
+        a, b, c = (points[cells[:, k]] for k in (0, 1, 2))
+        area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        cells[area < 0] = cells[area < 0][:, REVERSED_2D[cell_type]]
+    return cells[:, :N_KEPT[cell_type]]
+
+
+def face_lookup(cell_type: str, cells: np.ndarray) -> dict[frozenset, tuple[int, int]]:
+    """Corner-node set of every cell face -> (cell index, face number 1..n) in CalculiX numbering."""
+    out = {}
+    for face_number, corners in enumerate(FACES[SHAPE[cell_type]], start=1):
+        for cell, nodes in enumerate(cells[:, corners].tolist()):
+            out[frozenset(nodes)] = (cell, face_number)
+    return out
+
+
+def fill_dropped_nodes(cell_type: str, cells: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Nodal values (n_nodes, k) with the face / centre nodes CalculiX did not have interpolated.
+
+    Serendipity shape functions at a face centre weigh the face's corners -1/4 and its edge mid-nodes 1/2;
+    at the centre of the 20-node brick corners -1/4 and edge mid-nodes 1/4.
+    """
+    values = np.array(values, dtype=float)
+    if cell_type == "quad9":
+        values[cells[:, 8]] = 0.5 * values[cells[:, 4:8]].sum(axis=1) - 0.25 * values[cells[:, :4]].sum(axis=1)
+    elif cell_type == "hexahedron27":
+        for k, face in enumerate(_HEX27_FACES):
+            corners, edges = face
+            values[cells[:, 20 + k]] = (0.5 * values[cells[:, edges]].sum(axis=1)
+                                        - 0.25 * values[cells[:, corners]].sum(axis=1))
+        values[cells[:, 26]] = 0.25 * values[cells[:, 8:20]].sum(axis=1) - 0.25 * values[cells[:, :8]].sum(axis=1)
+    return values
+
+
+# VTK triquadratic hexahedron face nodes 20..25: faces x-, x+, y-, y+, z-, z+ as (corners, edge mid-nodes)
+_HEX27_FACES = (
+    ((0, 3, 7, 4), (11, 19, 15, 16)),
+    ((1, 2, 6, 5), (9, 18, 13, 17)),
+    ((0, 1, 5, 4), (8, 17, 12, 16)),
+    ((3, 2, 6, 7), (10, 18, 14, 19)),
+    ((0, 1, 2, 3), (8, 9, 10, 11)),
+    ((4, 5, 6, 7), (12, 13, 14, 15)),
+)

@@ -1,0 +1,174 @@
+"""CalculiX deck export: element types and node orders, faces of contact surfaces, loads, steps; no ccx needed."""
+
+import re
+
+import numpy as np
+import pytest
+
+from frictionid.backends import check_backend, make_backend
+from frictionid.backends.calculix.backend import CalculixSettings
+from frictionid.backends.calculix.deck import AXISYMMETRIC_SEGMENTS, ContactSettings, write_deck
+from frictionid.backends.calculix.elements import FACES, SHAPE, calculix_cells, face_lookup, fill_dropped_nodes
+from frictionid.builders.benchmarks import sleeve_model
+from frictionid.builders.block import block_model, block_model_2d
+from frictionid.errors import InputError
+from frictionid.fem.assembly import load_channels
+from frictionid.fem.space import Space
+from frictionid.model import Mesh
+
+CONTACT = ContactSettings(normal_stiffness=1e6, stick_slope=2e6)
+#: CalculiX edge mid-nodes (0-based corner pairs) of C3D10 and C3D20 (CalculiX manual, element chapter)
+C3D10_EDGES = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
+C3D20_EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+
+
+def deck_of(model, mu, contact=CONTACT):
+    channels = load_channels(Space.build(model.mesh, model.kind), model)
+    return write_deck(model, mu, contact, channels.forces, channels.amplitudes), channels
+
+
+def cards(deck: str, keyword: str) -> list[list[str]]:
+    """Data lines following each card starting with ``keyword``."""
+    out, current = [], None
+    for line in deck.splitlines():
+        if line.startswith("*") and not line.startswith("**"):
+            current = [] if line.upper().startswith(keyword) else None
+            if current is not None:
+                out.append(current)
+        elif current is not None and not line.startswith("**"):
+            current.append(line)
+    return out
+
+
+@pytest.fixture(scope="module")
+def block3d():
+    return block_model(mesh_size=5.0)
+
+
+def test_every_zone_gets_its_own_pair_interaction_and_friction(block3d):
+    mu = [0.3, 0.2, 0.4, 0.0]
+    deck, _ = deck_of(block3d, mu)
+    pairs = re.findall(r"\*CONTACT PAIR, INTERACTION=(I\d), TYPE=SURFACE TO SURFACE\n(SZ\d), (ST\d)", deck)
+    assert pairs == [("I1", "SZ1", "ST1"), ("I2", "SZ2", "ST1"), ("I3", "SZ3", "ST1"), ("I4", "SZ4", "ST1")]
+    assert [c[0] for c in cards(deck, "*FRICTION")] == ["0.3, 2000000", "0.2, 2000000", "0.4, 2000000"]
+    assert deck.count("*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n1000000\n") == 4
+    # zone D has mu = 0: frictionless, no *FRICTION card after its interaction
+    assert "*SURFACE INTERACTION, NAME=I4\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n1000000\n*CONTACT" in deck
+
+
+def test_contact_surfaces_are_the_zone_facets(block3d):
+    deck, _ = deck_of(block3d, [0.1] * 4)
+    cells = calculix_cells(block3d.mesh.points, "hexahedron", block3d.mesh.cells)
+    surfaces = {c.split("NAME=")[1].split(",")[0]: c for c in re.findall(r"\*SURFACE, NAME=\w+, TYPE=ELEMENT", deck)}
+    lines = dict(zip(surfaces, cards(deck, "*SURFACE, NAME")))
+    for name, boundary in [("SZ1", "A"), ("SZ4", "D"), ("ST1", "plate_top")]:
+        faces = [tuple(int(v.strip().lstrip("S")) for v in line.split(",")) for line in lines[name]]
+        expected = {frozenset(f[:4].tolist()) for f in block3d.mesh.boundary(boundary)}
+        got = {frozenset(cells[e - 1][list(FACES["hex"][s - 1])].tolist()) for e, s in faces}
+        assert got == expected
+
+
+def test_elements_regions_and_line_length(block3d):
+    deck, _ = deck_of(block3d, [0.1] * 4)
+    assert "*ELEMENT, TYPE=C3D8, ELSET=E1" in deck and "*ELEMENT, TYPE=C3D8, ELSET=E2" in deck
+    assert all(len(line.split(",")) <= 16 for line in deck.splitlines() if not line.startswith("*"))
+    n_elements = sum(len(lines) for lines in cards(deck, "*ELEMENT"))
+    assert n_elements == block3d.mesh.n_cells
+    assert "*ELASTIC\n3500, 0.35\n*SOLID SECTION, ELSET=E1, MATERIAL=M1" in deck
+
+
+def test_steps_follow_the_load_path(block3d):
+    deck, channels = deck_of(block3d, [0.1] * 4)
+    assert [c[0] for c in cards(deck, "*STATIC")] == ["1, 1., 1e-06, 1", "0.1, 1., 1e-07, 0.1"]
+    boundary = cards(deck, "*BOUNDARY")
+    assert boundary[0] == ["N1, 1, 1", "N1, 2, 2", "N1, 3, 3"]          # plate_bottom held
+    assert boundary[2] == ["N3, 1, 1, 0", "N3, 2, 2, 0.2"]               # block_top pulled in stage 2
+    cload = cards(deck, "*CLOAD")[1]
+    total = sum(float(line.split(",")[2]) for line in cload if line.split(",")[1].strip() == "3")
+    assert total == pytest.approx(-2000.0, rel=1e-12)                    # the pressure's 2000 N, downwards
+    assert len(cards(deck, "*CONTACT PRINT")) == 2 * 4
+
+
+def test_plane_strain_cells_turn_counter_clockwise():
+    model = block_model_2d(mesh_size=4.0, order=2)
+    cells = np.array(model.mesh.cells)
+    cells[0] = cells[0][[0, 2, 1, 5, 4, 3]]                   # one clockwise cell
+    out = calculix_cells(model.mesh.points, "triangle6", cells)
+    a, b, c = (model.mesh.points[out[:, k]] for k in range(3))
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    assert np.all(area > 0)
+    mid = model.mesh.points[out[:, 3]]
+    np.testing.assert_allclose(mid, (a + b) / 2, atol=1e-12)   # node 4 of CPE6 on edge 1-2
+    deck, _ = deck_of(model, [0.1, 0.1])
+    assert "TYPE=CPE6" in deck and cards(deck, "*SOLID SECTION")[0] == ["1."]
+
+
+def test_tetra10_node_order_is_calculix_order():
+    corners = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])
+    points = np.vstack([corners, [(corners[a] + corners[b]) / 2 for a, b in C3D10_EDGES]])
+    # meshio's tetra10 order is the same as CalculiX's C3D10: the exported cell is unchanged
+    mesh = Mesh(points, "tetra10", [np.arange(10)], {"r": [0]}, {})
+    out = calculix_cells(mesh.points, "tetra10", mesh.cells)
+    np.testing.assert_array_equal(out, mesh.cells)
+    assert SHAPE["tetra10"] == "tet" and len(face_lookup("tetra10", out)) == 4
+
+
+@pytest.mark.parametrize("builder, cell_type", [
+    (lambda: block_model(mesh_size=5.0, order=2), "hexahedron27"),
+    (lambda: block_model_2d(mesh_size=4.0, order=2, quads=True), "quad9"),
+])
+def test_dropped_nodes_are_interpolated_back(builder, cell_type):
+    mesh = builder().mesh
+    assert mesh.cell_type == cell_type
+    kept = calculix_cells(mesh.points, cell_type, mesh.cells)
+    if cell_type == "hexahedron27":
+        for k, (a, b) in enumerate(C3D20_EDGES):
+            np.testing.assert_allclose(mesh.points[kept[:, 8 + k]], (mesh.points[kept[:, a]] + mesh.points[kept[:, b]]) / 2,
+                                       atol=1e-9)
+    blank = np.zeros_like(mesh.points)
+    used = np.unique(kept)
+    blank[used] = mesh.points[used]
+    # serendipity interpolation of a linear field (the coordinates) is exact at face and centre nodes
+    np.testing.assert_allclose(fill_dropped_nodes(cell_type, mesh.cells, blank), mesh.points, atol=1e-9)
+
+
+def test_axisymmetric_nodal_forces_are_for_a_two_degree_segment():
+    model = sleeve_model(size=1.0)
+    deck, channels = deck_of(model, [0.1] * model.n_zones)
+    whole_ring = channels.amplitudes[-1] @ channels.forces
+    cload = cards(deck, "*CLOAD")[-1]
+    written = sum(float(line.split(",")[2]) for line in cload if line.split(",")[1].strip() == "2")
+    assert written == pytest.approx(whole_ring[1::2].sum() / AXISYMMETRIC_SEGMENTS, rel=1e-12)
+    assert "TYPE=CAX" in deck and "NAXIS, 1, 1" in deck      # the solid shaft has nodes on the axis
+
+
+def test_wrong_number_of_coefficients(block3d):
+    with pytest.raises(InputError, match="need 4 coefficients"):
+        deck_of(block3d, [0.1, 0.2])
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"timeout": 0}, "timeout must be a number > 0"),
+    ({"threads": 0}, "threads must be a whole number"),
+    ({"contact": "mortar"}, "contact = 'mortar' is not one of"),
+    ({"keep_work": "yes"}, "keep_work must be true or false"),
+    ({"stick_slope": -1.0}, "stick_slope must be a number > 0"),
+    ({"tmeout": 10}, "tmeout: not an option of the calculix backend"),
+])
+def test_bad_settings(options, message):
+    with pytest.raises(InputError, match=message):
+        CalculixSettings.from_options(options)
+
+
+def test_missing_ccx_names_the_setting_and_the_package(block3d):
+    with pytest.raises(InputError, match=r"solver.ccx = '/nonexistent/ccx'.*apt-get install calculix-ccx"):
+        check_backend("calculix", "forward", {"ccx": "/nonexistent/ccx"})
+    with pytest.raises(InputError, match="apt-get install calculix-ccx"):
+        make_backend("calculix", block3d, None, ("ux",), options={"ccx": "/nonexistent/ccx"})
+
+
+def test_backend_choice_is_checked():
+    with pytest.raises(InputError, match="no analytic sensitivities.*'forward' or 'central'"):
+        check_backend("calculix", "analytic", {"ccx": "/nonexistent/ccx"})
+    with pytest.raises(InputError, match="backend = 'ansys' is not one of"):
+        check_backend("ansys")
