@@ -8,8 +8,9 @@ import inspect
 from ..errors import InputError
 from ..model import Model
 from .block import block_model, block_model_2d
+from .bolt import bolt_model
 
-BUILDERS = {"block": block_model, "block2d": block_model_2d}
+BUILDERS = {"block": block_model, "block2d": block_model_2d, "bolt": bolt_model}
 
 
 def build_model(options: dict, where: str = "[model]") -> Model:

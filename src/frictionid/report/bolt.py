@@ -1,0 +1,179 @@
+"""Bolt-nut results a bolt engineer reads: load share per engaged thread (with Sopwith's closed form and a fit of
+lam P), flank pressure and slip along the engagement, nut dilation, stick/slip state per zone, a load-share plot.
+
+Works on any model built by :func:`frictionid.builders.bolt.bolt_model`: engaged flank i is the mesh boundary
+"thread_<i>" (bolt contact segment, numbered from the nut bearing face), the nut's outer surface "nut_outer".
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ..errors import InputError
+from ..fem.solution import Solution
+from ..model import Model, SurfaceForce
+
+#: bounds of the Sopwith fit parameter lam P
+LAM_P_BOUNDS = (1e-3, 3.0)
+
+
+def flank_count(model: Model) -> int:
+    """Number of engaged flanks (boundaries "thread_1" ... "thread_n")."""
+    n = sum(1 for name in model.mesh.boundaries if re.fullmatch(r"thread_\d+", name))
+    if n == 0:
+        raise InputError("bolt report: the model has no 'thread_<i>' boundaries; build it with bolt_model")
+    return n
+
+
+def flank_of_pairs(model: Model, solution: Solution) -> np.ndarray:
+    """(n_pairs,) engaged flank index (1-based) of each contact pair, 0 for pairs off the thread."""
+    out = np.zeros(solution.pairs.n_pairs, dtype=int)
+    for i in range(1, flank_count(model) + 1):
+        out[np.isin(solution.pairs.nodes, model.mesh.boundary_nodes(f"thread_{i}"))] = i
+    return out
+
+
+def pair_forces(solution: Solution, increment: int = -1) -> np.ndarray:
+    """(n_pairs, dim) [N] contact force on the contact side (the bolt) in global components (r, y)."""
+    return np.einsum("pkc,pk->pc", solution.pairs.frames, solution.lam[increment])
+
+
+def machine_force(model: Model, solution: Solution, increment: int = -1) -> float:
+    """[N] the applied machine force (SurfaceForce on "plate1_rim") at an increment."""
+    for channel, load in enumerate(model.loads):
+        if isinstance(load, SurfaceForce) and load.boundary == "plate1_rim":
+            return float(solution.amplitude[increment, channel])
+    raise InputError("bolt report: the model has no SurfaceForce on 'plate1_rim'")
+
+
+@dataclass(frozen=True)
+class ThreadLoads:
+    """Axial load per engaged thread at one increment.
+
+    Attributes
+    ----------
+    force : (n_threads,) [N] axial force the nut puts on each bolt flank, thread 1 at the bearing face
+    applied : [N] machine force
+    share : (n_threads,) force / sum(force)
+    lam_p : Sopwith parameter lam P fitted to ``share`` (least squares)
+    """
+
+    force: np.ndarray
+    applied: float
+    share: np.ndarray
+    lam_p: float
+
+    @property
+    def n_threads(self) -> int:
+        return len(self.force)
+
+
+def sopwith_shares(lam_p: float, n_threads: int) -> np.ndarray:
+    """(n,) Sopwith's load share of threads 1..n (1 at the bearing face), engaged length L = n P.
+
+    share_i = [sinh(lam (L - (i-1) P)) - sinh(lam (L - i P))] / sinh(lam L)  (BOLT.md).
+
+    >>> np.round(100 * sopwith_shares(0.406, 6)).astype(int).tolist()
+    [34, 23, 16, 11, 9, 7]
+    """
+    i = np.arange(1, n_threads + 1)
+    return (np.sinh(lam_p * (n_threads - i + 1)) - np.sinh(lam_p * (n_threads - i))) / np.sinh(lam_p * n_threads)
+
+
+def fit_sopwith(share: np.ndarray) -> float:
+    """lam P minimising sum (share_i - sopwith_i)^2 within :data:`LAM_P_BOUNDS`."""
+    share = np.asarray(share, dtype=float)
+    result = minimize_scalar(lambda x: np.sum((sopwith_shares(x, len(share)) - share) ** 2),
+                             bounds=LAM_P_BOUNDS, method="bounded", options={"xatol": 1e-8})
+    return float(result.x)
+
+
+def thread_loads(model: Model, solution: Solution, increment: int = -1) -> ThreadLoads:
+    """Axial force per engaged thread from the contact forces at an increment, with the Sopwith fit."""
+    flank = flank_of_pairs(model, solution)
+    axial = pair_forces(solution, increment)[:, 1]
+    force = np.array([axial[flank == i].sum() for i in range(1, flank_count(model) + 1)])
+    share = force / force.sum()
+    return ThreadLoads(force, machine_force(model, solution, increment), share, fit_sopwith(share))
+
+
+@dataclass(frozen=True)
+class FlankProfile:
+    """Contact quantities along the engagement (thread pairs, ordered by flank, then by radius).
+
+    Attributes
+    ----------
+    flank : (n,) engaged flank index; position : (n, 2) (r, y) [mm]
+    pressure : (n,) [MPa]; traction : (n,) [MPa] along the flank (frame t1)
+    slip : (n,) [mm] accumulated tangential relative displacement (bolt relative to nut, along t1)
+    state : (n,) 0 open, 1 stick, 2 slip
+    """
+
+    flank: np.ndarray
+    position: np.ndarray
+    pressure: np.ndarray
+    traction: np.ndarray
+    slip: np.ndarray
+    state: np.ndarray
+
+
+def flank_profile(model: Model, solution: Solution, increment: int = -1) -> FlankProfile:
+    """Pressure, traction, slip and state at each thread contact pair at an increment."""
+    flank = flank_of_pairs(model, solution)
+    pairs = np.flatnonzero(flank > 0)
+    order = pairs[np.lexsort((solution.pairs.position[pairs, 0], flank[pairs]))]
+    return FlankProfile(flank[order], solution.pairs.position[order], solution.pressure[increment, order],
+                        solution.traction[increment, order, 0], solution.slip[increment, order, 0],
+                        solution.state[increment, order])
+
+
+def nut_dilation(model: Model, displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((n,) y [mm], (n,) u_r [mm]) on the nut's outer surface, bottom up; displacement (n_nodes, 2) [mm]."""
+    nodes = model.mesh.boundary_nodes("nut_outer")
+    nodes = nodes[np.argsort(model.mesh.points[nodes, 1])]
+    return model.mesh.points[nodes, 1].copy(), displacement[nodes, 0].copy()
+
+
+def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "") -> Path:
+    """Bar chart of the FE load shares [%] with the fitted Sopwith curve; written as PNG (matplotlib Agg)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    i = np.arange(1, loads.n_threads + 1)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.bar(i, 100 * loads.share, color="0.6", label="FE (contact forces)")
+    ax.plot(i, 100 * sopwith_shares(loads.lam_p, loads.n_threads), "o-", color="C3",
+            label=f"Sopwith, fitted lam P = {loads.lam_p:.3f}")
+    ax.set_xlabel("engaged thread (1 = nut bearing face)")
+    ax.set_ylabel("load share [%]")
+    ax.set_title(title or f"thread load shares at F = {loads.applied / 1000:.3g} kN")
+    ax.set_xticks(i)
+    ax.legend()
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def bolt_summary(model: Model, solution: Solution, increment: int = -1) -> str:
+    """A plain-text summary: load shares vs Sopwith, zone forces and stick/slip fractions."""
+    loads = thread_loads(model, solution, increment)
+    sop = sopwith_shares(loads.lam_p, loads.n_threads)
+    lines = [f"machine force {loads.applied:.6g} N, thread forces sum {loads.force.sum():.6g} N, "
+             f"Sopwith fit lam P = {loads.lam_p:.3f}", "thread  force [N]  share [%]  Sopwith [%]"]
+    lines += [f"{i + 1:6d}  {f:9.1f}  {100 * s:9.2f}  {100 * p:11.2f}"
+              for i, (f, s, p) in enumerate(zip(loads.force, loads.share, sop))]
+    lines.append("zone  normal force [N]  open  stick  slip")
+    states = solution.zone_state(increment)
+    for z, zone in enumerate(solution.zone_names):
+        st = states[zone]
+        lines.append(f"{zone:10s} {solution.zone_normal_force[increment, z]:10.1f}  {st['open']:.2f}  "
+                     f"{st['stick']:.2f}  {st['slip']:.2f}")
+    return "\n".join(lines)
