@@ -106,7 +106,7 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
     start = time.perf_counter()
     backend = make_backend(config.solver["backend"], setup.model, setup.observations.points,
                            setup.observations.quantities, setup.observations.point_regions, solver_options(config),
-                           f"{config.path}: [solver]")
+                           f"{config.path}: [solver]", setup.observations.reactions)
     evaluator = Evaluator(backend,
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),

@@ -11,6 +11,7 @@ from .builders.registry import build_model
 from .config import Config
 from .data.measurements import Measurements, read_measurements, write_measurements
 from .errors import InputError
+from .inverse.observations import FORCE, machine_force
 from .inverse.parameters import Parameters
 
 DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
@@ -18,7 +19,11 @@ DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz"
 
 
 def simulate(config: Config, out: str | Path) -> Path:
-    """Solve at the configured coefficients; one row per point of the data file and model stage."""
+    """Solve at the configured coefficients; one row per point of the data file and model stage.
+
+    The `force` column is the machine force (see :func:`~frictionid.inverse.observations.machine_force`) where
+    the model is driven by a prescribed displacement, empty otherwise.
+    """
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.path}: [solver]")
     model = build_model(config.model)
     friction = config.friction
@@ -29,17 +34,23 @@ def simulate(config: Config, out: str | Path) -> Path:
     xyz = np.array([source.coordinates[first[p]] for p in labels])
     if model.kind != "3d" and np.any(xyz[:, 2] != 0):
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
-    quantities = tuple(config.data.get("observables") or DEFAULT_QUANTITIES[model.dim])
+    quantities = tuple(q for q in config.data.get("observables") or DEFAULT_QUANTITIES[model.dim] if q != FORCE)
     regions = config.data.get("regions", {})
+    try:
+        reactions = (machine_force(model),)
+    except InputError:      # loaded by a prescribed force: no machine force to report
+        reactions = ()
     backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
                            [regions.get(p, regions.get("*")) for p in labels], solver_options(config),
-                           f"{config.path}: [solver]")
+                           f"{config.path}: [solver]", reactions)
     prediction = backend.predict(mu.full(mu.x0))
     n_points, n_stages = len(labels), model.n_stages
-    values = prediction.values.reshape(n_stages, n_points, len(quantities))
+    n_rows = n_points * len(quantities)
+    values = prediction.values[:, :n_rows].reshape(n_stages, n_points, len(quantities))
+    force = prediction.values[:, n_rows] if reactions else np.full(n_stages, np.nan)
     measurements = Measurements(
         points=tuple(labels) * n_stages, coordinates=np.tile(xyz, (n_stages, 1)),
-        stage=np.repeat(np.arange(1, n_stages + 1), n_points), force=np.full(n_points * n_stages, np.nan),
+        stage=np.repeat(np.arange(1, n_stages + 1), n_points), force=np.repeat(force, n_points),
         values={q: values[:, :, k].ravel() for k, q in enumerate(quantities)}, sigma={},
         comments=(f"frictionid simulate {config.path.name}: {model.kind} model, builder "
                   f"{config.model.get('builder')!r}", "units: mm, N; strains dimensionless (tensor shear)",

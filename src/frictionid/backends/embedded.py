@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..fem.problem import Problem
 from ..model import Model
 
@@ -14,7 +15,8 @@ from ..model import Model
 class Prediction:
     """Observation rows at the end of each stage, and their derivatives with respect to every zone.
 
-    values : (n_stages, n_rows); derivatives : (n_stages, n_rows, n_zones) or None
+    values : (n_stages, n_rows); derivatives : (n_stages, n_rows, n_zones) or None. Rows: the point rows
+    (point-major, ``n_points * n_quantities``), then one row per requested reaction sum [N].
     """
 
     values: np.ndarray
@@ -22,17 +24,33 @@ class Prediction:
 
 
 class EmbeddedBackend:
-    """Condenses the model once; each :meth:`predict` is one load path with optional sensitivities."""
+    """Condenses the model once; each :meth:`predict` is one load path with optional sensitivities.
+
+    ``reactions``: labels of reaction sums ("boundary.axis", e.g. "block_top.y", the machine force of the
+    block test) appended as rows after the point rows; none by default.
+    """
 
     name = "embedded"
     has_sensitivities = True
 
-    def __init__(self, model: Model, points: np.ndarray, quantities: tuple[str, ...], regions=None):
+    def __init__(self, model: Model, points: np.ndarray, quantities: tuple[str, ...], regions=None,
+                 reactions: tuple[str, ...] = ()):
         self.model = model
+        points = None if points is None or len(points) == 0 or not quantities else points
         self.problem = Problem.build(model, points=points, quantities=quantities, regions=regions)
+        unknown = [r for r in reactions if r not in self.problem.reaction_labels]
+        if unknown:
+            raise InputError(f"model: no reaction {unknown}; the model's reactions are "
+                             f"{list(self.problem.reaction_labels)}")
+        self.reactions = tuple(reactions)
+        self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
         solution = self.problem.solve(mu, sensitivities=sensitivities)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
-        derivatives = None if solution.d_observations is None else solution.d_observations[ends]
-        return Prediction(solution.observations[ends], derivatives)
+        values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
+        derivatives = None
+        if solution.d_observations is not None:
+            derivatives = np.concatenate([solution.d_observations[ends],
+                                          solution.d_reactions[ends][:, self._reaction_rows]], axis=1)
+        return Prediction(values, derivatives)

@@ -60,6 +60,36 @@ def _stages(n_press: int, n_pull: int) -> tuple[Stage, Stage]:
     return Stage("press", _count("n_press", n_press)), Stage("pull", _count("n_pull", n_pull))
 
 
+def _pull_levels(levels, pull: float) -> tuple[float, ...]:
+    """Intermediate pull displacements: finite, increasing, strictly between 0 and ``pull``."""
+    if isinstance(levels, (str, bytes)) or not hasattr(levels, "__iter__"):
+        raise InputError(f"`pull_levels` must be a list of displacements [mm], got {levels!r}")
+    levels = tuple(levels)
+    for level in levels:
+        if isinstance(level, bool) or not isinstance(level, (int, float, np.integer, np.floating)) \
+                or not 0 < level < pull:
+            raise InputError(f"`pull_levels` must lie strictly between 0 and pull = {pull:g} mm, got {level!r}")
+    if any(b <= a for a, b in zip(levels, levels[1:])):
+        raise InputError(f"`pull_levels` must increase, got {list(levels)}")
+    return tuple(float(level) for level in levels)
+
+
+def _pull_stages(n_press: int, n_pull: int, pull: float, levels: tuple[float, ...]):
+    """Stages press, pull 1, ..., pull (the last one named "pull") and the pull displacement at each stage end.
+
+    Each pull stage gets increments of about the size ``pull / n_pull`` (at least one), so that the stage ends
+    lie on the load path of a single pull stage whenever the levels are multiples of that size.
+    """
+    press, whole = _stages(n_press, n_pull)
+    if not levels:
+        return (press, whole), (0.0, pull)
+    ends = levels + (pull,)
+    starts = (0.0,) + levels
+    counts = [max(1, round((b - a) / pull * whole.n_increments)) for a, b in zip(starts, ends)]
+    names = [f"pull {k}" for k in range(1, len(levels) + 1)] + ["pull"]
+    return (press, *(Stage(n, c) for n, c in zip(names, counts))), (0.0,) + ends
+
+
 def _set_order(order: int):
     if order == 2:
         gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
@@ -70,7 +100,7 @@ def _set_order(order: int):
 
 def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0, order: int = 1,
                 n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None,
-                grading: float = 1.0) -> Model:
+                grading: float = 1.0, pull_levels=()) -> Model:
     """The 3-D block-on-plate reference test (DESIGN.md, reference test 1) on a conforming hexahedral mesh.
 
     Parameters
@@ -98,6 +128,13 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
         block top and the plate bottom. The plate outside the footprint grows from the graded edge size.
         Quadratic elements keep their mid-nodes at the mapped positions (isoparametric, straight faces).
         1 (default): uniform, as before.
+    pull_levels : sequence of float [mm], optional
+        Intermediate pull displacements, increasing, strictly between 0 and ``pull``: the pull is split into
+        stages "pull 1", "pull 2", ... ending at these levels and a last stage "pull" ending at ``pull``, so
+        that measurements can be taken (and fitted) at several pull levels, e.g. while the lightly loaded
+        trailing zones already slide and the leading ones still partly stick. The increments keep the size
+        ``pull / n_pull`` (each stage at least one), so stage ends on multiples of that size lie on the
+        default load path. Default: one pull stage.
 
     Returns
     -------
@@ -113,7 +150,8 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     ('A', 'B', 'C', 'D')
     """
     pull, force, mesh_size = _positive("pull", pull), _positive("force", force), _positive("mesh_size", mesh_size)
-    order, stages = _order(order), _stages(n_press, n_pull)
+    order = _order(order)
+    stages, pulled = _pull_stages(n_press, n_pull, pull, _pull_levels(pull_levels, pull))
     if block_divisions is None:
         block_divisions = 2 * max(1, round(BLOCK_SIDE / 2 / mesh_size))
     block_divisions = _count("block_divisions", block_divisions, minimum=2)
@@ -128,9 +166,9 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     return Model(
         mesh=mesh, kind="3d", materials={"plate": EPOXY, "block": ALUMINIUM},
         supports=(Support("plate_bottom", (0, 1, 2)),),
-        loads=(Pressure("block_top", (pressure, pressure)),
-               Displacement("block_top", 0, (0.0, 0.0)),
-               Displacement("block_top", 1, (0.0, pull))),
+        loads=(Pressure("block_top", (pressure,) * len(stages)),
+               Displacement("block_top", 0, (0.0,) * len(stages)),
+               Displacement("block_top", 1, pulled)),
         stages=stages,
         interfaces=(ContactInterface("block_plate", tuple(QUADRANT_ZONES.values()), "plate_top"),),
     )

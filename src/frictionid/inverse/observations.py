@@ -7,14 +7,38 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..model import Model
+from ..model import Displacement, Model
+from ..model.model import component_index
 
 DISPLACEMENTS = ("ux", "uy", "uz")
 STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
+#: the observable for the measurement file's `force` column: the machine force of each stage [N]
+FORCE = "force"
 
 
 def _kind(quantity: str) -> str:
-    return "u" if quantity in DISPLACEMENTS else "e"
+    return FORCE if quantity == FORCE else "u" if quantity in DISPLACEMENTS else "e"
+
+
+def machine_force(model: Model) -> str:
+    """Label ("boundary.axis") of the reaction sum the machine's load cell measures.
+
+    It is the reaction of the one boundary component driven by a non-zero prescribed displacement (the block
+    test: "block_top.y"), in the model's frame: positive when the machine pushes the body in +axis.
+
+    Raises
+    ------
+    InputError
+        When the model has no such component (e.g. it is loaded by a prescribed force, which is then known and
+        not measured) or more than one.
+    """
+    driven = list(dict.fromkeys(
+        f"{load.boundary}.{'xyz'[component_index(load.component, model.dim, load.boundary)]}"
+        for load in model.loads if isinstance(load, Displacement) and any(v != 0 for v in load.values)))
+    if len(driven) != 1:
+        raise InputError(f"data.observables: 'force' needs a model driven by one prescribed displacement whose "
+                         f"reaction the machine measures; this model drives {driven or 'none'}")
+    return driven[0]
 
 
 @dataclass(frozen=True)
@@ -29,8 +53,10 @@ class Observations:
     row : (n_obs,) backend row (point * n_quantities + quantity) of each observation
     stage : (n_obs,) 0-based stage of each observation
     y : (n_obs,) measured values; sigma : (n_obs,) standard deviations (from the file or data.noise)
-    labels : "point:quantity@stage" per observation
+    labels : "point:quantity@stage" per observation ("force@stage" for the machine force)
     noise_known : whether sigma is a stated noise level (then chi^2 / dof should be about 1)
+    reactions : reaction sums the backend appends after the point rows (the machine force, if observed):
+        row ``n_points * len(quantities) + k`` is ``reactions[k]``
     """
 
     points: np.ndarray
@@ -42,6 +68,7 @@ class Observations:
     sigma: np.ndarray
     labels: tuple[str, ...]
     noise_known: bool
+    reactions: tuple[str, ...] = ()
 
     @property
     def n_obs(self) -> int:
@@ -90,15 +117,19 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
             raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
+    observe_force = FORCE in observables
+    reactions = (machine_force(model),) if observe_force else ()
+    observables = [q for q in observables if q != FORCE]
     wanted = list(observables)
     if model.kind == "axisymmetric" and "ux" in wanted and "uz" in measurements.quantities and "uz" not in wanted:
         wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
     measurements = measurements.select(quantities=wanted, stages=list(stages))
+    forces = _forces(measurements, stages, noise) if observe_force else []
     measurements, coordinates = _coordinates(measurements, model)
     labels_of = list(dict.fromkeys(measurements.points))
     point_index = {p: i for i, p in enumerate(labels_of)}
     first = {p: i for i, p in reversed(list(enumerate(measurements.points)))}
-    points = np.array([coordinates[first[p]] for p in labels_of])
+    points = np.array([coordinates[first[p]] for p in labels_of]).reshape(-1, coordinates.shape[1])
     quantities = tuple(observables)
     row, stage, y, sigma, labels = [], [], [], [], []
     for q_index, quantity in enumerate(quantities):
@@ -112,14 +143,37 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
             y.append(values[i])
             sigma.append(s)
             labels.append(f"{measurements.points[i]}:{quantity}@{measurements.stage[i]}")
+    for stage_number, value, sig in forces:
+        row.append(len(points) * len(quantities))
+        stage.append(stage_number - 1)
+        y.append(value)
+        sigma.append(sig)
+        labels.append(f"{FORCE}@{stage_number}")
     if not y:
         raise InputError(f"{measurements.source}: no measured values for {list(observables)} at stages {list(stages)}")
     sigma = np.array(sigma)
     noise_known = not np.any(np.isnan(sigma))
-    kinds = {_kind(q) for q in quantities}
+    kinds = {_kind(q) for q in quantities} | ({FORCE} if forces else set())
     if not noise_known and len(kinds) > 1:
         raise InputError("data: displacements and strains are observed together without standard deviations; "
-                         "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5 })")
+                         "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5, "
+                         "force = 1.0 })")
     return Observations(points=points, point_regions=tuple(regions.get(p, regions.get("*")) for p in labels_of),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
-                        sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known)
+                        sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
+                        reactions=reactions)
+
+
+def _forces(measurements, stages, noise: dict) -> list[tuple[int, float, float]]:
+    """(stage, machine force [N], sigma or nan) of each observed stage, from the file's `force` column."""
+    sigma = noise.get(FORCE, np.nan)
+    if not (isinstance(sigma, (int, float)) and not isinstance(sigma, bool) and (np.isnan(sigma) or sigma > 0)):
+        raise InputError(f"data.noise.{FORCE}: must be a positive number, got {sigma!r}")
+    out = []
+    for stage in stages:
+        value = measurements.stage_force(stage)
+        if np.isnan(value):
+            raise InputError(f"{measurements.source}: data.observables has 'force' but no row of stage {stage} "
+                             "gives the machine force (column 'force')")
+        out.append((int(stage), float(value), float(sigma)))
+    return out
