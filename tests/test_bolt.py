@@ -235,3 +235,21 @@ def test_registry_builds_the_bolt_and_checks_options():
         build_model({"builder": "bolt", "flank_sise": 0.2})
     model = build_model({"builder": "bolt", "size": "M12", "forces": [5000.0], "flank_size": 0.3})
     assert model.n_stages == 1 and model.zone_names[:6] == ("A", "B", "C", "D", "E", "F")
+
+
+def test_quadratic_cells_are_not_inverted(model):
+    """det J of every 6-node triangle at its corners and mid-edge points is positive (curved root arcs
+    included: BOLT.md saw inverted quadratic quads there)."""
+    mesh = model.mesh
+    x = mesh.points[mesh.cells]                                            # (n_cells, 6, 2), meshio order
+    e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    straight = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]                    # det J of the straight-sided cell
+    for xi, eta in [(0, 0), (1, 0), (0, 1), (0.5, 0), (0.5, 0.5), (0, 0.5), (1 / 3, 1 / 3)]:
+        l0, l1, l2 = 1 - xi - eta, xi, eta
+        # derivatives of the P2 shape functions (corners 0-2, mid-edges 01, 12, 20) by xi and eta
+        d_xi = np.array([-(4 * l0 - 1), 4 * l1 - 1, 0, 4 * (l0 - l1), 4 * l2, -4 * l2])
+        d_eta = np.array([-(4 * l0 - 1), 0, 4 * l2 - 1, -4 * l1, 4 * l1, 4 * (l0 - l2)])
+        j = np.stack([d_xi @ x, d_eta @ x], axis=1)                        # (n_cells, 2, 2)
+        det = np.linalg.det(j)
+        assert np.min(det / straight) > 0.5, f"a distorted or inverted cell at ({xi}, {eta})"
+    assert straight.min() > 0

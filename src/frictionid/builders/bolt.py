@@ -33,6 +33,8 @@ STEEL = Material(E=200000.0, nu=0.3, name="steel")
 PLATE_MU = 0.15
 #: element size growth per mm of distance from the refined curves
 SIZE_GROWTH = 0.25
+#: largest turn [rad] of a root arc per element
+ARC_STEP = math.radians(15.0)
 _TOL = 1e-9  # [mm] coordinates closer than this are the same point
 
 
@@ -148,6 +150,7 @@ class _Outline:
         self.start, self.current, self.labels = tuple(start), tuple(start), labels
         self.points: dict[tuple[float, float], int] = {}
         self.curves: list[int] = []
+        self.area = 0.0                                  # twice the signed area enclosed so far (shoelace)
 
     def _point(self, p) -> int:
         key = (round(float(p[0]), 9), round(float(p[1]), 9))
@@ -164,15 +167,17 @@ class _Outline:
         tag = gmsh.model.geo.addLine(a, b) if centre is None else \
             gmsh.model.geo.addCircleArc(a, gmsh.model.geo.addPoint(*centre, 0.0), b)
         self.curves.append(tag)
+        self.area += self.current[0] * end[1] - end[0] * self.current[1]
         for label in labels:
             self.labels.setdefault(label, []).append(tag)
         self.current = end
         return tag
 
     def close(self, *labels: str) -> int:
-        """Draw back to the start and add the plane surface."""
+        """Draw back to the start and add the plane surface, counter-clockwise (cells with det J > 0)."""
         self.to(self.start, *labels)
-        return gmsh.model.geo.addPlaneSurface([gmsh.model.geo.addCurveLoop(self.curves)])
+        curves = self.curves if self.area > 0 else [-c for c in reversed(self.curves)]
+        return gmsh.model.geo.addPlaneSurface([gmsh.model.geo.addCurveLoop(curves)])
 
 
 def _flank_pieces(layout: BoltLayout, flank: Flank, r_from: float, r_to: float):
@@ -199,6 +204,14 @@ def _draw_flank(outline: _Outline, layout: BoltLayout, flank: Flank, r_from: flo
             transfinite[tag] = math.ceil(abs(b - a) / math.cos(math.pi / 6) / flank_size - 1e-9) + 1
 
 
+def _arc_nodes(segment, size: float) -> int:
+    """Nodes on a root arc: spacing at most ``size`` [mm] and at most :data:`ARC_STEP` of turn per element
+    (coarser quadratic triangles on the tight root came out inverted at their corners)."""
+    a, b = np.subtract(segment.a, segment.centre), np.subtract(segment.b, segment.centre)
+    angle = abs(math.atan2(a[0] * b[1] - a[1] * b[0], float(np.dot(a, b))))
+    return max(math.ceil(angle / ARC_STEP - 1e-9), math.ceil(angle * np.linalg.norm(a) / size - 1e-9), 1) + 1
+
+
 def _draw_bolt(layout: BoltLayout, labels, transfinite, flank_size: float, n_head: int) -> int:
     s, flanks = layout.size, {round(f.z_bolt, 6): f for f in layout.flanks}
     r_head = s.head_radius
@@ -214,8 +227,10 @@ def _draw_bolt(layout: BoltLayout, labels, transfinite, flank_size: float, n_hea
         flank = flanks.get(round(z, 6)) if segment.role == "load" else None
         near = layout.y_bearing - s.P / 2 < (segment.a[1] + segment.b[1]) / 2 < layout.y_top + s.P / 2
         if flank is None:
-            o.to(segment.b, f"bolt_{segment.role}", "bolt_thread", *(("engaged_region",) if near else ()),
-                 centre=segment.centre)
+            tag = o.to(segment.b, f"bolt_{segment.role}", "bolt_thread", *(("engaged_region",) if near else ()),
+                       centre=segment.centre)
+            if segment.centre is not None and tag is not None:
+                transfinite[tag] = _arc_nodes(segment, flank_size if near else max(flank_size, s.P / 8))
         else:
             _draw_flank(o, layout, flank, segment.a[0], segment.b[0], "bolt", transfinite, flank_size)
     o.to((0.0, layout.length), "bolt_end")

@@ -139,8 +139,11 @@ def nut_dilation(model: Model, displacement: np.ndarray) -> tuple[np.ndarray, np
     return model.mesh.points[nodes, 1].copy(), displacement[nodes, 0].copy()
 
 
-def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "") -> Path:
-    """Bar chart of the FE load shares [%] with the fitted Sopwith curve; written as PNG (matplotlib Agg)."""
+def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "", reference: float | None = 0.406) -> Path:
+    """Bar chart of the FE load shares [%] with the fitted Sopwith curve; written as PNG (matplotlib Agg).
+
+    ``reference``: a further Sopwith curve at this lam P, dashed (default 0.406, the classic 34/23/16/... %).
+    """
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -150,6 +153,9 @@ def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "") -> P
     ax.bar(i, 100 * loads.share, color="0.6", label="FE (contact forces)")
     ax.plot(i, 100 * sopwith_shares(loads.lam_p, loads.n_threads), "o-", color="C3",
             label=f"Sopwith, fitted lam P = {loads.lam_p:.3f}")
+    if reference is not None:
+        ax.plot(i, 100 * sopwith_shares(reference, loads.n_threads), "s--", color="C0", alpha=0.7,
+                label=f"Sopwith, lam P = {reference:g}")
     ax.set_xlabel("engaged thread (1 = nut bearing face)")
     ax.set_ylabel("load share [%]")
     ax.set_title(title or f"thread load shares at F = {loads.applied / 1000:.3g} kN")
