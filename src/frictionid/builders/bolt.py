@@ -113,9 +113,8 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     y_bearing = y_top - m
     y_thread = length - s.thread_length(length)
     if y_thread > y_bearing - s.P or y_bearing - s.d < s.d + s.P:
-        raise InputError(f"`length` = {length:g} mm is too short for {s.name}: the thread (from y = {y_thread:g}) "
-                         f"must reach below the nut bearing face (y = {y_bearing:g}) and the plates (thickness "
-                         f"{s.d:g}) must not overlap; expected at least {3 * s.d + m + 3 * s.P + s.P:g} mm")
+        raise InputError(f"`length` = {length:g} mm is too short for {s.name}: the plates ({s.d:g} mm thick) "
+                         f"would not fit between head and nut; expected at least {2 * s.d + m + 4 * s.P:g} mm")
     bolt_phase = (y_bearing + y_top) / 2 + s.P / 2
     nut_phase = bolt_phase - s.P / 2 + shift / SQRT3
     bore = nut_bore(s, y_bearing, y_top, nut_phase, engaged)
@@ -196,9 +195,9 @@ def _flank_pieces(layout: BoltLayout, flank: Flank, r_from: float, r_to: float):
 def _draw_flank(outline: _Outline, layout: BoltLayout, flank: Flank, r_from: float, r_to: float, side: str,
                 transfinite: dict[int, int], flank_size: float):
     for a, b, labels in _flank_pieces(layout, flank, r_from, r_to):
-        names = [f"{side}_load", "engaged_region"] + ([f"{side}_contact", *(labels if side == "bolt" else ())] if labels else [])
-        if labels and side == "nut":
-            names.append(f"nut_thread_{flank.index}")
+        names = [f"{side}_load", "engaged_region"]
+        if labels:
+            names += [f"{side}_contact", *(labels if side == "bolt" else [f"nut_thread_{flank.index}"])]
         tag = outline.to(flank.point(b), *names)
         if labels and tag is not None:
             transfinite[tag] = math.ceil(abs(b - a) / math.cos(math.pi / 6) / flank_size - 1e-9) + 1
