@@ -138,3 +138,11 @@ def test_relieved_bore_engages_fewer_flanks():
     flanks = engaged_flanks(s, bore, nut_phase, 104.75, shift, 74.0, 120.0)
     assert len(flanks) == 3 and bore[-2, 0] == pytest.approx(s.d / 2 + s.H / 16)
     assert max(f.z_bolt for f in flanks) < 94.5 + 9.0
+
+
+def test_a_cut_just_past_a_corner_leaves_no_sliver():
+    s, shift = thread_size("M20"), 0.021
+    corner = 101.25 - s.P / 16                                             # crest corner of the tooth at 101.25
+    profile = bolt_profile(s, 100.0, corner + 1e-4, 101.25, shift)
+    assert profile[-1].role == "load" and profile[-1].b[1] == pytest.approx(corner, abs=1e-12)
+    assert min(math.dist(seg.a, seg.b) for seg in profile) > s.P / 50

@@ -198,6 +198,8 @@ def _clip(segment: Segment, y_low: float, y_high: float) -> Segment | None:
 def bolt_profile(size: ThreadSize, y_low: float, y_high: float, phase: float, shift: float) -> list[Segment]:
     """Bolt thread outline from y_low to y_high [mm], bottom up; tooth k is centred at y = phase + k P.
 
+    A piece shorter than P/50 left at either end by the cut is dropped.
+
     ``shift`` [mm] moves the whole profile radially inwards (|es|/2 for a 6g bolt on a 6H nut).
     """
     P = size.P
@@ -206,7 +208,8 @@ def bolt_profile(size: ThreadSize, y_low: float, y_high: float, phase: float, sh
     for k in range(k_first, k_last + 1):
         for segment in _bolt_period(size, k, phase + k * P, shift):
             clipped = _clip(segment, y_low, y_high)
-            if clipped is not None and abs(clipped.b[1] - clipped.a[1]) > 1e-9:
+            # an end cut just past a corner leaves a sliver: drop it (the outline closes past it)
+            if clipped is not None and math.dist(clipped.a, clipped.b) > P / 50:
                 out.append(clipped)
     return out
 
@@ -307,7 +310,7 @@ class Flank:
     z_bolt, z_nut : [mm] centres of the bolt tooth and of the nut tooth it bears on
     r_contact : (r_low, r_high) [mm] radial range where both flanks exist (the contact segment)
     straight : ((r, y), (r, y)) [mm] the bolt flank's straight part, root tangent to crest corner
-    shift : [mm] radial shift of the bolt profile
+    size : the thread size; shift : [mm] radial shift of the bolt profile
     """
 
     index: int
