@@ -101,6 +101,27 @@ def _run_check_data(args) -> int:
     return 0
 
 
+def _add_crosscheck(sub):
+    parser = sub.add_parser("crosscheck", help="solve a config's model with the embedded backend and CalculiX, "
+                                               "and tabulate the differences")
+    parser.add_argument("config", help="TOML config file ([model], [friction]; [data] and [solver] optional)")
+    parser.add_argument("--out", help="also write the table (markdown) to this file")
+    parser.set_defaults(run=_run_crosscheck)
+
+
+def _run_crosscheck(args) -> int:
+    from pathlib import Path
+
+    from .backends.calculix.crosscheck import cross_check_config, cross_check_table
+    from .config import read_config
+
+    table = cross_check_table(cross_check_config(read_config(args.config, need=("model", "friction"))))
+    print(table, end="")
+    if args.out:
+        Path(args.out).write_text(table)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``frictionid`` console script."""
     parser = argparse.ArgumentParser(prog="frictionid", description=__doc__)
@@ -110,6 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     _add_simulate(sub)
     _add_check_data(sub)
     _add_demo(sub)
+    _add_crosscheck(sub)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")
     np.set_printoptions(precision=4, suppress=True)

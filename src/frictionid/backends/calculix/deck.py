@@ -4,7 +4,10 @@ Numbering: CalculiX node k + 1 is frictionid node k, element e + 1 is cell e. Se
 upper-case names from their position (``N3``, ``SZ2``) because CalculiX folds case and limits names;
 a ``**`` comment next to each gives the frictionid name. Loads are written as nodal forces (``*CLOAD``)
 computed by the same consistent load integration as the embedded solver, so that both backends see identical
-loads; axisymmetric nodal forces are divided by 180 because CalculiX takes them for a 2-degree segment.
+loads. Axisymmetric models: ccx 2.20 takes *CLOAD values as whole-ring forces (it expands CAX elements into a
+2-degree segment and divides them by 180 itself) but prints reactions and contact forces for that segment, so
+the readers multiply those by :data:`AXISYMMETRIC_SEGMENTS` (measured: a whole-ring load written /180 came back
+180 times too small).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from ...model import Displacement, Model
 from ...model.model import component_index
 from .elements import ELEMENT_TYPE, calculix_cells, face_lookup
 
-#: CalculiX applies axisymmetric nodal forces to a 2-degree segment: whole-ring forces are divided by this
+#: CalculiX prints axisymmetric reactions and contact forces for a 2-degree segment: whole ring = 180 x printed
 AXISYMMETRIC_SEGMENTS = 180.0
 _PER_LINE = 8
 
@@ -157,14 +160,11 @@ def _supports(model: Model) -> list[str]:
 
 
 def stage_forces(model: Model, forces: np.ndarray, amplitudes: np.ndarray) -> np.ndarray:
-    """(n_stages, n_nodes, dim) [N] nodal forces at each stage end as CalculiX takes them.
+    """(n_stages, n_nodes, dim) [N] nodal forces at each stage end (axisymmetric: whole ring, as ccx takes them).
 
     ``forces`` (n_channels, n_dofs) unit nodal force of each load channel, ``amplitudes`` (n_stages, n_channels).
     """
-    total = amplitudes @ forces
-    if model.kind == "axisymmetric":
-        total = total / AXISYMMETRIC_SEGMENTS
-    return total.reshape(model.n_stages, -1, model.dim)
+    return (amplitudes @ forces).reshape(model.n_stages, -1, model.dim)
 
 
 def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reaction_sets: list[str],

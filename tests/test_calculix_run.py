@@ -1,0 +1,202 @@
+"""The CalculiX backend against the embedded one (needs ccx; skipped without it) and its failure handling
+(fake ccx executables; no ccx needed)."""
+
+import dataclasses
+import os
+import shutil
+import stat
+
+import numpy as np
+import pytest
+
+from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
+from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.builders.block import block_model, block_model_2d
+from frictionid.cli import main
+from frictionid.data.measurements import read_measurements
+from frictionid.errors import InputError, SolverError
+from frictionid.inverse.evaluator import Evaluator
+from frictionid.inverse.observations import observations_from
+from frictionid.inverse.parameters import Parameters
+from frictionid.model import Mesh
+
+needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
+                               reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
+Q2D = ("ux", "uy", "exx", "eyy", "exy")
+Q3D = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
+#: the 16 strain points of benchmarks/identify_block.py on the block's side faces near the contact
+BLOCK_POINTS = np.array([[x, y, z] for z in (0.5, 1.5) for s in (-3.0, 3.0)
+                         for x, y in ((-5.0, s), (5.0, s), (s, -5.0), (s, 5.0))])
+
+
+def small_2d(**options):
+    return block_model_2d(mesh_size=2.0, order=1, quads=True, n_zones=2, n_pull=4, **options)
+
+
+POINTS_2D = np.array([[x, y] for x in (-4.0, 0.0, 4.0) for y in (1.0, 3.0)])
+
+
+def rms_of_range(reference: np.ndarray, other: np.ndarray) -> float:
+    """RMS of the difference relative to the range of the reference values."""
+    return float(np.sqrt(np.mean((other - reference) ** 2)) / np.ptp(reference))
+
+
+def both(model, points, quantities, mu, region="block"):
+    regions = [region] * len(points)
+    solution = EmbeddedBackend(model, points, quantities, regions).problem.solve(mu)
+    ends = [solution.stage_end(s) for s in range(model.n_stages)]
+    ccx = CalculixBackend(model, points, quantities, regions).solve(mu)
+    return solution, ends, ccx
+
+
+@needs_ccx
+def test_block_reference_test_3d():
+    """Acceptance (issue 5): the 3-D block, embedded vs CalculiX, and gross slip T = sum mu_i N_i in ccx."""
+    model = block_model(mesh_size=5 / 3)
+    mu = np.array([0.3, 0.2, 0.4, 0.25])
+    embedded, ends, ccx = both(model, BLOCK_POINTS, Q3D, mu)
+    a, b = embedded.observations[ends[1]].reshape(-1, 9), ccx.observations[1].reshape(-1, 9)
+    # measured (default penalty 500 E_min / h = 1.05e6 N/mm^3): 0.67 % and 1.31 %
+    assert rms_of_range(a[:, :3], b[:, :3]) < 0.02
+    assert rms_of_range(a[:, 3:], b[:, 3:]) < 0.02
+    assert ccx.reaction_labels == embedded.reaction_labels
+    pull = embedded.reaction_labels.index("block_top.y")
+    # measured 0.67 %
+    np.testing.assert_allclose(ccx.reactions[1, pull], embedded.reactions[ends[1], pull], rtol=0.01)
+    np.testing.assert_allclose(ccx.reactions[:, embedded.reaction_labels.index("plate_bottom.z")], 2000.0, rtol=1e-6)
+    # gross slip in every zone: the pull equals sum mu_i N_i (measured 0.014 %)
+    np.testing.assert_allclose(ccx.reactions[1, pull], mu @ ccx.zone_normal_force[1], rtol=0.005)
+
+
+@needs_ccx
+def test_plane_strain_block_agrees_with_embedded(tmp_path):
+    model = small_2d()
+    mu = np.array([0.3, 0.2])
+    embedded, ends, ccx = both(model, POINTS_2D, Q2D, mu)
+    for stage in (0, 1):
+        a, b = embedded.observations[ends[stage]].reshape(-1, 5), ccx.observations[stage].reshape(-1, 5)
+        # measured: u 0.13 / 0.24 %, strains 0.06 / 1.19 % (stage 1 / 2)
+        assert rms_of_range(a[:, :2], b[:, :2]) < 0.01
+        assert rms_of_range(a[:, 2:], b[:, 2:]) < 0.02
+    # measured 1.4 %: the soft base tilts under the block's front edge and ccx takes contact normals on the
+    # deformed surfaces; the embedded solver keeps the undeformed ones
+    np.testing.assert_allclose(ccx.reactions[1], embedded.reactions[ends[1]], rtol=0.02, atol=1e-3)
+    assert ccx.displacement.shape == (2, model.mesh.n_nodes, 2)
+    # the .frd field (6 digits) and the .dat observation nodes (7 digits) hold the same displacements; strains
+    # come from the .dat ones because 6 digits of a 0.2 mm slide leave 1e-6 mm, 2 % of a 3e-5 strain here
+    backend = CalculixBackend(model, POINTS_2D, ("ux", "uy"), ["block"] * 6)
+    np.testing.assert_allclose(backend.observe @ ccx.displacement[1].ravel(),
+                               ccx.observations[1].reshape(-1, 5)[:, :2].ravel(), rtol=0, atol=2e-6)
+
+
+@needs_ccx
+def test_axisymmetric_forces_are_whole_ring():
+    """A ring-shaped block on a base (the 2-D block moved to r in [5, 45]): ccx's 2-degree segment rescaled."""
+    plane = small_2d()
+    mesh = Mesh(np.asarray(plane.mesh.points) + [25.0, 0.0], plane.mesh.cell_type, plane.mesh.cells,
+                dict(plane.mesh.regions), dict(plane.mesh.boundaries))
+    model = dataclasses.replace(plane, mesh=mesh, kind="axisymmetric")
+    embedded, ends, ccx = both(model, POINTS_2D + [25.0, 0.0], Q2D, np.array([0.3, 0.2]))
+    # the press force 200 N/mm x 2 pi r over the ring's top, identical loads in both backends
+    np.testing.assert_allclose(ccx.reactions[:, 1], embedded.reactions[ends, 1], rtol=1e-6)
+    np.testing.assert_allclose(ccx.zone_normal_force[0].sum(), embedded.reactions[ends[0], 1], rtol=0.01)
+    a, b = embedded.observations[ends[1]].reshape(-1, 5), ccx.observations[1].reshape(-1, 5)
+    # measured 0.29 % and 0.39 %
+    assert rms_of_range(a[:, :2], b[:, :2]) < 0.01 and rms_of_range(a[:, 2:], b[:, 2:]) < 0.01
+
+
+@needs_ccx
+def test_work_directories_removed_unless_kept(tmp_path):
+    model = small_2d()
+    CalculixBackend(model, POINTS_2D, Q2D, None, CalculixSettings(work_dir=str(tmp_path / "a"))).predict([0.1, 0.1])
+    assert list((tmp_path / "a").iterdir()) == []
+    CalculixBackend(model, None, Q2D, None, CalculixSettings(work_dir=str(tmp_path / "b"), keep_work=True)).solve(
+        [0.1, 0.1])
+    (kept,) = (tmp_path / "b").iterdir()
+    assert {"job.inp", "job.dat", "job.frd", "ccx.log"} <= {p.name for p in kept.iterdir()}
+
+
+@needs_ccx
+def test_parallel_finite_differences_equal_serial(tmp_path):
+    model = small_2d()
+    backend = CalculixBackend(model, POINTS_2D, Q2D, ["block"] * 6, CalculixSettings(work_dir=str(tmp_path)))
+    with pytest.raises(InputError, match="no analytic sensitivities"):
+        backend.predict([0.1, 0.1], sensitivities=True)
+    csv = tmp_path / "points.csv"
+    csv.write_text("point,x,y,z,stage,ux,exx\n" + "".join(
+        f"P{i},{x},{y},0,2,0.0,0.0\n" for i, (x, y) in enumerate(POINTS_2D)))
+    obs = observations_from(read_measurements(csv), model, ["ux", "exx"], [2], {"u": 1e-3, "e": 1e-5},
+                            {"*": "block"})
+    backend = CalculixBackend(model, obs.points, obs.quantities, obs.point_regions,
+                              CalculixSettings(work_dir=str(tmp_path)))
+    params = Parameters.from_config(model.zone_names, {"A": 0.3, "B": 0.2}, (0.0, 1.0))
+    x = params.x0
+    serial = Evaluator(backend, obs, params, jacobian="forward", step=1e-3).jacobian(x)
+    parallel = Evaluator(backend, obs, params, jacobian="forward", step=1e-3, workers=2)
+    try:
+        np.testing.assert_array_equal(parallel.jacobian(x), serial)
+    finally:
+        parallel.close()
+    assert np.abs(serial).max() > 0
+
+
+@needs_ccx
+def test_simulate_and_identify_commands(tmp_path, capsys):
+    (tmp_path / "points.csv").write_text("point,x,y,z,stage\nP1,-4,1,0,2\nP2,4,1,0,2\n")
+    model = ('[model]\nbuilder = "block2d"\nmesh_size = 2.0\norder = 1\nquads = true\nn_pull = 4\n'
+             '[friction]\nzones = { A = 0.3, B = 0.2 }\n[data]\nfile = "points.csv"\nobservables = ["ux", "exx"]\n'
+             'stages = [2]\nregions = { "*" = "block" }\n')
+    for backend in ("embedded", "calculix"):
+        (tmp_path / f"{backend}.toml").write_text(model + f'[solver]\nbackend = "{backend}"\n')
+        assert main(["simulate", str(tmp_path / f"{backend}.toml"), "--out", str(tmp_path / f"{backend}.csv")]) == 0
+    embedded, ccx = (read_measurements(tmp_path / f"{b}.csv") for b in ("embedded", "calculix"))
+    np.testing.assert_allclose(ccx.values["ux"], embedded.values["ux"], rtol=0.01)
+    (tmp_path / "fit.toml").write_text(model.replace('"points.csv"', '"calculix.csv"')
+                                       + '[solver]\nbackend = "calculix"\n[run]\ndir = "run"\n')
+    assert main(["identify", str(tmp_path / "fit.toml")]) == 2
+    assert "no analytic sensitivities; set identify.jacobian = 'forward' or 'central'" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------ failures (fake ccx)
+
+def fake_ccx(tmp_path, script: str) -> str:
+    path = tmp_path / "fake-ccx"
+    path.write_text("#!/bin/sh\n" + script + "\n")
+    path.chmod(path.stat().st_mode | stat.S_IEXEC)
+    return str(path)
+
+
+@pytest.mark.parametrize("script, message", [
+    ('echo " *ERROR in calinput: at least one fatal"; exit 201', r"ccx failed \(exit status 201\): \*ERROR in calinput"),
+    ("sleep 5", r"did not finish within the timeout of 0.5 s \(solver.timeout\)"),
+    ("touch job.dat job.frd", r"the .dat file has no displacements .* \(incomplete output\)"),
+])
+def test_failures_keep_and_name_the_work_directory(tmp_path, script, message):
+    settings = CalculixSettings(ccx=fake_ccx(tmp_path, script), timeout=0.5, work_dir=str(tmp_path / "work"))
+    backend = CalculixBackend(small_2d(), POINTS_2D, Q2D, None, settings)
+    with pytest.raises(SolverError, match=message) as failure:
+        backend.predict([0.1, 0.1])
+    (kept,) = (tmp_path / "work").iterdir()
+    assert f"work directory kept: {kept}" in str(failure.value)
+    assert (kept / "job.inp").is_file() and (kept / "ccx.log").is_file()
+
+
+def test_run_failure_exits_1_with_the_directory(tmp_path, capsys):
+    (tmp_path / "points.csv").write_text("point,x,y,z,stage\nP1,-4,1,0,2\n")
+    ccx = fake_ccx(tmp_path, "exit 3")
+    (tmp_path / "c.toml").write_text(
+        '[model]\nbuilder = "block2d"\nmesh_size = 4.0\norder = 1\nquads = true\n[friction]\nzones = { A = 0.3, B = 0.2 }\n'
+        '[data]\nfile = "points.csv"\nobservables = ["ux"]\nstages = [2]\nregions = { "*" = "block" }\n'
+        f'[solver]\nbackend = "calculix"\nccx = "{ccx}"\nwork_dir = "work"\n')
+    assert main(["simulate", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "ccx failed (exit status 3)" in err and f"work directory kept: {tmp_path / 'work'}" in err
+
+
+def test_missing_ccx_exits_2(tmp_path, capsys):
+    (tmp_path / "points.csv").write_text("point,x,y,z,stage\nP1,-4,1,0,2\n")
+    (tmp_path / "c.toml").write_text(
+        '[model]\nbuilder = "block2d"\n[friction]\nzones = { A = 0.3, B = 0.2 }\n[data]\nfile = "points.csv"\n'
+        'observables = ["ux"]\nstages = [2]\n[solver]\nbackend = "calculix"\nccx = "no-such-ccx"\n')
+    assert main(["simulate", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out.csv")]) == 2
+    assert "solver.ccx = 'no-such-ccx'" in capsys.readouterr().err
