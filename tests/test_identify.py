@@ -111,6 +111,8 @@ def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_r
     (('observables = ["ux", "uy"]', 'observables = ["ux", 3]'), "data.observables has 3"),
     (("[run]", "[identify]\nmethod = \"newton\"\n[run]"), "'newton'"),
     (("[run]", "[identify]\ntikhonov = 1.0\nprior = [0.2, 0.2]\n[run]"), "identify.prior must be a number or a list of 3"),
+    (("[run]", "[identify]\nmethod = \"gradient-descent\"\noptions = { xtol = 1e-6 }\n[run]"),
+     "[identify] option 'xtol' is not an option of method 'gradient-descent'"),
 ])
 def test_bad_config_exits_2_with_a_message(measured, capsys, change, message):
     config = _config(measured, "bad.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", run="runs/bad")

@@ -20,7 +20,7 @@ from .errors import InputError, SolverError
 from .inverse.evaluator import JACOBIANS, Evaluator
 from .inverse.least_squares import LeastSquares, OptimiseResult
 from .inverse.observations import observations_from
-from .inverse.optimisers import optimise
+from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
 from .inverse.uncertainty import estimate
 from .prefit import Prefit, prefit
@@ -74,6 +74,11 @@ def prepare(config: Config) -> Setup:
         raise InputError(f"{config.path}: identify.prior must be a number or a list of "
                          f"{len(parameters.free_names)} numbers (one per free zone {list(parameters.free_names)}), "
                          f"got {prior!r}")
+    try:
+        check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"],
+                     len(parameters.free_names))
+    except InputError as exc:
+        raise InputError(f"{config.path}: [identify] {exc}") from None
     measurements = read_measurements(config.resolve(config.data["file"]))
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
                                      config.data.get("noise"), config.data.get("regions"))

@@ -185,12 +185,9 @@ def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int 
     >>> result.status, round(float(result.x[0]), 8)
     ('converged', 1.0)
     """
-    if method not in METHODS:
-        raise InputError(f"method {method!r} is not known; the methods are {sorted(METHODS)}")
-    _check_limits(max_iterations, tol)
+    resolved = check_method(method, options, max_iterations, tol, len(problem.names))
     _check_problem(problem, method)
-    run_method, spec = METHODS[method]
-    resolved = resolve_options(method, spec, options, max_iterations, tol, len(problem.names))
+    run_method, _ = METHODS[method]
     log.info("%s on %d parameters %s, max_iterations = %d, tol = %g, options %s", method, len(problem.names),
              list(problem.names), max_iterations, tol, resolved)
     run = Iterates(problem)
@@ -199,6 +196,14 @@ def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int 
         return run.result("max_iterations", "max_iterations = 0: the start only", resolved)
     status, message = run_method(run, max_iterations, tol, resolved)
     return run.result(status, message, resolved)
+
+
+def check_method(method: str, options: dict | None, max_iterations: int, tol: float, n_free: int) -> dict:
+    """Validate a method name, its limits and options before anything is computed; the resolved options."""
+    if method not in METHODS:
+        raise InputError(f"method {method!r} is not known; the methods are {sorted(METHODS)}")
+    _check_limits(max_iterations, tol)
+    return resolve_options(method, METHODS[method][1], options, max_iterations, tol, n_free)
 
 
 def _check_limits(max_iterations, tol) -> None:
