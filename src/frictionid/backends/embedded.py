@@ -23,6 +23,23 @@ class Prediction:
     derivatives: np.ndarray | None
 
 
+_LAST_BUILT: dict = {}
+
+
+def _built(model: Model, points, quantities: tuple[str, ...], regions) -> Problem:
+    """Problem.build, reusing the previous build when model and observation points are the same in content.
+
+    Runs of one session (a study's several identifications, an example's methods) share the condensation;
+    one build is kept, so memory holds at most one factorisation besides the ones in use.
+    """
+    key = (model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
+           quantities, None if regions is None else tuple(regions))
+    if key not in _LAST_BUILT:
+        _LAST_BUILT.clear()
+        _LAST_BUILT[key] = Problem.build(model, points=points, quantities=quantities, regions=regions)
+    return _LAST_BUILT[key]
+
+
 class EmbeddedBackend:
     """Condenses the model once; each :meth:`predict` is one load path with optional sensitivities.
 
@@ -37,7 +54,7 @@ class EmbeddedBackend:
                  reactions: tuple[str, ...] = ()):
         self.model = model
         points = None if points is None or len(points) == 0 or not quantities else points
-        self.problem = Problem.build(model, points=points, quantities=quantities, regions=regions)
+        self.problem = _built(model, points, tuple(quantities), regions)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
         if unknown:
             raise InputError(f"model: no reaction {unknown}; the model's reactions are "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping
@@ -152,6 +153,20 @@ class Model:
     @property
     def dim(self) -> int:
         return self.mesh.dim
+
+    def fingerprint(self) -> str:
+        """SHA-256 of the model's whole content (mesh arrays, materials, supports, loads, stages, interfaces):
+        equal for two models that every solver treats alike."""
+        digest = hashlib.sha256()
+        mesh = self.mesh
+        arrays = (mesh.points, mesh.cells, *mesh.regions.values(), *mesh.boundaries.values())
+        for array in arrays:
+            digest.update(np.ascontiguousarray(array).tobytes())
+        digest.update(repr((tuple(a.shape for a in arrays), mesh.cell_type, tuple(mesh.regions),
+                            tuple(mesh.boundaries), self.kind,
+                            sorted(self.materials.items()), self.supports, self.loads, self.stages,
+                            self.interfaces)).encode())
+        return digest.hexdigest()
 
     @property
     def n_stages(self) -> int:

@@ -1,0 +1,31 @@
+"""Embedded backend: a condensation is reused only for a model and points equal in content."""
+
+import dataclasses
+
+import numpy as np
+
+from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.builders.block import block_model_2d
+from frictionid.model import Material
+
+POINTS = np.array([[-5.0, 2.0], [5.0, 2.0]])
+
+
+def test_fingerprint_tells_models_apart_by_content():
+    a, b = block_model_2d(mesh_size=2.0), block_model_2d(mesh_size=2.0)
+    assert a is not b and a.fingerprint() == b.fingerprint()
+    changed = [block_model_2d(mesh_size=2.0, pull=0.3), block_model_2d(mesh_size=2.5),
+               dataclasses.replace(a, materials={**a.materials, "block": Material(70000.0, 0.33)})]
+    assert len({a.fingerprint(), *(m.fingerprint() for m in changed)}) == 4
+
+
+def test_equal_models_and_points_share_one_condensation_and_give_equal_results():
+    first = EmbeddedBackend(block_model_2d(mesh_size=2.0), POINTS, ("ux", "uy"), ["block"] * 2)
+    again = EmbeddedBackend(block_model_2d(mesh_size=2.0), POINTS.copy(), ("ux", "uy"), ["block"] * 2)
+    assert again.problem is first.problem
+    other = EmbeddedBackend(block_model_2d(mesh_size=2.0), POINTS - [[-0.5, 0.5], [0.5, 0.5]], ("ux", "uy"), ["block"] * 2)
+    assert other.problem is not first.problem
+    fresh = EmbeddedBackend(block_model_2d(mesh_size=2.0, pull=0.3), POINTS, ("ux", "uy"), ["block"] * 2)
+    assert fresh.problem is not first.problem
+    mu = np.array([0.2, 0.3])
+    np.testing.assert_array_equal(first.predict(mu).values, again.predict(mu).values)
