@@ -134,3 +134,51 @@ def test_parallel_finite_differences_equal_the_serial_ones(kind, tmp_path):
         counts.append((evaluator.n_forward, store.n_evaluations("forward")))
     np.testing.assert_array_equal(jacobians[0], jacobians[1])
     assert counts[0] == counts[1] == ((4, 4) if kind == "forward" else (6, 6))   # x + 3 steps, or +- 3 steps
+
+
+class FailingBackend(LinearBackend):
+    """f = A mu^2 (Gauss-Newton from below overshoots), except that the solve fails (SolverError) when a
+    coefficient exceeds ``limit``."""
+
+    def __init__(self, A, limit):
+        super().__init__(A)
+        self.limit = limit
+
+    def predict(self, mu, sensitivities=False):
+        from frictionid.errors import SolverError
+        self.calls += 1
+        if np.any(mu > self.limit):
+            raise SolverError(f"contact did not converge at {mu}")
+        return Prediction((self.A @ mu ** 2)[None, :], (self.A * 2 * mu)[None] if sensitivities else None)
+
+
+def test_a_failed_trial_solve_is_a_rejected_step_stored_and_replayed(tmp_path):
+    from frictionid.errors import SolverError
+    from frictionid.run.store import RunStore
+    store = RunStore.open(tmp_path / "run", "", "f", resume=False)
+    backend = FailingBackend(A, limit=0.5)
+    obs = _observations([1.0] * 4, [1.0] * 4)
+    evaluator = Evaluator(backend, obs, PARAMS, store)
+    assert np.all(np.isinf(evaluator.residuals(np.array([0.55, 0.2])))) and backend.calls == 1
+    assert evaluator.n_failed == 1 and store.n_evaluations() == 1
+    replay = Evaluator(backend, obs, PARAMS, RunStore.open(tmp_path / "run", "", "f", resume=True))
+    assert np.all(np.isinf(replay.residuals(np.array([0.55, 0.2])))) and backend.calls == 1
+    failing_start = Parameters.from_config(("A", "B", "C"), {"A": 0.6, "B": 0.3}, bounds=(0.0, 1.0),
+                                           fixed={"C": 0.1})
+    with pytest.raises(SolverError):
+        Evaluator(backend, obs, failing_start).residuals(failing_start.x0)
+
+
+@pytest.mark.parametrize("method", ["trf", "gradient-descent"])
+def test_methods_step_back_from_coefficients_where_the_solver_fails(method):
+    """Data made at (0.45, 0.25) near a region (mu > 0.46) where every solve fails: both methods get there."""
+    from frictionid.inverse.least_squares import LeastSquares
+    from frictionid.inverse.optimisers import optimise
+    truth = np.array([0.45, 0.25, 0.1])
+    obs = _observations(A @ truth ** 2, [1e-3] * 4)
+    evaluator = Evaluator(FailingBackend(A, limit=0.46), obs, PARAMS)
+    problem = LeastSquares(evaluator.residuals, evaluator.jacobian, PARAMS.x0, PARAMS.lower, np.ones(2),
+                           PARAMS.free_names)
+    result = optimise(problem, method, max_iterations=200)
+    assert evaluator.n_failed > 0, "the test must make the optimiser try a failing point"
+    np.testing.assert_allclose(result.x, truth[:2], atol=1e-3)

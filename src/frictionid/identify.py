@@ -55,7 +55,8 @@ def prepare(config: Config) -> Setup:
     ident = config.identify
     if ident["jacobian"] not in JACOBIANS:
         raise InputError(f"{config.path}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
-    check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{config.path}: [solver]")
+    check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{config.path}: [solver]",
+                  float(ident["step"]))
     if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
         raise InputError(f"{config.path}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
                          f"{ident['resolution']!r} and {ident['suggestions']!r}")
@@ -198,7 +199,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                             "message": unc.message, "prefit": report.as_dict()},
         "n_iterations": int(outcome.n_iterations), "n_forward_solves": evaluator.n_forward,
         "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
-        "wall_time_s": wall,
+        "n_failed_solves": evaluator.n_failed, "wall_time_s": wall,
         "history": {"objective": outcome.history_objective.tolist(),
                     "coefficients": [params.full(x).tolist() for x in outcome.history_x]},
     }

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from ..errors import SolverError
 from .observations import Observations
 from .parameters import Parameters
 
@@ -42,36 +43,57 @@ class Evaluator:
         self.jacobian_kind, self.step = jacobian, step
         self.tikhonov, self.penalty = tikhonov, penalty
         self.prior = parameters.x0 if prior is None else np.broadcast_to(np.asarray(prior, float), parameters.x0.shape)
-        self.n_forward = self.n_sensitivity = self.n_replayed = 0
+        self.n_forward = self.n_sensitivity = self.n_replayed = self.n_failed = 0
         self._memo: dict[tuple[bytes, bool], tuple] = {}
         self.workers, self._pool = max(int(workers), 1), None
 
     def _predict(self, x: np.ndarray, sensitivities: bool):
-        """(f (n_obs,), df/dmu (n_obs, n_zones) or None) at free coefficients x, from the store if known."""
+        """(f (n_obs,), df/dmu (n_obs, n_zones) or None) at free coefficients x, from the store if known.
+
+        A forward solve that fails anywhere but at the start gives f = inf: the optimiser rejects that trial
+        step (a shorter Armijo step, a smaller trust region) instead of the run ending. Failures are stored
+        (status "failed") and replayed on resume like any other evaluation.
+        """
         x = np.asarray(x, dtype=float)
         for key in ((x.tobytes(), sensitivities), (x.tobytes(), True)):
             if key in self._memo:
                 return self._memo[key]
         kind = "forward+sensitivities" if sensitivities else "forward"
-        stored = self.store.lookup(x, kind) if self.store is not None else None
+        stored = self._stored(x, kind)
         if stored is not None:
             self.n_replayed += 1
             self._memo[(x.tobytes(), sensitivities)] = stored["f"], stored.get("dfdmu")
             return self._memo[(x.tobytes(), sensitivities)]
         start = time.perf_counter()
         mu = np.maximum(self.params.full(x), 0.0)
-        prediction = self.backend.predict(mu, sensitivities)
-        f = self.obs.predicted(prediction.values)
-        dfdmu = None if prediction.derivatives is None else self.obs.derivatives(prediction.derivatives)
+        status = "ok"
+        try:
+            prediction = self.backend.predict(mu, sensitivities)
+        except SolverError as exc:
+            if np.array_equal(x, self.params.x0):
+                raise
+            log.warning("forward solve failed at mu = %s, the step is rejected: %s", mu.tolist(), exc)
+            prediction, status = None, "failed"
+            self.n_failed += 1
+        f = np.full(self.obs.n_obs, np.inf) if prediction is None else self.obs.predicted(prediction.values)
+        dfdmu = None if prediction is None or prediction.derivatives is None \
+            else self.obs.derivatives(prediction.derivatives)
         if sensitivities:
             self.n_sensitivity += 1
         else:
             self.n_forward += 1
         if self.store is not None:
             outputs = {"f": f} if dfdmu is None else {"f": f, "dfdmu": dfdmu}
-            self.store.record(x, kind, outputs, wall_time=time.perf_counter() - start)
+            self.store.record(x, kind, outputs, status=status, wall_time=time.perf_counter() - start)
         self._memo[(x.tobytes(), sensitivities)] = f, dfdmu
         return f, dfdmu
+
+    def _stored(self, x: np.ndarray, kind: str) -> dict | None:
+        """A stored evaluation at x: a successful one of ``kind``, or a failed one of any kind."""
+        if self.store is None:
+            return None
+        found = self.store.lookup(x, kind)
+        return found if found is not None else self.store.lookup(x, "forward", status="failed")
 
     def model_values(self, x: np.ndarray) -> np.ndarray:
         """(n_obs,) model values f(mu) at free coefficients x."""

@@ -118,13 +118,13 @@ class RunStore:
             conn.executemany("INSERT INTO outputs (evaluation, name, npy) VALUES (?, ?, ?)",
                              [(row.lastrowid, name, _to_npy(value)) for name, value in outputs.items()])
 
-    def lookup(self, x, kind: str) -> dict | None:
-        """Outputs of the latest ``status="ok"`` evaluation of ``kind`` at bitwise the same ``x``, else None.
+    def lookup(self, x, kind: str, status: str = "ok") -> dict | None:
+        """Outputs of the latest evaluation of ``kind`` with ``status`` at bitwise the same ``x``, else None.
 
         A kind ``"a+b"`` also answers a lookup of ``"a"``: ``"forward+sensitivities"`` serves ``"forward"``.
         """
-        rows = self._conn.execute("SELECT id, kind FROM evaluations WHERE x_key = ? AND status = 'ok' "
-                                  "ORDER BY id DESC", (_as_x(x).tobytes().hex(),)).fetchall()
+        rows = self._conn.execute("SELECT id, kind FROM evaluations WHERE x_key = ? AND status = ? "
+                                  "ORDER BY id DESC", (_as_x(x).tobytes().hex(), status)).fetchall()
         for evaluation, stored_kind in rows:
             if stored_kind == kind or stored_kind.startswith(kind + "+"):
                 outputs = self._conn.execute("SELECT name, npy FROM outputs WHERE evaluation = ?", (evaluation,))
