@@ -15,8 +15,8 @@ from frictionid.builders.registry import build_model
 from frictionid.builders.thread import SQRT3
 from frictionid.errors import InputError
 from frictionid.fem.problem import Problem
-from frictionid.report.bolt import (bolt_summary, flank_profile, nut_dilation, plot_load_shares, sopwith_shares,
-                                    thread_loads)
+from frictionid.report.bolt import (bolt_summary, flank_profile, nut_dilation, plot_flank_profile, plot_load_shares,
+                                    sopwith_shares, thread_loads)
 
 FORCE = 30000.0  # [N] second-stage machine force of the default model
 
@@ -182,6 +182,7 @@ def test_report_profile_dilation_states_and_plot(model, problem, solution, tmp_p
     assert set(states) == set(model.zone_names) and all(s["slip"] == pytest.approx(1.0) for s in states.values())
     path = plot_load_shares(thread_loads(model, solution), tmp_path / "shares.png")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert plot_flank_profile(profile, tmp_path / "flanks.png").read_bytes()[:4] == b"\x89PNG"
     text = bolt_summary(model, solution)
     assert "Sopwith fit lam P" in text and text.count("\n") + 1 == 2 + 7 + 1 + 8
 
@@ -253,3 +254,19 @@ def test_quadratic_cells_are_not_inverted(model):
         det = np.linalg.det(j)
         assert np.min(det / straight) > 0.5, f"a distorted or inverted cell at ({xi}, {eta})"
     assert straight.min() > 0
+
+
+def test_large_size_at_the_default_flank_size_builds_its_contact_pairs():
+    """M30 at 0.1 mm: facet bases on 0.1 mm quadratic cells 180 mm from the origin (fem/space.py: the inverse
+    isoparametric map stops at 1e-10; scikit-fem's 1e-12 was out of round-off's reach there and raised)."""
+    from frictionid.fem.interface import contact_pairs
+    from frictionid.fem.space import Space
+    model = bolt_model(size="M30", forces=(50000.0,))
+    pairs = contact_pairs(Space.build(model.mesh, model.kind), model)
+    thread = pairs.interface == 0
+    assert np.max(np.abs(pairs.gap[thread])) < 1e-12
+    layout = bolt_layout("M30")
+    full = math.pi * (layout.size.d1 / 2 + layout.size.d / 2 - layout.shift) \
+        * (layout.size.d / 2 - layout.shift - layout.size.d1 / 2) / math.cos(math.pi / 6)
+    # every M30 flank is complete (see test_other_sizes...): flank ring areas sum to n_flanks * full
+    assert pairs.weight[thread].sum() == pytest.approx(len(layout.flanks) * full, rel=1e-9)

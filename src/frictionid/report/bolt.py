@@ -168,6 +168,32 @@ def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "", refe
     return path
 
 
+def plot_flank_profile(profile: FlankProfile, path: str | Path, title: str = "") -> Path:
+    """Flank pressure [MPa] and slip [um] against the axial position of each thread contact pair (PNG, Agg);
+    slipping pairs as filled markers, sticking ones open."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+    y = profile.position[:, 1]
+    for flank in np.unique(profile.flank):
+        k = profile.flank == flank
+        for state, face in ((2, f"C{flank % 10}"), (1, "none")):
+            j = k & (profile.state == state)
+            top.plot(y[j], profile.pressure[j], "o", ms=3, mfc=face, mec=f"C{flank % 10}")
+            bottom.plot(y[j], 1000 * profile.slip[j], "o", ms=3, mfc=face, mec=f"C{flank % 10}")
+    top.set_ylabel("contact pressure [MPa]")
+    bottom.set_ylabel("slip along the flank [um]")
+    bottom.set_xlabel("axial position y [mm] (nut bearing face at the left)")
+    top.set_title(title or "thread flanks: filled = slip, open = stick")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def bolt_summary(model: Model, solution: Solution, increment: int = -1) -> str:
     """A plain-text summary: load shares vs Sopwith, zone forces and stick/slip fractions."""
     loads = thread_loads(model, solution, increment)
