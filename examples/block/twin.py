@@ -35,6 +35,19 @@ FACE_HEIGHTS = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0)
 PLATE_LINES = (-16.0, -13.0, -10.0, -8.0, -7.0, -6.0, *np.arange(-4.5, 5.0, 1.0), 6.0, 7.0, 8.0, 10.0, 13.0, 16.0)
 
 
+#: first Armijo trial step of gradient descent, scaled to this objective: the paper's t0 = 1 suited its unweighted
+#: strains (J ~ 1e-6); with residuals weighted by 0.5 um, J ~ 1e6, and t0 = 1 costs about 28 backtracking solves per
+#: iteration (its first trials, mu ~ 1e7, can even make the contact solve fail). 1e-8 gives the method its best chance.
+GD_INITIAL_STEP = 1e-8
+
+
+def identify_table(method: str, jacobian: str, max_iterations: int) -> str:
+    """The [identify] table of a config for ``method`` (gradient descent: with :data:`GD_INITIAL_STEP`)."""
+    options = f"options = {{ initial_step = {GD_INITIAL_STEP} }}\n" if method == "gradient-descent" else ""
+    return (f'[identify]\nmethod = "{method}"\njacobian = "{jacobian}"\nmax_iterations = {max_iterations}\n'
+            + options)
+
+
 def goal_coefficients(seed: int = 2024) -> dict[str, float]:
     """The paper's study: goal coefficients drawn at random in [0.1, 0.5] with a fixed seed."""
     return dict(zip("ABCD", (float(v) for v in np.random.default_rng(seed).uniform(0.1, 0.5, 4))))
