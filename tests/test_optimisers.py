@@ -285,6 +285,23 @@ class TestGradientDescent(BaseMixin):
         assert (result.status, result.n_iterations) == ("failed", 0)
         assert "Armijo" in result.message
 
+    def test_scaled_step_first_tries_the_given_change_of_the_steepest_coefficient(self):
+        # r = 1000 (x - c): |grad J(x0)| is about 1e6, so t0 = 1 would try x of order 1e5 first
+        scale, target = 1000.0, np.array([0.4, 0.25])
+        tried = []
+
+        def residuals(x):
+            tried.append(np.array(x))
+            return scale * (x - target)
+
+        prob = problem(residuals, lambda x: scale * np.eye(2), [0.1, 0.1], 0.0, 1.0)
+        result = self.run(prob, options={"scaled_step": True, "initial_step": 0.05}, max_iterations=1)
+        gradient = 2 * scale ** 2 * (np.array([0.1, 0.1]) - target)
+        first = np.array([0.1, 0.1]) - 0.05 / np.abs(gradient).max() * gradient
+        np.testing.assert_allclose(tried[1], first, rtol=1e-12)
+        assert np.abs(tried[1] - [0.1, 0.1]).max() == pytest.approx(0.05)
+        assert result.objective < result.history_objective[0] and len(tried) == 2   # accepted at once
+
     @pytest.mark.parametrize("key, value", [("beta", 1.0), ("c1", 0.0), ("initial_step", -1.0),
                                             ("max_backtracks", 0)])
     def test_armijo_parameters_out_of_range_are_named(self, key, value):

@@ -17,6 +17,7 @@ OPTIONS = {
     "max_backtracks": Option("int", lambda n, tol, n_free: 30, lambda v: v >= 1, ">= 1"),
     "gtol": Option("float", lambda n, tol, n_free: tol, lambda v: v >= 0, ">= 0"),
     "bounds": Option("bool", lambda n, tol, n_free: False),
+    "scaled_step": Option("bool", lambda n, tol, n_free: False),
 }
 """Options of "gradient-descent".
 
@@ -27,6 +28,10 @@ max_backtracks : shortenings tried before the search, and the run, is reported f
 gtol : stop when the (projected) gradient norm is below gtol times its value at the start
 bounds : False (the paper: coefficients may leave [lower, upper], even become negative) or True
     (projected gradient: every trial point is projected onto [lower, upper])
+scaled_step : False (t0 = initial_step in units of J) or True (t0 = initial_step / max|grad J(x0)|, fixed for
+    the run: the first trial step changes the steepest coefficient by initial_step). The paper leaves t0 to
+    the user; True is that choice made for the objective's scale (weighted residuals give |grad J| of 1e4 and
+    more, where t0 = 1 tries coefficients of 1e5 first)
 """
 
 
@@ -58,8 +63,11 @@ def gradient_descent(run: Iterates, max_iterations: int, tol: float, options: di
     run.accept(x)
     objective = run.objective(x)
     first_norm = None
+    options = dict(options)
     for _ in range(max_iterations):
         gradient = run.gradient(x)
+        if options["scaled_step"] and first_norm is None and np.abs(gradient).max() > 0:
+            options["initial_step"] = options["initial_step"] / float(np.abs(gradient).max())
         stationarity = float(np.linalg.norm(project(x - gradient) - x))
         first_norm = stationarity if first_norm is None else first_norm
         if stationarity <= options["gtol"] * first_norm:
