@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from frictionid.builders.thread import (COARSE_PITCH, SQRT3, bolt_load_flank_y, bolt_profile, engaged_flanks,
-                                        nut_bore, nut_load_flank_y, thread_size, upper_envelope)
+                                        first_tooth_window, nut_bore, nut_load_flank_y, thread_size,
+                                        upper_envelope)
 from frictionid.errors import InputError
 
 SIZES = list(COARSE_PITCH)
@@ -146,3 +147,18 @@ def test_a_cut_just_past_a_corner_leaves_no_sliver():
     profile = bolt_profile(s, 100.0, corner + 1e-4, 101.25, shift)
     assert profile[-1].role == "load" and profile[-1].b[1] == pytest.approx(corner, abs=1e-12)
     assert min(math.dist(seg.a, seg.b) for seg in profile) > s.P / 50
+
+
+@pytest.mark.parametrize("offset, n_flanks, first_width", [(0.0, 7, 1.0), (0.2, 7, 1.0), (0.8, 7, 0.30)])
+def test_first_tooth_window_keeps_countersink_off_the_load_flanks(offset, n_flanks, first_width):
+    """Nut teeth with the first complete tooth at z_min + offset: inside the window (width P/8 + 2 shift/sqrt 3
+    = 0.337 mm for M20) no flank is cut; beyond it the tooth below shows a part-width load flank."""
+    s, shift = thread_size("M20"), 0.021
+    z_min, z_max = first_tooth_window(s, 94.5, shift)
+    assert z_max - z_min == pytest.approx(s.P / 8 + 2 * shift / SQRT3)
+    phase = z_min + offset
+    bore = nut_bore(s, 94.5, 112.5, phase, 18.0)
+    flanks = engaged_flanks(s, bore, phase, phase + s.P / 2 - shift / SQRT3, shift, 74.0, 120.0)
+    width = [(f.r_contact[1] - f.r_contact[0]) / (s.d / 2 - shift - s.d1 / 2) for f in flanks]
+    assert len(flanks) == n_flanks and width[0] == pytest.approx(first_width, abs=0.01)
+    assert np.allclose(width[1:], 1.0)

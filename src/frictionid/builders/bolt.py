@@ -23,7 +23,8 @@ from ..errors import InputError
 from ..model import ContactInterface, Material, Mesh, Model, Stage, Support, SurfaceForce
 from .arcs import separate_quadratic_bodies
 from .gmsh_mesh import gmsh_session, mesh_from_gmsh
-from .thread import Flank, ThreadSize, bolt_profile, engaged_flanks, nut_bore, thread_size, SQRT3
+from .thread import (SQRT3, Flank, ThreadSize, bolt_profile, engaged_flanks, first_tooth_window, nut_bore,
+                     thread_size)
 
 logger = logging.getLogger(__name__)
 
@@ -115,8 +116,8 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     if y_thread > y_bearing - s.P or y_bearing - s.d < s.d + s.P:
         raise InputError(f"`length` = {length:g} mm is too short for {s.name}: the plates ({s.d:g} mm thick) "
                          f"would not fit between head and nut; expected at least {2 * s.d + m + 4 * s.P:g} mm")
-    bolt_phase = (y_bearing + y_top) / 2 + s.P / 2
-    nut_phase = bolt_phase - s.P / 2 + shift / SQRT3
+    nut_phase = _nut_phase(s, y_bearing, y_top, shift)
+    bolt_phase = nut_phase + s.P / 2 - shift / SQRT3
     bore = nut_bore(s, y_bearing, y_top, nut_phase, engaged)
     flanks = tuple(engaged_flanks(s, bore, nut_phase, bolt_phase, shift, y_thread, length))
     if not flanks:
@@ -130,6 +131,16 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     return BoltLayout(s, length, y_thread, y_bearing, y_top, (0.0, s.d), (y_bearing - s.d, y_bearing),
                       s.hole / 2, 2 * s.d, s.d / 2 - shift, shift, bolt_phase, nut_phase, bore, flanks,
                       splits, sections)
+
+
+def _nut_phase(s: ThreadSize, y_bearing: float, y_top: float, shift: float) -> float:
+    """Nut tooth phase [mm]: bolt teeth centred in the nut (bolt tooth at mid-height), the nut moved up by
+    shift / sqrt(3); moved down into :func:`first_tooth_window` when the countersink would cut a load flank
+    part-way (M20 keeps the centred phase)."""
+    phase = (y_bearing + y_top) / 2 + shift / SQRT3
+    z_min, z_max = first_tooth_window(s, y_bearing, shift)
+    first = phase + math.ceil((z_min - phase) / s.P - 1e-12) * s.P
+    return phase if first <= z_max else phase - (first - (z_min + z_max) / 2)
 
 
 def _zone_splits(s: ThreadSize, shift: float, n_radial: int) -> tuple[float, ...]:

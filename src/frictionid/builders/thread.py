@@ -294,6 +294,19 @@ def nut_bore(size: ThreadSize, y_bearing: float, y_top: float, phase: float, eng
     return np.vstack([lower, upper])
 
 
+def first_tooth_window(size: ThreadSize, y_bearing: float, shift: float) -> tuple[float, float]:
+    """(z_min, z_max) [mm]: where the centre of the first complete nut tooth above the bearing-face countersink
+    must lie so that no load flank is cut part-way by the countersink.
+
+    The 120 deg countersink is parallel to the nut free flanks: a tooth centred at z >= z_min is complete; the
+    load flank of the tooth below it stays off the bolt flank (r <= d/2 - shift) when z <= z_max.
+    z_max - z_min = P/8 + 2 shift / sqrt(3).
+    """
+    apex = size.d / 2 - 7 * size.H / 8
+    z_min = y_bearing + (size.da / 2 - apex) / SQRT3
+    return z_min, y_bearing + size.P + (size.da / 2 + apex - 2 * (size.d / 2 - shift)) / SQRT3
+
+
 # ----------------------------------------------------------------------------------------- engaged flanks
 
 #: a nut load flank cut (by a countersink) to less than this fraction of the full contact width is not engaged
