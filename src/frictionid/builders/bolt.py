@@ -423,6 +423,7 @@ def measurement_points(layout: BoltLayout, points=None, flanks=(1, 2), n_per_fla
     Default: ``n_per_flank`` points at 1/(n+1) ... n/(n+1) of the straight part of each listed engaged flank
     (1 = next to the nut bearing face), root tangent to crest corner: 10 points at 1/6 ... 5/6 on flanks 1, 2.
     Given ``points`` are checked to lie on the straight part of an engaged bolt load flank (to 1e-3 mm).
+    The points lie on the bolt-nut interface: observe them in region "bolt" (config: regions = { "*" = "bolt" }).
     """
     if points is None:
         n_per_flank = _count("n_per_flank", n_per_flank, 1, 100)
