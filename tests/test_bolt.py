@@ -225,6 +225,7 @@ def test_points_off_the_flanks_are_refused():
     ({"flank_size": 1.0}, r"`flank_size` = 1 mm is too coarse for M20"),
     ({"length": 50.0}, r"`length` = 50 mm is too short for M20"),
     ({"n_axial": 8}, r"`n_axial` must be an integer in \[1, 7\]"),
+    ({"clearance": -0.01}, r"`clearance` must be a number of mm in \[0, H/4 = 0.541\)"),
 ])
 def test_bad_options_name_the_key(options, message):
     with pytest.raises(InputError, match=message):

@@ -109,7 +109,10 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     if engaged > m + _TOL:
         raise InputError(f"`engaged_length` = {engaged:g} mm is longer than the nut: expected at most the "
                          f"{s.name} nut height m = {m:g} mm (ISO 4032)")
-    shift = -s.es / 2 if clearance is None else _number("clearance", clearance, low=-1e-300) / 2
+    if clearance is not None and not (isinstance(clearance, (int, float)) and 0 <= clearance < s.H / 4):
+        raise InputError(f"`clearance` must be a number of mm in [0, H/4 = {s.H / 4:.3g}) (the 6g flank clearance "
+                         f"|es|, {-s.es:g} for {s.name}), got {clearance!r}")
+    shift = -s.es / 2 if clearance is None else float(clearance) / 2
     y_top = length - 3 * s.P
     y_bearing = y_top - m
     y_thread = length - s.thread_length(length)
