@@ -78,6 +78,20 @@ def test_a_zone_no_observation_sees_is_reported_unidentifiable():
     assert unc.identifiable.tolist() == [True, False]
 
 
+def test_indistinguishable_zones_get_no_standard_error_and_bound_zones_are_judged_as_if_free():
+    twins = np.column_stack([A[:, 0], A[:, 0], A[:, 1]]) / 0.01        # zones 0 and 1 act alike
+    unc = estimate(twins, np.zeros(4), np.array([0.3, 0.2, 0.4]), np.zeros(3), np.ones(3), noise_known=True)
+    assert np.isnan(unc.stderr[:2]).all() and unc.identifiable.tolist() == [False, False, True]
+    weak = np.column_stack([A[:, 0] / 0.01, A[:, 1] / 100.0])           # zone 1 barely seen, fitted onto 0
+    unc = estimate(weak, np.zeros(4), np.array([0.3, 0.0]), np.zeros(2), np.ones(2), noise_known=True,
+                   tolerance=0.02)
+    assert unc.at_bound.tolist() == [False, True] and unc.identifiable.tolist() == [True, False]
+    strong = np.column_stack([A[:, 0], A[:, 1]]) / 0.01
+    unc = estimate(strong, np.zeros(4), np.array([0.3, 0.0]), np.zeros(2), np.ones(2), noise_known=True,
+                   tolerance=0.02)
+    assert unc.identifiable.tolist() == [True, True]
+
+
 def test_analytic_jacobian_matches_central_differences_on_the_contact_model():
     model = block_model_2d("plane_strain", pull=0.2, height=4.0, mesh_size=1.5, n_zones=3)
     points = np.array([[-5.0, 0.5], [5.0, 0.5], [-7.0, 0.0], [7.0, 0.0]])

@@ -1,10 +1,11 @@
 """Uncertainty and identifiability of the identified coefficients from the weighted Jacobian at the solution.
 
 Covariance C = s^2 (J^T J)^-1 over the parameters not held at a bound, with s^2 = 1 when the weights are
-stated standard deviations (noise known) and s^2 = ||r||^2 / (n_obs - n_free) otherwise. A parameter is
-reported identifiable when the data see it (its Jacobian column is not negligible) and, unless it sits at a
-bound, its standard error is within a tolerance (by default a quarter of its bound interval); parameters at a
-bound get no standard error ("cannot be estimated at a bound").
+stated standard deviations (noise known) and s^2 = ||r||^2 / (n_obs - n_free) otherwise; a parameter in a
+direction the data do not see gets no standard error (never the small number a pseudo-inverse would give).
+A parameter is reported identifiable when its standard error, computed with every free parameter treated as
+free (so also for one that the fit left on a bound), is within a tolerance (by default a quarter of its bound
+interval); parameters at a bound get no standard error ("cannot be estimated at a bound").
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
+
+from .resolution import predicted_stderr
 
 
 @dataclass(frozen=True)
@@ -60,17 +63,17 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
         sv = np.linalg.svd(J, compute_uv=False)
         if sv[-1] <= 1e-12 * sv[0]:
             message = "the Jacobian of the free parameters is singular: some combination is not resolved by the data"
-        covariance = scale * np.linalg.pinv(J.T @ J, rcond=1e-12)
-        se = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
-        stderr[inner] = se
-        with np.errstate(invalid="ignore", divide="ignore"):
-            correlation[np.ix_(inner, inner)] = covariance / np.outer(se, se)
+        se = np.sqrt(scale) * predicted_stderr(J.T @ J)
+        stderr[inner] = np.where(np.isfinite(se), se, np.nan)
+        seen = np.isfinite(se)
+        if seen.any():
+            covariance = scale * np.linalg.inv(J[:, seen].T @ J[:, seen])
+            with np.errstate(invalid="ignore", divide="ignore"):
+                correlation[np.ix_(np.flatnonzero(inner)[seen], np.flatnonzero(inner)[seen])] = \
+                    covariance / np.outer(se[seen], se[seen])
     quantile = stats.t.ppf(0.975, dof) if not noise_known else stats.norm.ppf(0.975)
     ci95 = np.column_stack([x - quantile * stderr, x + quantile * stderr])
-    column = np.linalg.norm(jac, axis=0)
-    seen = column > 1e-12 * max(column.max(initial=0.0), 1e-300)
     width = np.asarray(upper) - np.asarray(lower)
     limit = 0.25 * width if tolerance is None else tolerance
-    precise = np.where(bound, True, np.nan_to_num(stderr, nan=np.inf) <= limit)
-    identifiable = seen & precise
+    identifiable = np.sqrt(scale) * predicted_stderr(jac.T @ jac) <= limit
     return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message)
