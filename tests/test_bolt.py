@@ -150,6 +150,7 @@ def test_load_shares_default_setup(model, solution):
     assert loads.force.sum() == pytest.approx(FORCE, rel=5e-3)
     assert np.all(np.diff(loads.share[:-1]) < 0)
     assert 0.18 < loads.share[0] < 0.23 and 0.15 < loads.lam_p < 0.3
+    np.testing.assert_allclose(loads.share, sopwith_shares(loads.lam_p, 7), atol=0.012)   # within 1.2 points
 
 
 def test_load_shares_with_the_nut_held_radially_agree_with_sopwith(model, problem):
