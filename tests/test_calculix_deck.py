@@ -176,3 +176,11 @@ def test_backend_choice_is_checked():
         check_backend("calculix", "analytic", {"ccx": "/nonexistent/ccx"})
     with pytest.raises(InputError, match="backend = 'ansys' is not one of"):
         check_backend("ansys")
+
+
+def test_small_finite_difference_step_is_logged(caplog):
+    # "sh" stands in for an executable found on PATH
+    check_backend("calculix", "forward", {"ccx": "sh"}, step=1e-2)
+    assert not caplog.records
+    check_backend("calculix", "forward", {"ccx": "sh"}, step=1e-4)
+    assert "identify.step = 0.0001 is small for ccx results" in caplog.text

@@ -6,9 +6,14 @@ frictionid.fem, with analytic sensitivities) or "calculix" (ccx runs, finite dif
 
 from __future__ import annotations
 
+import logging
+
 from ..errors import InputError
 
+log = logging.getLogger(__name__)
 BACKENDS = ("embedded", "calculix")
+#: smallest finite-difference step that stays clear of ccx's 7 printed digits (see README, CalculiX backend)
+CALCULIX_MIN_STEP = 1e-3
 
 
 def make_backend(name: str, model, points, quantities, regions=None, options: dict | None = None,
@@ -45,8 +50,12 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
 
 
 def check_backend(name: str, jacobian: str | None = None, options: dict | None = None,
-                  where: str = "[solver]") -> None:
-    """Refuse, before anything is built, a backend that does not exist, cannot run, or cannot give ``jacobian``."""
+                  where: str = "[solver]", step: float | None = None) -> None:
+    """Refuse, before anything is built, a backend that does not exist, cannot run, or cannot give ``jacobian``.
+
+    A finite-difference ``step`` below :data:`CALCULIX_MIN_STEP` with ccx is allowed but logged: the printed
+    displacements have 7 digits, so small steps leave mostly round-off in the differences.
+    """
     if name not in BACKENDS:
         raise InputError(f"{where} backend = {name!r} is not one of {list(BACKENDS)}")
     if name == "calculix":
@@ -57,6 +66,9 @@ def check_backend(name: str, jacobian: str | None = None, options: dict | None =
             raise InputError(f"{where} backend = 'calculix' has no analytic sensitivities; set identify.jacobian "
                              "= 'forward' or 'central' (finite differences, parallel with run.workers)")
         find_ccx(CalculixSettings.from_options(options or {}, where).ccx)
+        if step is not None and step < CALCULIX_MIN_STEP:
+            log.warning("%s identify.step = %g is small for ccx results (7 printed digits); %g or more keeps "
+                        "round-off out of the finite differences", where, step, CALCULIX_MIN_STEP)
 
 
 def solver_options(config) -> dict:
