@@ -29,3 +29,13 @@ def test_equal_models_and_points_share_one_condensation_and_give_equal_results()
     assert fresh.problem is not first.problem
     mu = np.array([0.2, 0.3])
     np.testing.assert_array_equal(first.predict(mu).values, again.predict(mu).values)
+
+
+def test_the_least_recently_used_condensation_is_dropped_first():
+    def backend(pull):
+        return EmbeddedBackend(block_model_2d(mesh_size=2.5, pull=pull), POINTS, ("uy",), ["block"] * 2)
+
+    a, b = backend(0.1), backend(0.2)
+    assert backend(0.1).problem is a.problem          # a is now the most recent
+    backend(0.3)                                      # evicts b
+    assert backend(0.1).problem is a.problem and backend(0.2).problem is not b.problem

@@ -23,21 +23,26 @@ class Prediction:
     derivatives: np.ndarray | None
 
 
-_LAST_BUILT: dict = {}
+_RECENT: dict = {}
+#: condensations kept for reuse: an identification's and its pre-fit candidates' (see :func:`_built`)
+N_KEPT = 2
 
 
 def _built(model: Model, points, quantities: tuple[str, ...], regions) -> Problem:
-    """Problem.build, reusing the previous build when model and observation points are the same in content.
+    """Problem.build, reusing a recent build when model and observation points are the same in content.
 
     Runs of one session (a study's several identifications, an example's methods) share the condensation;
-    one build is kept, so memory holds at most one factorisation besides the ones in use.
+    at most :data:`N_KEPT` builds are kept, so memory holds few factorisations besides the ones in use.
     """
     key = (model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
            quantities, None if regions is None else tuple(regions))
-    if key not in _LAST_BUILT:
-        _LAST_BUILT.clear()
-        _LAST_BUILT[key] = Problem.build(model, points=points, quantities=quantities, regions=regions)
-    return _LAST_BUILT[key]
+    if key in _RECENT:
+        _RECENT[key] = _RECENT.pop(key)                        # most recently used last
+        return _RECENT[key]
+    while len(_RECENT) >= N_KEPT:
+        _RECENT.pop(next(iter(_RECENT)))
+    _RECENT[key] = Problem.build(model, points=points, quantities=quantities, regions=regions)
+    return _RECENT[key]
 
 
 class EmbeddedBackend:
