@@ -184,3 +184,14 @@ def test_small_finite_difference_step_is_logged(caplog):
     assert not caplog.records
     check_backend("calculix", "forward", {"ccx": "sh"}, step=1e-4)
     assert "identify.step = 0.0001 is small for ccx results" in caplog.text
+
+
+def test_loads_on_dropped_nodes_move_to_kept_ones():
+    # hexahedron27 -> C3D20: the pressure's share on the face-centre nodes must not be lost
+    model = block_model(mesh_size=5.0, order=2)
+    deck, _ = deck_of(model, [0.1] * 4)
+    kept = set(np.unique(calculix_cells(model.mesh.points, "hexahedron27", model.mesh.cells)).tolist())
+    cload = [line.split(",") for line in cards(deck, "*CLOAD")[0]]
+    assert {int(node) - 1 for node, _, _ in cload} <= kept
+    total = sum(float(value) for _, dof, value in cload if dof.strip() == "3")
+    assert total == pytest.approx(-2000.0, rel=1e-12)

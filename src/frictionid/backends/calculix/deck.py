@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import InputError
+from ...fem.space import N_CORNERS
 from ...model import Displacement, Model
 from ...model.model import component_index
-from .elements import ELEMENT_TYPE, calculix_cells, face_lookup
+from .elements import ELEMENT_TYPE, calculix_cells, face_lookup, lump_dropped_forces
 
 #: CalculiX prints axisymmetric reactions and contact forces for a 2-degree segment: whole ring = 180 x printed
 AXISYMMETRIC_SEGMENTS = 180.0
@@ -96,7 +97,7 @@ def axis_nodes(model: Model) -> np.ndarray:
 
 
 def _surface(model: Model, boundary: str, name: str, faces: dict) -> list[str]:
-    n_corners = {"line": 2, "line3": 2, "triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}[model.mesh.facet_type]
+    n_corners = N_CORNERS[model.mesh.facet_type]
     out = [f"** boundary {boundary}", f"*SURFACE, NAME={name}, TYPE=ELEMENT"]
     for facet in model.mesh.boundary(boundary):
         key = frozenset(facet[:n_corners].tolist())
@@ -160,11 +161,14 @@ def _supports(model: Model) -> list[str]:
 
 
 def stage_forces(model: Model, forces: np.ndarray, amplitudes: np.ndarray) -> np.ndarray:
-    """(n_stages, n_nodes, dim) [N] nodal forces at each stage end (axisymmetric: whole ring, as ccx takes them).
+    """(n_stages, n_nodes, dim) [N] nodal forces at each stage end (axisymmetric: whole ring, as ccx takes them),
+    none on nodes CalculiX's elements do not have.
 
     ``forces`` (n_channels, n_dofs) unit nodal force of each load channel, ``amplitudes`` (n_stages, n_channels).
     """
-    return (amplitudes @ forces).reshape(model.n_stages, -1, model.dim)
+    total = (amplitudes @ forces).reshape(model.n_stages, -1, model.dim)
+    # forces on nodes CalculiX's elements do not have (hexahedron27 face centres) go to the nodes it has
+    return np.array([lump_dropped_forces(model.mesh.cell_type, model.mesh.cells, f) for f in total])
 
 
 def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reaction_sets: list[str],

@@ -52,22 +52,46 @@ def face_lookup(cell_type: str, cells: np.ndarray) -> dict[frozenset, tuple[int,
     return out
 
 
-def fill_dropped_nodes(cell_type: str, cells: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Nodal values (n_nodes, k) with the face / centre nodes CalculiX did not have interpolated.
+def dropped_nodes(cell_type: str, cells: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The nodes CalculiX does not have, each as a fixed combination of kept nodes of one of its cells.
 
-    Serendipity shape functions at a face centre weigh the face's corners -1/4 and its edge mid-nodes 1/2;
-    at the centre of the 20-node brick corners -1/4 and edge mid-nodes 1/4.
+    Returns groups ``(nodes (n,), masters (n, k), weights (k,))`` with ``u[nodes] = u[masters] @ weights``:
+    serendipity shape functions at a face centre weigh the face's corners -1/4 and its edge mid-nodes 1/2; at
+    the centre of the 20-node brick corners -1/4 and edge mid-nodes 1/4. Each dropped node appears once.
     """
-    values = np.array(values, dtype=float)
+    cells = np.asarray(cells)
+    face = np.array([-0.25] * 4 + [0.5] * 4)
     if cell_type == "quad9":
-        values[cells[:, 8]] = 0.5 * values[cells[:, 4:8]].sum(axis=1) - 0.25 * values[cells[:, :4]].sum(axis=1)
-    elif cell_type == "hexahedron27":
-        for k, face in enumerate(_HEX27_FACES):
-            corners, edges = face
-            values[cells[:, 20 + k]] = (0.5 * values[cells[:, edges]].sum(axis=1)
-                                        - 0.25 * values[cells[:, corners]].sum(axis=1))
-        values[cells[:, 26]] = 0.25 * values[cells[:, 8:20]].sum(axis=1) - 0.25 * values[cells[:, :8]].sum(axis=1)
+        return [_unique(cells[:, 8], cells[:, :8], face)]
+    if cell_type != "hexahedron27":
+        return []
+    nodes = np.concatenate([cells[:, 20 + k] for k in range(6)])
+    masters = np.concatenate([cells[:, list(corners) + list(edges)] for corners, edges in _HEX27_FACES])
+    centre = np.array([-0.25] * 8 + [0.25] * 12)
+    return [_unique(nodes, masters, face), _unique(cells[:, 26], cells[:, :20], centre)]
+
+
+def _unique(nodes: np.ndarray, masters: np.ndarray, weights: np.ndarray):
+    nodes, first = np.unique(nodes, return_index=True)
+    return nodes, masters[first], weights
+
+
+def fill_dropped_nodes(cell_type: str, cells: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Nodal values (n_nodes, k) with the nodes CalculiX did not have interpolated (:func:`dropped_nodes`)."""
+    values = np.array(values, dtype=float)
+    for nodes, masters, weights in dropped_nodes(cell_type, cells):
+        values[nodes] = np.einsum("nk...,k->n...", values[masters], weights)
     return values
+
+
+def lump_dropped_forces(cell_type: str, cells: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    """Nodal forces (n_nodes, dim) with those on dropped nodes moved to their masters (virtual work of
+    :func:`fill_dropped_nodes`' constraint, so the loads' resultant and work are kept)."""
+    forces = np.array(forces, dtype=float)
+    for nodes, masters, weights in dropped_nodes(cell_type, cells):
+        np.add.at(forces, masters, weights[None, :, None] * forces[nodes][:, None, :])
+        forces[nodes] = 0.0
+    return forces
 
 
 # VTK triquadratic hexahedron face nodes 20..25: faces x-, x+, y-, y+, z-, z+ as (corners, edge mid-nodes)
