@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/frictionid demo
+	$(VENV)/bin/frictionid demo --resume --out examples/bolt-m20/out
 
 test: $(STAMP)
 	$(PY) -m pytest -q

@@ -6,7 +6,7 @@ from frictionid.cli import main
 
 
 def test_demo_runs_the_block_reference_test(capsys):
-    assert main(["demo", "--mesh-size", "2.5"]) == 0
+    assert main(["demo", "--block", "--mesh-size", "2.5"]) == 0
     out = capsys.readouterr().out
     assert "reference test 1" in out
     for zone in "ABCD":
@@ -15,7 +15,7 @@ def test_demo_runs_the_block_reference_test(capsys):
 
 
 def test_bad_input_exits_2_with_a_message_and_no_traceback(capsys):
-    assert main(["demo", "--mesh-size", "-1"]) == 2
+    assert main(["demo", "--block", "--mesh-size", "-1"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("frictionid: error:") and "mesh_size" in err and "Traceback" not in err
 

@@ -13,12 +13,33 @@ from .errors import InputError, SolverError
 
 
 def _add_demo(sub):
-    parser = sub.add_parser("demo", help="the block reference test end to end on the embedded solver")
-    parser.add_argument("--mesh-size", type=float, default=1.0, help="block mesh size [mm] (default 1.0)")
+    parser = sub.add_parser("demo", help="the M20 bolt-nut study end to end (twin data, identification, report)")
+    parser.add_argument("--out", default="frictionid-demo", help="folder for the results (default ./frictionid-demo)")
+    parser.add_argument("--quick", action="store_true", help="coarse meshes and few iterations (a smoke test)")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue (or replay) the identifications stored in the --out folder")
+    parser.add_argument("--block", action="store_true",
+                        help="instead: one forward solve with sensitivities of the block reference test")
+    parser.add_argument("--mesh-size", type=float, default=1.0, help="with --block: block mesh size [mm] (default 1.0)")
     parser.set_defaults(run=_run_demo)
 
 
 def _run_demo(args) -> int:
+    if args.block:
+        return _run_block_demo(args)
+    from .demo import Settings, run_demo
+
+    try:
+        run_demo(args.out, Settings.quick() if args.quick else Settings(), resume=args.resume,
+                 echo=lambda text: print(text, flush=True))
+    except KeyboardInterrupt:
+        print(f"frictionid: interrupted; every finished evaluation is stored in {args.out}/runs; continue with "
+              f"frictionid demo --resume --out {args.out}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _run_block_demo(args) -> int:
     from .builders.block import block_model
     from .fem.problem import Problem
     from .report.tables import solution_summary
