@@ -5,10 +5,12 @@ f_data(mu)) at the goal coefficients biases a least-squares fit by about -pinv(J
 sensitivities). A design is usable when that bias is well below the target (0.01) in every zone; the standard
 errors show what the stated noise (0.5 um, 1 N) adds. Two solves per mesh, no fitting.
 
-Run: .venv/bin/python examples/block/screen.py ['{"mesh_size": 2.5, ...}' '{"mesh_size": 2.5, ...}']
-(identification and data mesh options; default twin.ID_MESH and twin.DATA_MESH)
+Run: .venv/bin/python examples/block/screen.py [--seeds 8] ['{"mesh_size": 2.5, ...}' '{"mesh_size": 2.5, ...}']
+(identification and data mesh options; default twin.ID_MESH and twin.DATA_MESH). ``--seeds N`` also screens the
+shipped design at N other random goals (seeds 1..N, uniform in [0.1, 0.5]).
 """
 
+import argparse
 import json
 import os
 import sys
@@ -54,43 +56,62 @@ def designs(labels: list[str]) -> dict:
     }
 
 
-def responses(mesh: dict, points: np.ndarray, mu: np.ndarray):
-    """(values (n_stages, n_rows + 1), derivatives) at stage ends; the last row is the machine force."""
+def build(mesh: dict, points: np.ndarray) -> Problem:
     start = time.perf_counter()
     problem = Problem.build(block_model(pull_levels=twin.PULL_LEVELS, **mesh), points=points,
                             quantities=QUANTITIES)
+    print(f"  {mesh}: {problem.space.n_dofs} dofs, built in {time.perf_counter() - start:.1f} s", flush=True)
+    return problem
+
+
+def responses(problem: Problem, mu: np.ndarray):
+    """(values (n_stages, n_rows + 1), derivatives) at stage ends; the last row is the machine force."""
     solution = problem.solve(mu, sensitivities=True)
     ends = [solution.stage_end(s) for s in range(problem.model.n_stages)]
     force = problem.reaction_labels.index("block_top.y")
     values = np.hstack([solution.observations[ends], solution.reactions[ends][:, [force]]])
     derivatives = np.concatenate([solution.d_observations[ends], solution.d_reactions[ends][:, [force]]], axis=1)
-    print(f"  {mesh}: {problem.space.n_dofs} dofs, {time.perf_counter() - start:.1f} s", flush=True)
     return values, derivatives
 
 
-def screen(id_mesh: dict, data_mesh: dict) -> None:
+def bias_and_stderr(id_problem, data_problem, mu, sigma, rows, stages):
+    """First-order bias -pinv(J) e and standard errors of one design at goal ``mu``."""
+    (f_id, d_id), (f_data, _) = responses(id_problem, mu), responses(data_problem, mu)
+    idx = [s - 1 for s in stages]
+    w = np.tile(1.0 / sigma[rows], len(idx))
+    J = w[:, None] * d_id[idx][:, rows].reshape(-1, len(mu))
+    e = w * (f_id[idx][:, rows] - f_data[idx][:, rows]).ravel()
+    return -np.linalg.pinv(J) @ e, np.sqrt(np.diag(np.linalg.pinv(J.T @ J))), len(e)
+
+
+def screen(id_mesh: dict, data_mesh: dict, seeds: int = 0) -> None:
     mu = np.array(list(twin.goal_coefficients().values()))
     xyz, labels = twin.points()
     points = np.vstack([xyz, GAUGES])
     print("goal coefficients", np.round(mu, 4).tolist())
-    f_id, d_id = responses(id_mesh, points, mu)
-    f_data, _ = responses(data_mesh, points, mu)
-    force_row = f_id.shape[1] - 1
+    id_problem, data_problem = build(id_mesh, points), build(data_mesh, points)
+    force_row = len(points) * len(QUANTITIES)
     sigma = np.array([twin.SIGMA_U if q.startswith("u") else SIGMA_STRAIN for _ in points for q in QUANTITIES]
                      + [twin.SIGMA_FORCE])
     print(f"{'design':<58}{'n_obs':>6}   bias A, B, C, D                     stderr A, B, C, D")
-    for name, (rows, stages, force) in designs(labels).items():
-        rows = rows + ([force_row] if force else [])
-        idx = [s - 1 for s in stages]
-        w = np.tile(1.0 / sigma[rows], len(idx))
-        J = w[:, None] * d_id[idx][:, rows].reshape(-1, len(mu))
-        e = w * (f_id[idx][:, rows] - f_data[idx][:, rows]).ravel()
-        bias = -np.linalg.pinv(J) @ e
-        stderr = np.sqrt(np.diag(np.linalg.pinv(J.T @ J)))
-        print(f"{name:<58}{len(e):>6}   " + " ".join(f"{b:+.4f}" for b in bias) + "     "
+    all_designs = designs(labels)
+    for name, (rows, stages, force) in all_designs.items():
+        bias, stderr, n = bias_and_stderr(id_problem, data_problem, mu, sigma,
+                                          rows + ([force_row] if force else []), stages)
+        print(f"{name:<58}{n:>6}   " + " ".join(f"{b:+.4f}" for b in bias) + "     "
               + " ".join(f"{s:.4f}" for s in stderr))
+    rows, stages, _ = next(iter(all_designs.values()))
+    for seed in range(1, seeds + 1):
+        goal = np.random.default_rng(seed).uniform(0.1, 0.5, 4)
+        bias, stderr, _ = bias_and_stderr(id_problem, data_problem, goal, sigma, rows + [force_row], stages)
+        print(f"shipped design, goal seed {seed} {np.round(goal, 3).tolist()}".ljust(64) + "   "
+              + " ".join(f"{b:+.4f}" for b in bias) + "     " + " ".join(f"{s:.4f}" for s in stderr))
 
 
 if __name__ == "__main__":
-    meshes = [json.loads(a) for a in sys.argv[1:3]]
-    screen(*(meshes + [twin.ID_MESH, twin.DATA_MESH][len(meshes):]))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("meshes", nargs="*", help="identification and data mesh options as JSON")
+    parser.add_argument("--seeds", type=int, default=0, help="also screen the shipped design at other goals")
+    args = parser.parse_args()
+    meshes = [json.loads(a) for a in args.meshes[:2]]
+    screen(*(meshes + [twin.ID_MESH, twin.DATA_MESH][len(meshes):]), seeds=args.seeds)
