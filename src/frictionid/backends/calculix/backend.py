@@ -189,6 +189,8 @@ class CalculixBackend:
         if unknown:
             raise InputError(f"model: no reaction {unknown}; the model's reactions are {list(self.reaction_labels)}")
         self._reaction_rows = [self.reaction_labels.index(r) for r in reactions]
+        self._observed = self._observed_nodes()
+        self._kept = np.unique(calculix_cells(model.mesh.points, model.mesh.cell_type, model.mesh.cells))
 
     def deck(self, mu) -> str:
         """The .inp text for zone coefficients ``mu`` (n_zones,), with print requests for the observation nodes."""
@@ -197,6 +199,9 @@ class CalculixBackend:
 
     def observed_nodes(self) -> np.ndarray:
         """Nodes whose displacements the observation rows use (0-based)."""
+        return self._observed
+
+    def _observed_nodes(self) -> np.ndarray:
         nodes = np.unique(self.observe.tocoo().col // self.model.dim)
         cells = np.flatnonzero(np.isin(self.model.mesh.cells, nodes).any(axis=1))
         return np.unique(self.model.mesh.cells[cells]) if self.model.mesh.cell_type in ("quad9", "hexahedron27") \
@@ -251,8 +256,7 @@ class CalculixBackend:
     def _nodal(self, rows: dict, nodes: np.ndarray) -> np.ndarray:
         """(n_nodes, dim) displacements from {ccx node: values} for the required nodes; others zero."""
         out = np.zeros((self.model.mesh.n_nodes, self.model.dim))
-        kept = np.unique(calculix_cells(self.model.mesh.points, self.model.mesh.cell_type, self.model.mesh.cells))
-        needed = np.intersect1d(nodes, kept)
+        needed = np.intersect1d(nodes, self._kept)
         missing = [n for n in needed if n + 1 not in rows]
         if missing:
             raise SolverError(f"the .dat file has no displacement of node {missing[0] + 1} (incomplete output)")
