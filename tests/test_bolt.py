@@ -53,6 +53,7 @@ def test_m20_layout_is_the_design_md_setup():
     assert layout.plate2 == (0.0, 20.0) and layout.plate1 == (74.5, 94.5)
     assert (layout.r_hole, layout.r_outer) == (11.0, 40.0)
     assert layout.size.hex_radius == pytest.approx(15.75, abs=2e-3) and layout.size.da == 21.0
+    assert layout.r_bearing == layout.size.hex_radius and bolt_layout(bearing_diameter="dw").r_bearing == 13.85
     assert layout.shift == pytest.approx(0.021) and layout.r_shank == pytest.approx(9.979)
     assert layout.nut_phase - (layout.bolt_phase - 1.25) == pytest.approx(0.021 / SQRT3)
     assert len(layout.flanks) == 7 and layout.sections == ((1, 2, 3), (4, 5), (6, 7))
@@ -171,6 +172,17 @@ def test_first_share_grows_with_the_radial_hold_of_the_nut(model, problem):
     assert first[0] < first[1] - 0.02 and first[1] < first[2] - 0.1
 
 
+def test_bearing_on_dw_moves_load_to_the_first_thread(model, solution):
+    """ISO 4032 bearing face (dw = 27.7, ring chamfered beyond): the plate pushes the nut nearer the thread,
+    so the nut flares less and the first thread carries more than with the whole ring face (24.8 vs 20.6 %)."""
+    dw_model = bolt_model(flank_size=0.25, bearing_diameter="dw")
+    problem = Problem.build(dw_model)
+    area = (problem.pairs.weight[:, None] * problem.pairs.zone_share).sum(axis=0)
+    assert area[dw_model.zone_names.index("nut_plate")] == pytest.approx(math.pi * (13.85 ** 2 - 11 ** 2), rel=1e-9)
+    first = thread_loads(dw_model, problem.solve(coefficients(dw_model))).share[0]
+    assert first > thread_loads(model, solution).share[0] + 0.03
+
+
 def test_report_profile_dilation_states_and_plot(model, problem, solution, tmp_path):
     profile = flank_profile(model, solution)
     assert len(profile.flank) == np.sum(np.isin(problem.pairs.nodes, model.mesh.boundary_nodes("nut_contact")) |
@@ -226,6 +238,7 @@ def test_points_off_the_flanks_are_refused():
     ({"flank_size": 1.0}, r"`flank_size` = 1 mm is too coarse for M20"),
     ({"length": 50.0}, r"`length` = 50 mm is too short for M20"),
     ({"n_axial": 8}, r"`n_axial` must be an integer in \[1, 7\]"),
+    ({"bearing_diameter": 21.0}, r"`bearing_diameter` must be \"dw\" or a number of mm in \(22, 31.5\]"),
     ({"clearance": -0.01}, r"`clearance` must be a number of mm in \[0, H/4 = 0.541\)"),
 ])
 def test_bad_options_name_the_key(options, message):

@@ -45,7 +45,9 @@ _TOL = 1e-9  # [mm] coordinates closer than this are the same point
 class BoltLayout:
     """The tensile test set-up of one size: heights and radii [mm], thread phases, engaged flanks.
 
-    ``flanks`` are the engaged load flanks numbered from the nut bearing face; ``zone_splits`` the radii [mm]
+    ``r_bearing`` is the outer radius of the nut's bearing face (the hexagon ring unless a bearing diameter is
+    given, then chamfered at 30 deg up to the ring). ``flanks`` are the engaged load flanks numbered from the nut
+    bearing face; ``zone_splits`` the radii [mm]
     splitting each flank's contact segment radially; ``sections`` the flank indices (1-based) of each axial
     section, section 1 next to the bearing face.
     """
@@ -58,6 +60,7 @@ class BoltLayout:
     plate2: tuple[float, float]
     plate1: tuple[float, float]
     r_hole: float
+    r_bearing: float
     r_outer: float
     r_shank: float
     shift: float
@@ -95,7 +98,8 @@ def _count(key: str, value, low: int, high: int) -> int:
 
 
 def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: float | None = None,
-                clearance: float | None = None, n_radial: int = 2, n_axial: int = 3) -> BoltLayout:
+                clearance: float | None = None, n_radial: int = 2, n_axial: int = 3,
+                bearing_diameter: float | str | None = None) -> BoltLayout:
     """The set-up geometry of a size (see the module docstring); options as in :func:`bolt_model`.
 
     >>> layout = bolt_layout("M20")
@@ -132,8 +136,19 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     splits = _zone_splits(s, shift, n_radial)
     sections = tuple(tuple(int(i) + 1 for i in part) for part in np.array_split(np.arange(len(flanks)), n_axial))
     return BoltLayout(s, length, y_thread, y_bearing, y_top, (0.0, s.d), (y_bearing - s.d, y_bearing),
-                      s.hole / 2, 2 * s.d, s.d / 2 - shift, shift, bolt_phase, nut_phase, bore, flanks,
+                      s.hole / 2, _bearing_radius(s, bearing_diameter), 2 * s.d, s.d / 2 - shift, shift, bolt_phase, nut_phase, bore, flanks,
                       splits, sections)
+
+
+def _bearing_radius(s: ThreadSize, diameter) -> float:
+    """Outer radius [mm] of the nut bearing face: the ring (None), ISO 4032 dw ("dw") or a diameter."""
+    if diameter is None:
+        return s.hex_radius
+    value = s.nut_dw if diameter == "dw" else diameter
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not s.hole < value <= 2 * s.hex_radius:
+        raise InputError(f"`bearing_diameter` must be \"dw\" or a number of mm in ({s.hole:g}, "
+                         f"{2 * s.hex_radius:.4g}] (clearance hole to hexagon ring), got {diameter!r}")
+    return float(value) / 2
 
 
 def _nut_phase(s: ThreadSize, y_bearing: float, y_top: float, shift: float) -> float:
@@ -264,8 +279,10 @@ def _nut_role(layout: BoltLayout, a, b) -> tuple[str, Flank | None]:
 
 
 def _draw_nut(layout: BoltLayout, labels, transfinite, flank_size: float, n_nut: int) -> int:
-    s = layout.size
-    o = _Outline((s.hex_radius, layout.y_bearing), labels)
+    s, r_b = layout.size, layout.r_bearing
+    chamfer = (s.hex_radius - r_b) / SQRT3
+    o = _Outline((s.hex_radius, layout.y_bearing + chamfer), labels)
+    o.to((r_b, layout.y_bearing), "nut_chamfer")
     transfinite[o.to((layout.r_hole, layout.y_bearing), "nut_plate")] = n_nut
     for a, b in zip(layout.bore[:-1], layout.bore[1:]):
         o.to(a, "nut_bearing_free")
@@ -274,7 +291,8 @@ def _draw_nut(layout: BoltLayout, labels, transfinite, flank_size: float, n_nut:
             o.to(b, f"nut_{role}", "nut_thread", "engaged_region")
         else:
             _draw_flank(o, layout, flank, a[0], b[0], "nut", transfinite, flank_size)
-    o.to((s.hex_radius, layout.y_top), "nut_top")
+    o.to((r_b, layout.y_top), "nut_top")
+    o.to((s.hex_radius, layout.y_top - chamfer), "nut_chamfer")
     return o.close("nut_outer")
 
 
@@ -289,7 +307,7 @@ def _draw_plates(layout: BoltLayout, labels, transfinite, n_head: int, n_nut: in
     p1 = _Outline((r_hole, y2), labels)
     p1.to((r_out, y2), "plate1_bottom")
     p1.to((r_out, y3), "plate1_rim")
-    p1.to((s.hex_radius, y3), "plate1_top")
+    p1.to((layout.r_bearing, y3), "plate1_top")
     transfinite[p1.to((r_hole, y3), "plate1_nut")] = n_nut
     return p2.close("plate2_hole"), p1.close("plate1_hole")
 
@@ -312,7 +330,7 @@ def bolt_mesh(layout: BoltLayout, flank_size: float, contact_size: float, mesh_s
     """Quadratic-triangle ("triangle6") mesh of bolt, nut and plates with the named groups of :func:`bolt_model`."""
     s = layout.size
     n_head = math.ceil((s.head_radius - layout.r_hole) / contact_size - 1e-9) + 1
-    n_nut = math.ceil((s.hex_radius - layout.r_hole) / contact_size - 1e-9) + 1
+    n_nut = math.ceil((layout.r_bearing - layout.r_hole) / contact_size - 1e-9) + 1
     with gmsh_session("bolt"):
         separate_quadratic_bodies()
         labels, transfinite = {}, {}
@@ -354,7 +372,7 @@ def _forces(forces) -> tuple[float, ...]:
 def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int = 3, flank_size: float = 0.1,
                contact_size: float | None = None, mesh_size: float | None = None, n_radial: int = 2,
                n_axial: int = 3, length: float | None = None, engaged_length: float | None = None,
-               clearance: float | None = None) -> Model:
+               clearance: float | None = None, bearing_diameter: float | str | None = None) -> Model:
     """The axisymmetric bolt-nut tensile test (DESIGN.md, reference test 2) for a coarse M size.
 
     Parameters
@@ -383,6 +401,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         relieved to the thread root. Default m.
     clearance : float [mm], optional
         Flank clearance |es| of the 6g bolt; default ISO 965-1 (0.042 for M20).
+    bearing_diameter : "dw" or float [mm], optional
+        Outer diameter of the nut's bearing face on plate 1; "dw" takes ISO 4032 dw (27.7 for M20). The ring
+        beyond it is chamfered at 30 deg (both nut faces). Default: the whole ring face (DESIGN.md).
 
     Returns
     -------
@@ -393,7 +414,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         segment of engaged flank i, from the bearing face), "nut_thread_<i>", "bolt_load", "bolt_free",
         "nut_load", "nut_free", "nut_outer", "plate1_rim" (loaded), "plate2_rim" (held).
     """
-    layout = bolt_layout(size, length, engaged_length, clearance, n_radial, n_axial)
+    layout = bolt_layout(size, length, engaged_length, clearance, n_radial, n_axial, bearing_diameter)
     d = layout.size.d
     flank_size = _number("flank_size", flank_size)
     contact_size = d / 40 if contact_size is None else _number("contact_size", contact_size)
