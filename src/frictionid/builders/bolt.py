@@ -11,7 +11,6 @@ each contact segment has the same uniform node spacing on both sides (node-to-no
 
 from __future__ import annotations
 
-import logging
 import math
 import string
 from dataclasses import dataclass
@@ -25,8 +24,6 @@ from .arcs import separate_quadratic_bodies
 from .gmsh_mesh import gmsh_session, mesh_from_gmsh
 from .thread import (SQRT3, Flank, ThreadSize, bolt_profile, engaged_flanks, first_tooth_window, nut_bore,
                      thread_size)
-
-logger = logging.getLogger(__name__)
 
 #: steel of bolt, nut and plates (DESIGN.md)
 STEEL = Material(E=200000.0, nu=0.3, name="steel")
@@ -47,9 +44,8 @@ class BoltLayout:
 
     ``r_bearing`` is the outer radius of the nut's bearing face (the hexagon ring unless a bearing diameter is
     given, then chamfered at 30 deg up to the ring). ``flanks`` are the engaged load flanks numbered from the nut
-    bearing face; ``zone_splits`` the radii [mm]
-    splitting each flank's contact segment radially; ``sections`` the flank indices (1-based) of each axial
-    section, section 1 next to the bearing face.
+    bearing face; ``zone_splits`` the radii [mm] splitting each flank's contact segment radially; ``sections``
+    the flank indices (1-based) of each axial section, section 1 next to the bearing face.
     """
 
     size: ThreadSize
