@@ -8,7 +8,8 @@ import pytest
 from frictionid.backends import check_backend, make_backend
 from frictionid.backends.calculix.backend import CalculixSettings
 from frictionid.backends.calculix.deck import ContactSettings, write_deck
-from frictionid.backends.calculix.elements import SHAPE, calculix_cells, face_lookup, fill_dropped_nodes
+from frictionid.backends.calculix.elements import (SHAPE, calculix_cells, face_lookup, fill_dropped_nodes,
+                                                   lump_dropped_forces)
 from frictionid.builders.benchmarks import sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.errors import InputError
@@ -195,3 +196,19 @@ def test_loads_on_dropped_nodes_move_to_kept_ones():
     assert {int(node) - 1 for node, _, _ in cload} <= kept
     total = sum(float(value) for _, dof, value in cload if dof.strip() == "3")
     assert total == pytest.approx(-2000.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("builder, cell_type", [
+    (lambda: block_model(mesh_size=5.0, order=2), "hexahedron27"),
+    (lambda: block_model_2d(mesh_size=4.0, order=2, quads=True), "quad9"),
+])
+def test_moved_loads_do_the_same_work(builder, cell_type):
+    """Forces moved off dropped nodes do the same virtual work on any field CalculiX can represent."""
+    mesh = builder().mesh
+    rng = np.random.default_rng(5)
+    forces = rng.normal(size=mesh.points.shape)
+    field = fill_dropped_nodes(cell_type, mesh.cells, rng.normal(size=mesh.points.shape))
+    moved = lump_dropped_forces(cell_type, mesh.cells, forces)
+    assert np.sum(moved * field) == pytest.approx(np.sum(forces * field), rel=1e-12)
+    dropped = np.setdiff1d(np.arange(mesh.n_nodes), calculix_cells(mesh.points, cell_type, mesh.cells))
+    assert dropped.size and np.all(moved[dropped] == 0)
