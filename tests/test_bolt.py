@@ -286,3 +286,14 @@ def test_large_size_at_the_default_flank_size_builds_its_contact_pairs():
         * (layout.size.d / 2 - layout.shift - layout.size.d1 / 2) / math.cos(math.pi / 6)
     # every M30 flank is complete (see test_other_sizes...): flank ring areas sum to n_flanks * full
     assert pairs.weight[thread].sum() == pytest.approx(len(layout.flanks) * full, rel=1e-9)
+
+
+def test_flank_slip_direction_is_the_wedge(problem, solution, model):
+    """On the load flanks t1 = (cos 30, sin 30); the bolt slides inwards relative to the nut at the first
+    threads (the wedge contracts the bolt and dilates the nut), and friction acts on the bolt along +t1."""
+    profile = flank_profile(model, solution)
+    frames = problem.pairs.frames[problem.pairs.interface == 0]
+    t1 = np.broadcast_to([math.cos(math.pi / 6), math.sin(math.pi / 6)], frames[:, 1].shape)
+    np.testing.assert_allclose(frames[:, 1], t1, atol=1e-9)
+    first = profile.flank == 1
+    assert np.all(profile.slip[first] < -3e-3) and np.all(profile.traction[first] > 0)   # slip about -6 um

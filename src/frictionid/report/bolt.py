@@ -110,7 +110,9 @@ class FlankProfile:
     ----------
     flank : (n,) engaged flank index; position : (n, 2) (r, y) [mm]
     pressure : (n,) [MPa]; traction : (n,) [MPa] along the flank (frame t1)
-    slip : (n,) [mm] accumulated tangential relative displacement (bolt relative to nut, along t1)
+    slip : (n,) [mm] accumulated tangential relative displacement (bolt relative to nut, along t1; on the
+        load flanks t1 = (cos 30, sin 30) points outwards and up the flank, so slip < 0 is the bolt sliding
+        inwards: bolt contraction plus nut dilation)
     state : (n,) 0 open, 1 stick, 2 slip
     """
 
