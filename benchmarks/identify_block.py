@@ -11,7 +11,6 @@ Run: .venv/bin/python benchmarks/identify_block.py [max_gd_iterations]
 import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -22,30 +21,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "block
 
 import twin  # noqa: E402
 from frictionid.cli import main as cli  # noqa: E402
-from frictionid.config import read_config  # noqa: E402
-from frictionid.identify import identify  # noqa: E402
-
-TARGET = 0.01
-
-
-def run(folder: Path, name: str, method: str, jacobian: str, iterations: int, mu_true) -> dict:
-    path = twin.config(folder, name, twin.ID_MESH, dict.fromkeys("ABCD", 0.1), "measured.csv",
-                       twin.identify_table(method, jacobian, iterations))
-    trace, start = [], [0.0]
-
-    def progress(iteration, mu, objective, evaluator):
-        # time from the start point's evaluation on: the model build and pre-fit check, common to both methods
-        # (10-20 s), are left out
-        if not trace:
-            start[0] = time.perf_counter()
-        trace.append((np.abs(mu - mu_true).max(), evaluator.n_forward + evaluator.n_sensitivity,
-                      time.perf_counter() - start[0]))
-
-    result = identify(read_config(path, need=("model", "friction", "data", "run")), progress=progress)
-    reached = next(((solves, t) for error, solves, t in trace if error < TARGET), None)
-    return {"result": result, "reached": reached, "final_error": trace[-1][0], "solves": trace[-1][1],
-            "time": trace[-1][2]}
-
 
 def main(gd_iterations: int = 150):
     mu_true = np.array(list(twin.goal_coefficients().values()))
@@ -55,21 +30,22 @@ def main(gd_iterations: int = 150):
         truth = twin.config(folder, "truth", twin.DATA_MESH, twin.goal_coefficients(), "points.csv")
         assert cli(["simulate", str(truth), "--out", str(folder / "simulated.csv")]) == 0
         twin.as_measured(folder / "simulated.csv", folder / "measured.csv")
-        trf = run(folder, "trf", "trf", "analytic", 50, mu_true)
-        gd = run(folder, "gd", "gradient-descent", "forward", gd_iterations, mu_true)
+        trf = twin.identify_traced(folder, "trf", "trf", "analytic", 50, mu_true)
+        gd = twin.identify_traced(folder, "gd", "gradient-descent", "forward", gd_iterations, mu_true)
     print(f"3-D block, goal coefficients {np.round(mu_true, 4).tolist()}, start 0.1, target |mu - mu_true| < "
-          f"{TARGET}; finer-mesh data {twin.DATA_MESH}, identification mesh {twin.ID_MESH}")
+          f"{twin.TARGET}; finer-mesh data {twin.DATA_MESH}, identification mesh {twin.ID_MESH}")
     for name, r in (("trf + analytic", trf), ("gradient descent + forward differences", gd)):
         res = r["result"]
         reached = (f"reached after {r['reached'][0]} solves, {r['reached'][1]:.2f} s" if r["reached"]
-                   else f"NOT reached ({r['solves']} solves, {r['time']:.1f} s, final error {r['final_error']:.3g})")
+                   else "NOT reached ({1} solves, {2:.1f} s, final error {0:.3g})".format(*r["trace"][-1]))
         print(f"  {name:<40} {reached}; {res['n_iterations']} iterations, status {res['status']}")
     if trf["reached"] and gd["reached"]:
         print(f"  ratio: {gd['reached'][0] / trf['reached'][0]:.1f}x fewer solves, "
               f"{gd['reached'][1] / trf['reached'][1]:.1f}x less time")
     elif trf["reached"]:
-        print(f"  ratio: more than {gd['solves'] / trf['reached'][0]:.0f}x fewer solves and "
-              f"{gd['time'] / trf['reached'][1]:.0f}x less time (gradient descent never got there)")
+        _, solves, seconds = gd["trace"][-1]
+        print(f"  ratio: more than {solves / trf['reached'][0]:.0f}x fewer solves and "
+              f"{seconds / trf['reached'][1]:.0f}x less time (gradient descent never got there)")
 
 
 if __name__ == "__main__":

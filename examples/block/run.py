@@ -16,7 +16,6 @@ import argparse
 import os
 import shutil
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -32,32 +31,8 @@ sys.path.insert(0, str(HERE))
 
 import twin  # noqa: E402
 from frictionid.cli import main as cli  # noqa: E402
-from frictionid.config import read_config  # noqa: E402
-from frictionid.identify import identify  # noqa: E402
 
 METHODS = {"gradient-descent": "forward", "trf": "analytic"}
-TARGET = 0.01   # issue 3: |mu - mu_true| < 0.01 in every zone
-
-
-def run_method(out: Path, method: str, iterations: int, mu_true: np.ndarray) -> dict:
-    """Identify from 0.1 with one method; the trace gives solves and time until the target is met."""
-    path = twin.config(out, method, twin.ID_MESH, dict.fromkeys("ABCD", 0.1), "measured.csv",
-                       twin.identify_table(method, METHODS[method], iterations))
-    trace, start = [], [0.0]
-
-    def progress(iteration, mu, objective, evaluator):
-        # time from the start point's evaluation on: the model build and pre-fit check, common to both methods
-        # (10-20 s), are left out
-        if not trace:
-            start[0] = time.perf_counter()
-        trace.append((np.abs(mu - mu_true).max(), evaluator.n_forward + evaluator.n_sensitivity,
-                      time.perf_counter() - start[0]))
-
-    result = identify(read_config(path, need=("model", "friction", "data", "run")), progress=progress)
-    reached = next(((solves, t) for error, solves, t in trace if error < TARGET), None)
-    return {"result": result, "reached": reached}
-
-
 def fig5(curves: dict, path: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     for ax, (method, (mu_err, misfit)) in zip(axes, curves.items()):
@@ -114,7 +89,8 @@ def main(argv=None):
     goal = np.array(list(mu_true.values()))
     rows, curves = [], {}
     for method in METHODS:
-        r = run_method(out, method, args.gd_iterations if method == "gradient-descent" else 50, goal)
+        r = twin.identify_traced(out, method, method, METHODS[method],
+                                 args.gd_iterations if method == "gradient-descent" else 50, goal)
         history = r["result"]["history"]
         mus = np.array(history["coefficients"])
         objective = np.array(history["objective"])
