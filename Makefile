@@ -22,6 +22,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/forward_block2d.py
 	$(PY) benchmarks/forward_block3d.py
 	$(PY) benchmarks/identify_block.py
+	$(PY) benchmarks/bolt.py
+	$(PY) benchmarks/backends.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
