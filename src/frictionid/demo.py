@@ -39,8 +39,8 @@ START = 0.1
 METHODS = (("trf", "analytic"), ("gradient-descent", "forward"))
 #: per-method options: trf stops once an iteration lowers J by less than 0.1 % (J is a chi-square here: the
 #: unresolved zones otherwise drift along their flat valley for dozens of iterations) or the coefficients change
-#: by less than 1e-6 (relative); the paper's gradient descent starts every Armijo search from a step that
-#: changes the steepest coefficient by 0.05
+#: by less than 1e-6 (relative); the paper's gradient descent starts every Armijo search from
+#: t0 = 0.05 / max|grad J(x0)|, so that its first trial changes the steepest coefficient by 0.05
 OPTIONS = {"trf": "ftol = 1e-3, xtol = 1e-6", "gradient-descent": "scaled_step = true, initial_step = 0.05"}
 
 
