@@ -83,6 +83,7 @@ def test_elements_regions_and_line_length(block3d):
 def test_steps_follow_the_load_path(block3d):
     deck, channels = deck_of(block3d, [0.1] * 4)
     assert [c[0] for c in cards(deck, "*STATIC")] == ["1, 1., 1e-06, 1", "0.1, 1., 1e-07, 0.1"]
+    assert [c[0] for c in cards(deck, "*CONTROLS")] == ["4, 8, 9, 16, 10, 4, , 20"] * 2
     boundary = cards(deck, "*BOUNDARY")
     assert boundary[0] == ["N1, 1, 1", "N1, 2, 2", "N1, 3, 3"]          # plate_bottom held
     assert boundary[2] == ["N3, 1, 1, 0", "N3, 2, 2, 0.2"]               # block_top pulled in stage 2

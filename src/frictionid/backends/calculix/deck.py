@@ -176,6 +176,8 @@ def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reac
     n = model.stages[stage].n_increments
     dt = 1.0 / n
     out = [f"** stage {stage + 1}: {model.stages[stage].name}", "*STEP, INC=10000",
+           "** up to 20 cutbacks per increment (ccx default 5 stopped an axisymmetric contact run; 20 passed)",
+           "*CONTROLS, PARAMETERS=TIME INCREMENTATION", "4, 8, 9, 16, 10, 4, , 20",
            "*STATIC", f"{dt:.15g}, 1., {dt * 1e-6:.15g}, {dt:.15g}"]
     moves = [load for load in model.loads if isinstance(load, Displacement)]
     if moves:
