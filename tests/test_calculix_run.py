@@ -200,3 +200,17 @@ def test_missing_ccx_exits_2(tmp_path, capsys):
         'observables = ["ux"]\nstages = [2]\n[solver]\nbackend = "calculix"\nccx = "no-such-ccx"\n')
     assert main(["simulate", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out.csv")]) == 2
     assert "solver.ccx = 'no-such-ccx'" in capsys.readouterr().err
+
+
+@needs_ccx
+def test_crosscheck_command_writes_the_table(tmp_path, capsys):
+    (tmp_path / "c.toml").write_text('[model]\nbuilder = "block2d"\nmesh_size = 4.0\norder = 1\nquads = true\n'
+                                     'n_pull = 2\n[friction]\nzones = { A = 0.3, B = 0.2 }\n')
+    assert main(["crosscheck", str(tmp_path / "c.toml"), "--out", str(tmp_path / "table.md")]) == 0
+    table = (tmp_path / "table.md").read_text()
+    assert table == capsys.readouterr().out
+    rows = {line.split("|")[1].strip(): line for line in table.splitlines() if line.startswith("| ")}
+    assert {"reaction base_bottom.y", "zone A N (mu = 0.3)", "ratio calculix / embedded"} <= set(rows)
+    # the default points are cell centroids of both regions; the press reaction is the applied 200 N/mm
+    assert "16 points" in table
+    assert abs(float(rows["reaction base_bottom.y"].split("|")[4].strip().rstrip(" %"))) < 0.01
