@@ -11,6 +11,7 @@ import pytest
 
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.builders.benchmarks import sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.cli import main
 from frictionid.data.measurements import read_measurements
@@ -103,6 +104,18 @@ def test_axisymmetric_forces_are_whole_ring():
     a, b = embedded.observations[ends[1]].reshape(-1, 5), ccx.observations[1].reshape(-1, 5)
     # measured 0.29 % and 0.39 %
     assert rms_of_range(a[:, :2], b[:, :2]) < 0.01 and rms_of_range(a[:, 2:], b[:, 2:]) < 0.01
+
+
+@needs_ccx
+def test_axisymmetric_push_out_in_gross_slip():
+    """Sleeve pushed along a shaft (CAX6): push force = sum mu_i N_i (whole ring) and the embedded force."""
+    model = sleeve_model(size=1.0, n_push=4)
+    mu = np.array([0.3, 0.2])
+    embedded, ends, ccx = both(model, np.zeros((0, 2)), ("ux",), mu)
+    push = ccx.reaction_labels.index("sleeve_top.y")
+    # measured at the default (capped) penalty 1e7 N/mm^3: 0.007 % and -0.014 %
+    np.testing.assert_allclose(-ccx.reactions[1, push], mu @ ccx.zone_normal_force[1], rtol=0.005)
+    np.testing.assert_allclose(ccx.reactions[1, push], embedded.reactions[ends[1], push], rtol=0.01)
 
 
 @needs_ccx

@@ -27,6 +27,8 @@ log = logging.getLogger(__name__)
 _AXES = "xyz"
 #: penalty slopes relative to E_min / h (softest Young's modulus over the contact element size), see README
 PENALTY_FACTOR = 500.0
+#: [N/mm^3] cap of the default slopes: steel sleeves in CAX6 did not converge at 1e8 and matched at 1e7
+PENALTY_CAP = 1e7
 _PAIR_TYPES = {"surface-to-surface": "SURFACE TO SURFACE", "node-to-surface": "NODE TO SURFACE"}
 _TIME_TOL = 1e-6
 
@@ -44,8 +46,8 @@ class CalculixSettings:
     threads : OpenMP threads per ccx run
     contact : "surface-to-surface" | "node-to-surface"
     normal_stiffness, stick_slope : float [N/mm^3], optional
-        Penalty slopes; default ``PENALTY_FACTOR * E_min / h`` with E_min the softest material and h the
-        median contact facet size.
+        Penalty slopes; default ``min(PENALTY_FACTOR * E_min / h, PENALTY_CAP)`` with E_min the softest
+        material and h the median contact facet size.
     """
 
     ccx: str = "ccx"
@@ -91,8 +93,8 @@ class CalculixSettings:
             raise InputError(f"{where} ccx must be the name or path of the ccx executable, got {self.ccx!r}")
 
     def contact_settings(self, model: Model) -> ContactSettings:
-        """Penalty slopes for a model: the given ones or ``PENALTY_FACTOR * E_min / h``."""
-        default = PENALTY_FACTOR * min(m.E for m in model.materials.values()) / contact_size(model)
+        """Penalty slopes for a model: the given ones or ``min(PENALTY_FACTOR * E_min / h, PENALTY_CAP)``."""
+        default = min(PENALTY_FACTOR * min(m.E for m in model.materials.values()) / contact_size(model), PENALTY_CAP)
         return ContactSettings(self.normal_stiffness or default, self.stick_slope or default,
                                _PAIR_TYPES[self.contact])
 
