@@ -1,5 +1,5 @@
-"""Cross-check every config in this folder (block.toml, block2d.toml, and bolt.toml once the bolt builder
-exists): both backends on the same model, differences and time per forward solve, written to results.md.
+"""Cross-check every config in this folder (block.toml, block2d.toml, bolt.toml): both backends on the same
+model, differences and time per forward solve, written to results.md.
 
 Run: .venv/bin/python examples/crosscheck/run.py [CONFIG.toml ...]
 """
