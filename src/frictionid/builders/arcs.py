@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Mesh
-from .gmsh_mesh import gmsh_session, mesh_from_gmsh
+from .gmsh_mesh import distance_size_field, gmsh_session, mesh_from_gmsh, use_size_fields
 
 #: growth of the element size per mm of distance from the contact arcs (neighbouring sizes differ by about 15 %)
 SIZE_GROWTH = 0.15
@@ -113,19 +113,8 @@ def one_element_per_arc(*discs: HalfDisc):
 
 def refine_near_arcs(contact_size: float, size: float, *discs: HalfDisc):
     """Element size contact_size on the contact arcs, growing by :data:`SIZE_GROWTH` per mm up to size."""
-    field = gmsh.model.mesh.field
-    distance = field.add("Distance")
-    field.setNumbers(distance, "CurvesList", [a for d in discs for a in d.arcs])
-    field.setNumber(distance, "Sampling", 10)
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", contact_size)
-    field.setNumber(threshold, "SizeMax", size)
-    field.setNumber(threshold, "DistMin", 0.0)
-    field.setNumber(threshold, "DistMax", max(size - contact_size, 0.0) / SIZE_GROWTH + 1e-12)
-    field.setAsBackgroundMesh(threshold)
-    for option in ("Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature", "Mesh.MeshSizeExtendFromBoundary"):
-        gmsh.option.setNumber(option, 0)
+    use_size_fields(distance_size_field([a for d in discs for a in d.arcs], contact_size, size,
+                                        max(size - contact_size, 0.0) / SIZE_GROWTH + 1e-12, sampling=10))
     gmsh.option.setNumber("Mesh.MeshSizeMax", size)
 
 

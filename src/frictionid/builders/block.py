@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
-from .gmsh_mesh import gmsh_session, mesh_from_gmsh
+from .gmsh_mesh import distance_size_field, gmsh_session, mesh_from_gmsh, use_size_fields
 
 logger = logging.getLogger(__name__)
 
@@ -388,7 +388,8 @@ def block_mesh_2d(width: float, height: float, base_width: float, base_height: f
         interface = base["lines"][3:3 + n_zones] + block["lines"][:n_zones]
         for line in interface:
             gmsh.model.mesh.setTransfiniteCurve(line, n_nodes)
-        _size_field(interface, scale * contact_size, scale * mesh_size, base_height)
+        use_size_fields(distance_size_field(interface, scale * contact_size, scale * mesh_size, base_height,
+                                            sampling=100))
         _add_groups_2d(base, block, n_zones)
         _generate_2d(quads)
         _set_order(order)
@@ -403,22 +404,6 @@ def _polygon(corners: list[tuple[float, float]]) -> dict:
     points = [occ.addPoint(x, y, 0.0) for x, y in corners]
     lines = [occ.addLine(a, b) for a, b in zip(points, points[1:] + points[:1])]
     return {"surface": occ.addPlaneSurface([occ.addCurveLoop(lines)]), "lines": lines}
-
-
-def _size_field(curves: list[int], size_min: float, size_max: float, distance: float):
-    """Element size ``size_min`` on the curves, growing linearly to ``size_max`` at ``distance`` from them."""
-    field = gmsh.model.mesh.field
-    near = field.add("Distance")
-    field.setNumbers(near, "CurvesList", curves)
-    field.setNumber(near, "Sampling", 100)
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", near)
-    for name, value in [("SizeMin", size_min), ("SizeMax", max(size_min, size_max)),
-                        ("DistMin", 0.0), ("DistMax", distance)]:
-        field.setNumber(threshold, name, value)
-    field.setAsBackgroundMesh(threshold)
-    for option in ("Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature", "Mesh.MeshSizeExtendFromBoundary"):
-        gmsh.option.setNumber(option, 0)
 
 
 def _add_groups_2d(base: dict, block: dict, n_zones: int):

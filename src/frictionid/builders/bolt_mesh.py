@@ -11,7 +11,7 @@ import numpy as np
 from ..model import Mesh
 from .arcs import separate_quadratic_bodies
 from .bolt_layout import BoltLayout
-from .gmsh_mesh import gmsh_session, mesh_from_gmsh
+from .gmsh_mesh import distance_size_field, gmsh_session, mesh_from_gmsh, use_size_fields
 from .thread import SQRT3, Flank, bolt_profile
 
 #: element size growth per mm of distance from the refined curves
@@ -163,17 +163,8 @@ def _draw_plates(layout: BoltLayout, labels, transfinite, n_head: int, n_nut: in
 
 
 def _size_field(curves: list[int], size_min: float, size_max: float) -> int:
-    field = gmsh.model.mesh.field
-    distance = field.add("Distance")
-    field.setNumbers(distance, "CurvesList", curves)
-    field.setNumber(distance, "Sampling", 20)
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", size_min)
-    field.setNumber(threshold, "SizeMax", size_max)
-    field.setNumber(threshold, "DistMin", 0.0)
-    field.setNumber(threshold, "DistMax", max(size_max - size_min, 0.0) / SIZE_GROWTH + 1e-12)
-    return threshold
+    """Size ``size_min`` on the curves, growing by :data:`SIZE_GROWTH` per mm up to ``size_max``."""
+    return distance_size_field(curves, size_min, size_max, max(size_max - size_min, 0.0) / SIZE_GROWTH + 1e-12)
 
 
 def bolt_mesh(layout: BoltLayout, flank_size: float, contact_size: float, mesh_size: float) -> Mesh:
@@ -194,11 +185,7 @@ def bolt_mesh(layout: BoltLayout, flank_size: float, contact_size: float, mesh_s
         fields = [_size_field(labels["engaged_region"], flank_size, mesh_size),
                   _size_field(labels["bolt_thread"] + labels["bolt_load"], thread_size, mesh_size),
                   _size_field([*labels["head_plate"], *labels["nut_plate"]], contact_size, mesh_size)]
-        minimum = gmsh.model.mesh.field.add("Min")
-        gmsh.model.mesh.field.setNumbers(minimum, "FieldsList", fields)
-        gmsh.model.mesh.field.setAsBackgroundMesh(minimum)
-        for option in ("Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature", "Mesh.MeshSizeExtendFromBoundary"):
-            gmsh.option.setNumber(option, 0)
+        use_size_fields(*fields)
         gmsh.option.setNumber("Mesh.MeshSizeMax", mesh_size)
         for name, tag in surfaces.items():
             gmsh.model.addPhysicalGroup(2, [tag], name=name)

@@ -25,6 +25,33 @@ def gmsh_session(name: str = "frictionid"):
         gmsh.finalize()
 
 
+def distance_size_field(curves, size_min: float, size_max: float, distance: float, sampling: int = 20) -> int:
+    """A gmsh Threshold field: size ``size_min`` on the curves, growing linearly to ``size_max`` at ``distance``
+    [mm] from them; returns its tag (see :func:`use_size_fields`)."""
+    field = gmsh.model.mesh.field
+    near = field.add("Distance")
+    field.setNumbers(near, "CurvesList", list(curves))
+    field.setNumber(near, "Sampling", sampling)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", near)
+    for name, value in (("SizeMin", size_min), ("SizeMax", max(size_min, size_max)), ("DistMin", 0.0),
+                        ("DistMax", max(distance, 1e-12))):
+        field.setNumber(threshold, name, value)
+    return threshold
+
+
+def use_size_fields(*fields: int) -> None:
+    """Mesh with the smallest of the given fields' sizes, and with them alone (no sizes from points or curvature)."""
+    field = gmsh.model.mesh.field
+    if len(fields) > 1:
+        minimum = field.add("Min")
+        field.setNumbers(minimum, "FieldsList", list(fields))
+        fields = (minimum,)
+    field.setAsBackgroundMesh(fields[0])
+    for option in ("Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature", "Mesh.MeshSizeExtendFromBoundary"):
+        gmsh.option.setNumber(option, 0)
+
+
 def _elements(dim: int, tag: int = -1) -> dict[str, np.ndarray]:
     """Node tags per meshio cell type (meshio node order) of the entities of dimension dim (or one entity)."""
     out = {}
