@@ -2,7 +2,6 @@
 (fake ccx executables; no ccx needed)."""
 
 import dataclasses
-import os
 import shutil
 import stat
 

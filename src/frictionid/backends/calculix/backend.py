@@ -17,8 +17,7 @@ from ...fem.space import Space
 from ...model import Displacement, Model
 from ...model.model import component_index
 from ..embedded import Prediction
-from .deck import (AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, reaction_boundaries, set_name,
-                   write_deck)
+from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck
 from .elements import calculix_cells, fill_dropped_nodes
 from .parse import DatFile, read_dat, read_frd
 from .runner import JOB, find_ccx, remove_work, run_ccx
