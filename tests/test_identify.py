@@ -129,6 +129,17 @@ def test_empty_data_exits_2(measured, capsys):
     assert "no data rows" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", ["identify", "simulate"])
+def test_a_point_outside_its_region_is_named_by_label_and_file(measured, capsys, command):
+    text = (measured / "measured.csv").read_text().replace("P4,5.0,", "P4,5.5,")      # beside the block
+    (measured / "outside.csv").write_text(text)
+    config = _config(measured, "outside.toml", "A = 0.1, B = 0.1, C = 0.1", "outside.csv", run="runs/outside")
+    extra = ["--out", str(measured / "unused.csv")] if command == "simulate" else []
+    assert main([command, str(config), *extra]) == 2
+    err = capsys.readouterr().err
+    assert "outside.csv: point 'P4' at [5.5, 1.5] [mm] is outside region 'block'" in err and "Traceback" not in err
+
+
 def test_an_interrupted_run_leaves_its_result_and_store(measured, monkeypatch):
     """Ctrl-C after the second iteration: exit 1, result.json says interrupted with the last iterate."""
     import frictionid.cli as cli_module

@@ -17,6 +17,7 @@ from .builders.registry import build_model
 from .config import Config
 from .data.measurements import read_measurements
 from .errors import InputError, SolverError
+from .fem.points import PointsOutside
 from .inverse.evaluator import JACOBIANS, Evaluator
 from .inverse.least_squares import LeastSquares, OptimiseResult
 from .inverse.observations import observations_from
@@ -110,9 +111,12 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
     run_dir = config.resolve(config.run["dir"])
     store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     start = time.perf_counter()
-    backend = make_backend(config.solver["backend"], setup.model, setup.observations.points,
-                           setup.observations.quantities, setup.observations.point_regions, solver_options(config),
-                           f"{config.path}: [solver]", setup.observations.reactions)
+    obs = setup.observations
+    try:
+        backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
+                               solver_options(config), f"{config.path}: [solver]", obs.reactions)
+    except PointsOutside as exc:
+        raise exc.named(obs.point_labels, obs.source) from None
     evaluator = Evaluator(backend,
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),

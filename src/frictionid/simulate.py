@@ -11,6 +11,7 @@ from .builders.registry import build_model
 from .config import Config
 from .data.measurements import Measurements, read_measurements, write_measurements
 from .errors import InputError
+from .fem.points import PointsOutside
 from .inverse.observations import FORCE, machine_force
 from .inverse.parameters import Parameters
 
@@ -40,9 +41,12 @@ def simulate(config: Config, out: str | Path) -> Path:
         reactions = (machine_force(model),)
     except InputError:      # loaded by a prescribed force: no machine force to report
         reactions = ()
-    backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
-                           [regions.get(p, regions.get("*")) for p in labels], solver_options(config),
-                           f"{config.path}: [solver]", reactions)
+    try:
+        backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
+                               [regions.get(p, regions.get("*")) for p in labels], solver_options(config),
+                               f"{config.path}: [solver]", reactions)
+    except PointsOutside as exc:
+        raise exc.named(labels, source.source) from None
     prediction = backend.predict(mu.full(mu.x0))
     n_points, n_stages = len(labels), model.n_stages
     n_rows = n_points * len(quantities)

@@ -118,7 +118,7 @@ def locate(space: Space, points, regions: Sequence[str | None] | None = None):
     best_point, first = np.unique(pair_point[hit][order], return_index=True)
     missing = np.setdiff1d(np.arange(len(points)), best_point)
     if missing.size:
-        raise InputError(_outside_message(points, missing, point_region, space.mesh.region_names))
+        raise PointsOutside(points, missing, point_region, space.mesh.region_names)
     chosen = np.flatnonzero(hit)[order[first]]
     return pair_cell[chosen], reference[:, chosen]
 
@@ -161,13 +161,27 @@ def _point_regions(mesh, regions, n_points: int) -> np.ndarray:
     return np.array([-1 if name is None else index[name] for name in regions], dtype=np.int64)
 
 
-def _outside_message(points, missing, point_region, region_names) -> str:
-    def where(i):
-        region = point_region[i]
-        return "the mesh" if region < 0 else f"region {region_names[region]!r}"
-    listed = "; ".join(f"point {i} at {points[i].tolist()} [mm] is outside {where(i)}" for i in missing[:5])
-    more = f" (and {missing.size - 5} more points)" if missing.size > 5 else ""
-    return f"point operator: {listed}{more}"
+class PointsOutside(InputError):
+    """Observation points that lie in no cell of their region; :meth:`named` restates it with the points' labels.
+
+    Attributes: missing (indices of the points), points (n, dim) [mm], and where each one was looked for.
+    """
+
+    def __init__(self, points, missing, point_region, region_names):
+        self.missing, self.points = missing, points
+        self.where = ["the mesh" if point_region[i] < 0 else f"region {region_names[point_region[i]]!r}"
+                      for i in range(len(points))]
+        super().__init__(f"point operator: {self._listed(lambda i: f'point {i}')}")
+
+    def _listed(self, name) -> str:
+        listed = "; ".join(f"{name(i)} at {np.round(self.points[i], 6).tolist()} [mm] is outside {self.where[i]}"
+                           for i in self.missing[:5])
+        return listed + (f" (and {self.missing.size - 5} more points)" if self.missing.size > 5 else "")
+
+    def named(self, labels, source: str) -> InputError:
+        """The same error naming the points by their labels and the file they came from."""
+        return InputError(f"{source}: {self._listed(lambda i: f'point {labels[i]!r}')}; a point must lie inside "
+                          "the model (on a surface to within round-off), in the region data.regions names for it")
 
 
 def _cell_nodes(space: Space) -> np.ndarray:

@@ -57,6 +57,7 @@ class Observations:
     noise_known : whether sigma is a stated noise level (then chi^2 / dof should be about 1)
     reactions : reaction sums the backend appends after the point rows (the machine force, if observed):
         row ``n_points * len(quantities) + k`` is ``reactions[k]``
+    point_labels : the measurement file's label of each point; source : that file, for messages
     """
 
     points: np.ndarray
@@ -69,6 +70,8 @@ class Observations:
     labels: tuple[str, ...]
     noise_known: bool
     reactions: tuple[str, ...] = ()
+    point_labels: tuple[str, ...] = ()
+    source: str = ""
 
     @property
     def n_obs(self) -> int:
@@ -161,7 +164,7 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     return Observations(points=points, point_regions=tuple(regions.get(p, regions.get("*")) for p in labels_of),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
                         sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
-                        reactions=reactions)
+                        reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source))
 
 
 def _forces(measurements, stages, noise: dict) -> list[tuple[int, float, float]]:
