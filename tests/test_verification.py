@@ -97,6 +97,19 @@ def test_3d_gross_slip_with_four_zones(block3d):
     assert abs(reaction[1]) == pytest.approx(magnitude.sum(), rel=1e-4)
 
 
+def test_zone_tangential_forces_are_global_vectors_that_balance_the_pull():
+    """Quadratic hexahedra: the pair frames' t1 is x at some pairs and y at others (any tangent will do for the
+    solver), so per-zone tangential forces must be summed as global vectors; they balance the driven face."""
+    from frictionid.builders.block import block_model
+    problem = Problem.build(block_model(mesh_size=5.0, order=2, grading=3))
+    assert len(np.unique(np.round(problem.pairs.frames[:, 1], 6), axis=0)) > 1, "the check needs mixed frames"
+    solution = problem.solve(np.array([0.3, 0.2, 0.4, 0.25]))
+    total = solution.zone_tangential_force[-1].sum(axis=0)
+    reaction = [solution.reactions[-1][solution.reaction_labels.index(f"block_top.{c}")] for c in "xy"]
+    np.testing.assert_allclose(total[:2], -np.array(reaction), rtol=1e-8, atol=1e-8 * abs(reaction[1]))
+    assert abs(total[2]) < 1e-9 * abs(reaction[1])                          # tangential: no normal component
+
+
 def _check_sensitivities(problem, mu, h=1e-6):
     solution = problem.solve(mu, sensitivities=True)
     for zone in range(len(mu)):

@@ -86,8 +86,13 @@ class Solution:
 
     @property
     def zone_tangential_force(self) -> np.ndarray:
-        """(n_inc, n_zones, dim - 1) [N] tangential force per zone in the pair frames' components."""
-        return np.einsum("ipk,pz->izk", self.lam[:, :, 1:], self.pairs.zone_share)
+        """(n_inc, n_zones, dim) [N] tangential force per zone, a vector in the global frame.
+
+        Summed as vectors: pair frames may differ from pair to pair (their t1 is any unit vector normal to n),
+        so components in the pair frames cannot be added.
+        """
+        tangential = np.einsum("ipk,pkd->ipd", self.lam[:, :, 1:], self.pairs.frames[:, 1:, :])
+        return np.einsum("ipd,pz->izd", tangential, self.pairs.zone_share)
 
     def zone_state(self, increment: int = -1) -> dict[str, dict[str, float]]:
         """Area fraction of each zone that is open, sticking and slipping at an increment."""
