@@ -125,7 +125,8 @@ def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.n
                 continue
             rows = derivatives[stage, p * n_q:(p + 1) * n_q][:, free] / sigma[:, None]
             where = ", ".join(f"{v:.3f}" for v in xyz)
-            name = f"observed point {p}" if p < len(obs.points) else f"({where}) in {regions[p]}"
+            label = obs.point_labels[p] if p < len(obs.point_labels) else str(p)
+            name = f"observed point {label!r}" if p < len(obs.points) else f"({where}) in {regions[p]}"
             groups.append((f"{'+'.join(quantities)} at {name}, stage {stage + 1}", rows))
     return groups
 
