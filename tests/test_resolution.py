@@ -78,6 +78,9 @@ def test_candidates_avoid_hidden_contact_surfaces(block):
     assert set(regions) == {"block", "base"} and len(points) <= 80
     block_bottom = np.isclose(points[:, 1], 0.0) & (np.abs(points[:, 0]) < 5 - 1e-9)      # the contact zones
     assert not block_bottom.any()
+    beside, _ = candidate_points(block, observed=np.array([[-7.0, 0.0]]), n_max=800)   # on the visible base top
+    under_block = np.isclose(beside[:, 1], 0.0) & (np.abs(beside[:, 0]) < 5 - 1e-9)
+    assert not under_block.any() and np.any(np.isclose(beside[:, 1], 0.0) & (np.abs(beside[:, 0]) > 5.5))
     on_contact, _ = candidate_points(block, observed=np.array([[1.0, 0.0]]), n_max=800)
     assert np.any(np.isclose(on_contact[:, 1], 0.0) & (np.abs(on_contact[:, 0]) < 5 - 1e-9))
 

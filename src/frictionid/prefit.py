@@ -12,6 +12,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .inverse.observations import DISPLACEMENTS, Observations
 from .inverse.resolution import Addition, Resolution, resolution, suggest
@@ -53,36 +54,36 @@ def spread_points(points: np.ndarray, n_max: int) -> np.ndarray:
     return np.array(chosen)
 
 
-def _contact_surface(model: Model) -> tuple[np.ndarray, float]:
-    """Nodes on contact zones and targets (hidden surfaces in most tests) and their median facet edge [mm]."""
-    names = [n for i in model.interfaces for n in (*i.zones, i.target)]
-    if not names:
-        return np.zeros(0, dtype=np.int64), 0.0
-    facets = np.concatenate([model.mesh.boundary(n) for n in names])
-    points = model.mesh.points
-    return np.unique(facets), float(np.median(np.linalg.norm(points[facets[:, 1]] - points[facets[:, 0]], axis=1)))
-
-
-def _near(points: np.ndarray, nodes_xyz: np.ndarray, distance: float) -> bool:
-    """Whether any point lies within ``distance`` of any node."""
-    if not len(points) or not len(nodes_xyz):
-        return False
-    return bool(np.any(np.linalg.norm(points[:, None, :] - nodes_xyz[None, :, :], axis=2).min(axis=1) <= distance))
+def _hidden_surface(model: Model) -> tuple[np.ndarray, np.ndarray, float]:
+    """(contact-side zone nodes, every hidden node, median zone facet edge [mm]): hidden are the zone nodes and
+    the target nodes facing them (within half an edge); the rest of a target surface is in view."""
+    zones = [z for i in model.interfaces for z in i.zones]
+    if not zones:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), 0.0
+    points, mesh = model.mesh.points, model.mesh
+    facets = np.concatenate([mesh.boundary(z) for z in zones])
+    edge = float(np.median(np.linalg.norm(points[facets[:, 1]] - points[facets[:, 0]], axis=1)))
+    zone_nodes = np.unique(facets)
+    targets = np.unique(np.concatenate([mesh.boundary_nodes(i.target) for i in model.interfaces]))
+    facing = targets[cKDTree(points[zone_nodes]).query(points[targets])[0] <= edge / 2]
+    return zone_nodes, np.union1d(zone_nodes, facing), edge
 
 
 def candidate_points(model: Model, observed: np.ndarray, n_max: int = 120) -> tuple[np.ndarray, list[str]]:
-    """(n, dim) points spread over the surfaces of every region, and the region of each.
+    """(n, dim) points spread over the visible surfaces of every region, and the region of each.
 
-    Contact surfaces are candidates only where an observed point already lies on one (a cut-out that shows
-    the thread flanks): elsewhere they are hidden and cannot be measured.
+    Contact surfaces (and the target surfaces facing them) are hidden and no candidates, unless an observed
+    point already lies on one (a cut-out that shows the thread flanks).
     """
     names = list(model.mesh.regions)
-    contact, edge = _contact_surface(model)
-    if _near(np.asarray(observed, float), model.mesh.points[contact], edge / 2):
-        contact = contact[:0]
+    zone_nodes, hidden, edge = _hidden_surface(model)
+    observed = np.asarray(observed, dtype=float)
+    if len(zone_nodes) and len(observed) and \
+            np.any(cKDTree(model.mesh.points[zone_nodes]).query(observed)[0] <= edge / 2):
+        hidden = hidden[:0]
     points, owner = [], []
     for name in names:
-        nodes = np.setdiff1d(model.mesh.surface_nodes(name), contact)
+        nodes = np.setdiff1d(model.mesh.surface_nodes(name), hidden)
         xyz = model.mesh.points[nodes]
         keep = spread_points(xyz, max(n_max // len(names), 1))
         points.append(xyz[keep])
