@@ -138,6 +138,7 @@ def test_a_point_outside_its_region_is_named_by_label_and_file(measured, capsys,
     assert main([command, str(config), *extra]) == 2
     err = capsys.readouterr().err
     assert "outside.csv: point 'P4' at [5.5, 1.5] [mm] is outside region 'block'" in err and "Traceback" not in err
+    assert not (measured / "runs/outside").exists(), "a run that never started must leave no store behind"
 
 
 def test_an_interrupted_run_leaves_its_result_and_store(measured, monkeypatch):

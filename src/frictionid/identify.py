@@ -109,14 +109,14 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
     """
     setup = prepare(config)
     run_dir = config.resolve(config.run["dir"])
-    store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     start = time.perf_counter()
     obs = setup.observations
-    try:
+    try:                    # built before the store is opened: bad points leave no store behind
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
                                solver_options(config), f"{config.path}: [solver]", obs.reactions)
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
+    store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     evaluator = Evaluator(backend,
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),
