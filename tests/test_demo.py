@@ -49,3 +49,9 @@ def test_a_second_demo_into_the_same_folder_needs_resume(demo, capsys):
     assert main(["demo", "--quick", "--out", str(demo)]) == 2
     err = capsys.readouterr().err
     assert "--resume" in err and "trf" in err and "Traceback" not in err
+
+
+def test_out_must_be_a_folder(tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    assert main(["demo", "--quick", "--out", str(tmp_path / "file")]) == 2
+    assert "expected a folder" in capsys.readouterr().err

@@ -176,6 +176,8 @@ def run_demo(out: Path, settings: Settings = Settings(), resume: bool = False, e
     ``resume``: continue the identifications stored in ``out`` (finished ones are replayed, not recomputed).
     """
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: is a file; expected a folder for the demo's results")
     stored = sorted(p.parent.name for p in (out / "runs").glob("*/store.sqlite"))
     if stored and not resume:
         raise InputError(f"{out}: already holds the demo's runs {stored}; continue or replay them with --resume, "
