@@ -134,7 +134,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
     leaves result.json."""
     try:
-        factory = EmbeddedBackend if config.solver["backend"] == "embedded" else None
+        factory = EmbeddedBackend if evaluator.backend.has_sensitivities else None
         report = prefit(evaluator, setup.model, float(config.identify["resolution"]),
                         int(config.identify["suggestions"]), factory)
         on_prefit(report)

@@ -39,8 +39,7 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
     if name == "embedded":
         from .embedded import EmbeddedBackend
 
-        extra = {"reactions": tuple(reactions)} if reactions else {}
-        return EmbeddedBackend(model, points, quantities, regions, **extra)
+        return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions))
     if name == "calculix":
         from .calculix.backend import CalculixBackend, CalculixSettings
 

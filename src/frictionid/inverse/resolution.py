@@ -61,15 +61,6 @@ class Resolution:
     def unresolved_names(self) -> tuple[str, ...]:
         return tuple(n for n, ok in zip(self.names, self.resolved) if not ok)
 
-    def partner(self, k: int) -> tuple[str | None, float]:
-        """The zone most correlated with zone k and that correlation (None, nan if there is none)."""
-        row = np.abs(np.nan_to_num(self.correlation[k], nan=0.0))
-        row[k] = 0.0
-        if not row.size or row.max() == 0:
-            return None, float("nan")
-        j = int(np.argmax(row))
-        return self.names[j], float(self.correlation[k, j])
-
     def as_dict(self) -> dict:
         """JSON-ready summary (None for infinite or undefined numbers)."""
         def clean(a):
