@@ -144,8 +144,9 @@ def test_global_equilibrium(solution):
 def test_load_shares_default_setup(model, solution):
     """DESIGN.md set-up (flanks 0.1, head and nut on the plates 0.15): shares sum to the force; they decay from
     the bearing face over threads 1-6, the last thread takes a little more than the sixth (end effect of the
-    bolt beyond the nut). The nut bearing face slides outward on plate 1, so the nut dilates there and the
-    distribution is flatter than Sopwith's: first thread 20.6 % here (0.1 mm mesh: 20.6 %), lam P 0.21."""
+    bolt beyond the nut). Plate 1 gives under the nut (it bends under the rim load) and the nut's bearing face slides
+    outward on it, so the distribution is flatter than Sopwith's: first thread 20.6 % here (0.1 mm mesh: 20.6 %),
+    lam P 0.21; CalculiX agrees (test_calculix_run.py); the study: examples/bolt-m20/load_shares.py."""
     loads = thread_loads(model, solution)
     assert loads.applied == FORCE
     assert loads.force.sum() == pytest.approx(FORCE, rel=5e-3)

@@ -44,11 +44,12 @@ def pair_forces(solution: Solution, increment: int = -1) -> np.ndarray:
 
 
 def machine_force(model: Model, solution: Solution, increment: int = -1) -> float:
-    """[N] the applied machine force (SurfaceForce on "plate1_rim") at an increment."""
-    for channel, load in enumerate(model.loads):
-        if isinstance(load, SurfaceForce) and load.boundary == "plate1_rim":
-            return float(solution.amplitude[increment, channel])
-    raise InputError("bolt report: the model has no SurfaceForce on 'plate1_rim'")
+    """[N] the applied machine force at an increment: the magnitude of the model's one SurfaceForce (on
+    "plate1_rim" in :func:`~frictionid.builders.bolt.bolt_model`; a study may apply it elsewhere)."""
+    channels = [c for c, load in enumerate(model.loads) if isinstance(load, SurfaceForce)]
+    if len(channels) != 1:
+        raise InputError(f"bolt report: expected one SurfaceForce (the machine force), the model has {len(channels)}")
+    return abs(float(solution.amplitude[increment, channels[0]]))
 
 
 @dataclass(frozen=True)
