@@ -196,3 +196,38 @@ def test_methods_step_back_from_coefficients_where_the_solver_fails(method):
     result = optimise(problem, method, max_iterations=200)
     assert evaluator.n_failed > 0, "the test must make the optimiser try a failing point"
     np.testing.assert_allclose(result.x, truth[:2], atol=1e-3)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failed_finite_difference_solve_takes_the_column_from_the_other_side(tmp_path, workers):
+    """x + h lies where the solver fails: that column comes from x - h (exactly the backward difference of the
+    model f = A mu^2); the failure is stored, also when the perturbed points are solved in worker processes."""
+    from frictionid.run.store import RunStore
+    store = RunStore.open(tmp_path / "run", "", "f", resume=False)
+    obs = _observations([1.0] * 4, [1.0] * 4)
+    evaluator = Evaluator(FailingBackend(A, limit=0.5), obs, PARAMS, store, jacobian="forward", step=1e-2,
+                          workers=workers)
+    x, h = np.array([0.495, 0.2]), 1e-2
+    try:
+        jac = evaluator.jacobian(x)
+    finally:
+        evaluator.close()
+    mu = np.array([0.495, 0.2, 0.1])
+    np.testing.assert_allclose(jac[:, 0], A[:, 0] * (mu[0] ** 2 - (mu[0] - h) ** 2) / h, rtol=1e-10)
+    np.testing.assert_allclose(jac[:, 1], A[:, 1] * ((mu[1] + h) ** 2 - mu[1] ** 2) / h, rtol=1e-10)
+    assert evaluator.n_failed == 1 and evaluator.n_forward == 4   # x, x + h e_A (failed), x + h e_B, x - h e_A
+    assert store.n_evaluations() == 4
+
+
+def test_finite_differences_failing_on_both_sides_end_with_a_solver_error():
+    from frictionid.errors import SolverError
+
+    class OnlyHere(LinearBackend):
+        def predict(self, mu, sensitivities=False):
+            if abs(mu[0] - 0.3) > 1e-12:
+                raise SolverError("increment 2 did not converge")
+            return super().predict(mu, sensitivities)
+
+    evaluator = Evaluator(OnlyHere(A), _observations([1.0] * 4, [1.0] * 4), PARAMS, jacobian="central")
+    with pytest.raises(SolverError, match=r"both sides of mu = \[0.3, 0.2, 0.1\] failed"):
+        evaluator.jacobian(np.array([0.3, 0.2]))

@@ -24,8 +24,11 @@ _BACKEND = None   # the backend a forked worker inherits (fork start method: not
 
 
 def _worker_predict(mu: np.ndarray):
-    """A forward solve in a worker process; returns the stage-end values."""
-    return _BACKEND.predict(mu, False).values
+    """A forward solve in a worker process: the backend's prediction, or the message of a SolverError."""
+    try:
+        return _BACKEND.predict(mu, False)
+    except SolverError as exc:
+        return str(exc)
 
 
 class Evaluator:
@@ -66,25 +69,31 @@ class Evaluator:
             return self._memo[(x.tobytes(), sensitivities)]
         start = time.perf_counter()
         mu = np.maximum(self.params.full(x), 0.0)
-        status = "ok"
         try:
             prediction = self.backend.predict(mu, sensitivities)
         except SolverError as exc:
             if np.array_equal(x, self.params.x0):
                 raise
-            log.warning("forward solve failed at mu = %s, the step is rejected: %s", mu.tolist(), exc)
-            prediction, status = None, "failed"
+            prediction = str(exc)
+        return self._keep(x, sensitivities, prediction, time.perf_counter() - start)
+
+    def _keep(self, x: np.ndarray, sensitivities: bool, prediction, wall: float):
+        """Count, store and memoise one solve at x: a Prediction, or the message of a failed solve (f = inf)."""
+        kind = "forward+sensitivities" if sensitivities else "forward"
+        failed = isinstance(prediction, str)
+        if failed:
+            log.warning("forward solve failed at mu = %s, the step is rejected: %s",
+                        np.maximum(self.params.full(x), 0.0).tolist(), prediction)
             self.n_failed += 1
-        f = np.full(self.obs.n_obs, np.inf) if prediction is None else self.obs.predicted(prediction.values)
-        dfdmu = None if prediction is None or prediction.derivatives is None \
-            else self.obs.derivatives(prediction.derivatives)
+        f = np.full(self.obs.n_obs, np.inf) if failed else self.obs.predicted(prediction.values)
+        dfdmu = None if failed or prediction.derivatives is None else self.obs.derivatives(prediction.derivatives)
         if sensitivities:
             self.n_sensitivity += 1
         else:
             self.n_forward += 1
         if self.store is not None:
             outputs = {"f": f} if dfdmu is None else {"f": f, "dfdmu": dfdmu}
-            self.store.record(x, kind, outputs, status=status, wall_time=time.perf_counter() - start)
+            self.store.record(x, kind, outputs, status="failed" if failed else "ok", wall_time=wall)
         self._memo[(x.tobytes(), sensitivities)] = f, dfdmu
         return f, dfdmu
 
@@ -135,17 +144,27 @@ class Evaluator:
         points = [x + e for e in steps] + ([] if self.jacobian_kind == "forward" else [x - e for e in steps])
         if self.workers > 1:
             self._solve_in_parallel(points)
-        if self.jacobian_kind == "forward":
-            f0 = self.model_values(x)
-            return np.column_stack([(self.model_values(p) - f0) / hk for p, hk in zip(points, h)])
-        n = len(x)
-        return np.column_stack([(self.model_values(points[k]) - self.model_values(points[n + k])) / (2 * h[k])
-                                for k in range(n)])
+        return np.column_stack([self._difference(x, steps[k], h[k]) for k in range(len(x))])
+
+    def _difference(self, x: np.ndarray, e: np.ndarray, h: float) -> np.ndarray:
+        """One Jacobian column: forward or central; where a perturbed solve failed, the other side's one-sided
+        difference (the failure is stored like any other); where both sides failed, a SolverError."""
+        up = self.model_values(x + e)
+        down = self.model_values(x - e) if self.jacobian_kind == "central" or not np.all(np.isfinite(up)) else None
+        if np.all(np.isfinite(up)):
+            if down is not None and np.all(np.isfinite(down)):
+                return (up - down) / (2 * h)
+            return (up - self.model_values(x)) / h
+        if down is not None and np.all(np.isfinite(down)):
+            log.warning("finite differences: the solve at +h failed, column taken backward at mu = %s",
+                        np.maximum(self.params.full(x), 0.0).tolist())
+            return (self.model_values(x) - down) / h
+        raise SolverError(f"finite differences: the forward solves on both sides of mu = "
+                          f"{np.maximum(self.params.full(x), 0.0).tolist()} failed (step {h:g}); see the log")
 
     def _solve_in_parallel(self, points: list[np.ndarray]) -> None:
         """Solve the points not known yet in the worker pool; record and memoise them here, in order."""
-        missing = [p for p in points if (p.tobytes(), False) not in self._memo
-                   and (self.store is None or self.store.lookup(p, "forward") is None)]
+        missing = [p for p in points if (p.tobytes(), False) not in self._memo and self._stored(p, "forward") is None]
         if len(missing) < 2:
             return
         if self._pool is None:
@@ -155,12 +174,8 @@ class Evaluator:
         start = time.perf_counter()
         results = self._pool.map(_worker_predict, [np.maximum(self.params.full(p), 0.0) for p in missing])
         wall = (time.perf_counter() - start) / len(missing)
-        for p, values in zip(missing, results):
-            f = self.obs.predicted(values)
-            self.n_forward += 1
-            if self.store is not None:
-                self.store.record(p, "forward", {"f": f}, wall_time=wall)
-            self._memo[(p.tobytes(), False)] = f, None
+        for p, prediction in zip(missing, results):
+            self._keep(p, False, prediction, wall)
 
     def close(self) -> None:
         """Stop the worker processes, if any."""
