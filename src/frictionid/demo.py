@@ -108,19 +108,21 @@ class MeshRow:
     seconds: float
 
 
-def _mesh_sequence(settings: Settings, points: np.ndarray, mu: np.ndarray, mu0: np.ndarray, echo):
-    """The mesh sequence; returns its rows and the identification mesh's backend."""
+def _mesh_sequence(settings: Settings, points: np.ndarray, true: dict, initial: dict, echo):
+    """The mesh sequence at coefficients ``true`` and ``initial`` (zone -> mu); returns its rows, the
+    identification mesh's backend and ``true`` as a vector in its zone order."""
     rows, kept = [], None
     for size in sorted(set(settings.sequence) | {settings.data_flank, settings.flank}, reverse=True):
         start = time.perf_counter()
         model = bolt_model(forces=FORCES, flank_size=size)
+        mu, mu0 = (np.array([c[z] for z in model.zone_names]) for c in (true, initial))
         backend = EmbeddedBackend(model, points, QUANTITIES, ["bolt"] * len(points))
         rows.append(MeshRow(size, model.mesh.n_nodes, backend.problem.pairs.n_pairs, backend.predict(mu).values,
                             backend.predict(mu0).values, time.perf_counter() - start))
-        kept = backend if size == settings.flank else kept
+        kept = (backend, mu) if size == settings.flank else kept
         echo(f"  flank size {size:g} mm: {model.mesh.n_nodes} nodes, {rows[-1].n_pairs} contact pairs, "
              f"built and solved twice in {rows[-1].seconds:.1f} s")
-    return rows, kept
+    return rows, *kept
 
 
 def _sequence_table(rows, reference: float, points: np.ndarray) -> list[str]:
@@ -185,11 +187,10 @@ def run_demo(out: Path, settings: Settings = Settings(), resume: bool = False, e
     (out / "runs").mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     points = measurement_points(bolt_layout("M20"))
-    zones = bolt_model(forces=FORCES, flank_size=settings.flank).zone_names
-    mu = np.array([TRUE_MU.get(z, fixed_friction().get(z)) for z in zones])
-    mu0 = np.array([START if z in TRUE_MU else fixed_friction()[z] for z in zones])
+    true = {**TRUE_MU, **fixed_friction()}
+    initial = {**{z: START for z in TRUE_MU}, **fixed_friction()}
     echo(f"1. Mesh sequence ({', '.join(f'{z}={v}' for z, v in TRUE_MU.items())}; head and nut plate 0.15)")
-    rows, backend = _mesh_sequence(settings, points, mu, mu0, echo)
+    rows, backend, mu = _mesh_sequence(settings, points, true, initial, echo)
     (out / "mesh_sequence.txt").write_text("\n".join(_sequence_table(rows, min(settings.sequence), points)) + "\n")
     echo("\n2. Bolt results at the true coefficients (identification mesh)")
     _bolt_results(out, backend, mu, echo)
