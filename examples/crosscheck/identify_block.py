@@ -9,12 +9,14 @@ coefficients random in [0.1, 0.5] (fixed seed), trf from 0.1 everywhere:
 (c) calculix data, calculix backend, forward differences (the twin: does the ccx pipeline recover its own
     coefficients through finite differences?).
 
-Run: .venv/bin/python examples/crosscheck/identify_block.py [mesh_size] [workers] [max_iterations]
-(mesh 2.5: a few minutes; mesh 5/3: ccx needs about 11 s per solve)
+Run: .venv/bin/python examples/crosscheck/identify_block.py [--model OPTIONS] [--workers N] [--iterations N] [--no-twin]
+OPTIONS are block builder options as TOML, e.g. "mesh_size = 2.5" (default; a few minutes) or
+"mesh_size = 2.5, order = 2, block_divisions = 6, grading = 3" (the graded quadratic mesh on which both backends'
+rear-zone loads are near the converged ones; ccx needs about a minute per solve there).
 """
 
+import argparse
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -40,23 +42,24 @@ def write_points(folder: Path) -> None:
     (folder / "points.csv").write_text("\n".join(rows) + "\n")
 
 
-def config(mesh_size: float, data: str, zones: str, extra: str = "") -> str:
-    return (f'[model]\nbuilder = "block"\nmesh_size = {mesh_size}\n[friction]\nzones = {{ {zones} }}\n'
+def config(model: str, data: str, zones: str, extra: str = "") -> str:
+    lines = "\n".join(part.strip() for part in model.split(","))
+    return (f'[model]\nbuilder = "block"\n{lines}\n[friction]\nzones = {{ {zones} }}\n'
             f'[data]\nfile = "{data}"\nobservables = {STRAINS}\nstages = [2]\nnoise = {{ e = 1e-5 }}\n'
             f'regions = {{ "*" = "block" }}\n{extra}')
 
 
-def run(folder: Path, name: str, data: str, start: str, mesh_size: float, solver: str, jacobian: str,
+def run(folder: Path, name: str, data: str, start: str, model: str, solver: str, jacobian: str,
         workers: int, iterations: int) -> tuple[dict, float]:
     extra = (f'[solver]\nbackend = "{solver}"\n[identify]\njacobian = "{jacobian}"\nstep = 1e-2\n'
              f'max_iterations = {iterations}\n[run]\ndir = "runs/{name}"\nworkers = {workers}\n')
-    (folder / f"{name}.toml").write_text(config(mesh_size, data, start, extra))
+    (folder / f"{name}.toml").write_text(config(model, data, start, extra))
     t0 = time.perf_counter()
     result = identify(read_config(folder / f"{name}.toml", need=("model", "friction", "data", "run")))
     return result, time.perf_counter() - t0
 
 
-def main(mesh_size: float = 2.5, workers: int = 2, iterations: int = 15) -> None:
+def main(model: str = "mesh_size = 2.5", workers: int = 2, iterations: int = 15, twin: bool = True) -> None:
     mu_true = np.random.default_rng(2024).uniform(0.1, 0.5, 4)
     truth = ", ".join(f"{z} = {float(v)!r}" for z, v in zip("ABCD", mu_true))
     start = ", ".join(f"{z} = 0.1" for z in "ABCD")
@@ -64,17 +67,17 @@ def main(mesh_size: float = 2.5, workers: int = 2, iterations: int = 15) -> None
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         write_points(folder)
-        for solver in ("embedded", "calculix"):
+        for solver in ("embedded", "calculix")[:2 if twin else 1]:
             (folder / f"truth_{solver}.toml").write_text(
-                config(mesh_size, "points.csv", truth, f'[solver]\nbackend = "{solver}"\n'))
+                config(model, "points.csv", truth, f'[solver]\nbackend = "{solver}"\n'))
             assert cli(["simulate", str(folder / f"truth_{solver}.toml"), "--out",
                         str(folder / f"{solver}.csv")]) == 0
         cases = [("(a) embedded data, embedded", "embedded.csv", "embedded", "analytic"),
                  ("(b) embedded data, calculix", "embedded.csv", "calculix", "forward"),
-                 ("(c) calculix data, calculix", "calculix.csv", "calculix", "forward")]
+                 ("(c) calculix data, calculix", "calculix.csv", "calculix", "forward")][:3 if twin else 2]
         for k, (name, data, solver, jacobian) in enumerate(cases):
-            results[name] = run(folder, f"case{k}", data, start, mesh_size, solver, jacobian, workers, iterations)
-    print(f"3-D block, mesh_size {mesh_size:.3g}, strains at 16 points (stage 2), start 0.1, "
+            results[name] = run(folder, f"case{k}", data, start, model, solver, jacobian, workers, iterations)
+    print(f"3-D block ({model}), strains at 16 points (stage 2), start 0.1, "
           f"max {iterations} iterations, {workers} workers")
     print("| case | jacobian | A | B | C | D | status | iterations | solves | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -85,11 +88,18 @@ def main(mesh_size: float = 2.5, workers: int = 2, iterations: int = 15) -> None
         print(f"| {name} | {result['jacobian']} | " + " | ".join(f"{v:.4f}" for v in values[name])
               + f" | {result['status']} | {result['n_iterations']} | "
               f"{result['n_forward_solves'] + result['n_sensitivity_solves']} | {wall:.1f} |")
-    a, b, c = values.values()
+    a, b, *c = values.values()
     print(f"backend agreement max |(b) - (a)| = {np.abs(b - a).max():.4f} per zone "
           f"{np.round(np.abs(b - a), 4).tolist()} (issue 5 asks < 0.01)")
-    print(f"ccx twin max |(c) - goal| = {np.abs(c - mu_true).max():.4f}")
+    if c:
+        print(f"ccx twin max |(c) - goal| = {np.abs(c[0] - mu_true).max():.4f}")
 
 
 if __name__ == "__main__":
-    main(*(float(a) for a in sys.argv[1:2]), *(int(a) for a in sys.argv[2:4]))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", default="mesh_size = 2.5", help="block builder options as TOML, comma-separated")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--iterations", type=int, default=15)
+    parser.add_argument("--no-twin", dest="twin", action="store_false", help="skip case (c), the ccx twin")
+    args = parser.parse_args()
+    main(args.model, args.workers, args.iterations, args.twin)
