@@ -82,7 +82,7 @@ class Evaluator:
         kind = "forward+sensitivities" if sensitivities else "forward"
         failed = isinstance(prediction, str)
         if failed:
-            log.warning("forward solve failed at mu = %s, the step is rejected: %s",
+            log.warning("forward solve failed at mu = %s (f = inf there): %s",
                         np.maximum(self.params.full(x), 0.0).tolist(), prediction)
             self.n_failed += 1
         f = np.full(self.obs.n_obs, np.inf) if failed else self.obs.predicted(prediction.values)
