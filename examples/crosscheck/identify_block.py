@@ -21,6 +21,7 @@ the lightly loaded rear zones A and B already slide under about 200 N and the ba
 
 import argparse
 import os
+import tomllib
 import tempfile
 import time
 from pathlib import Path
@@ -46,15 +47,21 @@ def write_points(folder: Path, stages: tuple[int, ...]) -> None:
     (folder / "points.csv").write_text("\n".join(rows) + "\n")
 
 
+def model_lines(model: str) -> str:
+    """Builder options given as the inside of a TOML inline table ("a = 1, b = [0.02, 0.04]"), one per line."""
+    options = tomllib.loads(f"model = {{ {model} }}")["model"]
+    return "\n".join(f"{key} = {value!r}" for key, value in options.items())
+
+
 def config(model: str, stages: tuple[int, ...], data: str, zones: str, extra: str = "") -> str:
-    lines = "\n".join(part.strip() for part in model.split(","))
+    lines = model_lines(model)
     return (f'[model]\nbuilder = "block"\n{lines}\n[friction]\nzones = {{ {zones} }}\n'
             f'[data]\nfile = "{data}"\nobservables = {STRAINS}\nstages = {list(stages)}\nnoise = {{ e = 1e-5 }}\n'
             f'regions = {{ "*" = "block" }}\n{extra}')
 
 
-def run(folder: Path, name: str, data: str, start: str, model: str, stages: tuple[int, ...], solver: str, jacobian: str,
-        workers: int, iterations: int) -> tuple[dict, float]:
+def run(folder: Path, name: str, data: str, start: str, model: str, stages: tuple[int, ...], solver: str,
+        jacobian: str, workers: int, iterations: int) -> tuple[dict, float]:
     extra = (f'[solver]\nbackend = "{solver}"\n[identify]\njacobian = "{jacobian}"\nstep = 1e-2\n'
              f'max_iterations = {iterations}\n[run]\ndir = "runs/{name}"\nworkers = {workers}\n')
     (folder / f"{name}.toml").write_text(config(model, stages, data, start, extra))
@@ -102,7 +109,8 @@ def main(model: str = "mesh_size = 2.5", stages: tuple[int, ...] = (2,), workers
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", default="mesh_size = 2.5", help="block builder options as TOML, comma-separated")
+    parser.add_argument("--model", default="mesh_size = 2.5",
+                        help="block builder options, the inside of a TOML inline table")
     parser.add_argument("--stages", type=int, nargs="+", default=[2], help="stages fitted (default 2, the pull)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--iterations", type=int, default=15)
