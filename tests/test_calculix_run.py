@@ -233,7 +233,8 @@ def test_missing_ccx_exits_2(tmp_path, capsys):
 @needs_ccx
 def test_crosscheck_command_writes_the_table(tmp_path, capsys):
     (tmp_path / "c.toml").write_text('[model]\nbuilder = "block2d"\nmesh_size = 4.0\norder = 1\nquads = true\n'
-                                     'n_pull = 2\n[friction]\nzones = { A = 0.3, B = 0.2 }\n')
+                                     'n_pull = 2\n[friction]\nzones = { A = 0.3, B = 0.2 }\n'
+                                     '[data]\nnoise = { u = 0.0005, e = 1e-5 }\n')
     assert main(["crosscheck", str(tmp_path / "c.toml"), "--out", str(tmp_path / "table.md")]) == 0
     table = (tmp_path / "table.md").read_text()
     assert table == capsys.readouterr().out
@@ -242,3 +243,8 @@ def test_crosscheck_command_writes_the_table(tmp_path, capsys):
     # the default points are cell centroids of both regions; the press reaction is the applied 200 N/mm
     assert "16 points" in table
     assert abs(float(rows["reaction base_bottom.y"].split("|")[4].strip().rstrip(" %"))) < 0.01
+    # the coefficient shift of an identification from all stages' observations at the stated noise
+    assert "stages [1, 2], 160 rows" in table
+    for zone in ("A", "B"):
+        cells = rows[zone].split("|")
+        assert np.isfinite(float(cells[3])) and float(cells[4]) > 0

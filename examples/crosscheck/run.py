@@ -20,7 +20,7 @@ def main(paths: list[str]) -> None:
     configs = [Path(p) for p in paths] or sorted(HERE.glob("*.toml"))
     tables = []
     for path in configs:
-        table = cross_check_table(cross_check_config(read_config(path, need=("model", "friction"))))
+        table = cross_check_table(*cross_check_config(read_config(path, need=("model", "friction"))))
         print(table, flush=True)
         tables.append(table)
     (HERE / "results.md").write_text("# Embedded vs CalculiX\n\n" + "\n".join(tables))

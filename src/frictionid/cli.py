@@ -136,7 +136,7 @@ def _run_crosscheck(args) -> int:
     from .backends.calculix.crosscheck import cross_check_config, cross_check_table
     from .config import read_config
 
-    table = cross_check_table(cross_check_config(read_config(args.config, need=("model", "friction"))))
+    table = cross_check_table(*cross_check_config(read_config(args.config, need=("model", "friction"))))
     print(table, end="")
     if args.out:
         Path(args.out).write_text(table)

@@ -102,14 +102,25 @@ def _coordinates(measurements, model: Model):
     return measurements, measurements.coordinates
 
 
+def noise_of(quantity: str, noise: dict) -> float | None:
+    """The stated noise of ``quantity`` from a data.noise table: its own key, else its kind's ("u", "e",
+    "force"); None when neither is given.
+
+    >>> noise_of("exy", {"u": 0.0005, "e": 1e-5}), noise_of("uz", {"uz": 0.001}), noise_of("ux", {})
+    (1e-05, 0.001, None)
+    """
+    value = noise.get(quantity, noise.get(_kind(quantity)))
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0):
+        raise InputError(f"data.noise.{quantity}: must be a positive number, got {value!r}")
+    return None if value is None else float(value)
+
+
 def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.ndarray:
     given = measurements.sigma.get(quantity)
     sigma = np.full(len(rows), np.nan) if given is None else given[rows].astype(float)
-    default = noise.get(quantity, noise.get(_kind(quantity)))
+    default = noise_of(quantity, noise)
     if default is not None:
-        if not isinstance(default, (int, float)) or not default > 0:
-            raise InputError(f"data.noise.{quantity}: must be a positive number, got {default!r}")
-        sigma = np.where(np.isnan(sigma), float(default), sigma)
+        sigma = np.where(np.isnan(sigma), default, sigma)
     return sigma
 
 

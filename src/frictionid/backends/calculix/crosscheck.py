@@ -1,4 +1,15 @@
-"""Cross-check: the same model, coefficients and points solved by the embedded backend and by CalculiX."""
+"""Cross-check: the same model, coefficients and points solved by the embedded backend and by CalculiX.
+
+Besides the differences themselves, the table says what they mean for an identification: the coefficients a
+fit with CalculiX would reach on data made by the embedded backend (or on measured data both fit equally well),
+minus the embedded fit's, to first order in the differences (Gauss-Newton step from the embedded solution,
+weighted by the stated noise):
+
+    delta_mu = -(A^T A)^-1 A^T r,    A = W df_embedded/dmu,    r = W (f_calculix - f_embedded)
+
+with the embedded backend's analytic sensitivities, so one ccx run replaces a finite-difference identification
+with ccx (checked against such identifications in the README's CalculiX section).
+"""
 
 from __future__ import annotations
 
@@ -7,7 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import InputError
 from ...fem.problem import Problem
+from ...inverse.observations import FORCE, machine_force, noise_of
+from ...inverse.resolution import predicted_stderr
 from ...model import Model
 from .backend import CalculixBackend, CalculixSettings
 
@@ -27,6 +41,8 @@ class CrossCheck:
     reaction_labels : "boundary.x"; reactions_embedded, reactions_calculix : (n_stages, n_reac) [N]
     zone_names; normal_embedded, normal_calculix, tangential_embedded, tangential_calculix : (n_stages, n_zones) [N]
     time_embedded, time_calculix : [s] per forward solve; setup_embedded : [s] condensation (once per geometry)
+    derivatives_embedded : (n_stages, n_rows, n_zones), reaction_derivatives_embedded : (n_stages, n_reac, n_zones)
+        the embedded backend's sensitivities of observations and reactions at the stage ends
     """
 
     model_name: str
@@ -48,6 +64,75 @@ class CrossCheck:
     time_calculix: float
     setup_embedded: float
     penalty: tuple[float, float]
+    derivatives_embedded: np.ndarray
+    reaction_derivatives_embedded: np.ndarray
+
+
+@dataclass(frozen=True)
+class CoefficientShift:
+    """What a cross-check's differences mean for an identification with a given observation set and noise.
+
+    Attributes
+    ----------
+    stages : 1-based stages whose observations count; rows : labels of the counted rows ("quantity" kinds and
+        "force"); n_rows : how many
+    noise : standard deviation of each observed quantity (and "force") used as weight
+    shift : (n_zones,) calculix fit - embedded fit, linearised; nan for a zone the rows do not resolve
+    stderr : (n_zones,) the embedded fit's standard errors at that noise (inf: not resolved)
+    rms : RMS of the weighted differences (in noise units)
+    """
+
+    stages: tuple[int, ...]
+    quantities: tuple[str, ...]
+    n_rows: int
+    noise: dict
+    shift: np.ndarray
+    stderr: np.ndarray
+    rms: float
+
+
+def coefficient_shift(check: CrossCheck, noise: dict, stages=None,
+                      quantities: tuple[str, ...] | None = None, force: str | None = None) -> CoefficientShift:
+    """The linearised coefficient shift of :class:`CoefficientShift` from the rows of ``quantities`` (default:
+    all of the cross-check's) at every point and ``stages`` (1-based; default all), plus the reaction labelled
+    ``force`` (the machine force) when given.
+
+    Raises
+    ------
+    InputError
+        When a counted quantity has no stated noise in ``noise`` (data.noise) or a stage does not exist.
+    """
+    n_stages = len(check.embedded)
+    stages = tuple(range(1, n_stages + 1)) if stages is None else tuple(stages)
+    bad = [s for s in stages if not isinstance(s, int) or not 1 <= s <= n_stages]
+    if bad:
+        raise InputError(f"data.stages: {bad} not among the model's stages 1..{n_stages}")
+    quantities = check.quantities if quantities is None else tuple(quantities)
+    sigma = {q: noise_of(q, noise) for q in quantities + ((FORCE,) if force else ())}
+    missing = [q for q, value in sigma.items() if value is None]
+    if missing:
+        raise InputError(f"data.noise: no standard deviation for {missing}; the coefficient shift weighs every "
+                         "observation by its noise, e.g. noise = { u = 0.0005, e = 1e-5, force = 1.0 }")
+    n_q = len(check.quantities)
+    columns = np.array([p * n_q + check.quantities.index(q) for p in range(len(check.points)) for q in quantities])
+    weights = np.array([1.0 / sigma[q] for _ in range(len(check.points)) for q in quantities])
+    a, r = [], []
+    for stage in (s - 1 for s in stages):
+        a.append(check.derivatives_embedded[stage, columns] * weights[:, None])
+        r.append((check.calculix[stage, columns] - check.embedded[stage, columns]) * weights)
+        if force:
+            k = check.reaction_labels.index(force)
+            a.append(check.reaction_derivatives_embedded[stage, [k]] / sigma[FORCE])
+            r.append(np.atleast_1d(check.reactions_calculix[stage, k] - check.reactions_embedded[stage, k])
+                     / sigma[FORCE])
+    a, r = np.vstack(a), np.concatenate(r)
+    stderr = predicted_stderr(a.T @ a)
+    seen = np.isfinite(stderr)
+    shift = np.full(len(stderr), np.nan)
+    if seen.any():
+        shift[seen] = -np.linalg.lstsq(a[:, seen], r, rcond=None)[0]
+    return CoefficientShift(stages, quantities + ((FORCE,) if force else ()), len(r), sigma, shift, stderr,
+                            float(np.sqrt(np.mean(r ** 2))))
 
 
 def default_points(model: Model) -> tuple[np.ndarray, list[str]]:
@@ -71,6 +156,7 @@ def cross_check(model: Model, mu, points, quantities, regions, settings: Calculi
     solution = problem.solve(mu)
     time_embedded = time.perf_counter() - start
     ends = [solution.stage_end(s) for s in range(model.n_stages)]
+    sensitivities = problem.solve(mu, sensitivities=True)
     ccx = CalculixBackend(model, points, quantities, regions, settings).solve(mu, full_field=False)
     return CrossCheck(
         name, model.mesh.n_nodes, mu, tuple(quantities), np.asarray(points), solution.observations[ends],
@@ -78,7 +164,8 @@ def cross_check(model: Model, mu, points, quantities, regions, settings: Calculi
         solution.zone_normal_force[ends], ccx.zone_normal_force,
         np.linalg.norm(solution.zone_tangential_force[ends], axis=2), ccx.zone_tangential_force,
         time_embedded, ccx.wall_time, setup,
-        (settings.contact_settings(model).normal_stiffness, settings.contact_settings(model).stick_slope))
+        (settings.contact_settings(model).normal_stiffness, settings.contact_settings(model).stick_slope),
+        sensitivities.d_observations[ends], sensitivities.d_reactions[ends])
 
 
 def _differences(reference: np.ndarray, other: np.ndarray) -> str:
@@ -121,8 +208,27 @@ def _force_rows(check: CrossCheck) -> list[str]:
     return rows
 
 
-def cross_check_table(check: CrossCheck) -> str:
-    """Markdown tables: observation differences per stage, reactions and zone forces, time per forward solve."""
+def _shift_rows(check: CrossCheck, shift: CoefficientShift) -> list[str]:
+    groups: dict[float, list[str]] = {}
+    for q, value in shift.noise.items():
+        groups.setdefault(value, []).append(q)
+    noise = "; ".join(f"{', '.join(qs)} {value:g}" for value, qs in groups.items())
+    rows = [f"What the differences mean for an identification from these observations (linearised; stages "
+            f"{list(shift.stages)}, {shift.n_rows} rows, weighted by the noise {noise}): a fit with CalculiX "
+            "reaches each coefficient shifted from the embedded fit by", "",
+            "| zone | mu | calculix - embedded | embedded fit's standard error | shift / standard error |",
+            "|---|---|---|---|---|"]
+    for zone, mu, delta, se in zip(check.zone_names, check.mu, shift.shift, shift.stderr):
+        if np.isfinite(se):
+            rows.append(f"| {zone} | {mu:g} | {delta:+.4f} | {se:.4f} | {delta / se:+.1f} |")
+        else:
+            rows.append(f"| {zone} | {mu:g} | not resolved | - | - |")
+    return rows + ["", f"RMS of the differences: {shift.rms:.2f} noise levels."]
+
+
+def cross_check_table(check: CrossCheck, shift: CoefficientShift | None = None, note: str = "") -> str:
+    """Markdown tables: observation differences per stage, reactions and zone forces, time per forward solve,
+    and (given ``shift``) the coefficient shift of an identification, else ``note``."""
     lines = [f"## {check.model_name}: {check.n_nodes} nodes, {len(check.points)} points "
              f"({', '.join(check.quantities)}), mu = {np.round(check.mu, 4).tolist()}",
              f"CalculiX penalty: normal {check.penalty[0]:.3g} N/mm^3, stick slope {check.penalty[1]:.3g} N/mm^3; "
@@ -132,12 +238,21 @@ def cross_check_table(check: CrossCheck) -> str:
               f"| embedded | {check.time_embedded:.3f} (+ {check.setup_embedded:.2f} s condensation once per geometry) |",
               f"| calculix | {check.time_calculix:.2f} |",
               f"| ratio calculix / embedded | {check.time_calculix / max(check.time_embedded, 1e-9):.0f} |"]
+    if shift is not None:
+        lines += [""] + _shift_rows(check, shift)
+    elif note:
+        lines += ["", note]
     return "\n".join(lines) + "\n"
 
 
-def cross_check_config(config) -> CrossCheck:
+def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str]:
     """A cross-check from a config: [model], [friction] zones (the coefficients), [solver] (CalculiX options),
-    and optionally [data] file / observables / regions for the points (default: :func:`default_points`)."""
+    and optionally [data] file / observables / regions for the points (default: :func:`default_points`).
+
+    With [data] noise for every observable, also the coefficient shift of an identification from those
+    observables at [data] stages (default: all); the machine force counts when "force" is observed.
+    Returns (check, shift or None, a note saying why there is no shift).
+    """
     from ...backends import solver_options
     from ...builders.registry import build_model
     from ...data.measurements import read_measurements
@@ -147,7 +262,9 @@ def cross_check_config(config) -> CrossCheck:
     model = build_model(config.model)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
-    quantities = tuple(config.data.get("observables") or DEFAULT_QUANTITIES[model.dim])
+    observables = tuple(config.data.get("observables") or ())
+    force = machine_force(model) if FORCE in observables else None
+    quantities = tuple(q for q in observables if q != FORCE) or tuple(DEFAULT_QUANTITIES[model.dim])
     if config.data.get("file"):
         source = read_measurements(config.resolve(config.data["file"]))
         labels = list(dict.fromkeys(source.points))
@@ -159,4 +276,13 @@ def cross_check_config(config) -> CrossCheck:
         points, regions = default_points(model)
     settings = CalculixSettings.from_options(solver_options(config), f"{config.path}: [solver]")
     name = f"{config.path.name} (builder {config.model.get('builder')!r})"
-    return cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
+    check = cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
+    if not config.data.get("noise"):
+        return check, None, ("Give [data] noise (e.g. noise = { u = 0.0005, e = 1e-5 }) to see what these "
+                             "differences mean for an identified coefficient.")
+    observed = tuple(q for q in observables if q != FORCE) if observables else quantities
+    try:
+        shift = coefficient_shift(check, config.data["noise"], config.data.get("stages"), observed, force)
+    except InputError as exc:
+        raise InputError(f"{config.path}: {exc}") from None
+    return check, shift, ""

@@ -1,0 +1,68 @@
+"""The cross-check's coefficient shift (no ccx needed): what observation differences mean for identified
+coefficients, checked on differences whose cause is known (the embedded backend at other coefficients)."""
+
+import numpy as np
+import pytest
+
+from frictionid.backends.calculix.crosscheck import CrossCheck, coefficient_shift, cross_check_table
+from frictionid.builders.block import block_model_2d
+from frictionid.errors import InputError
+from frictionid.fem.problem import Problem
+
+QUANTITIES = ("ux", "uy", "exx", "eyy", "exy")
+POINTS = np.array([[x, y] for x in (-4.0, 0.0, 4.0) for y in (1.0, 3.0)])
+NOISE = {"u": 0.0005, "e": 1e-5, "force": 1.0}
+
+
+def stand_in(mu, other_mu, points=POINTS, quantities=QUANTITIES) -> CrossCheck:
+    """A cross-check whose "calculix" side is the embedded backend itself at ``other_mu``."""
+    model = block_model_2d(mesh_size=2.0, order=1, quads=True, n_zones=2, n_pull=4)
+    problem = Problem.build(model, points=points, quantities=quantities, regions=["block"] * len(points))
+    reference, other = problem.solve(np.asarray(mu), sensitivities=True), problem.solve(np.asarray(other_mu))
+    ends = [reference.stage_end(s) for s in range(model.n_stages)]
+    zero = np.zeros((model.n_stages, model.n_zones))
+    return CrossCheck("stand-in", model.mesh.n_nodes, np.asarray(mu), quantities, points,
+                      reference.observations[ends], other.observations[ends], reference.reaction_labels,
+                      reference.reactions[ends], other.reactions[ends], model.zone_names, zero, zero, zero, zero,
+                      0.0, 0.0, 0.0, (1.0, 1.0), reference.d_observations[ends], reference.d_reactions[ends])
+
+
+def test_shift_recovers_the_coefficients_behind_the_differences():
+    """A "calculix" model that gives at mu what the embedded one gives at mu + delta fits embedded data at
+    mu - delta: the linearised shift must return -delta (sign included)."""
+    mu, delta = np.array([0.3, 0.2]), np.array([0.004, -0.003])
+    check = stand_in(mu, mu + delta)
+    shift = coefficient_shift(check, NOISE, stages=[2])
+    np.testing.assert_allclose(shift.shift, -delta, rtol=0.02)
+    assert shift.n_rows == len(POINTS) * len(QUANTITIES) and shift.stages == (2,)
+    assert np.all(np.isfinite(shift.stderr)) and shift.rms > 0
+    with_force = coefficient_shift(check, NOISE, stages=[2], quantities=("exx",), force="block_top.x")
+    np.testing.assert_allclose(with_force.shift, -delta, rtol=0.02)
+    assert with_force.n_rows == len(POINTS) + 1 and with_force.quantities == ("exx", "force")
+    # identical solutions: no shift
+    np.testing.assert_allclose(coefficient_shift(stand_in(mu, mu), NOISE).shift, 0.0, atol=1e-12)
+
+
+def test_shift_table_and_unresolved_zones():
+    mu = np.array([0.3, 0.2])
+    check = stand_in(mu, mu + np.array([0.004, -0.003]))
+    # stage 1 is the press: friction does no work there, neither zone is seen
+    blind = coefficient_shift(check, NOISE, stages=[1])
+    assert np.all(np.isinf(blind.stderr)) and np.all(np.isnan(blind.shift))
+    assert "| A | 0.3 | not resolved | - | - |" in cross_check_table(check, blind)
+    rows = {line.split("|")[1].strip(): line.split("|")
+            for line in cross_check_table(check, coefficient_shift(check, NOISE, stages=[2])).splitlines()
+            if line.startswith("| A ") or line.startswith("| B ")}
+    assert float(rows["A"][3]) == pytest.approx(-0.004, rel=0.02)
+    assert float(rows["B"][3]) == pytest.approx(0.003, rel=0.02)
+    assert "Give [data] noise" in cross_check_table(check, None, "Give [data] noise (e.g. ...)")
+
+
+def test_shift_needs_the_noise_of_every_quantity_and_real_stages():
+    check = stand_in(np.array([0.3, 0.2]), np.array([0.3, 0.2]))
+    with pytest.raises(InputError, match=r"data.noise: no standard deviation for \['exx', 'eyy', 'exy'\]"):
+        coefficient_shift(check, {"u": 0.0005})
+    with pytest.raises(InputError, match=r"data.stages: \[3\] not among the model's stages 1..2"):
+        coefficient_shift(check, NOISE, stages=[3])
+    with pytest.raises(InputError, match=r"data.noise.force"):
+        coefficient_shift(check, {"u": 0.0005, "e": 1e-5, "force": -1.0}, quantities=("ux",), force="block_top.x")
