@@ -82,14 +82,16 @@ def write_points(path: Path) -> None:
     path.write_text("\n".join(rows) + "\n")
 
 
-def config(folder: Path, name: str, mesh: dict, zones: dict, data: str, identify: str = "") -> Path:
-    """A frictionid config for the block with ``mesh`` options, the pull levels and this observation set."""
-    model = "\n".join(['builder = "block"', f"pull_levels = {list(PULL_LEVELS)}"]
+def config(folder: Path, name: str, mesh: dict, zones: dict, data: str, identify: str = "",
+           pull_levels=PULL_LEVELS, stages=STAGES) -> Path:
+    """A frictionid config for the block with ``mesh`` options, the pull levels and this observation set
+    (observed at ``stages``; the defaults are the twin's)."""
+    model = "\n".join(['builder = "block"', f"pull_levels = {list(pull_levels)}"]
                       + [f"{k} = {v!r}" for k, v in mesh.items()])
     table = ", ".join(f"{z} = {float(v)!r}" for z, v in zones.items())
     path = folder / f"{name}.toml"
     path.write_text(f"[model]\n{model}\n[friction]\nzones = {{ {table} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = {list(OBSERVABLES)}\nstages = {list(STAGES)}\n'
+                    f'[data]\nfile = "{data}"\nobservables = {list(OBSERVABLES)}\nstages = {list(stages)}\n'
                     f"noise = {{ u = {SIGMA_U}, force = {SIGMA_FORCE} }}\n"
                     f'{identify}[run]\ndir = "runs/{name}"\n')
     return path

@@ -6,10 +6,20 @@ backend on the identification mesh itself, with the paper's random goal coeffici
 embedded fit recovers the goal and the calculix fit (forward differences, 2 workers) shows how far the backends'
 models differ in coefficient terms.
 
-Run: .venv/bin/python examples/crosscheck/identify_block_dic.py [mesh_size] [max_iterations]
+Other pull levels and stages test other observation sets, e.g. `--pull-levels 0.02 0.04 0.08 --stages 2 3 4`:
+three levels of partial slip and none of gross slip, where `frictionid crosscheck` predicts the smallest
+coefficient shifts between the backends (README, CalculiX backend).
+
+`--predict` runs `frictionid crosscheck` on the same observation set at the goal coefficients instead: one ccx run
+(about 25 s) that predicts, to first order, where the calculix identification will end up relative to the
+embedded one.
+
+Run: .venv/bin/python examples/crosscheck/identify_block_dic.py [--mesh-size H] [--iterations N]
+     [--pull-levels L ...] [--stages S ...] [--predict]
 (hex8, mesh_size 1.6666666666666667 by default: about 1 minute per ccx iteration on 2 cores)
 """
 
+import argparse
 import os
 import sys
 import tempfile
@@ -27,18 +37,29 @@ from frictionid.config import read_config  # noqa: E402
 from frictionid.identify import identify  # noqa: E402
 
 
-def main(mesh_size: float = 5 / 3, iterations: int = 12) -> None:
-    mesh, goal = {"mesh_size": mesh_size}, twin.goal_coefficients()
+def predict(mesh_size: float = 5 / 3, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES) -> None:
+    """The cross-check table of this observation set at the goal, with its coefficient shift."""
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         twin.write_points(folder / "points.csv")
-        truth = twin.config(folder, "truth", mesh, goal, "points.csv")
+        path = twin.config(folder, "crosscheck", {"mesh_size": mesh_size}, twin.goal_coefficients(), "points.csv",
+                           '[solver]\nbackend = "calculix"\n', pull_levels=pull_levels, stages=stages)
+        assert cli(["crosscheck", str(path)]) == 0
+
+
+def main(mesh_size: float = 5 / 3, iterations: int = 12, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES) -> None:
+    mesh, goal = {"mesh_size": mesh_size}, twin.goal_coefficients()
+    levels = {"pull_levels": tuple(pull_levels), "stages": tuple(stages)}
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        twin.write_points(folder / "points.csv")
+        truth = twin.config(folder, "truth", mesh, goal, "points.csv", **levels)
         assert cli(["simulate", str(truth), "--out", str(folder / "simulated.csv")]) == 0
         twin.as_measured(folder / "simulated.csv", folder / "measured.csv")
         for solver, jacobian in (("embedded", "analytic"), ("calculix", "forward")):
             table = (f'[solver]\nbackend = "{solver}"\n[identify]\njacobian = "{jacobian}"\nstep = 1e-2\n'
                      f"max_iterations = {iterations}\n")
-            path = twin.config(folder, solver, mesh, dict.fromkeys("ABCD", 0.1), "measured.csv", table)
+            path = twin.config(folder, solver, mesh, dict.fromkeys("ABCD", 0.1), "measured.csv", table, **levels)
             path.write_text(path.read_text() + "workers = 2\n")
             start = time.perf_counter()
             result = identify(read_config(path, need=("model", "friction", "data", "run")),
@@ -52,4 +73,14 @@ def main(mesh_size: float = 5 / 3, iterations: int = 12) -> None:
 
 
 if __name__ == "__main__":
-    main(*(float(a) for a in sys.argv[1:2]), *(int(a) for a in sys.argv[2:3]))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--mesh-size", type=float, default=5 / 3)
+    parser.add_argument("--iterations", type=int, default=12)
+    parser.add_argument("--pull-levels", type=float, nargs="+", default=list(twin.PULL_LEVELS))
+    parser.add_argument("--stages", type=int, nargs="+", default=list(twin.STAGES))
+    parser.add_argument("--predict", action="store_true", help="only the cross-check's prediction (one ccx run)")
+    args = parser.parse_args()
+    if args.predict:
+        predict(args.mesh_size, args.pull_levels, args.stages)
+    else:
+        main(args.mesh_size, args.iterations, args.pull_levels, args.stages)
