@@ -4,10 +4,12 @@ coefficients, checked on differences whose cause is known (the embedded backend 
 import numpy as np
 import pytest
 
-from frictionid.backends.calculix.crosscheck import CrossCheck, coefficient_shift, cross_check_table
+from frictionid.backends.calculix.crosscheck import CrossCheck, coefficient_shift, cross_check_table, observed_shift
+from frictionid.data.measurements import read_measurements
 from frictionid.builders.block import block_model_2d
 from frictionid.errors import InputError
 from frictionid.fem.problem import Problem
+from frictionid.inverse.observations import observations_from
 
 QUANTITIES = ("ux", "uy", "exx", "eyy", "exy")
 POINTS = np.array([[x, y] for x in (-4.0, 0.0, 4.0) for y in (1.0, 3.0)])
@@ -66,3 +68,20 @@ def test_shift_needs_the_noise_of_every_quantity_and_real_stages():
         coefficient_shift(check, NOISE, stages=[3])
     with pytest.raises(InputError, match=r"data.noise.force"):
         coefficient_shift(check, {"u": 0.0005, "e": 1e-5, "force": -1.0}, quantities=("ux",), force="block_top.x")
+
+
+def test_observed_shift_counts_exactly_the_measured_rows(tmp_path):
+    """From an identification's Observations: only values present in the file count, with the file's sigma."""
+    mu, delta = np.array([0.3, 0.2]), np.array([0.004, -0.003])
+    check = stand_in(mu, mu + delta, quantities=("ux", "exx"))
+    rows = ["point,x,y,z,stage,ux,exx,sigma_exx"]
+    rows += [f"P{i},{x},{y},0,2,0.0,{'' if i == 0 else 0.0},{'' if i == 0 else 2e-5}"
+             for i, (x, y) in enumerate(POINTS)]
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
+    model = block_model_2d(mesh_size=2.0, order=1, quads=True, n_zones=2, n_pull=4)
+    observations = observations_from(read_measurements(tmp_path / "m.csv"), model, ["ux", "exx"], [2],
+                                     {"u": 0.0005}, {"*": "block"})
+    shift = observed_shift(check, observations)
+    assert shift.n_rows == 2 * len(POINTS) - 1 and shift.stages == (2,)
+    assert shift.noise == {"ux": 0.0005, "exx": 2e-5}
+    np.testing.assert_allclose(shift.shift, -delta, rtol=0.02)

@@ -113,26 +113,48 @@ def coefficient_shift(check: CrossCheck, noise: dict, stages=None,
     if missing:
         raise InputError(f"data.noise: no standard deviation for {missing}; the coefficient shift weighs every "
                          "observation by its noise, e.g. noise = { u = 0.0005, e = 1e-5, force = 1.0 }")
-    n_q = len(check.quantities)
-    columns = np.array([p * n_q + check.quantities.index(q) for p in range(len(check.points)) for q in quantities])
-    weights = np.array([1.0 / sigma[q] for _ in range(len(check.points)) for q in quantities])
-    a, r = [], []
-    for stage in (s - 1 for s in stages):
-        a.append(check.derivatives_embedded[stage, columns] * weights[:, None])
-        r.append((check.calculix[stage, columns] - check.embedded[stage, columns]) * weights)
-        if force:
-            k = check.reaction_labels.index(force)
-            a.append(check.reaction_derivatives_embedded[stage, [k]] / sigma[FORCE])
-            r.append(np.atleast_1d(check.reactions_calculix[stage, k] - check.reactions_embedded[stage, k])
-                     / sigma[FORCE])
-    a, r = np.vstack(a), np.concatenate(r)
+    n_q, n_point_rows = len(check.quantities), check.embedded.shape[1]
+    rows = [(p * n_q + check.quantities.index(q), sigma[q]) for p in range(len(check.points)) for q in quantities]
+    if force:
+        rows.append((n_point_rows + check.reaction_labels.index(force), sigma[FORCE]))
+    column, weight = (np.array(v) for v in zip(*rows))
+    stage = np.repeat(np.array(stages) - 1, len(rows))
+    return _shift(check, stage, np.tile(column, len(stages)), np.tile(weight, len(stages)),
+                  quantities + ((FORCE,) if force else ()), sigma)
+
+
+def observed_shift(check: CrossCheck, observations) -> CoefficientShift:
+    """The coefficient shift from exactly the rows and standard deviations an identification fits
+    (:class:`~frictionid.inverse.observations.Observations` on the cross-check's points and quantities)."""
+    n_point_rows = len(observations.points) * len(observations.quantities)
+    if observations.quantities != check.quantities or n_point_rows != check.embedded.shape[1]:
+        raise ValueError("the observations are not on the cross-check's points and quantities")
+    reaction = [check.reaction_labels.index(label) for label in observations.reactions]
+    column = np.array([row if row < n_point_rows else n_point_rows + reaction[row - n_point_rows]
+                       for row in observations.row])
+    kinds = np.array([label.split(":")[-1].split("@")[0] for label in observations.labels])
+    noise = {}
+    for q in dict.fromkeys(kinds):
+        values = np.unique(observations.sigma[kinds == q])
+        noise[str(q)] = float(values[0]) if len(values) == 1 else float("nan")      # nan: from the file, per row
+    return _shift(check, observations.stage, column, observations.sigma, tuple(noise), noise)
+
+
+def _shift(check: CrossCheck, stage: np.ndarray, column: np.ndarray, sigma: np.ndarray,
+           quantities: tuple[str, ...], noise: dict) -> CoefficientShift:
+    """Shift from rows (0-based stage, column of [point rows | reactions], sigma)."""
+    embedded = np.concatenate([check.embedded, check.reactions_embedded], axis=1)
+    calculix = np.concatenate([check.calculix, check.reactions_calculix], axis=1)
+    derivatives = np.concatenate([check.derivatives_embedded, check.reaction_derivatives_embedded], axis=1)
+    a = derivatives[stage, column] / sigma[:, None]
+    r = (calculix[stage, column] - embedded[stage, column]) / sigma
     stderr = predicted_stderr(a.T @ a)
     seen = np.isfinite(stderr)
     shift = np.full(len(stderr), np.nan)
     if seen.any():
         shift[seen] = -np.linalg.lstsq(a[:, seen], r, rcond=None)[0]
-    return CoefficientShift(stages, quantities + ((FORCE,) if force else ()), len(r), sigma, shift, stderr,
-                            float(np.sqrt(np.mean(r ** 2))))
+    return CoefficientShift(tuple(int(s) + 1 for s in np.unique(stage)), quantities, len(r), noise, shift,
+                            stderr, float(np.sqrt(np.mean(r ** 2))))
 
 
 def default_points(model: Model) -> tuple[np.ndarray, list[str]]:
@@ -212,7 +234,8 @@ def _shift_rows(check: CrossCheck, shift: CoefficientShift) -> list[str]:
     groups: dict[float, list[str]] = {}
     for q, value in shift.noise.items():
         groups.setdefault(value, []).append(q)
-    noise = "; ".join(f"{', '.join(qs)} {value:g}" for value, qs in groups.items())
+    noise = "; ".join(f"{', '.join(qs)} {value:g}" if np.isfinite(value) else f"{', '.join(qs)} as in the file"
+                      for value, qs in groups.items())
     rows = [f"What the differences mean for an identification from these observations (linearised; stages "
             f"{list(shift.stages)}, {shift.n_rows} rows, weighted by the noise {noise}): a fit with CalculiX "
             "reaches each coefficient shifted from the embedded fit by", "",
@@ -249,40 +272,50 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     """A cross-check from a config: [model], [friction] zones (the coefficients), [solver] (CalculiX options),
     and optionally [data] file / observables / regions for the points (default: :func:`default_points`).
 
-    With [data] noise for every observable, also the coefficient shift of an identification from those
-    observables at [data] stages (default: all); the machine force counts when "force" is observed.
-    Returns (check, shift or None, a note saying why there is no shift).
+    With [data] noise, also the coefficient shift of an identification. When the file has a column for every
+    observable (the machine force included), the points and the shift's rows are exactly those an
+    identification would fit (values present at [data] stages; the file's sigma columns, else [data] noise).
+    Otherwise the shift counts every observable at every point and [data] stage (default: all), weighted by
+    [data] noise. Returns (check, shift or None, a note saying why there is no shift).
     """
     from ...backends import solver_options
     from ...builders.registry import build_model
     from ...data.measurements import read_measurements
+    from ...inverse.observations import observations_from
     from ...inverse.parameters import Parameters
     from ...simulate import DEFAULT_QUANTITIES
 
     model = build_model(config.model)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
-    observables = tuple(config.data.get("observables") or ())
+    data, noise = config.data, config.data.get("noise")
+    observables = tuple(data.get("observables") or ())
     force = machine_force(model) if FORCE in observables else None
     quantities = tuple(q for q in observables if q != FORCE) or tuple(DEFAULT_QUANTITIES[model.dim])
-    if config.data.get("file"):
-        source = read_measurements(config.resolve(config.data["file"]))
+    source = read_measurements(config.resolve(data["file"])) if data.get("file") else None
+    observations = None
+    if source is not None and noise and all(q in source.values for q in quantities) and \
+            (force is None or not np.all(np.isnan(source.force))):
+        observations = observations_from(source, model, observables, data.get("stages")
+                                         or list(range(1, model.n_stages + 1)), noise, data.get("regions"))
+        points, regions = observations.points, list(observations.point_regions)
+    elif source is not None:
         labels = list(dict.fromkeys(source.points))
         first = {p: i for i, p in reversed(list(enumerate(source.points)))}
         points = np.array([source.coordinates[first[p]][:model.dim] for p in labels])
-        table = config.data.get("regions", {})
+        table = data.get("regions", {})
         regions = [table.get(p, table.get("*")) for p in labels]
     else:
         points, regions = default_points(model)
     settings = CalculixSettings.from_options(solver_options(config), f"{config.path}: [solver]")
     name = f"{config.path.name} (builder {config.model.get('builder')!r})"
     check = cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
-    if not config.data.get("noise"):
+    if not noise:
         return check, None, ("Give [data] noise (e.g. noise = { u = 0.0005, e = 1e-5 }) to see what these "
                              "differences mean for an identified coefficient.")
-    observed = tuple(q for q in observables if q != FORCE) if observables else quantities
+    if observations is not None:
+        return check, observed_shift(check, observations), ""
     try:
-        shift = coefficient_shift(check, config.data["noise"], config.data.get("stages"), observed, force)
+        return check, coefficient_shift(check, noise, data.get("stages"), quantities, force), ""
     except InputError as exc:
         raise InputError(f"{config.path}: {exc}") from None
-    return check, shift, ""
