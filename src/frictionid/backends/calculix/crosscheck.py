@@ -74,9 +74,9 @@ class CoefficientShift:
 
     Attributes
     ----------
-    stages : 1-based stages whose observations count; rows : labels of the counted rows ("quantity" kinds and
-        "force"); n_rows : how many
-    noise : standard deviation of each observed quantity (and "force") used as weight
+    stages : 1-based stages whose observations count; quantities : the counted quantities (and "force");
+        n_rows : how many rows count
+    noise : standard deviation of each counted quantity used as weight (nan: per row, from the data file)
     shift : (n_zones,) calculix fit - embedded fit, linearised; nan for a zone the rows do not resolve
     stderr : (n_zones,) the embedded fit's standard errors at that noise (inf: not resolved)
     rms : RMS of the weighted differences (in noise units)
