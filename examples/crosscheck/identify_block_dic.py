@@ -37,6 +37,15 @@ from frictionid.config import read_config  # noqa: E402
 from frictionid.identify import identify  # noqa: E402
 
 
+def measured(folder: Path, mesh: dict, goal: dict, levels: dict) -> None:
+    """folder/measured.csv: the twin's observation set simulated by the embedded backend at the goal, as the
+    cameras give it (no noise)."""
+    twin.write_points(folder / "points.csv")
+    truth = twin.config(folder, "truth", mesh, goal, "points.csv", **levels)
+    assert cli(["simulate", str(truth), "--out", str(folder / "simulated.csv")]) == 0
+    twin.as_measured(folder / "simulated.csv", folder / "measured.csv")
+
+
 def predict(mesh_size: float = 5 / 3, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES) -> None:
     """The cross-check table of this observation set at the goal, with the coefficient shift of exactly the rows
     the identifications fit (the measured file's layout: no uz on the plate top)."""
@@ -44,10 +53,7 @@ def predict(mesh_size: float = 5 / 3, pull_levels=twin.PULL_LEVELS, stages=twin.
     levels = {"pull_levels": tuple(pull_levels), "stages": tuple(stages)}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        twin.write_points(folder / "points.csv")
-        truth = twin.config(folder, "truth", mesh, goal, "points.csv", **levels)
-        assert cli(["simulate", str(truth), "--out", str(folder / "simulated.csv")]) == 0
-        twin.as_measured(folder / "simulated.csv", folder / "measured.csv")
+        measured(folder, mesh, goal, levels)
         path = twin.config(folder, "crosscheck", mesh, goal, "measured.csv", '[solver]\nbackend = "calculix"\n',
                            **levels)
         assert cli(["crosscheck", str(path)]) == 0
@@ -58,10 +64,7 @@ def main(mesh_size: float = 5 / 3, iterations: int = 12, pull_levels=twin.PULL_L
     levels = {"pull_levels": tuple(pull_levels), "stages": tuple(stages)}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        twin.write_points(folder / "points.csv")
-        truth = twin.config(folder, "truth", mesh, goal, "points.csv", **levels)
-        assert cli(["simulate", str(truth), "--out", str(folder / "simulated.csv")]) == 0
-        twin.as_measured(folder / "simulated.csv", folder / "measured.csv")
+        measured(folder, mesh, goal, levels)
         for solver, jacobian in (("embedded", "analytic"), ("calculix", "forward")):
             table = (f'[solver]\nbackend = "{solver}"\n[identify]\njacobian = "{jacobian}"\nstep = 1e-2\n'
                      f"max_iterations = {iterations}\n")
