@@ -211,6 +211,7 @@ class ScaleMixin:
 
 class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
     method = "trf"
+    options: ClassVar[dict] = {"se_step": 0.0}   # scipy's own stops; TestTRFStepLeft covers se_step
     atol = 1e-8
 
     def test_other_powers_are_refused(self):
@@ -224,7 +225,9 @@ class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
 
     def test_resolved_options_are_reported(self):
         result = self.run(linear()[0], tol=1e-9, max_iterations=20)
-        assert result.options == {"ftol": 1e-9, "xtol": 1e-9, "gtol": 1e-9, "max_nfev": 105, "x_scale": "jac"}
+        assert result.options == {"ftol": 1e-9, "xtol": 1e-9, "gtol": 1e-9, "max_nfev": 105, "x_scale": "jac",
+                                  "se_step": 0.0}
+        assert optimise(linear()[0], "trf").options["se_step"] == 0.1
 
     def test_no_jacobian_at_the_iterate_where_max_iterations_stops(self):
         calls = []
@@ -236,6 +239,75 @@ class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
     def test_evaluation_budget_exhausted_is_max_iterations(self):
         result = self.run(rosenbrock(), options={"max_nfev": 3})
         assert result.status == "max_iterations" and result.n_iterations < 3
+
+
+def standard_errors_away(a: np.ndarray, b: np.ndarray, x: np.ndarray, x_star: np.ndarray) -> float:
+    """Distance of x from x_star for r = a x - b in standard errors: sqrt(dx^T a^T a dx / s^2) with
+    s^2 = ||r(x)||^2 / (n_res - n_free)."""
+    r = a @ x - b
+    return float(np.linalg.norm(a @ (x - x_star)) * np.sqrt((a.shape[0] - a.shape[1]) / (r @ r)))
+
+
+def printed(values: np.ndarray) -> np.ndarray:
+    """values rounded to 7 significant digits, as ccx prints its results."""
+    return np.array([float(f"{v:.6e}") for v in values])
+
+
+class TestTRFStepLeft:
+    """The se_step stop: at an accepted iterate, the Gauss-Newton step still to go, in standard errors."""
+
+    def test_linear_problem_stops_within_se_step_of_the_minimum(self):
+        rng = np.random.default_rng(7)
+        a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
+        x_star = np.linalg.lstsq(a, b, rcond=None)[0]
+        result = optimise(problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), -10.0, 10.0), "trf")
+        assert result.status == "converged" and "step left" in result.message
+        # for a linear problem the step left is exactly the distance to the minimum
+        assert standard_errors_away(a, b, result.x, x_star) < 0.1
+        assert standard_errors_away(a, b, result.history_x[-2], x_star) >= 0.1
+
+    def test_zero_residual_fit_is_not_stopped_early(self):
+        # d / chi^2 stays near 1 when the data can be fitted exactly: the step left never looks small
+        prob, x_true = exponential_decay()
+        result = optimise(prob, "trf")
+        assert result.status == "converged" and "step left" not in result.message
+        np.testing.assert_allclose(result.x, x_true, atol=1e-8)
+
+    def test_parameter_held_at_a_bound_is_left_out_of_the_step(self):
+        # the unconstrained minimum has x0 = -0.2 < 0: the step left counts only x1, free in the interior
+        rng = np.random.default_rng(11)
+        a = rng.normal(size=(12, 2))
+        b = a @ OUTSIDE + 0.01 * rng.normal(size=12)
+        result = optimise(problem(lambda x: a @ x - b, lambda x: a, [0.1, 0.1], 0.0, 1.0), "trf")
+        assert result.status == "converged" and "step left" in result.message
+        assert result.x[0] == pytest.approx(0.0, abs=1e-9)
+        x1 = np.linalg.lstsq(a[:, 1:], b, rcond=None)[0][0]           # the minimum with x0 = 0
+        assert standard_errors_away(a[:, 1:], b, result.x[1:], np.array([x1])) < 0.1
+
+    def test_spares_jacobians_on_printed_results_with_finite_differences(self):
+        # a ccx-like evaluation: 7 printed digits, forward differences with step 1e-2, noisy data
+        t = np.linspace(0.0, 3.0, 20)
+        y = 2.0 * np.exp(-1.3 * t) + 0.01 * np.random.default_rng(3).normal(size=t.size)
+
+        def residuals(x):
+            return printed(x[0] * np.exp(-x[1] * t)) - y
+
+        def forward_differences(x):
+            return np.column_stack([(residuals(x + 1e-2 * e) - residuals(x)) / 1e-2 for e in np.eye(2)])
+
+        runs = {}
+        for se_step in (0.0, 0.1):
+            calls = []
+            prob = problem(residuals, lambda x: calls.append(1) or forward_differences(x), [1.0, 0.5], 0.0, 10.0)
+            runs[se_step] = optimise(prob, "trf", options={"se_step": se_step}), len(calls)
+        (full, full_calls), (stopped, stopped_calls) = runs[0.0], runs[0.1]
+        assert "step left" in stopped.message and "step left" not in full.message
+        assert stopped_calls < full_calls
+        assert stopped.objective == pytest.approx(full.objective, rel=1e-4)
+
+    def test_negative_se_step_is_refused(self):
+        with pytest.raises(InputError, match="'se_step'.*>= 0"):
+            optimise(linear()[0], "trf", options={"se_step": -0.1})
 
 
 class TestLBFGSB(BaseMixin, BoundsMixin, RosenbrockMixin, PowerMixin, ScaleMixin):

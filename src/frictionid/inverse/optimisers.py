@@ -12,6 +12,7 @@ from ..errors import InputError, SolverError
 from . import gradient_descent as descent
 from .iterates import Iterates, Option, resolve_options
 from .least_squares import LeastSquares, OptimiseResult
+from .uncertainty import at_bounds
 
 log = logging.getLogger(__name__)
 
@@ -30,9 +31,12 @@ TRF_OPTIONS = {
     "ftol": _TOLERANCE, "xtol": _TOLERANCE, "gtol": _TOLERANCE,
     "max_nfev": Option("int", lambda n, tol, n_free: 5 * (n + 1), _positive, "> 0"),
     "x_scale": Option("scale", lambda n, tol, n_free: "jac", _scale, "(> 0)"),
+    "se_step": Option("float", lambda n, tol, n_free: 0.1, lambda v: v >= 0, ">= 0"),
 }
 """Options of "trf" (scipy.optimize.least_squares): ftol, xtol, gtol (default tol), max_nfev (residual
-evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale."""
+evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale, and
+se_step (default 0.1; 0 turns it off): stop at an accepted iterate once the Gauss-Newton step still to go is
+shorter than se_step standard errors (see ``remaining_step``)."""
 
 LBFGSB_OPTIONS = {
     "ftol": _TOLERANCE, "gtol": _TOLERANCE,
@@ -59,6 +63,45 @@ class _IterationLimit(Exception):
     """Stops least_squares from inside its Jacobian call once max_iterations iterates are accepted."""
 
 
+class _StepLeftSmall(Exception):
+    """Stops least_squares from inside its Jacobian call when the Gauss-Newton step left is below se_step."""
+
+
+def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper) -> float:
+    """Length of the Gauss-Newton step still to go from x, in standard errors of the estimate.
+
+    The full step dx = -J^+ r over the parameters that are not held at a bound (at a bound with the gradient
+    J^T r pushing outwards) would lower chi^2 = ||r||^2 by d = ||J dx||^2; measured with the covariance
+    s^2 (J^T J)^-1, s^2 = chi^2 / (n_res - n_free), the step's length is sqrt(d / s^2). Near a minimum with
+    nonzero residual it shrinks to 0 while chi^2 does not (finite-difference Jacobians of a code that prints
+    7 digits, model error); with zero residual d / chi^2 stays near 1. inf when it cannot be measured
+    (chi^2 = 0 or no degrees of freedom).
+
+    Examples
+    --------
+    >>> jac = np.array([[1.0], [1.0]])
+    >>> round(remaining_step(np.array([0.5, -0.5]), jac, [0.3], [0.0], [1.0]), 12)   # at the minimum
+    0.0
+    >>> round(remaining_step(np.array([1.0, 0.0]), jac, [0.3], [0.0], [1.0]), 6)     # dx = -0.5, s = 1
+    0.707107
+    """
+    r, jac, x = np.asarray(r, dtype=float), np.asarray(jac, dtype=float), np.asarray(x, dtype=float)
+    n_res, n_free = jac.shape
+    chi2 = float(r @ r)
+    if chi2 == 0 or n_res <= n_free:
+        return np.inf
+    gradient = jac.T @ r
+    bound = at_bounds(x, np.asarray(lower, dtype=float), np.asarray(upper, dtype=float))
+    lower_side = np.abs(x - lower) <= np.abs(x - upper)
+    held = bound & np.where(lower_side, gradient > 0, gradient < 0)
+    free = jac[:, ~held]
+    if free.size == 0:
+        return 0.0
+    step = np.linalg.lstsq(free, r, rcond=None)[0]
+    decrease = float(np.sum((free @ step) ** 2))
+    return float(np.sqrt(decrease * (n_res - n_free) / chi2))
+
+
 def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
     """Bounded trust-region reflective Gauss-Newton (scipy.optimize.least_squares, method "trf").
 
@@ -66,6 +109,9 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
     Jacobian call is where an iterate is recorded; at the max_iterations-th one the run stops before the
     (expensive) Jacobian is evaluated. Its start is moved strictly inside the bounds (by 1e-10 relative)
     when x0 lies on one. It works on r / ||r(x0)||: its gtol is absolute, and residuals in mm are small.
+    With the Jacobian at an accepted iterate the run also stops ("converged") when the step left is below
+    se_step standard errors: scipy's own tests can keep it trying steps that gain nothing at a minimum with
+    nonzero residual, each costing a finite-difference Jacobian.
     """
     problem = run.problem
     x0 = np.array(problem.x0, dtype=float)
@@ -77,7 +123,13 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
     def jacobian(x):
         if run.accept(x) >= max_iterations:
             raise _IterationLimit
-        return run.jacobian(x) * scale
+        jac = run.jacobian(x)
+        if options["se_step"] > 0:
+            left = remaining_step(run.residuals(x), jac, x, problem.lower, problem.upper)
+            if left < options["se_step"]:
+                raise _StepLeftSmall(f"the Gauss-Newton step left is {left:.3g} standard errors "
+                                     f"< se_step = {options['se_step']:g}")
+        return jac * scale
 
     try:
         fit = least_squares(lambda x: run.residuals(x) * scale, x0, jac=jacobian, method="trf",
@@ -86,6 +138,8 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
                             max_nfev=options["max_nfev"])
     except _IterationLimit:
         return "max_iterations", f"stopped after max_iterations = {max_iterations} iterations"
+    except _StepLeftSmall as stop:
+        return "converged", str(stop)
     if fit.status == 0:
         return "max_iterations", f"{fit.message} (max_nfev = {options['max_nfev']})"
     return ("converged" if fit.status > 0 else "failed"), fit.message
