@@ -85,3 +85,22 @@ def test_observed_shift_counts_exactly_the_measured_rows(tmp_path):
     assert shift.n_rows == 2 * len(POINTS) - 1 and shift.stages == (2,)
     assert shift.noise == {"ux": 0.0005, "exx": 2e-5}
     np.testing.assert_allclose(shift.shift, -delta, rtol=0.02)
+
+
+@pytest.mark.parametrize("values", [False, True])
+def test_point_outside_the_model_is_named_with_its_file(tmp_path, capsys, values):
+    """Points from the data file that lie outside their region: exit 2 naming the label and the file, before
+    any ccx run (the embedded problem is built first), with or without measured values in the file."""
+    from frictionid.cli import main
+    header, rows = "point,x,y,z,stage", ["P1,0.0,2.0,0.0,2", "far,0.0,99.0,0.0,2"]
+    if values:
+        header, rows = header + ",ux", [row + ",0.001" for row in rows]
+    (tmp_path / "points.csv").write_text("\n".join([header] + rows) + "\n")
+    (tmp_path / "c.toml").write_text(
+        '[model]\nbuilder = "block2d"\nmesh_size = 4.0\norder = 1\nquads = true\n[friction]\n'
+        'zones = { A = 0.3, B = 0.2 }\n[data]\nfile = "points.csv"\nobservables = ["ux"]\nstages = [2]\n'
+        'noise = { u = 0.0005 }\nregions = { "*" = "block" }\n[solver]\nbackend = "calculix"\nccx = "no-such-ccx"\n')
+    assert main(["crosscheck", str(tmp_path / "c.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "points.csv" in err and "point 'far'" in err and "region 'block'" in err and "P1" not in err
+    assert "Traceback" not in err

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import InputError
+from ...fem.points import PointsOutside
 from ...fem.problem import Problem
 from ...inverse.observations import FORCE, machine_force, noise_of
 from ...inverse.resolution import predicted_stderr
@@ -298,7 +299,7 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
             (force is None or not np.all(np.isnan(source.force))):
         observations = observations_from(source, model, observables, data.get("stages")
                                          or list(range(1, model.n_stages + 1)), noise, data.get("regions"))
-        points, regions = observations.points, list(observations.point_regions)
+        points, regions, labels = observations.points, list(observations.point_regions), observations.point_labels
     elif source is not None:
         labels = list(dict.fromkeys(source.points))
         first = {p: i for i, p in reversed(list(enumerate(source.points)))}
@@ -309,7 +310,10 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
         points, regions = default_points(model)
     settings = CalculixSettings.from_options(solver_options(config), f"{config.path}: [solver]")
     name = f"{config.path.name} (builder {config.model.get('builder')!r})"
-    check = cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
+    try:
+        check = cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
+    except PointsOutside as exc:       # only points read from the data file can be outside
+        raise exc.named(labels, source.source) from None
     if not noise:
         return check, None, ("Give [data] noise (e.g. noise = { u = 0.0005, e = 1e-5 }) to see what these "
                              "differences mean for an identified coefficient.")
