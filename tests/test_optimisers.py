@@ -8,7 +8,7 @@ import pytest
 
 from frictionid.errors import InputError, SolverError
 from frictionid.inverse.least_squares import LeastSquares
-from frictionid.inverse.optimisers import METHODS, optimise
+from frictionid.inverse.optimisers import METHODS, optimise, remaining_step
 
 INF = np.inf
 
@@ -265,6 +265,27 @@ class TestTRFStepLeft:
         # for a linear problem the step left is exactly the distance to the minimum
         assert standard_errors_away(a, b, result.x, x_star) < 0.1
         assert standard_errors_away(a, b, result.history_x[-2], x_star) >= 0.1
+
+    @pytest.mark.parametrize("misfit, s2", [(0.1, "residual"), (10.0, "stated")])
+    def test_with_stated_noise_the_smaller_of_stated_and_residual_errors_counts(self, misfit, s2):
+        # residuals divided by stated noise: chi^2 / dof about misfit^2; the step is measured in the smaller
+        # errors, so neither a fit far better than the noise (twin data) nor a poor one is cut short
+        rng = np.random.default_rng(5)
+        a = 30.0 * rng.normal(size=(40, 3))
+        b = a @ np.array([0.3, 0.2, 0.4]) + misfit * rng.normal(size=40)
+        x_star = np.linalg.lstsq(a, b, rcond=None)[0]
+        prob = dataclasses.replace(problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), -10.0, 10.0),
+                                   noise_known=True)
+        x = x_star + np.array([1e-3, 0.0, 0.0])
+        r, dof = a @ x - b, 40 - 3
+        stated = np.linalg.norm(a @ (x - x_star))            # sqrt(d): the step in stated errors (s = 1)
+        residual = stated * np.sqrt(dof / (r @ r))
+        expected = residual if s2 == "residual" else stated
+        assert remaining_step(r, a, x, prob.lower, prob.upper, noise_known=True) == pytest.approx(expected, rel=1e-9)
+        assert remaining_step(r, a, x, prob.lower, prob.upper) == pytest.approx(residual, rel=1e-9)
+        result = optimise(prob, "trf")
+        assert result.status == "converged" and "step left" in result.message
+        assert np.linalg.norm(a @ (result.x - x_star)) < 0.1 * min(1.0, np.sqrt((result.objective) / dof)) * 1.001
 
     def test_zero_residual_fit_is_not_stopped_early(self):
         # d / chi^2 stays near 1 when the data can be fitted exactly: the step left never looks small

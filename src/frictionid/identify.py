@@ -98,7 +98,8 @@ def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config,
         progress(iteration, parameters.full(x), objective, evaluator)
 
     return LeastSquares(evaluator.residuals, evaluator.jacobian, parameters.x0, parameters.lower,
-                        parameters.upper, parameters.free_names, float(config.identify["power"]), on_iteration)
+                        parameters.upper, parameters.free_names, float(config.identify["power"]), on_iteration,
+                        evaluator.obs.noise_known)
 
 
 def identify(config: Config, resume: bool = False, progress=lambda *args: None, on_prefit=lambda report: None) -> dict:

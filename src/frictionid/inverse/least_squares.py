@@ -26,6 +26,8 @@ class LeastSquares:
     names : parameter names, for messages and progress
     power : n in J = ||r||^n (2: least squares)
     progress : called after each accepted iteration with (iteration, x, J); may raise to stop the run
+    noise_known : the residuals are divided by stated standard deviations, so the covariance of x is
+        (J^T J)^-1; otherwise it is scaled by ||r||^2 / (n_res - n_free) (see :mod:`.uncertainty`)
     """
 
     residuals: Callable[[np.ndarray], np.ndarray]
@@ -36,6 +38,7 @@ class LeastSquares:
     names: tuple[str, ...]
     power: float = 2.0
     progress: Callable[[int, np.ndarray, float], None] = lambda iteration, x, objective: None
+    noise_known: bool = False
 
     def objective(self, r: np.ndarray) -> float:
         """J = ||r||^power."""

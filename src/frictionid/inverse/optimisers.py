@@ -67,15 +67,17 @@ class _StepLeftSmall(Exception):
     """Stops least_squares from inside its Jacobian call when the Gauss-Newton step left is below se_step."""
 
 
-def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper) -> float:
+def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper, noise_known: bool = False) -> float:
     """Length of the Gauss-Newton step still to go from x, in standard errors of the estimate.
 
     The full step dx = -J^+ r over the parameters that are not held at a bound (at a bound with the gradient
-    J^T r pushing outwards) would lower chi^2 = ||r||^2 by d = ||J dx||^2; measured with the covariance
-    s^2 (J^T J)^-1, s^2 = chi^2 / (n_res - n_free), the step's length is sqrt(d / s^2). Near a minimum with
-    nonzero residual it shrinks to 0 while chi^2 does not (finite-difference Jacobians of a code that prints
-    7 digits, model error); with zero residual d / chi^2 stays near 1. inf when it cannot be measured
-    (chi^2 = 0 or no degrees of freedom).
+    J^T r pushing outwards) would lower chi^2 = ||r||^2 by d = ||J dx||^2. Measured with the covariance
+    s^2 (J^T J)^-1, the step's length is sqrt(d / s^2), with s^2 = chi^2 / (n_res - n_free) (the errors the
+    residuals show), or, when the residuals are weighted by stated noise, the smaller of that and 1 (the
+    stated errors): a fit far better than the stated noise (noise-free twin data) is not cut short, nor one
+    far worse (model error). Near a minimum with nonzero residual the length shrinks to 0 while chi^2 does not
+    (finite-difference Jacobians of a code that prints 7 digits, model error); at a zero-residual minimum
+    d / chi^2 stays near 1. inf when it cannot be measured (chi^2 = 0 or no degrees of freedom).
 
     Examples
     --------
@@ -84,12 +86,19 @@ def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper) -> float:
     0.0
     >>> round(remaining_step(np.array([1.0, 0.0]), jac, [0.3], [0.0], [1.0]), 6)     # dx = -0.5, s = 1
     0.707107
+    >>> round(remaining_step(np.array([3.0, 1.0]), jac, [0.3], [0.0], [1.0]), 6)     # s^2 = 10
+    0.894427
+    >>> round(remaining_step(np.array([3.0, 1.0]), jac, [0.3], [0.0], [1.0], noise_known=True), 6)  # s^2 = 1
+    2.828427
     """
     r, jac, x = np.asarray(r, dtype=float), np.asarray(jac, dtype=float), np.asarray(x, dtype=float)
     n_res, n_free = jac.shape
     chi2 = float(r @ r)
     if chi2 == 0 or n_res <= n_free:
         return np.inf
+    s2 = chi2 / (n_res - n_free)
+    if noise_known:
+        s2 = min(s2, 1.0)
     gradient = jac.T @ r
     bound = at_bounds(x, np.asarray(lower, dtype=float), np.asarray(upper, dtype=float))
     lower_side = np.abs(x - lower) <= np.abs(x - upper)
@@ -99,7 +108,7 @@ def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper) -> float:
         return 0.0
     step = np.linalg.lstsq(free, r, rcond=None)[0]
     decrease = float(np.sum((free @ step) ** 2))
-    return float(np.sqrt(decrease * (n_res - n_free) / chi2))
+    return float(np.sqrt(decrease / s2))
 
 
 def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
@@ -125,7 +134,7 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
             raise _IterationLimit
         jac = run.jacobian(x)
         if options["se_step"] > 0:
-            left = remaining_step(run.residuals(x), jac, x, problem.lower, problem.upper)
+            left = remaining_step(run.residuals(x), jac, x, problem.lower, problem.upper, problem.noise_known)
             if left < options["se_step"]:
                 raise _StepLeftSmall(f"the Gauss-Newton step left is {left:.3g} standard errors "
                                      f"< se_step = {options['se_step']:g}")
