@@ -10,7 +10,7 @@ from frictionid.backends.calculix.backend import CalculixSettings
 from frictionid.backends.calculix.deck import ContactSettings, write_deck
 from frictionid.backends.calculix.elements import (SHAPE, calculix_cells, face_lookup, fill_dropped_nodes,
                                                    lump_dropped_forces)
-from frictionid.builders.benchmarks import sleeve_model
+from frictionid.builders.benchmarks import hertz_model, interference_model, sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels
@@ -93,6 +93,31 @@ def test_steps_follow_the_load_path(block3d):
     assert len(cards(deck, "*CONTACT PRINT")) == 2 * 4
 
 
+def test_load_scale_scales_every_applied_force_and_displacement(block3d):
+    channels = load_channels(Space.build(block3d.mesh, block3d.kind), block3d)
+    full = write_deck(block3d, [0.1] * 4, CONTACT, channels.forces, channels.amplitudes)
+    scaled = write_deck(block3d, [0.1] * 4, CONTACT, channels.forces, channels.amplitudes, load_scale=0.01)
+    assert cards(scaled, "*BOUNDARY")[2] == ["N3, 1, 1, 0", "N3, 2, 2, 0.002"]
+    for stage in (0, 1):
+        a, b = ([[float(v) for v in line.split(",")] for line in cards(deck, "*CLOAD")[stage]] for deck in (full, scaled))
+        np.testing.assert_array_equal(np.array(a)[:, :2], np.array(b)[:, :2])            # the same nodes and dofs
+        np.testing.assert_allclose(np.array(b)[:, 2], 0.01 * np.array(a)[:, 2], rtol=1e-14)
+    # nothing else changes: penalty slopes, coefficients, steps
+    rest = [line for line in full.splitlines() if not re.match(r"^\d+, \d, ", line) and "0.2" not in line]
+    assert rest == [line for line in scaled.splitlines() if not re.match(r"^\d+, \d, ", line) and "0.002" not in line]
+
+
+@pytest.mark.parametrize("model, gap", [(lambda: interference_model(), "-0.01"),
+                                        (lambda: hertz_model(), "")])
+def test_load_scale_needs_contact_that_starts_closed(model, gap):
+    """An initial gap or interference does not scale with the loads: load_scale is refused, before ccx is
+    looked for, naming the key and the size of the gap."""
+    with pytest.raises(InputError, match=f"load_scale: the model has initial contact gaps \\(up to {gap}"):
+        make_backend("calculix", model(), None, ("ux",), options={"ccx": "/nonexistent/ccx", "load_scale": 0.01})
+    with pytest.raises(InputError, match="apt-get install calculix-ccx"):       # at 1 the model is fine
+        make_backend("calculix", model(), None, ("ux",), options={"ccx": "/nonexistent/ccx"})
+
+
 def test_plane_strain_cells_turn_counter_clockwise():
     model = block_model_2d(mesh_size=4.0, order=2)
     cells = np.array(model.mesh.cells)
@@ -159,6 +184,7 @@ def test_wrong_number_of_coefficients(block3d):
     ({"contact": "mortar"}, "contact = 'mortar' is not one of"),
     ({"keep_work": "yes"}, "keep_work must be true or false"),
     ({"stick_slope": -1.0}, "stick_slope must be a number > 0"),
+    ({"load_scale": 0.0}, "load_scale must be a number > 0"),
     ({"tmeout": 10}, "tmeout: not an option of the calculix backend"),
 ])
 def test_bad_settings(options, message):

@@ -46,27 +46,29 @@ def measured(folder: Path, mesh: dict, goal: dict, levels: dict) -> None:
     twin.as_measured(folder / "simulated.csv", folder / "measured.csv")
 
 
-def predict(mesh_size: float = 5 / 3, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES) -> None:
+def predict(mesh: dict, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES, load_scale: float = 1.0) -> None:
     """The cross-check table of this observation set at the goal, with the coefficient shift of exactly the rows
     the identifications fit (the measured file's layout: no uz on the plate top)."""
-    mesh, goal = {"mesh_size": mesh_size}, twin.goal_coefficients()
+    goal = twin.goal_coefficients()
     levels = {"pull_levels": tuple(pull_levels), "stages": tuple(stages)}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         measured(folder, mesh, goal, levels)
-        path = twin.config(folder, "crosscheck", mesh, goal, "measured.csv", '[solver]\nbackend = "calculix"\n',
-                           **levels)
+        path = twin.config(folder, "crosscheck", mesh, goal, "measured.csv",
+                           f'[solver]\nbackend = "calculix"\nload_scale = {load_scale!r}\n', **levels)
         assert cli(["crosscheck", str(path)]) == 0
 
 
-def main(mesh_size: float = 5 / 3, iterations: int = 12, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES) -> None:
-    mesh, goal = {"mesh_size": mesh_size}, twin.goal_coefficients()
+def main(mesh: dict, iterations: int = 12, pull_levels=twin.PULL_LEVELS, stages=twin.STAGES,
+         load_scale: float = 1.0) -> None:
+    goal = twin.goal_coefficients()
     levels = {"pull_levels": tuple(pull_levels), "stages": tuple(stages)}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         measured(folder, mesh, goal, levels)
         for solver, jacobian in (("embedded", "analytic"), ("calculix", "forward")):
-            table = (f'[solver]\nbackend = "{solver}"\n[identify]\njacobian = "{jacobian}"\nstep = 1e-2\n'
+            scale = f"load_scale = {load_scale!r}\n" if solver == "calculix" else ""
+            table = (f'[solver]\nbackend = "{solver}"\n{scale}[identify]\njacobian = "{jacobian}"\nstep = 1e-2\n'
                      f"max_iterations = {iterations}\n")
             path = twin.config(folder, solver, mesh, dict.fromkeys("ABCD", 0.1), "measured.csv", table, **levels)
             path.write_text(path.read_text() + "workers = 2\n")
@@ -84,12 +86,18 @@ def main(mesh_size: float = 5 / 3, iterations: int = 12, pull_levels=twin.PULL_L
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mesh-size", type=float, default=5 / 3)
+    parser.add_argument("--block-divisions", type=int, help="block builder option (default: the builder's)")
+    parser.add_argument("--grading", type=float, help="block builder option (default: the builder's)")
     parser.add_argument("--iterations", type=int, default=12)
     parser.add_argument("--pull-levels", type=float, nargs="+", default=list(twin.PULL_LEVELS))
     parser.add_argument("--stages", type=int, nargs="+", default=list(twin.STAGES))
     parser.add_argument("--predict", action="store_true", help="only the cross-check's prediction (one ccx run)")
+    parser.add_argument("--load-scale", type=float, default=1.0,
+                        help="[solver] load_scale of the ccx runs (0.01: ccx's small-sliding limit)")
     args = parser.parse_args()
+    mesh = {"mesh_size": args.mesh_size} | {key: getattr(args, key) for key in ("block_divisions", "grading")
+                                             if getattr(args, key) is not None}
     if args.predict:
-        predict(args.mesh_size, args.pull_levels, args.stages)
+        predict(mesh, args.pull_levels, args.stages, args.load_scale)
     else:
-        main(args.mesh_size, args.iterations, args.pull_levels, args.stages)
+        main(mesh, args.iterations, args.pull_levels, args.stages, args.load_scale)

@@ -1,4 +1,5 @@
-"""Cross-check every config in this folder (block.toml, block2d.toml, bolt.toml): both backends on the same
+"""Cross-check every config in this folder (block.toml, block_small_sliding.toml, block_tenth.toml, block2d.toml,
+bolt.toml): both backends on the same
 model, differences and time per forward solve, written to results.md.
 
 Run: .venv/bin/python examples/crosscheck/run.py [CONFIG.toml ...]

@@ -26,7 +26,8 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
     model : Model
     points : (n, dim) [mm]; quantities : observed quantities; regions : region of each point (or None)
     options : the [solver] keys (``ccx``, ``timeout``, ``keep_work``, ``work_dir``, ``threads``, ``contact``,
-        ``normal_stiffness``, ``stick_slope``: see :class:`~frictionid.backends.calculix.backend.CalculixSettings`);
+        ``normal_stiffness``, ``stick_slope``, ``load_scale``: see
+        :class:`~frictionid.backends.calculix.backend.CalculixSettings`);
         the embedded backend has none and ignores them.
     where : how messages name the options' origin
     reactions : labels of reaction sums ("boundary.axis") appended as rows after the point rows

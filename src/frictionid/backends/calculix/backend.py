@@ -12,6 +12,7 @@ import scipy.sparse as sp
 
 from ...errors import InputError, SolverError
 from ...fem.assembly import load_channels
+from ...fem.interface import contact_pairs as embedded_pairs
 from ...fem.points import point_operator
 from ...fem.space import Space
 from ...model import Displacement, Model
@@ -47,6 +48,13 @@ class CalculixSettings:
     normal_stiffness, stick_slope : float [N/mm^3], optional
         Penalty slopes; default ``min(PENALTY_FACTOR * E_min / h, PENALTY_CAP)`` with E_min the softest
         material and h the median contact facet size.
+    load_scale : float
+        ccx solves with every force and prescribed displacement times this factor and the results are divided
+        by it. ccx pairs contact on the deformed surfaces (finite sliding); a small factor such as 0.01 makes
+        the slides negligible, so ccx solves the small-sliding problem the embedded solver solves. Exact only
+        for a response proportional to the loads: the materials are linear elastic, and contact must start
+        closed with zero gap (checked: InputError for initial gaps or interference). Default 1 (the loads
+        as given).
     """
 
     ccx: str = "ccx"
@@ -57,6 +65,7 @@ class CalculixSettings:
     contact: str = "surface-to-surface"
     normal_stiffness: float | None = None
     stick_slope: float | None = None
+    load_scale: float = 1.0
 
     @classmethod
     def from_options(cls, options: dict, where: str = "[solver]") -> "CalculixSettings":
@@ -79,6 +88,7 @@ class CalculixSettings:
                 raise InputError(f"{where} {name} must be a number > 0, got {value!r}")
 
         positive("timeout", self.timeout)
+        positive("load_scale", self.load_scale)
         if isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1:
             raise InputError(f"{where} threads must be a whole number >= 1, got {self.threads!r}")
         if self.contact not in _PAIR_TYPES:
@@ -96,6 +106,17 @@ class CalculixSettings:
         default = min(PENALTY_FACTOR * min(m.E for m in model.materials.values()) / contact_size(model), PENALTY_CAP)
         return ContactSettings(self.normal_stiffness or default, self.stick_slope or default,
                                _PAIR_TYPES[self.contact])
+
+
+def _check_proportional(space: Space, model: Model) -> None:
+    """InputError unless every contact pair starts closed with zero gap (load_scale needs a response
+    proportional to the loads; an initial gap or interference does not scale with them)."""
+    gaps = embedded_pairs(space, model).gap
+    if gaps.size and np.abs(gaps).max() > 1e-9 * float(np.ptp(model.mesh.points, axis=0).max()):
+        worst = float(gaps[np.argmax(np.abs(gaps))])
+        raise InputError(f"[solver] load_scale: the model has initial contact gaps (up to {worst:.3g} mm; "
+                         "negative: interference), which do not scale with the loads; load_scale needs a model "
+                         "whose contact surfaces start touching with zero gap: leave it at 1")
 
 
 def contact_size(model: Model) -> float:
@@ -174,8 +195,10 @@ class CalculixBackend:
         self.model = model
         self.settings = settings or CalculixSettings()
         self.settings.validate()
-        self.executable = find_ccx(self.settings.ccx)
         self.space = Space.build(model.mesh, model.kind)
+        if self.settings.load_scale != 1:
+            _check_proportional(self.space, model)
+        self.executable = find_ccx(self.settings.ccx)
         points = np.zeros((0, model.dim)) if points is None else np.asarray(points, dtype=float)
         self.quantities = tuple(quantities)
         self.observe = point_operator(self.space, points, quantities, regions) if len(points) \
@@ -196,7 +219,7 @@ class CalculixBackend:
     def deck(self, mu) -> str:
         """The .inp text for zone coefficients ``mu`` (n_zones,), with print requests for the observation nodes."""
         return write_deck(self.model, self._mu(mu), self.contact, self.forces, self.amplitudes,
-                          observed_nodes=self.observed_nodes())
+                          observed_nodes=self.observed_nodes(), load_scale=self.settings.load_scale)
 
     def observed_nodes(self) -> np.ndarray:
         """Nodes whose displacements the observation rows use (0-based)."""
@@ -251,8 +274,10 @@ class CalculixBackend:
         observations = np.array([self.observe @ u.ravel() for u in u_obs]).reshape(n_stages, -1)
         displacement = self._field(work) if full_field else None
         normal, tangential, force = self._zone_forces(dat)
-        return CalculixSolution(mu, model.zone_names, self.observation_labels, self.reaction_labels, observations,
-                                self._reactions(dat), normal, tangential, force, displacement, wall)
+        back = 1.0 / self.settings.load_scale          # results at the loads as given
+        return CalculixSolution(mu, model.zone_names, self.observation_labels, self.reaction_labels,
+                                back * observations, back * self._reactions(dat), back * normal, back * tangential,
+                                back * force, None if displacement is None else back * displacement, wall)
 
     def _nodal(self, rows: dict, nodes: np.ndarray) -> np.ndarray:
         """(n_nodes, dim) displacements from {ccx node: values} for the required nodes; others zero."""

@@ -44,6 +44,7 @@ class CrossCheck:
     time_embedded, time_calculix : [s] per forward solve; setup_embedded : [s] condensation (once per geometry)
     derivatives_embedded : (n_stages, n_rows, n_zones), reaction_derivatives_embedded : (n_stages, n_reac, n_zones)
         the embedded backend's sensitivities of observations and reactions at the stage ends
+    load_scale : the CalculiX settings' load_scale (1: ccx at the loads as given)
     """
 
     model_name: str
@@ -67,6 +68,7 @@ class CrossCheck:
     penalty: tuple[float, float]
     derivatives_embedded: np.ndarray
     reaction_derivatives_embedded: np.ndarray
+    load_scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -188,7 +190,7 @@ def cross_check(model: Model, mu, points, quantities, regions, settings: Calculi
         np.linalg.norm(solution.zone_tangential_force[ends], axis=2), ccx.zone_tangential_force,
         time_embedded, ccx.wall_time, setup,
         (settings.contact_settings(model).normal_stiffness, settings.contact_settings(model).stick_slope),
-        sensitivities.d_observations[ends], sensitivities.d_reactions[ends])
+        sensitivities.d_observations[ends], sensitivities.d_reactions[ends], settings.load_scale)
 
 
 def _differences(reference: np.ndarray, other: np.ndarray) -> str:
@@ -256,7 +258,11 @@ def cross_check_table(check: CrossCheck, shift: CoefficientShift | None = None, 
     lines = [f"## {check.model_name}: {check.n_nodes} nodes, {len(check.points)} points "
              f"({', '.join(check.quantities)}), mu = {np.round(check.mu, 4).tolist()}",
              f"CalculiX penalty: normal {check.penalty[0]:.3g} N/mm^3, stick slope {check.penalty[1]:.3g} N/mm^3; "
-             "differences are calculix - embedded; RMS / range uses the embedded values' range.", ""]
+             "differences are calculix - embedded; RMS / range uses the embedded values' range."]
+    if check.load_scale != 1:
+        lines.append(f"CalculiX solved at {check.load_scale:g} times the loads, its results divided by that "
+                     "(the small-sliding limit, [solver] load_scale).")
+    lines.append("")
     lines += _observation_rows(check) + [""] + _force_rows(check) + [""]
     lines += ["| backend | time per forward solve [s] |", "|---|---|",
               f"| embedded | {check.time_embedded:.3f} (+ {check.setup_embedded:.2f} s condensation once per geometry) |",

@@ -172,7 +172,7 @@ def stage_forces(model: Model, forces: np.ndarray, amplitudes: np.ndarray) -> np
 
 
 def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reaction_sets: list[str],
-          contact: ContactSettings, observed: bool) -> list[str]:
+          contact: ContactSettings, observed: bool, load_scale: float = 1.0) -> list[str]:
     n = model.stages[stage].n_increments
     dt = 1.0 / n
     out = [f"** stage {stage + 1}: {model.stages[stage].name}", "*STEP, INC=10000",
@@ -184,7 +184,7 @@ def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reac
         out.append("*BOUNDARY")
         for load in moves:
             k = component_index(load.component, model.dim, f"Displacement on {load.boundary!r}") + 1
-            out.append(f"{set_name(model, load.boundary)}, {k}, {k}, {load.values[stage]:.15g}")
+            out.append(f"{set_name(model, load.boundary)}, {k}, {k}, {load_scale * load.values[stage]:.15g}")
     if loaded.size:
         out.append("*CLOAD")
         for node, c in loaded:
@@ -211,7 +211,7 @@ def reaction_boundaries(model: Model) -> list[str]:
 
 
 def write_deck(model: Model, mu, contact: ContactSettings, forces: np.ndarray, amplitudes: np.ndarray,
-               observed_nodes=()) -> str:
+               observed_nodes=(), load_scale: float = 1.0) -> str:
     """The complete .inp text of a model at zone coefficients ``mu`` (n_zones,).
 
     Parameters
@@ -222,6 +222,7 @@ def write_deck(model: Model, mu, contact: ContactSettings, forces: np.ndarray, a
     forces : (n_channels, n_dofs) [N] unit nodal forces per load channel (frictionid node-major dofs)
     amplitudes : (n_stages, n_channels) channel amplitudes at each stage end
     observed_nodes : 0-based nodes whose displacements are printed to the .dat file (set NOBS)
+    load_scale : factor on every applied force and prescribed displacement (see ``CalculixSettings``)
 
     Returns
     -------
@@ -233,7 +234,7 @@ def write_deck(model: Model, mu, contact: ContactSettings, forces: np.ndarray, a
     if mu.shape != (model.n_zones,):
         raise InputError(f"CalculiX deck: need {model.n_zones} coefficients, got {mu.shape[0]}")
     cells = calculix_cells(np.asarray(model.mesh.points), model.mesh.cell_type, model.mesh.cells)
-    per_stage = stage_forces(model, forces, amplitudes)
+    per_stage = load_scale * stage_forces(model, forces, amplitudes)
     scale = np.abs(per_stage).max() if per_stage.size else 0.0
     loaded = np.argwhere(np.any(np.abs(per_stage) > 1e-14 * scale, axis=0)) if scale > 0 else np.zeros((0, 2), int)
     boundaries = reaction_boundaries(model)
@@ -246,5 +247,5 @@ def write_deck(model: Model, mu, contact: ContactSettings, forces: np.ndarray, a
         lines += ["** nodes of the cells holding observation points", "*NSET, NSET=NOBS"] + _lines(observed + 1)
     lines += _materials(model) + _contact(model, mu, contact) + _supports(model)
     for stage in range(model.n_stages):
-        lines += _step(model, stage, per_stage, loaded, sets, contact, observed.size > 0)
+        lines += _step(model, stage, per_stage, loaded, sets, contact, observed.size > 0, load_scale)
     return "\n".join(lines) + "\n"
