@@ -2,18 +2,22 @@
 (fake ccx executables; no ccx needed)."""
 
 import dataclasses
+import importlib.util
 import shutil
 import stat
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
+from frictionid.backends.calculix.crosscheck import cross_check_config
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.benchmarks import sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.bolt import bolt_model
 from frictionid.cli import main
+from frictionid.config import read_config
 from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError, SolverError
 from frictionid.inverse.evaluator import Evaluator
@@ -115,12 +119,6 @@ def test_small_sliding_ccx_predicts_the_embedded_coefficients_on_the_twin_set(tm
     cross-check's first-order shift of a ccx identification from the embedded one. Measured: at most 0.0013
     (the ccx identification itself: examples/crosscheck/identify_block_dic.py, README); on the uniform
     mesh 5/3 at load_scale 1 it is 0.020 (zone D)."""
-    import importlib.util
-    from pathlib import Path
-
-    from frictionid.backends.calculix.crosscheck import cross_check_config
-    from frictionid.config import read_config
-
     spec = importlib.util.spec_from_file_location(
         "block_twin_setup", Path(__file__).resolve().parents[1] / "examples" / "block" / "twin.py")
     twin = importlib.util.module_from_spec(spec)

@@ -318,7 +318,9 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     name = f"{config.path.name} (builder {config.model.get('builder')!r})"
     try:
         check = cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
-    except PointsOutside as exc:       # only points read from the data file can be outside
+    except PointsOutside as exc:
+        if source is None:             # cell centroids lie inside by construction
+            raise
         raise exc.named(labels, source.source) from None
     if not noise:
         return check, None, ("Give [data] noise (e.g. noise = { u = 0.0005, e = 1e-5 }) to see what these "
