@@ -135,7 +135,8 @@ def observed_shift(check: CrossCheck, observations) -> CoefficientShift:
     reaction = [check.reaction_labels.index(label) for label in observations.reactions]
     column = np.array([row if row < n_point_rows else n_point_rows + reaction[row - n_point_rows]
                        for row in observations.row])
-    kinds = np.array([label.split(":")[-1].split("@")[0] for label in observations.labels])
+    n_q = len(observations.quantities)
+    kinds = np.array([observations.quantities[row % n_q] if row < n_point_rows else FORCE for row in observations.row])
     noise = {}
     for q in dict.fromkeys(kinds):
         values = np.unique(observations.sigma[kinds == q])
