@@ -64,12 +64,33 @@ def test_the_same_point_is_solved_once():
 
 
 def test_standard_errors_of_a_linear_fit_are_the_textbook_ones():
-    """Known noise: C = (J^T W^2 J)^-1 exactly; a parameter at its bound gets none."""
-    J = A[:, :2] / 0.5
+    """Known noise: C = (J^T W^2 J)^-1 exactly, with a zone at its bound counted as free (not as known)."""
+    J = A[:, :2] / 0.05                                  # stderr 0.07 and 0.05: intervals inside [0, 1]
+    textbook = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
     unc = estimate(J, np.zeros(4), np.array([0.3, 0.2]), np.zeros(2), np.ones(2), noise_known=True)
-    np.testing.assert_allclose(unc.stderr, np.sqrt(np.diag(np.linalg.inv(J.T @ J))), rtol=1e-12)
+    np.testing.assert_allclose(unc.stderr, textbook, rtol=1e-12)
+    np.testing.assert_allclose(unc.ci95[:, 1] - unc.ci95[:, 0], 2 * 1.959964 * textbook, rtol=1e-6)
     at_bound = estimate(J, np.zeros(4), np.array([0.0, 0.2]), np.zeros(2), np.ones(2), noise_known=True)
-    assert at_bound.at_bound.tolist() == [True, False] and np.isnan(at_bound.stderr[0])
+    assert at_bound.at_bound.tolist() == [True, False]
+    np.testing.assert_allclose(at_bound.stderr, textbook, rtol=1e-12)
+    # one-sided at the bound, never through it: [0, 1.645 s]
+    np.testing.assert_allclose(at_bound.ci95[0], [0.0, 1.644854 * textbook[0]], rtol=1e-6)
+
+
+def test_intervals_stay_within_the_bounds():
+    J = A[:, :2] / 0.5                                    # stderr about 0.4: wider than the bounds allow
+    unc = estimate(J, np.zeros(4), np.array([0.05, 0.95]), np.zeros(2), np.ones(2), noise_known=True)
+    assert np.all(unc.ci95 >= 0.0) and np.all(unc.ci95 <= 1.0)
+    assert unc.ci95[0, 0] == 0.0 and unc.ci95[1, 1] == 1.0
+
+
+def test_a_zone_at_a_bound_does_not_shrink_the_other_zones_errors():
+    """Two correlated zones, one fitted onto its bound: the other's error is the one with both free."""
+    J = np.array([[1.0, 0.9], [0.9, 1.0], [1.0, 1.0]]) / 0.01
+    unc = estimate(J, np.zeros(3), np.array([0.3, 0.0]), np.zeros(2), np.ones(2), noise_known=True)
+    conditional = 1.0 / np.linalg.norm(J[:, 0])              # zone 1 treated as known
+    assert unc.stderr[0] > 5 * conditional
+    np.testing.assert_allclose(unc.stderr[0], np.sqrt(np.linalg.inv(J.T @ J)[0, 0]), rtol=1e-12)
 
 
 def test_a_zone_no_observation_sees_is_reported_unidentifiable():

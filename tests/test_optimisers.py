@@ -351,19 +351,26 @@ class TestNelderMead(BaseMixin, BoundsMixin, RosenbrockMixin, PowerMixin, ScaleM
 
 
 class TestGradientDescent(BaseMixin):
+    """The paper's method as it was: unbounded (bounds = False)."""
+
     method = "gradient-descent"
+    options: ClassVar[dict] = {"bounds": False}
     max_iterations = 5000
     # it stops on the relative decrease of J, quadratic in the distance to a minimum with nonzero residual,
     # so x is only good to about sqrt(tol) times the problem's scale there
     atol = 1e-4
     bad_type = ("bounds", 1)
 
-    def test_without_bounds_goes_negative_like_the_paper(self):
+    def test_without_bounds_goes_negative_like_the_paper_and_is_not_called_converged(self):
         # r = x - c: the unit step 2c - x0 fails Armijo (no decrease), its half lands on c exactly
         result = self.run(outside_bounds())
-        assert result.status == "converged"
         np.testing.assert_allclose(result.history_x[1], OUTSIDE, atol=1e-15)
         assert result.x[0] < 0
+        assert result.status == "failed" and "outside the bounds" in result.message
+
+    def test_the_default_projects_onto_the_bounds(self):
+        result = optimise(outside_bounds(), self.method, max_iterations=100)
+        assert result.status == "converged" and np.all(result.x >= 0.0)
 
     def test_needs_many_more_iterations_than_trf_when_ill_conditioned(self):
         descent = self.run(ill_conditioned(), max_iterations=300)
@@ -403,8 +410,7 @@ class TestGradientDescent(BaseMixin):
 
 
 class TestProjectedGradientDescent(BaseMixin, BoundsMixin, PowerMixin):
-    method = "gradient-descent"
-    options: ClassVar[dict] = {"bounds": True}
+    method = "gradient-descent"            # bounds = True is the default
     max_iterations = 5000
     atol = 1e-4          # as TestGradientDescent
 

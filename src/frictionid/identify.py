@@ -23,7 +23,8 @@ from .inverse.least_squares import LeastSquares, OptimiseResult
 from .inverse.observations import observations_from
 from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
-from .inverse.uncertainty import estimate
+from .inverse.adequacy import assess
+from .inverse.uncertainty import at_bounds, estimate
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .run.store import RunStore
@@ -176,11 +177,15 @@ def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path
 def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, report: Prefit,
             wall: float) -> dict:
     params, obs = setup.parameters, setup.observations
-    r = evaluator.residuals(outcome.x)
-    jac = evaluator.jacobian(outcome.x)
-    unc = estimate(jac[:obs.n_obs], r[:obs.n_obs], outcome.x, params.lower, params.upper, obs.noise_known,
-                   float(config.identify["resolution"]))
+    r = evaluator.residuals(outcome.x)[:obs.n_obs]
+    jac = evaluator.jacobian(outcome.x)[:obs.n_obs]
+    f = evaluator.model_values(outcome.x)
     free = list(params.free_names)
+    bound = at_bounds(outcome.x, params.lower, params.upper)
+    adequacy = assess(r, jac, obs.labels, obs.y, f, obs.noise_known, inner=~bound)
+    unc = estimate(jac, r, outcome.x, params.lower, params.upper, obs.noise_known,
+                   float(config.identify["resolution"]), free, adequacy)
+    why = contact_reasons(evaluator.backend, params.full(outcome.x), sorted(set(obs.stage.tolist())), free, unc)
     parameters = {}
     for p in params.items:
         entry = {"value": p.value, "initial": p.value, "fixed": not p.vary}
@@ -190,13 +195,15 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
             entry.update(value=float(outcome.x[k]), stderr=None if np.isnan(stderr) else float(stderr),
                          ci95=None if np.isnan(stderr) else [float(v) for v in unc.ci95[k]],
                          at_bound=bool(unc.at_bound[k]), identifiable=bool(unc.identifiable[k]))
+            if why[k]:
+                entry["why"] = why[k]
         parameters[p.name] = entry
-    f = evaluator.model_values(outcome.x)
     return {
         "status": outcome.status, "message": outcome.message, "method": config.identify["method"],
         "jacobian": config.identify["jacobian"], "backend": config.solver["backend"], "parameters": parameters,
         "objective": {"initial": float(outcome.history_objective[0]), "final": float(outcome.objective)},
         "fit": {"n_obs": obs.n_obs, "chi2": unc.chi2, "dof": unc.dof, "noise_known": obs.noise_known,
+                "error_scale": float(np.sqrt(unc.scale)), **adequacy.as_dict(free),
                 "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2)))},
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
@@ -208,3 +215,28 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "history": {"objective": outcome.history_objective.tolist(),
                     "coefficients": [params.full(x).tolist() for x in outcome.history_x]},
     }
+
+
+#: area fraction below which a zone counts as carrying no load (lifted off) or not slipping (stuck)
+_STATE_SHARE = 0.01
+
+
+def contact_reasons(backend, mu: np.ndarray, stages, free, unc) -> list[str]:
+    """Each free zone's reason for not being identifiable, with what the contact does there at the observed
+    stages (lifted off, stuck) when the backend can tell; "" for identifiable zones."""
+    why = list(unc.why)
+    states = getattr(backend, "contact_states", None)
+    if states is None or all(unc.identifiable):
+        return why
+    per_stage = states(mu)
+    names = ", ".join(str(s + 1) for s in stages)
+    for k, zone in enumerate(free):
+        if unc.identifiable[k]:
+            continue
+        seen = [per_stage[s][zone] for s in stages]
+        if all(state["open"] > 1 - _STATE_SHARE for state in seen):
+            why[k] = f"lifted off at the observed stage(s) {names}: its friction acts on nothing; " + why[k]
+        elif all(state["slip"] < _STATE_SHARE for state in seen):
+            why[k] = (f"sticks at the observed stage(s) {names}: friction shows only where a surface slips; "
+                      + why[k])
+    return why

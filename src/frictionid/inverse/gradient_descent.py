@@ -16,7 +16,7 @@ OPTIONS = {
     "c1": Option("float", lambda n, tol, n_free: 1e-4, lambda v: 0 < v < 1, "in (0, 1)"),
     "max_backtracks": Option("int", lambda n, tol, n_free: 30, lambda v: v >= 1, ">= 1"),
     "gtol": Option("float", lambda n, tol, n_free: tol, lambda v: v >= 0, ">= 0"),
-    "bounds": Option("bool", lambda n, tol, n_free: False),
+    "bounds": Option("bool", lambda n, tol, n_free: True),
     "scaled_step": Option("bool", lambda n, tol, n_free: False),
 }
 """Options of "gradient-descent".
@@ -26,8 +26,9 @@ beta : factor by which a rejected step is shortened (0.5: halving)
 c1 : sufficient-decrease constant of the Armijo condition
 max_backtracks : shortenings tried before the search, and the run, is reported failed
 gtol : stop when the (projected) gradient norm is below gtol times its value at the start
-bounds : False (the paper: coefficients may leave [lower, upper], even become negative) or True
-    (projected gradient: every trial point is projected onto [lower, upper])
+bounds : True (default; projected gradient: every trial point is projected onto [lower, upper]) or False
+    (the paper: coefficients may leave [lower, upper], even become negative; a run that ends outside them is
+    reported "failed", never "converged")
 scaled_step : False (t0 = initial_step in units of J) or True (t0 = initial_step / max|grad J(x0)|, fixed for
     the run: the first trial step changes the steepest coefficient by initial_step). The paper leaves t0 to
     the user; True is that choice made for the objective's scale (weighted residuals give |grad J| of 1e4 and
@@ -59,6 +60,9 @@ def gradient_descent(run: Iterates, max_iterations: int, tol: float, options: di
         "converged", "max_iterations" or "failed" (no Armijo step found), and why.
     """
     project = _projection(run, options["bounds"])
+    if not options["bounds"]:
+        log.warning("gradient-descent with bounds = false (the paper's method): the coefficients may leave "
+                    "[lower, upper]; a run that ends outside them is reported failed")
     x = project(np.array(run.problem.x0, dtype=float))
     run.accept(x)
     objective = run.objective(x)

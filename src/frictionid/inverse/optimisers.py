@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from numbers import Integral, Real
 
 import numpy as np
@@ -216,8 +217,9 @@ def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int 
         Residuals, Jacobian, start and bounds; never modified (``problem.x0`` included).
     method : str
         "trf" (bounded trust-region Gauss-Newton, power 2 only), "lbfgsb" (L-BFGS-B within the bounds),
-        "gradient-descent" (the seed paper's steepest descent with Armijo steps; unbounded unless
-        ``options={"bounds": True}``) or "nelder-mead" (derivative-free, within the bounds).
+        "gradient-descent" (the seed paper's steepest descent with Armijo steps, projected onto the bounds
+        unless ``options={"bounds": False}``) or "nelder-mead" (derivative-free, within the bounds). A run
+        that ends outside the bounds is reported "failed", whatever the method said.
     max_iterations : int
         Accepted iterations at most (>= 0).
     tol : float
@@ -258,7 +260,23 @@ def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int 
         run.accept(np.array(problem.x0, dtype=float))
         return run.result("max_iterations", "max_iterations = 0: the start only", resolved)
     status, message = run_method(run, max_iterations, tol, resolved)
-    return run.result(status, message, resolved)
+    result = run.result(status, message, resolved)
+    return _within_bounds(result, problem)
+
+
+def _within_bounds(result: OptimiseResult, problem: LeastSquares) -> OptimiseResult:
+    """The result, or a "failed" one when it ends outside the bounds: a point outside them is never reported
+    converged (only the paper's unbounded gradient descent can get there)."""
+    lower, upper = np.asarray(problem.lower, dtype=float), np.asarray(problem.upper, dtype=float)
+    slack = 1e-10 * np.where(np.isfinite(upper - lower), upper - lower, 1.0)
+    outside = [f"{name} = {value:.6g}" for name, value, lo, hi, tol in
+               zip(problem.names, result.x, lower, upper, slack) if not lo - tol <= value <= hi + tol]
+    if not outside:
+        return result
+    message = (f"ended outside the bounds ({', '.join(outside)}; bounds {lower.tolist()} .. {upper.tolist()}): "
+               f"not a physical result. {result.message}")
+    log.warning("%s", message)
+    return replace(result, status="failed", message=message)
 
 
 def check_method(method: str, options: dict | None, max_iterations: int, tol: float, n_free: int) -> dict:

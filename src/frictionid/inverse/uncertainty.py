@@ -1,11 +1,18 @@
 """Uncertainty and identifiability of the identified coefficients from the weighted Jacobian at the solution.
 
-Covariance C = s^2 (J^T J)^-1 over the parameters not held at a bound, with s^2 = 1 when the weights are
-stated standard deviations (noise known) and s^2 = ||r||^2 / (n_obs - n_free) otherwise; a parameter in a
-direction the data do not see gets no standard error (never the small number a pseudo-inverse would give).
-A parameter is reported identifiable when its standard error, computed with every free parameter treated as
-free (so also for one that the fit left on a bound), is within a tolerance (by default a quarter of its bound
-interval); parameters at a bound get no standard error ("cannot be estimated at a bound").
+Covariance C = s^2 (J^T J)^-1 over every free parameter, those the fit left on a bound included (a zone at a
+bound is not known: treating it as known would make the others' errors too small), with s^2 = 1 when the
+weights are stated standard deviations that explain the misfit, and s^2 = ||r||^2 / (n_obs - n_free)
+otherwise (no stated noise, or a misfit the stated noise does not explain: see :mod:`.adequacy`). A parameter
+in a direction the data do not see gets no standard error (never the small number a pseudo-inverse would give).
+
+Intervals never leave the bounds: an inner parameter's 95 % interval is x +- q s clipped to [lower, upper]
+(the truth lies within the bounds, so clipping loses no coverage); a parameter at a bound gets the one-sided
+interval [b, b + 1.645 s] (or [b - 1.645 s, b] at an upper bound), never a symmetric one through the bound.
+
+A parameter is reported identifiable when its standard error is within a tolerance (by default a quarter of
+its bound interval) and the data do not contradict each other about it (:attr:`.Adequacy.affected`); every
+other one gets a reason (``why``).
 """
 
 from __future__ import annotations
@@ -17,12 +24,17 @@ from scipy import stats
 
 from .resolution import predicted_stderr
 
+#: |correlation| above which a poorly resolved zone is said to be confounded with its partner
+STRONG_CORRELATION = 0.9
+
 
 @dataclass(frozen=True)
 class Uncertainty:
-    """Per free parameter: stderr and ci95 (nan where not estimable), at_bound, identifiable flags;
-    correlation (n_free, n_free) (nan rows for parameters at a bound); singular_values of the weighted Jacobian
-    with right singular vectors (columns of ``directions``); chi2 = ||r||^2 and its degrees of freedom."""
+    """Per free parameter: stderr and ci95 (nan where not estimable), at_bound, identifiable flags and ``why``
+    (the reason a parameter is not identifiable, "" otherwise); correlation (n_free, n_free) (nan rows for
+    parameters the data do not see); singular_values of the weighted Jacobian with right singular vectors
+    (columns of ``directions``); chi2 = ||r||^2, its degrees of freedom, and ``scale`` = s^2, the factor the
+    covariance was scaled by."""
 
     stderr: np.ndarray
     ci95: np.ndarray
@@ -34,6 +46,8 @@ class Uncertainty:
     chi2: float
     dof: int
     message: str
+    scale: float = 1.0
+    why: tuple[str, ...] = ()
 
 
 def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
@@ -43,37 +57,74 @@ def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
 
 
 def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
-             tolerance: float | None = None) -> Uncertainty:
+             tolerance: float | None = None, names=None, adequacy=None) -> Uncertainty:
     """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x.
 
-    ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds).
+    ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds);
+    ``names``: parameter names for the reasons; ``adequacy``: the fit's :class:`~.adequacy.Adequacy` (its
+    consistency decides s^2, its ``affected`` zones are not identifiable).
+
+    Examples
+    --------
+    >>> jac = np.array([[10.0, 0.0], [0.0, 10.0], [10.0, 10.0]])
+    >>> unc = estimate(jac, np.zeros(3), np.array([0.3, 0.0]), np.zeros(2), np.ones(2), noise_known=True)
+    >>> unc.at_bound.tolist(), np.round(unc.ci95, 4).tolist()
+    ([False, True], [[0.14, 0.46], [0.0, 0.1343]])
     """
+    x, lower, upper = (np.asarray(a, dtype=float) for a in (x, lower, upper))
     n_obs, n_free = jac.shape
-    bound = at_bounds(np.asarray(x), np.asarray(lower), np.asarray(upper))
-    inner = ~bound
+    names = tuple(names) if names is not None else tuple(f"x{k}" for k in range(n_free))
+    bound = at_bounds(x, lower, upper)
     dof = max(n_obs - n_free, 1)
     chi2 = float(r @ r)
-    scale = 1.0 if noise_known else chi2 / dof
-    u, s, vt = np.linalg.svd(jac, full_matrices=False)
-    stderr = np.full(n_free, np.nan)
-    correlation = np.full((n_free, n_free), np.nan)
+    explained = noise_known and (adequacy is None or adequacy.consistent is not False)
+    scale = 1.0 if explained else chi2 / dof
+    _, s, vt = np.linalg.svd(jac, full_matrices=False)
     message = ""
-    J = jac[:, inner]
-    if J.size:
-        sv = np.linalg.svd(J, compute_uv=False)
-        if sv[-1] <= 1e-12 * sv[0]:
-            message = "the Jacobian of the free parameters is singular: some combination is not resolved by the data"
-        se = np.sqrt(scale) * predicted_stderr(J.T @ J)
-        stderr[inner] = np.where(np.isfinite(se), se, np.nan)
-        seen = np.isfinite(se)
-        if seen.any():
-            covariance = scale * np.linalg.inv(J[:, seen].T @ J[:, seen])
-            with np.errstate(invalid="ignore", divide="ignore"):
-                correlation[np.ix_(np.flatnonzero(inner)[seen], np.flatnonzero(inner)[seen])] = \
-                    covariance / np.outer(se[seen], se[seen])
-    quantile = stats.t.ppf(0.975, dof) if not noise_known else stats.norm.ppf(0.975)
-    ci95 = np.column_stack([x - quantile * stderr, x + quantile * stderr])
-    width = np.asarray(upper) - np.asarray(lower)
-    limit = 0.25 * width if tolerance is None else tolerance
-    identifiable = np.sqrt(scale) * predicted_stderr(jac.T @ jac) <= limit
-    return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message)
+    if s.size and s[-1] <= 1e-12 * s[0]:
+        message = "the Jacobian of the free parameters is singular: some combination is not resolved by the data"
+    information = jac.T @ jac
+    se = np.sqrt(scale) * predicted_stderr(information)
+    stderr = np.where(np.isfinite(se), se, np.nan)
+    correlation = np.full((n_free, n_free), np.nan)
+    seen = np.isfinite(se)
+    if seen.any():
+        covariance = scale * np.linalg.inv(information[np.ix_(seen, seen)])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            correlation[np.ix_(seen, seen)] = covariance / np.outer(se[seen], se[seen])
+    ci95 = _intervals(x, lower, upper, stderr, bound, stats.norm.ppf(0.975) if noise_known
+                      else stats.t.ppf(0.975, dof), stats.norm.ppf(0.95) if noise_known else stats.t.ppf(0.95, dof))
+    limit = np.broadcast_to(0.25 * (upper - lower) if tolerance is None else tolerance, (n_free,))
+    affected = np.zeros(n_free, dtype=bool) if adequacy is None else adequacy.affected
+    identifiable = (se <= limit) & ~affected
+    why = tuple("" if identifiable[k] else
+                adequacy.why_affected(k, names) if affected[k] else
+                _why_unresolved(k, jac, se, limit[k], correlation, vt, s, names) for k in range(n_free))
+    return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message, scale, why)
+
+
+def _intervals(x, lower, upper, stderr, bound, two_sided: float, one_sided: float) -> np.ndarray:
+    """(n, 2) 95 % intervals within the bounds: two-sided and clipped inside, one-sided at a bound."""
+    lo, hi = x - two_sided * stderr, x + two_sided * stderr
+    at_lower = bound & (np.abs(x - lower) <= np.abs(upper - x))
+    lo = np.where(bound, np.where(at_lower, x, x - one_sided * stderr), lo)
+    hi = np.where(bound, np.where(at_lower, x + one_sided * stderr, x), hi)
+    return np.column_stack([np.clip(lo, lower, upper), np.clip(hi, lower, upper)])
+
+
+def _why_unresolved(k: int, jac, se, limit: float, correlation, vt, s, names) -> str:
+    """Why the data do not pin down parameter k: not observed, confounded with others, or too little signal."""
+    column = np.linalg.norm(jac[:, k])
+    if column <= 1e-12 * max(np.linalg.norm(jac), 1e-300):
+        return "not observed: no observation changes with it"
+    if not np.isfinite(se[k]):
+        blind = vt[s <= 1e-12 * s[0]] if s.size else vt
+        partners = [names[j] for j in range(len(names)) if j != k and np.any(np.abs(blind[:, j]) > 1e-8)]
+        return (f"the data see it only in a combination with {', '.join(partners)}" if partners
+                else "the data see no combination that contains it")
+    row = np.where(np.arange(len(names)) == k, 0.0, np.nan_to_num(np.abs(correlation[k]), nan=0.0))
+    j = int(np.argmax(row)) if row.size else k
+    text = f"standard error {se[k]:.3g} > {limit:g}"
+    if row.size and row[j] > STRONG_CORRELATION:
+        return f"{text}: correlated with {names[j]} (r = {correlation[k, j]:+.2f})"
+    return f"{text}: too little signal in the data"

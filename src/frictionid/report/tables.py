@@ -34,7 +34,9 @@ def solution_summary(solution: Solution, increment: int = -1) -> str:
 
 
 def result_summary(result: dict) -> str:
-    """lmfit-style report of an identification: fit statistics, variables, correlations, identifiability."""
+    """lmfit-style report of an identification: fit statistics and adequacy, variables, correlations,
+    identifiability. Interval figures always come with the verdict on whether the stated noise explains the
+    misfit, since they mean little when it does not."""
     fit = result["fit"]
     lines = ["[[Fit Statistics]]",
              f"    status             {result['status']} ({result['method']}, {result['jacobian']} Jacobian, "
@@ -44,20 +46,22 @@ def result_summary(result: dict) -> str:
              f"sensitivities, {result['n_replayed']} replayed from the store)",
              f"    observations       {fit['n_obs']}",
              f"    objective          {result['objective']['initial']:.6e} -> {result['objective']['final']:.6e}",
-             f"    chi-square / dof   {fit['chi2']:.4g} / {fit['dof']}"
+             f"    chi-square / dof   {fit['chi2']:.4g} / {fit['dof']} = {fit['reduced_chi2']:.4g}"
              + ("" if fit["noise_known"] else " (no stated noise: errors scaled by the residual)"),
-             f"    wall time          {result['wall_time_s']:.2f} s",
-             "[[Variables]]"]
+             f"    wall time          {result['wall_time_s']:.2f} s"]
+    lines += _adequacy_lines(fit)
+    lines.append("[[Variables]]")
     for name, p in result["parameters"].items():
         if p["fixed"]:
             lines.append(f"    {name:<10} {p['value']:.6f} (fixed)")
             continue
-        if p["stderr"] is None:
-            spread = "+/- (cannot be estimated" + (" at a bound)" if p["at_bound"] else ")")
-        else:
-            spread = f"+/- {p['stderr']:.6f}"
-        flags = (" at boundary" if p["at_bound"] else "") + ("" if p["identifiable"] else " NOT RESOLVED BY THE DATA")
-        lines.append(f"    {name:<10} {p['value']:.6f} {spread} (init = {p['initial']:.4f}){flags}")
+        spread = "+/- (cannot be estimated)" if p["stderr"] is None else f"+/- {p['stderr']:.6f}"
+        interval = "" if p.get("ci95") is None else \
+            f" 95 % [{p['ci95'][0]:.4f}, {p['ci95'][1]:.4f}]" + (" one-sided" if p["at_bound"] else "")
+        flags = (" at boundary" if p["at_bound"] else "") + ("" if p["identifiable"] else " NOT RESOLVED")
+        lines.append(f"    {name:<10} {p['value']:.6f} {spread}{interval} (init = {p['initial']:.4f}){flags}")
+        if p.get("why"):
+            lines.append(f"               why: {p['why']}")
     ident = result["identifiability"]
     lines.append("[[Identifiability]]")
     lines.append("    singular values of the weighted Jacobian: "
@@ -71,6 +75,35 @@ def result_summary(result: dict) -> str:
         lines.append("[[Correlations]] (|C| > 0.1)")
         lines += [f"    C({a}, {b}) = {c:+.3f}" for a, b, c in sorted(pairs, key=lambda t: -abs(t[2]))]
     return "\n".join(lines)
+
+
+def _adequacy_lines(fit: dict) -> list[str]:
+    """[[Fit Adequacy]]: the chi-square verdict, where the misfit sits, the worst observations, a hint."""
+    lines = ["[[Fit Adequacy]]"]
+    if fit.get("consistent") is None:
+        return lines + ["    no stated noise: whether the model explains the data cannot be tested; standard "
+                        "errors are scaled by the residual"]
+    if fit["consistent"]:
+        lines.append(f"    the stated noise explains the misfit (reduced chi-square {fit['reduced_chi2']:.3g} "
+                     f"<= {fit['chi2_99']:.3g}, its 99 % quantile)")
+    else:
+        lines.append(f"    THE MODEL DOES NOT EXPLAIN THE DATA at the stated noise: reduced chi-square "
+                     f"{fit['reduced_chi2']:.4g} > {fit['chi2_99']:.3g} (99 % quantile). Standard errors below are "
+                     f"scaled by {fit['error_scale']:.3g}; they hold only if the misfit is noise-like. Zones the "
+                     "data contradict each other about are not reported as resolved.")
+    misfit = fit["misfit"]
+    for title, table in (("quantity", misfit["by_quantity"]), ("stage", misfit["by_stage"]),
+                         ("point group", misfit["by_group"])):
+        if len(table) > 1 or title == "quantity":
+            cells = ", ".join(f"{key} {g['rms']:.3g} ({g['share']:.0%})"
+                              for key, g in sorted(table.items(), key=lambda t: -t[1]["share"]))
+            lines.append(f"    RMS misfit / noise by {title} (share of chi-square): {cells}")
+    if not fit["consistent"]:
+        lines.append("    worst observations (residual / noise, measured, model): "
+                     + "; ".join(f"{w['observation']} {w['residual']:+.3g} ({w['measured']:.4g}, {w['model']:.4g})"
+                                 for w in fit["worst"][:5]))
+        lines.append(f"    what to try: {fit['hint']}")
+    return lines
 
 
 def _se(value) -> str:

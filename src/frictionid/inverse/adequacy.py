@@ -1,0 +1,198 @@
+"""Fit adequacy: does the stated noise explain the misfit, where does the misfit sit, and which zones does it move.
+
+With residuals weighted by stated standard deviations, chi^2 = ||r||^2 follows a chi-square distribution with
+n_obs - n_free degrees of freedom when the model is right. A chi^2 beyond its 99 % quantile means the model
+does not explain the data at that noise (model error: discretisation, physics the model lacks, a wrong frame
+or noise level); then the standard errors computed from the stated noise describe the noise only, not the
+error of the coefficients.
+
+Which coefficients such a misfit moves is measured by leaving observation groups out (one quantity, one stage,
+one point group at a time) and refitting the linearised problem: with J^T r = 0 at the fit, leaving out group
+g moves x by dx = (J_-^T J_-)^-1 J_g^T r_g, whose variance under the stated noise alone is
+(J_-^T J_-)^-1 - (J^T J)^-1 (the nested-estimator difference). A zone that moves by more than
+:data:`SHIFT_LIMIT` such standard deviations is one the data contradict themselves about.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+#: chi-square quantile above which the stated noise does not explain the misfit
+CONFIDENCE = 0.99
+#: standard deviations (under the stated noise) a leave-group-out refit may move a zone before it counts as
+#: contradicted by the data
+SHIFT_LIMIT = 3.0
+#: worst observations listed
+N_WORST = 10
+
+
+@dataclass(frozen=True)
+class GroupMisfit:
+    """Misfit of one observation group: count, RMS weighted residual (in units of the noise), share of chi^2."""
+
+    n: int
+    rms: float
+    share: float
+
+
+@dataclass(frozen=True)
+class Shift:
+    """How far leaving out one observation group moves each zone, in standard deviations of that move."""
+
+    group: str
+    z: np.ndarray
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """The misfit of a fit against its stated noise.
+
+    Attributes
+    ----------
+    chi2, dof : ||r||^2 of the weighted residuals and n_obs - n_free
+    reduced_chi2 : chi2 / dof
+    threshold : the 99 % quantile of chi2 / dof under the stated noise
+    p_value : probability of a chi2 at least this large if the model were right
+    consistent : chi2 within its 99 % quantile; None when no noise was stated (nothing to test against)
+    by_quantity, by_stage, by_group : {name: GroupMisfit}
+    worst : [(label, weighted residual, measured, model)] largest |residual| first
+    shifts : leave-group-out moves per group (only for an inconsistent fit)
+    affected : (n_free,) bool, zones a leave-group-out refit moves by more than SHIFT_LIMIT
+    hint : what to do about an inconsistent fit ("" when consistent)
+    """
+
+    chi2: float
+    dof: int
+    reduced_chi2: float
+    threshold: float
+    p_value: float
+    consistent: bool | None
+    by_quantity: dict
+    by_stage: dict
+    by_group: dict
+    worst: list
+    shifts: tuple[Shift, ...]
+    affected: np.ndarray
+    hint: str
+
+    def why_affected(self, k: int, names) -> str:
+        """A zone's reason for being contradicted by the data: the group whose omission moves it most."""
+        best = max(self.shifts, key=lambda s: s.z[k] if np.isfinite(s.z[k]) else -1.0)
+        return (f"the data contradict each other: leaving out {best.group} moves {names[k]} by "
+                f"{best.z[k]:.0f} standard deviations of the stated noise (model error)")
+
+    def as_dict(self, names) -> dict:
+        """JSON-ready summary; names are the free zones, in the order of the Jacobian's columns."""
+        def groups(table):
+            return {key: {"n": g.n, "rms": g.rms, "share": g.share} for key, g in table.items()}
+        return {"reduced_chi2": self.reduced_chi2, "chi2_99": self.threshold, "p_value": self.p_value,
+                "consistent": self.consistent,
+                "misfit": {"by_quantity": groups(self.by_quantity), "by_stage": groups(self.by_stage),
+                           "by_group": groups(self.by_group)},
+                "worst": [{"observation": label, "residual": float(r), "measured": float(y), "model": float(f)}
+                          for label, r, y, f in self.worst],
+                "shifts": {s.group: {n: (None if not np.isfinite(z) else float(z)) for n, z in zip(names, s.z)}
+                           for s in self.shifts},
+                "hint": self.hint}
+
+
+def parts(label: str) -> tuple[str, str, str]:
+    """(point group, quantity, stage) of an observation label "point:quantity@stage" or "force@stage".
+
+    The point group is the point label without its trailing number ("F12" -> "F").
+
+    >>> parts("F12:exx@2"), parts("force@3")
+    (('F', 'exx', '2'), ('force', 'force', '3'))
+    """
+    body, _, stage = label.rpartition("@")
+    point, _, quantity = body.rpartition(":")
+    if not point:
+        return quantity, quantity, stage
+    return re.sub(r"\d+$", "", point) or point, quantity, stage
+
+
+def _table(keys: list[str], r: np.ndarray, chi2: float) -> dict:
+    out = {}
+    for key in dict.fromkeys(keys):
+        rows = np.array([k == key for k in keys])
+        out[key] = GroupMisfit(int(rows.sum()), float(np.sqrt(np.mean(r[rows] ** 2))),
+                               float(np.sum(r[rows] ** 2) / chi2) if chi2 > 0 else 0.0)
+    return out
+
+
+def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inner=None) -> Adequacy:
+    """Adequacy of a fit from its weighted residuals r (n_obs,) and weighted Jacobian (n_obs, n_free).
+
+    ``labels``, ``y``, ``f``: observation labels, measured and fitted values; ``inner``: (n_free,) bool, the
+    zones not held at a bound (the leave-group-out refits move only these; default all).
+    """
+    r, jac = np.asarray(r, dtype=float), np.asarray(jac, dtype=float)
+    n_obs, n_free = jac.shape
+    dof = max(n_obs - n_free, 1)
+    chi2 = float(r @ r)
+    reduced = chi2 / dof
+    threshold = float(stats.chi2.ppf(CONFIDENCE, dof) / dof)
+    p_value = float(stats.chi2.sf(chi2, dof))
+    consistent = None if not noise_known else bool(reduced <= threshold)
+    split = [parts(label) for label in labels]
+    by_group = _table([g for g, _, _ in split], r, chi2)
+    by_quantity = _table([q for _, q, _ in split], r, chi2)
+    by_stage = _table([s for _, _, s in split], r, chi2)
+    order = np.argsort(-np.abs(r))[:N_WORST]
+    worst = [(labels[i], r[i], y[i], f[i]) for i in order]
+    inner = np.ones(n_free, dtype=bool) if inner is None else np.asarray(inner, dtype=bool)
+    shifts: tuple[Shift, ...] = ()
+    if consistent is False:
+        groups = {**{f"the {q} values": [s[1] == q for s in split] for q in by_quantity},
+                  **{f"stage {s}": [t[2] == s for t in split] for s in by_stage},
+                  **{f"the points {g}*": [t[0] == g for t in split] for g in by_group if g not in by_quantity}}
+        shifts = tuple(Shift(name, _shift(jac, r, np.array(rows), inner))
+                       for name, rows in groups.items() if 0 < sum(rows) < n_obs)
+    affected = np.zeros(n_free, dtype=bool)
+    for shift in shifts:
+        affected |= np.nan_to_num(shift.z, nan=0.0) > SHIFT_LIMIT
+    hint = "" if consistent is not False else _hint(by_quantity, by_group, r)
+    return Adequacy(chi2, dof, reduced, threshold, p_value, consistent, by_quantity, by_stage, by_group, worst,
+                    shifts, affected, hint)
+
+
+def _shift(jac: np.ndarray, r: np.ndarray, out: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """(n_free,) |dx| / sd(dx) of the linearised refit without the rows ``out`` (nan: not measurable)."""
+    z = np.full(jac.shape[1], np.nan)
+    J, keep = jac[:, inner], ~out
+    full = J.T @ J
+    rest = J[keep].T @ J[keep]
+    if np.linalg.matrix_rank(rest) < J.shape[1] or np.linalg.matrix_rank(full) < J.shape[1]:
+        return z
+    rest_inv = np.linalg.inv(rest)
+    dx = rest_inv @ (J[out].T @ r[out])
+    variance = np.diag(rest_inv - np.linalg.inv(full))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z[inner] = np.where(variance > 0, np.abs(dx) / np.sqrt(np.maximum(variance, 0.0)), np.nan)
+    return z
+
+
+def _hint(by_quantity: dict, by_group: dict, r: np.ndarray) -> str:
+    """What to try when the stated noise does not explain the misfit."""
+    advice = []
+    strains = {q: g for q, g in by_quantity.items() if q.startswith("e")}
+    others = {q: g for q, g in by_quantity.items() if not q.startswith("e")}
+    if strains and others and sum(g.share for g in strains.values()) > 0.7:
+        advice.append("the strains carry most of the misfit: strains next to contact edges need a finer or "
+                      "higher-order mesh there; fit the displacements only, or raise the strain noise to what "
+                      "the model can reproduce")
+    worst_group = max(by_group, key=lambda g: by_group[g].share)
+    if len(by_group) > 1 and by_group[worst_group].share > 0.6:
+        advice.append(f"the points {worst_group}* carry {by_group[worst_group].share:.0%} of the misfit: refine "
+                      "the mesh near them or leave them out")
+    top = np.sort(r ** 2)[::-1]
+    n_top = max(1, len(r) // 20)
+    if top.sum() > 0 and top[:n_top].sum() / top.sum() > 0.5:
+        advice.append(f"the worst {n_top} observations carry {top[:n_top].sum() / top.sum():.0%} of the misfit: "
+                      "check them (listed below) or fit with a robust loss (identify.loss = \"soft_l1\")")
+    advice.append("estimate the model's discretisation error (identify.model_error) and check the stated noise")
+    return "; ".join(advice)
