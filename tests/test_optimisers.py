@@ -433,3 +433,29 @@ def test_start_outside_the_bounds_names_the_parameter():
     prob = dataclasses.replace(outside_bounds(), x0=np.array([0.1, 1.5]))
     with pytest.raises(InputError, match="'p1'"):
         optimise(prob, "lbfgsb")
+
+
+def test_a_robust_loss_resists_outliers_that_pull_least_squares_off():
+    """y = a t + b with sigma 1 and three gross outliers: soft_l1 stays within noise of the truth."""
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 1.0, 60)
+    y = 0.4 * t + 0.2 + rng.normal(0.0, 0.01, t.size)
+    y[[5, 30, 50]] += 0.5                                                  # 50 noise levels
+    design = np.column_stack([t, np.ones_like(t)]) / 0.01
+    prob = problem(lambda x: design @ x - y / 0.01, lambda x: design, [0.1, 0.1], 0.0, 1.0)
+    plain = optimise(prob, "trf")
+    robust = optimise(dataclasses.replace(prob, loss="soft_l1", loss_scale=3.0), "trf")
+    assert np.abs(plain.x - [0.4, 0.2]).max() > 0.02
+    np.testing.assert_allclose(robust.x, [0.4, 0.2], atol=0.01)
+
+
+@pytest.mark.parametrize("changes, match", [({"loss": "l1"}, "loss 'l1' is not one of"),
+                                            ({"loss": "huber", "loss_scale": 0.0}, "loss_scale must be > 0")])
+def test_bad_robust_loss_settings_are_named(changes, match):
+    with pytest.raises(InputError, match=match):
+        optimise(dataclasses.replace(linear()[0], **changes), "trf")
+
+
+def test_a_robust_loss_needs_trf():
+    with pytest.raises(InputError, match="needs method 'trf'"):
+        optimise(dataclasses.replace(linear()[0], loss="huber"), "lbfgsb")

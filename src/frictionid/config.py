@@ -21,7 +21,7 @@ SCHEMA = {
                "load_scale": 1.0},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
-                 "resolution": 0.02, "suggestions": 5},
+                 "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0},
     "run": {"dir": REQUIRED, "workers": 1, "scheduler": None},
 }
 OPEN_TABLES = {"model"}
@@ -56,6 +56,9 @@ TYPES = {
     "identify.options": (dict, "a table"),
     "identify.resolution": ((int, float), "a positive number (largest predicted standard error of a resolved zone)"),
     "identify.suggestions": (int, "a whole number (0: propose no extra observations)"),
+    "identify.loss": (str, '"linear" or a robust loss: "soft_l1", "huber", "cauchy", "arctan"'),
+    "identify.loss_scale": ((int, float), "a positive number (residual, in units of the stated noise, beyond "
+                                          "which a robust loss down-weights an observation)"),
     "run.dir": (str, "a folder name"),
     "run.workers": (int, "a whole number"),
 }

@@ -19,7 +19,7 @@ from .data.measurements import read_measurements
 from .errors import InputError, SolverError
 from .fem.points import PointsOutside
 from .inverse.evaluator import JACOBIANS, Evaluator
-from .inverse.least_squares import LeastSquares, OptimiseResult
+from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
 from .inverse.observations import observations_from
 from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
@@ -77,6 +77,11 @@ def prepare(config: Config) -> Setup:
         raise InputError(f"{config.path}: identify.prior must be a number or a list of "
                          f"{len(parameters.free_names)} numbers (one per free zone {list(parameters.free_names)}), "
                          f"got {prior!r}")
+    if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
+        raise InputError(f"{config.path}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
+                         " (a robust loss only with method = \"trf\")")
+    if not float(ident["loss_scale"]) > 0:
+        raise InputError(f"{config.path}: identify.loss_scale must be > 0, got {ident['loss_scale']!r}")
     try:
         check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"],
                      len(parameters.free_names))
@@ -100,7 +105,7 @@ def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config,
 
     return LeastSquares(evaluator.residuals, evaluator.jacobian, parameters.x0, parameters.lower,
                         parameters.upper, parameters.free_names, float(config.identify["power"]), on_iteration,
-                        evaluator.obs.noise_known)
+                        evaluator.obs.noise_known, config.identify["loss"], float(config.identify["loss_scale"]))
 
 
 def identify(config: Config, resume: bool = False, progress=lambda *args: None, on_prefit=lambda report: None) -> dict:
@@ -180,6 +185,9 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
     r = evaluator.residuals(outcome.x)[:obs.n_obs]
     jac = evaluator.jacobian(outcome.x)[:obs.n_obs]
     f = evaluator.model_values(outcome.x)
+    # a robust fit is the least-squares fit with the weights it ends with: its statistics are computed so
+    weights = robust_weights(r, problem.loss, problem.loss_scale)
+    r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     free = list(params.free_names)
     bound = at_bounds(outcome.x, params.lower, params.upper)
     adequacy = assess(r, jac, obs.labels, obs.y, f, obs.noise_known, inner=~bound)
@@ -204,6 +212,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "objective": {"initial": float(outcome.history_objective[0]), "final": float(outcome.objective)},
         "fit": {"n_obs": obs.n_obs, "chi2": unc.chi2, "dof": unc.dof, "noise_known": obs.noise_known,
                 "error_scale": float(np.sqrt(unc.scale)), **adequacy.as_dict(free),
+                "loss": problem.loss, "n_downweighted": int(np.sum(weights < 0.5)),
                 "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2)))},
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},

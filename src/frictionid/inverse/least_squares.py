@@ -28,6 +28,9 @@ class LeastSquares:
     progress : called after each accepted iteration with (iteration, x, J); may raise to stop the run
     noise_known : the residuals are divided by stated standard deviations, so the covariance of x is
         (J^T J)^-1; otherwise it is scaled by ||r||^2 / (n_res - n_free) (see :mod:`.uncertainty`)
+    loss : "linear" (least squares) or a robust loss of scipy.optimize.least_squares ("soft_l1", "huber",
+        "cauchy", "arctan"), "trf" only; loss_scale : the residual (in units of the weights, i.e. of the
+        stated noise) beyond which the robust loss down-weights an observation
     """
 
     residuals: Callable[[np.ndarray], np.ndarray]
@@ -39,6 +42,8 @@ class LeastSquares:
     power: float = 2.0
     progress: Callable[[int, np.ndarray, float], None] = lambda iteration, x, objective: None
     noise_known: bool = False
+    loss: str = "linear"
+    loss_scale: float = 3.0
 
     def objective(self, r: np.ndarray) -> float:
         """J = ||r||^power."""
@@ -68,3 +73,27 @@ class OptimiseResult:
     history_x: np.ndarray
     history_objective: np.ndarray
     options: dict = field(default_factory=dict)
+
+
+#: robust losses of scipy.optimize.least_squares: rho'(z) with z = (r / f_scale)^2, the weight each
+#: observation keeps at the solution (iteratively reweighted least squares)
+ROBUST_WEIGHTS = {
+    "linear": lambda z: np.ones_like(z),
+    "soft_l1": lambda z: 1.0 / np.sqrt(1.0 + z),
+    "huber": lambda z: np.where(z <= 1.0, 1.0, 1.0 / np.sqrt(np.maximum(z, 1.0))),
+    "cauchy": lambda z: 1.0 / (1.0 + z),
+    "arctan": lambda z: 1.0 / (1.0 + z ** 2),
+}
+
+
+def robust_weights(r: np.ndarray, loss: str, loss_scale: float) -> np.ndarray:
+    """(n,) weights in (0, 1] a robust loss gives residuals r at a solution: rho'((r / loss_scale)^2).
+
+    Multiplying r and the rows of the Jacobian by their square roots gives the weighted least-squares
+    problem the robust fit solves there, and from it the covariance (the down-weighted observations treated
+    as outliers).
+
+    >>> robust_weights(np.array([0.5, 3.0, 30.0]), "huber", 3.0).round(3).tolist()
+    [1.0, 1.0, 0.1]
+    """
+    return ROBUST_WEIGHTS[loss]((np.asarray(r, dtype=float) / loss_scale) ** 2)

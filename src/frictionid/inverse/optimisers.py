@@ -12,7 +12,7 @@ from scipy.optimize import Bounds, least_squares, minimize
 from ..errors import InputError, SolverError
 from . import gradient_descent as descent
 from .iterates import Iterates, Option, resolve_options
-from .least_squares import LeastSquares, OptimiseResult
+from .least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
 from .uncertainty import at_bounds
 
 log = logging.getLogger(__name__)
@@ -135,7 +135,10 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
             raise _IterationLimit
         jac = run.jacobian(x)
         if options["se_step"] > 0:
-            left = remaining_step(run.residuals(x), jac, x, problem.lower, problem.upper, problem.noise_known)
+            r = run.residuals(x)
+            root = np.sqrt(robust_weights(r, problem.loss, problem.loss_scale))   # 1 for least squares
+            left = remaining_step(root * r, root[:, None] * jac, x, problem.lower, problem.upper,
+                                  problem.noise_known)
             if left < options["se_step"]:
                 raise _StepLeftSmall(f"the Gauss-Newton step left is {left:.3g} standard errors "
                                      f"< se_step = {options['se_step']:g}")
@@ -144,6 +147,7 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
     try:
         fit = least_squares(lambda x: run.residuals(x) * scale, x0, jac=jacobian, method="trf",
                             bounds=(problem.lower, problem.upper), x_scale=options["x_scale"],
+                            loss=problem.loss, f_scale=problem.loss_scale * scale,
                             ftol=options["ftol"], xtol=options["xtol"], gtol=options["gtol"],
                             max_nfev=options["max_nfev"])
     except _IterationLimit:
@@ -309,6 +313,12 @@ def _check_problem(problem: LeastSquares, method: str) -> None:
                              "satisfy lower <= start <= upper, lower < upper, start finite")
     if not problem.power > 0:
         raise InputError(f"power must be > 0, not {problem.power}")
+    if problem.loss not in ROBUST_WEIGHTS:
+        raise InputError(f"loss {problem.loss!r} is not one of {sorted(ROBUST_WEIGHTS)}")
+    if problem.loss != "linear" and method != "trf":
+        raise InputError(f"a robust loss ({problem.loss!r}) needs method 'trf', not {method!r}")
+    if not problem.loss_scale > 0:
+        raise InputError(f"loss_scale must be > 0, not {problem.loss_scale}")
     if method == "trf" and problem.power != 2:
         raise InputError(f"method 'trf' solves least-squares problems (power 2), not power {problem.power}; "
                          "use 'lbfgsb', 'gradient-descent' or 'nelder-mead'")

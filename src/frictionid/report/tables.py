@@ -91,6 +91,10 @@ def _adequacy_lines(fit: dict) -> list[str]:
                      f"{fit['reduced_chi2']:.4g} > {fit['chi2_99']:.3g} (99 % quantile). Standard errors below are "
                      f"scaled by {fit['error_scale']:.3g}; they hold only if the misfit is noise-like. Zones the "
                      "data contradict each other about are not reported as resolved.")
+    if fit.get("loss", "linear") != "linear":
+        lines.append(f"    robust loss {fit['loss']}: {fit['n_downweighted']} observation(s) kept less than half their "
+                     "weight; chi-square and standard errors use the weights the fit ends with, so they treat "
+                     "the down-weighted observations as outliers (too narrow if those are model error)")
     misfit = fit["misfit"]
     for title, table in (("quantity", misfit["by_quantity"]), ("stage", misfit["by_stage"]),
                          ("point group", misfit["by_group"])):
