@@ -58,6 +58,19 @@ def test_trf_recovers_the_coefficients_and_writes_its_files(measured, capsys):
     assert result["n_sensitivity_solves"] < 15 and result["n_forward_solves"] == 0
     assert (measured / "runs/trf/history.csv").read_text().startswith("iteration,objective,A,B,C")
     assert (measured / "runs/trf/convergence.png").stat().st_size > 1000
+    assert (measured / "runs/trf/residuals.png").stat().st_size > 1000
+    assert "[[Fit Adequacy]]" in out and "the stated noise explains the misfit" in out
+    assert result["fit"]["consistent"] is True and result["fit"]["reduced_chi2"] < 1e-6
+    assert [p["point"] for p in result["fit"]["points"]] == ["P1", "P2", "P3", "P4", "P5", "P6"]
+
+
+@pytest.mark.parametrize("extra, key", [('[identify]\nloss = "l1"\n', "identify.loss"),
+                                        ('[identify]\nmethod = "lbfgsb"\nloss = "huber"\n', "identify.loss"),
+                                        ("[identify]\nloss_scale = 0\n", "identify.loss_scale")])
+def test_bad_robust_loss_settings_exit_2_naming_the_key(measured, capsys, extra, key):
+    config = _config(measured, "loss.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", extra, run="runs/loss")
+    assert main(["identify", str(config)]) == 2
+    assert key in capsys.readouterr().err
 
 
 def test_a_fixed_zone_stays_put(measured):

@@ -213,7 +213,8 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "fit": {"n_obs": obs.n_obs, "chi2": unc.chi2, "dof": unc.dof, "noise_known": obs.noise_known,
                 "error_scale": float(np.sqrt(unc.scale)), **adequacy.as_dict(free),
                 "loss": problem.loss, "n_downweighted": int(np.sum(weights < 0.5)),
-                "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2)))},
+                "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2))),
+                "points": point_misfit(obs, r)},
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
                             "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),
@@ -224,6 +225,18 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "history": {"objective": outcome.history_objective.tolist(),
                     "coefficients": [params.full(x).tolist() for x in outcome.history_x]},
     }
+
+
+def point_misfit(obs, r: np.ndarray) -> list[dict]:
+    """Per measurement point: its label, model coordinates [mm] and RMS weighted residual (noise units)."""
+    point_of = [label.rpartition(":")[0] for label in obs.labels]
+    out = []
+    for label, xyz in zip(obs.point_labels, obs.points):
+        rows = np.array([p == label for p in point_of])
+        if rows.any():
+            out.append({"point": label, "xyz": [float(v) for v in xyz],
+                        "rms": float(np.sqrt(np.mean(r[rows] ** 2)))})
+    return out
 
 
 #: area fraction below which a zone counts as carrying no load (lifted off) or not slipping (stuck)

@@ -16,6 +16,9 @@ def write_outputs(run_dir: Path, result: dict, store=None) -> list[Path]:
     """Write the run's files; returns their paths."""
     run_dir = Path(run_dir)
     paths = [run_dir / "result.json", run_dir / "history.csv", run_dir / "convergence.png"]
+    if result.get("fit", {}).get("points"):
+        paths.append(run_dir / "residuals.png")
+        residual_plot(result, paths[3])
     paths[0].write_text(json.dumps(result, indent=2) + "\n")
     names = list(result["parameters"])
     history = result.get("history", {})
@@ -39,6 +42,28 @@ def convergence_plot(result: dict, path: Path) -> None:
         right.plot(range(len(coefficients)), [mu[k] for mu in coefficients], "o-", label=name)
     right.set(xlabel="iteration", ylabel="friction coefficient", title="coefficients")
     right.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def residual_plot(result: dict, path: Path) -> None:
+    """Each measurement point at its model position, coloured by its RMS residual in units of the noise."""
+    points = result["fit"]["points"]
+    xyz = [p["xyz"] for p in points]
+    rms = [p["rms"] for p in points]
+    three_d = len(xyz[0]) == 3
+    fig = plt.figure(figsize=(7, 5.5))
+    axes = fig.add_subplot(projection="3d" if three_d else None)
+    columns = list(zip(*xyz))
+    shown = axes.scatter(*columns, c=rms, cmap="viridis", vmin=0.0, s=18)
+    labels = ("x [mm]", "y [mm]", "z [mm]") if three_d else ("x (r) [mm]", "y [mm]")
+    axes.set(**{f"{axis}label": text for axis, text in zip("xyz", labels)})
+    fit = result["fit"]
+    verdict = {True: "explained by the noise", False: "NOT explained by the noise", None: "no stated noise"}
+    axes.set_title(f"RMS residual / noise per point; reduced chi-square {fit['reduced_chi2']:.3g} "
+                   f"({verdict[fit.get('consistent')]})", fontsize=9)
+    fig.colorbar(shown, ax=axes, label="RMS residual / noise", shrink=0.8)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
