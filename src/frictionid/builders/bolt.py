@@ -17,14 +17,17 @@ from ..errors import InputError
 from ..model import ContactInterface, Material, Model, Stage, Support, SurfaceForce
 from .bolt_layout import BoltLayout, _count, _number, bolt_layout
 from .bolt_mesh import bolt_mesh
-from .thread import Flank
+from .thread import Flank, thread_size
 
-__all__ = ["BoltLayout", "bolt_layout", "bolt_mesh", "bolt_model", "fixed_friction", "measurement_points"]
+__all__ = ["BoltLayout", "bolt_layout", "bolt_mesh", "bolt_model", "default_sizes", "fixed_friction",
+           "measurement_points"]
 
 #: steel of bolt, nut and plates (DESIGN.md)
 STEEL = Material(E=200000.0, nu=0.3, name="steel")
 #: fixed friction coefficient of the head-plate and nut-plate contacts (DESIGN.md)
 PLATE_MU = 0.15
+#: default element sizes as divisors of the nominal diameter d: plate contacts d / 40, largest element d / 8
+SIZE_DIVISORS = {"contact_size": 40, "mesh_size": 8}
 
 
 def _forces(forces) -> tuple[float, ...]:
@@ -33,6 +36,16 @@ def _forces(forces) -> tuple[float, ...]:
     if not isinstance(forces, (list, tuple)) or not forces:
         raise InputError(f"`forces` must be a list of machine forces [N], one per stage, got {forces!r}")
     return tuple(_number(f"forces[{i}]", f) for i, f in enumerate(forces))
+
+
+def default_sizes(size: str = "M20") -> dict[str, float]:
+    """The element sizes [mm] :func:`bolt_model` takes when ``contact_size`` or ``mesh_size`` is not given.
+
+    >>> default_sizes("M20")
+    {'contact_size': 0.5, 'mesh_size': 2.5}
+    """
+    d = thread_size(size).d
+    return {key: d / divisor for key, divisor in SIZE_DIVISORS.items()}
 
 
 def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int = 3, flank_size: float = 0.1,
@@ -81,10 +94,10 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         "nut_load", "nut_free", "nut_outer", "plate1_rim" (loaded), "plate2_rim" (held).
     """
     layout = bolt_layout(size, length, engaged_length, clearance, n_radial, n_axial, bearing_diameter)
-    d = layout.size.d
+    defaults = default_sizes(size)
     flank_size = _number("flank_size", flank_size)
-    contact_size = d / 40 if contact_size is None else _number("contact_size", contact_size)
-    mesh_size = d / 8 if mesh_size is None else _number("mesh_size", mesh_size)
+    contact_size = defaults["contact_size"] if contact_size is None else _number("contact_size", contact_size)
+    mesh_size = defaults["mesh_size"] if mesh_size is None else _number("mesh_size", mesh_size)
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")

@@ -8,9 +8,15 @@ import inspect
 from ..errors import InputError
 from ..model import Model
 from .block import block_model, block_model_2d
-from .bolt import bolt_model
+from .bolt import bolt_model, default_sizes
 
 BUILDERS = {"block": block_model, "block2d": block_model_2d, "bolt": bolt_model}
+#: the element-size options [mm] :func:`refined` divides, per builder; block2d's ``contact_size`` left out
+#: follows its ``mesh_size``
+SIZE_OPTIONS = {"block": ("mesh_size",), "block2d": ("mesh_size", "contact_size"),
+                "bolt": ("flank_size", "contact_size", "mesh_size")}
+#: element-count options :func:`refined` multiplies, per builder
+COUNT_OPTIONS = {"block": ("block_divisions",)}
 
 
 def build_model(options: dict, where: str = "[model]") -> Model:
@@ -30,3 +36,56 @@ def build_model(options: dict, where: str = "[model]") -> Model:
         return builder(**options)
     except TypeError as exc:
         raise InputError(f"{where}: {exc}") from None
+
+
+def _default(name: str, options: dict, key: str):
+    """The value builder ``name`` takes for ``key`` when ``options`` do not give it (None: decided later)."""
+    value = inspect.signature(BUILDERS[name]).parameters[key].default
+    if value is None and name == "bolt":
+        return default_sizes(options.get("size", inspect.signature(bolt_model).parameters["size"].default))[key]
+    return value
+
+
+def _number(where: str, key: str, value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where} {key}: must be a number to be refined, got {value!r}")
+    return value
+
+
+def refined(options: dict, factor: int = 2, where: str = "[model]") -> dict:
+    """The [model] table of the same builder with every element size divided by ``factor``.
+
+    block: ``mesh_size`` / factor and ``block_divisions`` * factor (when given); block2d: ``mesh_size`` and
+    ``contact_size`` / factor; bolt: ``flank_size``, ``contact_size`` and ``mesh_size`` / factor. A size the
+    table leaves out is taken from the builder's default (block2d's ``contact_size`` then stays out: it follows
+    ``mesh_size``). Other options are unchanged; the caller's table is not modified.
+
+    Raises
+    ------
+    InputError
+        For ``factor`` not an integer >= 2, a size that is not a number, or a builder without size options
+        (a user's own mesh cannot be refined automatically).
+
+    Examples
+    --------
+    >>> refined({"builder": "block", "mesh_size": 2.5, "block_divisions": 6, "order": 2})
+    {'builder': 'block', 'mesh_size': 1.25, 'block_divisions': 12, 'order': 2}
+    >>> refined({"builder": "bolt", "flank_size": 0.2})["contact_size"]
+    0.25
+    """
+    if isinstance(factor, bool) or not isinstance(factor, int) or factor < 2:
+        raise InputError(f"refinement `factor` must be an integer >= 2, got {factor!r}")
+    name = options.get("builder")
+    if name not in SIZE_OPTIONS:
+        raise InputError(f"{where} builder = {name!r}: the model cannot be refined automatically (only the "
+                         f"builders {sorted(SIZE_OPTIONS)} have element-size options); refine the mesh yourself "
+                         "and compare")
+    out = dict(options)
+    for key in SIZE_OPTIONS[name]:
+        value = options.get(key, _default(name, options, key))
+        if value is not None:
+            out[key] = _number(where, key, value) / factor
+    for key in COUNT_OPTIONS.get(name, ()):
+        if options.get(key) is not None:
+            out[key] = _number(where, key, options[key]) * factor
+    return out
