@@ -1,0 +1,229 @@
+"""Discretisation (model) error at the observations: a Richardson estimate from one refined condensation.
+
+The model's value of an observation on a mesh of size h behaves as f_h = f + C h^p once h is small enough, so
+the error of the coarse model is, from the same model refined by a factor r (h -> h / r),
+
+    e_h = f_h - f = (f_h - f_{h/r}) r^p / (r^p - 1)
+
+(Richardson extrapolation). For a smooth solution on elements of degree k the order of a pointwise value is
+k + 1 for displacements and reaction forces and k for strains. The contact models here are not smooth: at the
+edges of a contact (the block's footprint, the ends of a thread flank) the stress is singular, about r^(-1/2), and
+under uniform refinement the error it pollutes the whole field with decays as h^(2 lambda) = h. So p is capped at
+:data:`SINGULAR_ORDER` = 1 (:func:`convergence_orders`), for linear and quadratic elements alike. Measured with
+``benchmarks/model_error.py`` (RMS of f_h - f_{h/2} over f_{h/2} - f_{h/4}): displacements 0.8-1.0 and machine
+force 0.8-0.9 on the plane-strain block (quadratic and linear triangles), where p = 1 puts the estimate within
+0.9-1.2 of the difference to a mesh 8-32 times finer and the a priori p = 3 about 0.6. Strains at points near
+a contact edge do not converge regularly at practical sizes; there the estimate is an order of magnitude, not a
+bound. For r = 2 the factor r^p / (r^p - 1) is 2 (p = 1), 4/3 (p = 2):
+if the true order is higher the estimate is at most 2 times too large.
+
+The estimate is made at several coefficient sets (an identification's start and end) and the largest
+magnitude per observation is kept, so that it holds along the fit. In units of the noise it says whether the
+discretisation error matters (in_noise >~ 1) and as extra variance, sigma_eff^2 = sigma^2 + e^2, it keeps the
+stated uncertainty honest (:func:`inflated_sigma`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..backends.embedded import EmbeddedBackend
+from ..builders.registry import build_model, refined
+from ..errors import InputError
+from ..fem.points import PointsOutside
+from ..model import Model
+from .observations import FORCE, Observations, _kind
+
+log = logging.getLogger(__name__)
+
+#: polynomial degree of the displacement field of each cell type
+ELEMENT_ORDER = {"triangle": 1, "quad": 1, "tetra": 1, "hexahedron": 1,
+                 "triangle6": 2, "quad9": 2, "tetra10": 2, "hexahedron27": 2}
+#: convergence order of a quantity kind minus the element order k for a smooth solution: u and force
+#: O(h^(k+1)), strains O(h^k)
+ORDER_OFFSET = {"u": 1, FORCE: 1, "e": 0}
+#: order to which the contact edges' stress singularity (about r^(-1/2)) limits every quantity under uniform
+#: refinement: its pollution error is O(h^(2 lambda)), lambda about 1/2 (measured: benchmarks/model_error.py)
+SINGULAR_ORDER = 1
+
+
+def convergence_orders(element_order: int, singular: bool = True) -> dict[str, int]:
+    """Convergence order p of each quantity kind ("u", "e", "force") on elements of ``element_order``.
+
+    ``singular``: the model has contact edges (every frictional contact model here has), which cap p at
+    :data:`SINGULAR_ORDER`; False gives the a priori orders of a smooth solution.
+
+    >>> convergence_orders(2), convergence_orders(2, singular=False)
+    ({'u': 1, 'force': 1, 'e': 1}, {'u': 3, 'force': 3, 'e': 2})
+    """
+    cap = SINGULAR_ORDER if singular else np.inf
+    return {kind: int(min(element_order + offset, cap)) for kind, offset in ORDER_OFFSET.items()}
+
+
+def richardson(coarse: np.ndarray, fine: np.ndarray, order, factor: int = 2) -> np.ndarray:
+    """Error of ``coarse`` (values on mesh size h) from ``fine`` (h / factor): (coarse - fine) r^p / (r^p - 1).
+
+    ``order``: p, a number or one per value. Signed, in the values' units.
+
+    >>> richardson(np.array([1.04]), np.array([1.01]), 2).round(12)   # f = 1 + 0.04 h^2 at h = 1 and 1/2
+    array([0.04])
+    """
+    gain = float(factor) ** np.asarray(order, dtype=float)
+    return (np.asarray(coarse, dtype=float) - np.asarray(fine, dtype=float)) * gain / (gain - 1.0)
+
+
+def observation_kinds(observations: Observations) -> np.ndarray:
+    """(n_obs,) quantity kind of each observation: "u", "e" or "force" (the rows after the point rows)."""
+    quantities = observations.quantities
+    n_point_rows = len(observations.points) * len(quantities)
+    return np.array([FORCE if row >= n_point_rows else _kind(quantities[row % len(quantities)])
+                     for row in observations.row])
+
+
+def _summary(values: np.ndarray) -> dict:
+    return {"n": int(values.size), "rms": float(np.sqrt(np.mean(values ** 2))) if values.size else 0.0,
+            "max": float(np.max(values)) if values.size else 0.0}
+
+
+@dataclass(frozen=True)
+class ModelError:
+    """Estimated discretisation error of the model at each observation.
+
+    Attributes
+    ----------
+    estimate : (n_obs,) magnitude of the error, in the observations' units ([mm], [-], [N])
+    in_noise : (n_obs,) estimate / sigma
+    kinds : (n_obs,) "u", "e" or "force"; stages : (n_obs,) 1-based stage of each observation
+    orders : convergence order p used per quantity kind
+    factor : refinement factor r; refined_options : the refined model's [model] table
+    n_points : number of coefficient sets the estimate is the largest over
+    seconds : wall time of the refined model's build, condensation and solves [s]
+    """
+
+    estimate: np.ndarray
+    in_noise: np.ndarray
+    kinds: np.ndarray
+    stages: np.ndarray
+    orders: dict
+    factor: int
+    refined_options: dict
+    n_points: int
+    seconds: float
+    summary: dict = field(init=False)
+
+    def __post_init__(self):
+        groups = {"all": np.ones(len(self.in_noise), bool)}
+        groups |= {f"kind {k}": self.kinds == k for k in dict.fromkeys(self.kinds.tolist())}
+        groups |= {f"stage {s}": self.stages == s for s in sorted(set(self.stages.tolist()))}
+        object.__setattr__(self, "summary", {name: _summary(self.in_noise[mask]) for name, mask in groups.items()})
+
+    def as_dict(self) -> dict:
+        """JSON-ready: per-observation lists, the orders, the refined options and the summaries (in noise)."""
+        return {"estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(), "orders": dict(self.orders),
+                "factor": self.factor, "refined_options": dict(self.refined_options), "n_points": self.n_points,
+                "seconds": self.seconds, "summary": self.summary}
+
+
+def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:
+    """(n_obs,) standard deviations with the model error as extra variance: sqrt(sigma^2 + e^2)."""
+    if error.estimate.shape != observations.sigma.shape:
+        raise InputError(f"model error: {error.estimate.size} estimates for {observations.n_obs} observations")
+    return np.hypot(observations.sigma, error.estimate)
+
+
+def _same_problem(coarse: Model, fine: Model, options: dict) -> None:
+    """Refuse a refined model whose zones or stages differ from the coarse one's (they would not compare)."""
+    stages = [(s.name, s.n_increments) for s in coarse.stages], [(s.name, s.n_increments) for s in fine.stages]
+    if coarse.zone_names != fine.zone_names or stages[0] != stages[1]:
+        raise InputError(f"[model] refined as {options}: zones {list(fine.zone_names)} and stages {stages[1]} differ "
+                         f"from the model's {list(coarse.zone_names)} and {stages[0]}; it cannot estimate its error")
+
+
+def _predictions(model: Model, observations: Observations, mu_points, keep: bool) -> list[np.ndarray]:
+    """(n_obs,) model values at each coefficient set, from one condensation of ``model``."""
+    obs = observations
+    try:
+        backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=keep)
+    except PointsOutside as exc:
+        raise exc.named(obs.point_labels, obs.source) from None
+    return [obs.predicted(backend.predict(mu).values) for mu in mu_points]
+
+
+def _checked_points(mu_points, n_zones: int) -> list[np.ndarray]:
+    points = [np.asarray(mu, dtype=float) for mu in mu_points]
+    if not points or any(mu.shape != (n_zones,) for mu in points):
+        raise InputError(f"model error: `mu_points` must be a non-empty list of ({n_zones},) coefficient arrays "
+                         f"(one value per zone), got shapes {[mu.shape for mu in points]}")
+    return points
+
+
+def _checked_values(values, n_points: int, n_obs: int) -> list[np.ndarray]:
+    values = [np.asarray(v, dtype=float) for v in values]
+    if len(values) != n_points or any(v.shape != (n_obs,) for v in values):
+        raise InputError(f"model error: `coarse_values` must hold one ({n_obs},) array per coefficient set "
+                         f"({n_points}), got shapes {[v.shape for v in values]}")
+    return values
+
+
+def _checked_orders(orders: dict, kinds: np.ndarray) -> dict:
+    """The orders of the observed kinds; each must be a positive number."""
+    used = {k: orders.get(k) for k in dict.fromkeys(kinds.tolist())}
+    for kind, p in used.items():
+        if isinstance(p, bool) or not isinstance(p, (int, float)) or not p > 0:
+            raise InputError(f"model error: `orders` {kind!r} must be a positive number, got {p!r}")
+    return used
+
+
+def estimate_model_error(model_options: dict, observations: Observations, mu_points, coarse_values=None,
+                         factor: int = 2, model: Model | None = None, orders: dict | None = None) -> ModelError:
+    """Richardson estimate of the model's discretisation error at each observation (module docstring).
+
+    Parameters
+    ----------
+    model_options : the [model] table of the model the identification uses (see :func:`~frictionid.builders.
+        registry.refined`)
+    observations : Observations
+    mu_points : list of (n_zones,) coefficient sets (all zones, model order), e.g. an identification's start and
+        end; the largest error magnitude over them is kept per observation
+    coarse_values : list of (n_obs,) model values at ``mu_points`` (e.g. ``Evaluator.model_values``), optional;
+        computed with an :class:`EmbeddedBackend` (reused from the session's kept condensation if any) if absent
+    factor : refinement factor r of the element sizes
+    model : the model ``model_options`` build, if already built (to check zones and stages without rebuilding)
+    orders : convergence order p per quantity kind ("u", "e", "force"); default :func:`convergence_orders` of
+        the model's element order
+
+    Returns
+    -------
+    ModelError
+        Costs one condensation of the refined model and a forward solve per coefficient set.
+
+    Raises
+    ------
+    InputError
+        When the model cannot be refined (builder without size options), or refines into other zones or stages.
+    """
+    fine_options = refined(model_options, factor)
+    coarse_model = model if model is not None else build_model(model_options)
+    mu_points = _checked_points(mu_points, coarse_model.n_zones)
+    coarse = None if coarse_values is None else _checked_values(coarse_values, len(mu_points), observations.n_obs)
+    kinds = observation_kinds(observations)
+    orders = _checked_orders({**convergence_orders(ELEMENT_ORDER[coarse_model.mesh.cell_type]), **(orders or {})},
+                             kinds)
+    start = time.perf_counter()
+    fine_model = build_model(fine_options, "[model] (refined)")
+    _same_problem(coarse_model, fine_model, fine_options)
+    fine = _predictions(fine_model, observations, mu_points, keep=False)
+    seconds = time.perf_counter() - start
+    log.info("model error: refined model %s built, condensed and solved %d times in %.1f s", fine_options,
+             len(mu_points), seconds)
+    if coarse is None:
+        coarse = _predictions(coarse_model, observations, mu_points, keep=True)
+    p = np.array([orders[k] for k in kinds], dtype=float)
+    estimate = np.max([np.abs(richardson(c, f, p, factor)) for c, f in zip(coarse, fine)], axis=0)
+    return ModelError(estimate=estimate, in_noise=estimate / observations.sigma, kinds=kinds,
+                      stages=observations.stage + 1, orders=orders, factor=factor, refined_options=fine_options,
+                      n_points=len(mu_points), seconds=seconds)
