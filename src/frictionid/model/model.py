@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Mapping
 
@@ -13,6 +13,9 @@ from ..errors import InputError
 from .mesh import Mesh
 
 KINDS = ("3d", "plane_strain", "axisymmetric")
+#: element technologies: "standard" (the mesh's Lagrange elements), "incompatible" (linear hexahedra with
+#: Wilson-Taylor incompatible modes, CalculiX/Abaqus C3D8I)
+ELEMENTS = ("standard", "incompatible")
 _COMPONENTS = {"x": 0, "y": 1, "z": 2, "r": 0}
 
 
@@ -22,6 +25,16 @@ def component_index(component, dim: int, where: str) -> int:
     if not isinstance(index, (int, np.integer)) or not 0 <= index < dim:
         raise InputError(f"{where}: component {component!r} is not one of x, y{', z' if dim == 3 else ''}")
     return int(index)
+
+
+def check_element(element, cell_type: str, where: str) -> str:
+    """``element`` if it is one of :data:`ELEMENTS` and fits the cell type, else an :class:`InputError`."""
+    if element not in ELEMENTS:
+        raise InputError(f"{where}: element {element!r} is not one of {ELEMENTS}")
+    if element == "incompatible" and cell_type != "hexahedron":
+        raise InputError(f"{where}: element 'incompatible' needs linear hexahedra (cell type 'hexahedron'), "
+                         f"the mesh has {cell_type!r}; use element 'standard'")
+    return element
 
 
 @dataclass(frozen=True)
@@ -130,6 +143,9 @@ class Model:
     loads : Displacement, Pressure and SurfaceForce entries, each with one value per stage.
     stages : the load path.
     interfaces : contact interfaces with their friction zones.
+    element : "standard" | "incompatible"
+        Element technology on the mesh: the cell type's Lagrange element, or (linear hexahedra only) hex8 with
+        incompatible modes (Wilson-Taylor, as CalculiX's C3D8I), which does not lock in bending.
     """
 
     mesh: Mesh
@@ -139,6 +155,7 @@ class Model:
     loads: tuple[Load, ...] = ()
     stages: tuple[Stage, ...] = (Stage("load"),)
     interfaces: tuple[ContactInterface, ...] = ()
+    element: str = "standard"
     zone_names: tuple[str, ...] = field(init=False)
 
     def __post_init__(self):
@@ -154,8 +171,13 @@ class Model:
     def dim(self) -> int:
         return self.mesh.dim
 
+    def with_element(self, element: str) -> "Model":
+        """The same model with another element technology (see :data:`ELEMENTS`)."""
+        return replace(self, element=element)
+
     def fingerprint(self) -> str:
-        """SHA-256 of the model's whole content (mesh arrays, materials, supports, loads, stages, interfaces):
+        """SHA-256 of the model's whole content (mesh arrays, materials, supports, loads, stages, interfaces,
+        element technology):
         equal for two models that every solver treats alike."""
         digest = hashlib.sha256()
         mesh = self.mesh
@@ -165,7 +187,7 @@ class Model:
         digest.update(repr((tuple(a.shape for a in arrays), mesh.cell_type, tuple(mesh.regions),
                             tuple(mesh.boundaries), self.kind,
                             sorted(self.materials.items()), self.supports, self.loads, self.stages,
-                            self.interfaces)).encode())
+                            self.interfaces, self.element)).encode())
         return digest.hexdigest()
 
     @property
@@ -182,6 +204,7 @@ class Model:
             raise InputError(f"model: kind {self.kind!r} is not one of {KINDS}")
         if (self.kind == "3d") != (mesh.dim == 3):
             raise InputError(f"model: kind {self.kind!r} does not fit a {mesh.dim}-D mesh")
+        check_element(self.element, mesh.cell_type, "model")
         for name in self.materials:
             if name not in mesh.regions:
                 raise InputError(f"model: material given for region {name!r}, which the mesh does not have; "
