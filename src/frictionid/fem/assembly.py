@@ -12,6 +12,7 @@ from skfem.helpers import ddot, sym_grad, trace
 from ..errors import InputError
 from ..model import Displacement, Model, Pressure
 from ..model.model import component_index
+from . import incompatible
 from .space import Space
 
 
@@ -31,9 +32,11 @@ def _axisymmetric(u, v, w):
 
 
 def stiffness(space: Space, model: Model) -> sp.csr_matrix:
-    """Global stiffness (n_dofs, n_dofs) [N/mm] in frictionid dof numbering."""
-    lame = np.array([model.materials[name].lame for name in model.mesh.region_names])
-    per_cell = lame[model.mesh.cell_region]                     # (n_cells, 2)
+    """Global stiffness (n_dofs, n_dofs) [N/mm] in frictionid dof numbering, of the space's element technology
+    (incompatible modes condensed per cell, :mod:`frictionid.fem.incompatible`)."""
+    per_cell = incompatible.cell_lame(model.mesh, model.materials)          # (n_cells, 2)
+    if space.element == "incompatible":
+        return incompatible.stiffness(model.mesh, per_cell)
     n_qp = space.basis.X.shape[1]
     lam = np.repeat(per_cell[:, :1], n_qp, axis=1)
     mu = np.repeat(per_cell[:, 1:], n_qp, axis=1)

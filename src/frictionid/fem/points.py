@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -11,6 +11,7 @@ from skfem import ElementHex1, ElementQuad1, ElementTetP1, ElementTriP1
 from skfem.refdom import RefHex, RefQuad, RefTet, RefTri
 
 from ..errors import InputError
+from . import incompatible
 from .space import Space
 
 #: quantities each model kind can observe; "ezz" of plane strain is identically zero
@@ -33,7 +34,7 @@ LEBESGUE_BOUND = 2.0
 
 
 def point_operator(space: Space, points, quantities: Sequence[str],
-                   regions: Sequence[str | None] | None = None) -> sp.csr_matrix:
+                   regions: Sequence[str | None] | None = None, materials: Mapping | None = None) -> sp.csr_matrix:
     """Sparse matrix evaluating displacement and strain components at points from a frictionid dof vector.
 
     Parameters
@@ -51,6 +52,10 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     regions : sequence of (str or None), optional
         ``regions[i]`` restricts point i to the cells of that mesh region (needed where two bodies touch
         and a point lies on both surfaces); None allows any cell.
+    materials : mapping region name -> Material, optional
+        Needed (only) when ``space.element`` is "incompatible": the condensed internal modes, which add
+        displacement inside a cell (none at its nodes) and strain, are recovered from the nodal dofs through
+        the cell's stiffness (:mod:`frictionid.fem.incompatible`).
 
     Returns
     -------
@@ -81,10 +86,12 @@ def point_operator(space: Space, points, quantities: Sequence[str],
             cols.append(space.dim * nodes + component)
             values.append(coefficient)
     shape = (n_points * len(quantities), space.n_dofs)
-    if not rows:
-        return sp.csr_matrix(shape)
-    return sp.csr_matrix((np.concatenate(values, axis=None),
-                          (np.concatenate(rows, axis=None), np.concatenate(cols, axis=None))), shape=shape)
+    operator = sp.csr_matrix(shape) if not rows else sp.csr_matrix(
+        (np.concatenate(values, axis=None), (np.concatenate(rows, axis=None), np.concatenate(cols, axis=None))),
+        shape=shape)
+    if space.element == "incompatible":
+        operator = operator + _internal_modes(space, materials, quantities, cells, phi, nodes)
+    return operator
 
 
 def locate(space: Space, points, regions: Sequence[str | None] | None = None):
@@ -313,6 +320,28 @@ def _terms(space: Space, name: str, points: np.ndarray, phi: np.ndarray, grad: n
     if a == b:
         return [(a, grad[:, :, a])]
     return [(a, 0.5 * grad[:, :, b]), (b, 0.5 * grad[:, :, a])]
+
+
+def _internal_modes(space: Space, materials, quantities, cells, phi, nodes) -> sp.csr_matrix:
+    """Rows of the condensed incompatible modes at the located points, in the cells' nodal dofs."""
+    if materials is None:
+        raise InputError("point operator: a space with element 'incompatible' needs `materials` (the internal "
+                         "modes are recovered from the nodal dofs through each cell's stiffness)")
+    corners = space.mesh.cells[cells]                                        # (n, 8) meshio order
+    # the scikit-fem and the natural parametrisation are trilinear maps of the same corners that differ by a
+    # symmetry of the cube (an affine map), so interpolating the corners' natural coordinates is exact
+    position = np.argmax(corners[:, None, :] == nodes[:, :, None], axis=2)
+    xi = np.einsum("nj,njd->nd", phi, incompatible.CORNERS[position])
+    lame = incompatible.cell_lame(space.mesh, materials)[cells]
+    U, D = incompatible.internal_fields(space.mesh.points[corners], lame, xi)
+    axes = [[_AXIS[c] for c in q[1:]] for q in quantities]
+    values = np.stack([U[:, a[0]] if q[0] == "u" else 0.5 * (D[:, a[0], a[1]] + D[:, a[1], a[0]])
+                       for q, a in zip(quantities, axes)], axis=1)          # (n, n_quantities, 24)
+    rows = np.broadcast_to(np.arange(values.shape[0] * values.shape[1]).reshape(values.shape[:2] + (1,)),
+                           values.shape)
+    cols = np.broadcast_to(incompatible.cell_dofs(corners)[:, None, :], values.shape)
+    return sp.csr_matrix((values.ravel(), (rows.ravel(), cols.ravel())),
+                         shape=(values.shape[0] * values.shape[1], space.n_dofs))
 
 
 def _hoop(space: Space, points: np.ndarray, phi: np.ndarray, grad: np.ndarray) -> np.ndarray:

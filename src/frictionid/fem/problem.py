@@ -67,12 +67,12 @@ class Problem:
             labelled "P<i>.<quantity>", point-major; ``regions`` optionally names the region of each point
             (see :func:`frictionid.fem.points.point_operator`).
         """
-        space = Space.build(model.mesh, model.kind)
+        space = Space.build(model.mesh, model.kind, model.element)
         if points is not None and observe is not None:
             raise InputError("observation: give either observe rows or points, not both")
         if points is not None:
             from .points import point_operator
-            observe = point_operator(space, points, quantities, regions)
+            observe = point_operator(space, points, quantities, regions, model.materials)
             observation_labels = tuple(f"P{i}.{q}" for i in range(len(points)) for q in quantities)
         pairs = contact_pairs(space, model)
         channels = load_channels(space, model)

@@ -15,6 +15,7 @@ from skfem.io.meshio import from_meshio
 
 from ..errors import InputError
 from ..model import Mesh
+from ..model.model import check_element
 
 ELEMENTS = {
     "triangle": skfem.ElementTriP1,
@@ -70,6 +71,9 @@ class Space:
     basis : vector basis, scalar : scalar basis of the same element
     dof_of : (basis.N,) frictionid dof of each scikit-fem vector dof
     node_of : (scalar.N,) frictionid node of each scikit-fem scalar dof
+    kind : "3d" | "plane_strain" | "axisymmetric"
+    element : "standard" | "incompatible" (linear hexahedra with incompatible modes, see
+        :mod:`frictionid.fem.incompatible`; ``basis`` still spans the nodal dofs)
     """
 
     mesh: Mesh
@@ -79,16 +83,19 @@ class Space:
     dof_of: np.ndarray
     node_of: np.ndarray
     kind: str = "3d"
+    element: str = "standard"
 
     @classmethod
-    def build(cls, mesh: Mesh, kind: str | None = None) -> "Space":
-        """The space of a mesh; ``kind`` ("3d" | "plane_strain" | "axisymmetric") defaults by dimension."""
-        element = ELEMENTS[mesh.cell_type]()
+    def build(cls, mesh: Mesh, kind: str | None = None, element: str = "standard") -> "Space":
+        """The space of a mesh; ``kind`` ("3d" | "plane_strain" | "axisymmetric") defaults by dimension,
+        ``element`` is the element technology (:data:`frictionid.model.model.ELEMENTS`)."""
+        check_element(element, mesh.cell_type, "space")
+        lagrange = ELEMENTS[mesh.cell_type]()
         skmesh = from_meshio(meshio.Mesh(np.asarray(mesh.points), [(mesh.cell_type, np.asarray(mesh.cells))]))
         kind = kind or ("3d" if mesh.dim == 3 else "plane_strain")
         intorder = INTORDER[mesh.cell_type] + (kind == "axisymmetric")
-        scalar = skfem.Basis(skmesh, element, intorder=intorder)
-        basis = skfem.Basis(skmesh, skfem.ElementVector(element), intorder=intorder)
+        scalar = skfem.Basis(skmesh, lagrange, intorder=intorder)
+        basis = skfem.Basis(skmesh, skfem.ElementVector(lagrange), intorder=intorder)
         perm = _local_permutation(mesh, scalar)
         node_of = np.empty(scalar.N, dtype=np.int64)
         node_of[scalar.element_dofs] = np.take_along_axis(mesh.cells, perm, axis=1).T
@@ -96,7 +103,7 @@ class Space:
         dof_of = np.empty(basis.N, dtype=np.int64)
         for c in range(dim):
             dof_of[basis.element_dofs[c::dim]] = dim * node_of[scalar.element_dofs] + c
-        return cls(mesh, skmesh, basis, scalar, dof_of, node_of, kind)
+        return cls(mesh, skmesh, basis, scalar, dof_of, node_of, kind, element)
 
     @property
     def dim(self) -> int:
