@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
+from ..model.model import ELEMENTS
 from .gmsh_mesh import distance_size_field, gmsh_session, mesh_from_gmsh, use_size_fields
 
 logger = logging.getLogger(__name__)
@@ -47,6 +48,14 @@ def _order(value) -> int:
     if isinstance(value, bool) or value not in (1, 2):
         raise InputError(f"`order` must be 1 or 2, got {value!r}")
     return int(value)
+
+
+def _element(value, order: int) -> str:
+    if value not in ELEMENTS:
+        raise InputError(f"`element` must be one of {', '.join(map(repr, ELEMENTS))}, got {value!r}")
+    if value == "incompatible" and order != 1:
+        raise InputError(f"`element` 'incompatible' needs `order` 1 (linear hexahedra), got order {order}")
+    return value
 
 
 def _grading(value) -> float:
@@ -100,7 +109,7 @@ def _set_order(order: int):
 
 def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0, order: int = 1,
                 n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None,
-                grading: float = 1.0, pull_levels=()) -> Model:
+                grading: float = 1.0, pull_levels=(), element: str = "standard") -> Model:
     """The 3-D block-on-plate reference test (DESIGN.md, reference test 1) on a conforming hexahedral mesh.
 
     Parameters
@@ -135,6 +144,9 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
         trailing zones already slide and the leading ones still partly stick. The increments keep the size
         ``pull / n_pull`` (each stage at least one), so stage ends on multiples of that size lie on the
         default load path. Default: one pull stage.
+    element : "standard" | "incompatible"
+        Element technology (:attr:`Model.element`): "incompatible" (order 1 only) adds Wilson-Taylor
+        incompatible modes to the hexahedra (as CalculiX's C3D8I), which do not lock in bending.
 
     Returns
     -------
@@ -151,6 +163,7 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     """
     pull, force, mesh_size = _positive("pull", pull), _positive("force", force), _positive("mesh_size", mesh_size)
     order = _order(order)
+    element = _element(element, order)
     stages, pulled = _pull_stages(n_press, n_pull, pull, _pull_levels(pull_levels, pull))
     if block_divisions is None:
         block_divisions = 2 * max(1, round(BLOCK_SIDE / 2 / mesh_size))
@@ -171,6 +184,7 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
                Displacement("block_top", 1, pulled)),
         stages=stages,
         interfaces=(ContactInterface("block_plate", tuple(QUADRANT_ZONES.values()), "plate_top"),),
+        element=element,
     )
 
 
