@@ -21,7 +21,8 @@ SCHEMA = {
                "load_scale": 1.0},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
-                 "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0},
+                 "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
+                 "model_error": "off", "refine_target": 0.0, "refine_budget": 2},
     "run": {"dir": REQUIRED, "workers": 1, "scheduler": None},
 }
 OPEN_TABLES = {"model"}
@@ -59,6 +60,10 @@ TYPES = {
     "identify.loss": (str, '"linear" or a robust loss: "soft_l1", "huber", "cauchy", "arctan"'),
     "identify.loss_scale": ((int, float), "a positive number (residual, in units of the stated noise, beyond "
                                           "which a robust loss down-weights an observation)"),
+    "identify.model_error": (str, '"off", "estimate" or "include"'),
+    "identify.refine_target": ((int, float), "a number >= 0 (largest RMS model error in noise levels; 0: no "
+                                             "refinement)"),
+    "identify.refine_budget": (int, "a whole number >= 1 (refinements at most)"),
     "run.dir": (str, "a folder name"),
     "run.workers": (int, "a whole number"),
 }

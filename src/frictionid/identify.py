@@ -6,7 +6,7 @@ import hashlib
 import json
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,9 @@ from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult,
 from .inverse.observations import observations_from
 from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
+from .discretisation import check_options, estimate_at, refine_until
 from .inverse.adequacy import assess
+from .inverse.model_error import inflated_sigma
 from .inverse.uncertainty import at_bounds, estimate
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
@@ -40,6 +42,7 @@ class Setup:
     observations: object
     parameters: Parameters
     fingerprint: str
+    model_options: dict
 
 
 def fingerprint(config: Config) -> str:
@@ -87,23 +90,30 @@ def prepare(config: Config) -> Setup:
                      len(parameters.free_names))
     except InputError as exc:
         raise InputError(f"{config.path}: [identify] {exc}") from None
+    check_options(ident, config.model, f"{config.path}:")
+    if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
+        raise InputError(f"{config.path}: identify.model_error = {ident['model_error']!r} needs the embedded "
+                         "backend (the estimate refines the embedded model)")
     measurements = read_measurements(config.resolve(config.data["file"]))
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
                                      config.data.get("noise"), config.data.get("regions"))
-    return Setup(model, observations, parameters, fingerprint(config))
+    return Setup(model, observations, parameters, fingerprint(config), dict(config.model))
 
 
 def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config, store: RunStore,
-                   progress) -> LeastSquares:
+                   progress, offset: int = 0, x0=None) -> LeastSquares:
+    """The problem the optimiser sees; its iterations are stored and shown numbered from ``offset`` (a refit
+    continues the numbers of the fit before it) and it starts at ``x0`` (default the configured start)."""
     done = {row["iteration"] for row in store.iterations()}
 
     def on_iteration(iteration, x, objective):
+        iteration += offset
         if iteration not in done:
             store.record_iteration(iteration, x, objective)
             done.add(iteration)
         progress(iteration, parameters.full(x), objective, evaluator)
 
-    return LeastSquares(evaluator.residuals, evaluator.jacobian, parameters.x0, parameters.lower,
+    return LeastSquares(evaluator.residuals, evaluator.jacobian, parameters.x0 if x0 is None else x0, parameters.lower,
                         parameters.upper, parameters.free_names, float(config.identify["power"]), on_iteration,
                         evaluator.obs.noise_known, config.identify["loss"], float(config.identify["loss_scale"]))
 
@@ -118,6 +128,10 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
     run_dir = config.resolve(config.run["dir"])
     start = time.perf_counter()
     obs = setup.observations
+    if float(config.identify["refine_target"]) > 0:
+        options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
+                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
+        setup = replace(setup, model=model, model_options=options)
     try:                    # built before the store is opened: bad points leave no store behind
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
                                solver_options(config), f"{config.path}: [solver]", obs.reactions)
@@ -131,13 +145,13 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
     problem = _least_squares(evaluator, setup.parameters, config, store, progress)
     store.set_status("running")
     try:
-        return _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit)
+        return _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit, progress)
     finally:
         evaluator.close()
 
 
 def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: RunStore, run_dir: Path,
-            start: float, on_prefit) -> dict:
+            start: float, on_prefit, progress) -> dict:
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
     leaves result.json."""
     try:
@@ -145,8 +159,10 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
         report = prefit(evaluator, setup.model, float(config.identify["resolution"]),
                         int(config.identify["suggestions"]), factory)
         on_prefit(report)
-        outcome = optimise(problem, config.identify["method"], max_iterations=int(config.identify["max_iterations"]),
-                           tol=float(config.identify["tol"]), options=dict(config.identify["options"]))
+        outcome = _optimise(problem, config)
+        error = None
+        if config.identify["model_error"] != "off":
+            error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
     except KeyboardInterrupt:
         _stopped(config, setup, evaluator, store, run_dir, "interrupted",
                  "stopped by the user; continue with --resume", time.perf_counter() - start)
@@ -154,11 +170,35 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     except SolverError as exc:
         _stopped(config, setup, evaluator, store, run_dir, "failed", str(exc), time.perf_counter() - start)
         raise
-    result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start)
+    result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
     store.put_result(result)
     store.set_status(result["status"])
     write_outputs(run_dir, result, store)
     return result
+
+
+def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
+    ident = config.identify
+    return optimise(problem, ident["method"], max_iterations=int(ident["max_iterations"]), tol=float(ident["tol"]),
+                    options=dict(ident["options"]))
+
+
+def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
+    """The discretisation error at the start and the fitted point (one extra condensation); with "include" the
+    fit goes on from its end with sigma_eff^2 = sigma^2 + e^2 (see :mod:`frictionid.discretisation`)."""
+    params = setup.parameters
+    points = [params.x0, outcome.x]
+    error = estimate_at(setup.model_options, setup.model, setup.observations, [params.full(x) for x in points],
+                        [evaluator.model_values(x) for x in points])
+    if config.identify["model_error"] != "include":
+        return error, outcome
+    evaluator.reweigh(inflated_sigma(setup.observations, error))
+    refit = _optimise(_least_squares(evaluator, params, config, store, progress, outcome.n_iterations + 1,
+                                     outcome.x), config)
+    return error, replace(refit, n_iterations=outcome.n_iterations + 1 + refit.n_iterations,
+                          message=f"{refit.message} (refit with the model error in the weights)",
+                          history_x=np.vstack([outcome.history_x, refit.history_x]),
+                          history_objective=np.concatenate([outcome.history_objective, refit.history_objective]))
 
 
 def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path, status: str, message: str,
@@ -180,8 +220,8 @@ def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path
 
 
 def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, report: Prefit,
-            wall: float) -> dict:
-    params, obs = setup.parameters, setup.observations
+            wall: float, error=None) -> dict:
+    params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
     r = evaluator.residuals(outcome.x)[:obs.n_obs]
     jac = evaluator.jacobian(outcome.x)[:obs.n_obs]
     f = evaluator.model_values(outcome.x)
@@ -214,7 +254,9 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                 "error_scale": float(np.sqrt(unc.scale)), **adequacy.as_dict(free),
                 "loss": problem.loss, "n_downweighted": int(np.sum(weights < 0.5)),
                 "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2))),
-                "points": point_misfit(obs, r)},
+                "points": point_misfit(obs, r),
+                "model_error": None if error is None else {"mode": config.identify["model_error"], **error.as_dict()}},
+        "model": setup.model_options,
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
                             "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),

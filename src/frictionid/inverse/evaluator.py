@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -103,6 +104,11 @@ class Evaluator:
             return None
         found = self.store.lookup(x, kind)
         return found if found is not None else self.store.lookup(x, "forward", status="failed")
+
+    def reweigh(self, sigma: np.ndarray) -> None:
+        """Weight the observations by new standard deviations (n_obs,) from here on (e.g. with the model
+        error as extra variance); the solves done so far stay valid."""
+        self.obs = replace(self.obs, sigma=np.asarray(sigma, dtype=float))
 
     def model_values(self, x: np.ndarray) -> np.ndarray:
         """(n_obs,) model values f(mu) at free coefficients x."""

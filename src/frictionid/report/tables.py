@@ -95,6 +95,14 @@ def _adequacy_lines(fit: dict) -> list[str]:
         lines.append(f"    robust loss {fit['loss']}: {fit['n_downweighted']} observation(s) kept less than half their "
                      "weight; chi-square and standard errors use the weights the fit ends with, so they treat "
                      "the down-weighted observations as outliers (too narrow if those are model error)")
+    error = fit.get("model_error")
+    if error:
+        all_ = error["summary"]["all"]
+        kinds = ", ".join(f"{key[5:]} {v['rms']:.3g}" for key, v in error["summary"].items() if key.startswith("kind "))
+        lines.append(f"    estimated discretisation error (model refined x{error['factor']}, Richardson): "
+                     f"{all_['rms']:.3g} noise levels RMS, max {all_['max']:.3g} (by kind: {kinds})"
+                     + ("; included in the weights" if error["mode"] == "include" else
+                        "; not included in the weights (identify.model_error = \"include\" does)"))
     misfit = fit["misfit"]
     for title, table in (("quantity", misfit["by_quantity"]), ("stage", misfit["by_stage"]),
                          ("point group", misfit["by_group"])):

@@ -1,0 +1,86 @@
+"""The identification's discretisation error through the command line: estimate, include, refine, bad keys."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from frictionid.cli import main
+
+TRUE = {"A": 0.32, "B": 0.18}
+POINTS = """# points on the block's sides and the base top (plane strain, z = 0)
+point,x,y,z,stage,ux,uy
+P1,-5.0,0.5,0.0,2,0.0,0.0
+P2,-5.0,1.5,0.0,2,0.0,0.0
+P3,5.0,0.5,0.0,2,0.0,0.0
+P4,5.0,1.5,0.0,2,0.0,0.0
+P5,-7.0,0.0,0.0,2,0.0,0.0
+P6,7.0,0.0,0.0,2,0.0,0.0
+"""
+REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
+
+
+def _config(folder: Path, name: str, mesh: float, zones: dict, data: str, identify: str = "") -> Path:
+    path = folder / f"{name}.toml"
+    table = ", ".join(f"{k} = {v}" for k, v in zones.items())
+    path.write_text(f'[model]\nbuilder = "block2d"\nmesh_size = {mesh}\nheight = 4.0\norder = 1\n'
+                    f"[friction]\nzones = {{ {table} }}\n"
+                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0001 }}\n'
+                    + REGIONS + f"[identify]\n{identify}" + f'[run]\ndir = "runs/{name}"\n')
+    return path
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory):
+    """Data from a mesh 4 times finer than the identification's (linear triangles: a real model error)."""
+    folder = tmp_path_factory.mktemp("discretisation")
+    (folder / "points.csv").write_text(POINTS)
+    assert main(["simulate", str(_config(folder, "truth", 0.25, TRUE, "points.csv")),
+                 "--out", str(folder / "measured.csv")]) == 0
+    return folder
+
+
+def test_the_estimate_is_reported_and_included_in_the_weights(measured, capsys):
+    start = dict.fromkeys(TRUE, 0.1)
+    assert main(["identify", str(_config(measured, "plain", 1.0, start, "measured.csv"))]) == 0
+    plain = json.loads((measured / "runs/plain/result.json").read_text())
+    assert main(["identify", str(_config(measured, "include", 1.0, start, "measured.csv",
+                                         'model_error = "include"\n'))]) == 0
+    out = capsys.readouterr().out
+    result = json.loads((measured / "runs/include/result.json").read_text())
+    error = result["fit"]["model_error"]
+    assert error["mode"] == "include" and error["factor"] == 2 and error["n_points"] == 2
+    assert error["refined_options"]["mesh_size"] == 0.5 and len(error["in_noise"]) == result["fit"]["n_obs"]
+    assert "estimated discretisation error" in out and "included in the weights" in out
+    assert "refit with the model error in the weights" in result["message"]
+    # at 0.1 um noise the linear mesh's error dominates (about 10 noise levels): the plain fit calls itself
+    # inconsistent and claims no zone; with the model error in the weights the misfit is explained and the
+    # intervals hold the truth
+    assert error["summary"]["all"]["rms"] > 3.0 and plain["fit"]["consistent"] is False
+    for zone in TRUE:
+        assert not plain["parameters"][zone]["identifiable"]
+        assert "the data contradict each other" in plain["parameters"][zone]["why"]
+    assert result["fit"]["consistent"] is True
+    for zone, value in TRUE.items():
+        low, high = result["parameters"][zone]["ci95"]
+        assert low <= value <= high
+
+
+def test_refinement_reaches_its_target_or_names_the_error_reached(measured, capsys):
+    start = dict.fromkeys(TRUE, 0.1)
+    config = _config(measured, "budget", 2.0, start, "measured.csv", "refine_target = 0.01\nrefine_budget = 1\n")
+    assert main(["identify", str(config)]) == 1
+    err = capsys.readouterr().err
+    assert "identify.refine_budget = 1" in err and "noise levels RMS" in err and "'mesh_size': 1.0" in err
+    config = _config(measured, "refine", 2.0, start, "measured.csv", "refine_target = 1000\n")
+    assert main(["identify", str(config)]) == 0                       # reached at once: nothing refined
+    assert json.loads((measured / "runs/refine/result.json").read_text())["model"]["mesh_size"] == 2.0
+
+
+@pytest.mark.parametrize("identify, key", [('model_error = "maybe"\n', "identify.model_error"),
+                                           ("refine_target = -1\n", "identify.refine_target"),
+                                           ("refine_target = 1\nrefine_budget = 0\n", "identify.refine_budget")])
+def test_bad_settings_exit_2_naming_the_key(measured, capsys, identify, key):
+    assert main(["identify", str(_config(measured, "bad", 1.0, {"A": 0.1, "B": 0.1}, "measured.csv",
+                                         identify))]) == 2
+    assert key in capsys.readouterr().err
