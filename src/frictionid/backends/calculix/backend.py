@@ -195,13 +195,13 @@ class CalculixBackend:
         self.model = model
         self.settings = settings or CalculixSettings()
         self.settings.validate()
-        self.space = Space.build(model.mesh, model.kind)
+        self.space = Space.build(model.mesh, model.kind, model.element)
         if self.settings.load_scale != 1:
             _check_proportional(self.space, model)
         self.executable = find_ccx(self.settings.ccx)
         points = np.zeros((0, model.dim)) if points is None else np.asarray(points, dtype=float)
         self.quantities = tuple(quantities)
-        self.observe = point_operator(self.space, points, quantities, regions) if len(points) \
+        self.observe = point_operator(self.space, points, quantities, regions, model.materials) if len(points) \
             else sp.csr_matrix((0, self.space.n_dofs))
         self.observation_labels = tuple(f"P{i}.{q}" for i in range(len(points)) for q in self.quantities)
         channels = load_channels(self.space, model)

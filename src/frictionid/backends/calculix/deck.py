@@ -20,7 +20,7 @@ from ...errors import InputError
 from ...fem.space import N_CORNERS
 from ...model import Displacement, Model
 from ...model.model import component_index
-from .elements import ELEMENT_TYPE, calculix_cells, face_lookup, lump_dropped_forces
+from .elements import calculix_cells, element_type, face_lookup, lump_dropped_forces
 
 #: CalculiX prints axisymmetric reactions and contact forces for a 2-degree segment: whole ring = 180 x printed
 AXISYMMETRIC_SEGMENTS = 180.0
@@ -62,10 +62,10 @@ def _nodes(model: Model) -> list[str]:
 
 def _elements(model: Model, cells: np.ndarray) -> list[str]:
     mesh = model.mesh
-    element_type = ELEMENT_TYPE[model.kind][mesh.cell_type]
+    calculix_type = element_type(model.kind, mesh.cell_type, model.element)
     out = []
     for index, (name, region_cells) in enumerate(mesh.regions.items(), start=1):
-        out += [f"** region {name}", f"*ELEMENT, TYPE={element_type}, ELSET=E{index}"]
+        out += [f"** region {name}", f"*ELEMENT, TYPE={calculix_type}, ELSET=E{index}"]
         for cell in region_cells:
             out += _lines([cell + 1] + [n + 1 for n in cells[cell]], per_line=16)
     return out
