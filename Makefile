@@ -1,10 +1,11 @@
-# Two entry points that work on a fresh machine with only Python: `make demo` and `make test`.
+# Two entry points that work on a fresh machine with only Python: `make demo` and `make test` (the fast tests);
+# `make check` runs every test, the slow ones too.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test check bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,6 +17,9 @@ demo: $(STAMP)
 	$(VENV)/bin/frictionid demo --resume --out examples/bolt-m20/out
 
 test: $(STAMP)
+	$(PY) -m pytest -q -m "not slow"
+
+check: $(STAMP)
 	$(PY) -m pytest -q
 
 bench: $(STAMP)

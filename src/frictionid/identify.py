@@ -23,10 +23,9 @@ from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult,
 from .inverse.observations import observations_from
 from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
-from .discretisation import check_options, estimate_at, refine_until
-from .inverse.adequacy import assess
-from .inverse.model_error import inflated_sigma
-from .inverse.uncertainty import at_bounds, estimate
+from .discretisation import check_options, refine_until, with_model_error
+from .inverse.adequacy import Adequacy, assess
+from .inverse.uncertainty import Uncertainty, at_bounds, estimate
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .run.store import RunStore
@@ -184,21 +183,13 @@ def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
-    """The discretisation error at the start and the fitted point (one extra condensation); with "include" the
-    fit goes on from its end with sigma_eff^2 = sigma^2 + e^2 (see :mod:`frictionid.discretisation`)."""
-    params = setup.parameters
-    points = [params.x0, outcome.x]
-    error = estimate_at(setup.model_options, setup.model, setup.observations, [params.full(x) for x in points],
-                        [evaluator.model_values(x) for x in points])
-    if config.identify["model_error"] != "include":
-        return error, outcome
-    evaluator.reweigh(inflated_sigma(setup.observations, error))
-    refit = _optimise(_least_squares(evaluator, params, config, store, progress, outcome.n_iterations + 1,
-                                     outcome.x), config)
-    return error, replace(refit, n_iterations=outcome.n_iterations + 1 + refit.n_iterations,
-                          message=f"{refit.message} (refit with the model error in the weights)",
-                          history_x=np.vstack([outcome.history_x, refit.history_x]),
-                          history_objective=np.concatenate([outcome.history_objective, refit.history_objective]))
+    """The discretisation error along the fit, and with "include" the refit (:func:`~.discretisation.
+    with_model_error`); the refit's iterations are stored after the fit's."""
+    def refit(x0, offset):
+        return _optimise(_least_squares(evaluator, setup.parameters, config, store, progress, offset, x0), config)
+
+    return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
+                            config.identify["model_error"], refit)
 
 
 def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path, status: str, message: str,
@@ -222,17 +213,9 @@ def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path
 def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, report: Prefit,
             wall: float, error=None) -> dict:
     params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
-    r = evaluator.residuals(outcome.x)[:obs.n_obs]
-    jac = evaluator.jacobian(outcome.x)[:obs.n_obs]
-    f = evaluator.model_values(outcome.x)
-    # a robust fit is the least-squares fit with the weights it ends with: its statistics are computed so
-    weights = robust_weights(r, problem.loss, problem.loss_scale)
-    r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     free = list(params.free_names)
-    bound = at_bounds(outcome.x, params.lower, params.upper)
-    adequacy = assess(r, jac, obs.labels, obs.y, f, obs.noise_known, inner=~bound)
-    unc = estimate(jac, r, outcome.x, params.lower, params.upper, obs.noise_known,
-                   float(config.identify["resolution"]), free, adequacy)
+    stats = fit_statistics(evaluator, problem, outcome.x, float(config.identify["resolution"]))
+    r, f, weights, adequacy, unc = stats.r, stats.f, stats.weights, stats.adequacy, stats.uncertainty
     why = contact_reasons(evaluator.backend, params.full(outcome.x), sorted(set(obs.stage.tolist())), free, unc)
     parameters = {}
     for p in params.items:
@@ -267,6 +250,32 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "history": {"objective": outcome.history_objective.tolist(),
                     "coefficients": [params.full(x).tolist() for x in outcome.history_x]},
     }
+
+
+@dataclass(frozen=True)
+class FitStatistics:
+    """What the fitted point says: weighted residuals r (n_obs,) (robust weights applied), model values f,
+    robust weights (1 for least squares), the fit's :class:`Adequacy` and :class:`Uncertainty`."""
+
+    r: np.ndarray
+    f: np.ndarray
+    weights: np.ndarray
+    adequacy: Adequacy
+    uncertainty: Uncertainty
+
+
+def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float) -> FitStatistics:
+    """Adequacy and uncertainty of the free coefficients x with the evaluator's observations and weights."""
+    params, obs = evaluator.params, evaluator.obs
+    r = evaluator.residuals(x)[:obs.n_obs]
+    jac = evaluator.jacobian(x)[:obs.n_obs]
+    # a robust fit is the least-squares fit with the weights it ends with: its statistics are computed so
+    weights = robust_weights(r, problem.loss, problem.loss_scale)
+    r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
+    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known,
+                      inner=~at_bounds(x, params.lower, params.upper))
+    unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:

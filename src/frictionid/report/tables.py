@@ -101,7 +101,8 @@ def _adequacy_lines(fit: dict) -> list[str]:
         kinds = ", ".join(f"{key[5:]} {v['rms']:.3g}" for key, v in error["summary"].items() if key.startswith("kind "))
         lines.append(f"    estimated discretisation error (model refined x{error['factor']}, Richardson): "
                      f"{all_['rms']:.3g} noise levels RMS, max {all_['max']:.3g} (by kind: {kinds})"
-                     + ("; included in the weights" if error["mode"] == "include" else
+                     + (f"; included in the weights scaled by {error['scale']:.3g} (the size the misfit shows)"
+                        if error["mode"] == "include" else
                         "; not included in the weights (identify.model_error = \"include\" does)"))
     misfit = fit["misfit"]
     for title, table in (("quantity", misfit["by_quantity"]), ("stage", misfit["by_stage"]),
