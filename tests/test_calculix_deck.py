@@ -101,10 +101,19 @@ def test_load_scale_scales_every_applied_force_and_displacement(block3d):
     for stage in (0, 1):
         a, b = ([[float(v) for v in line.split(",")] for line in cards(deck, "*CLOAD")[stage]] for deck in (full, scaled))
         np.testing.assert_array_equal(np.array(a)[:, :2], np.array(b)[:, :2])            # the same nodes and dofs
-        np.testing.assert_allclose(np.array(b)[:, 2], 0.01 * np.array(a)[:, 2], rtol=1e-14)
+        np.testing.assert_allclose(np.array(b)[:, 2], 0.01 * np.array(a)[:, 2], rtol=1e-12)   # 13 digits printed
     # nothing else changes: penalty slopes, coefficients, steps
     rest = [line for line in full.splitlines() if not re.match(r"^\d+, \d, ", line) and "0.2" not in line]
     assert rest == [line for line in scaled.splitlines() if not re.match(r"^\d+, \d, ", line) and "0.002" not in line]
+
+
+def test_every_number_fits_the_20_characters_ccx_reads(block3d):
+    """ccx reads a number's first 20 characters: -4.16666666666667e-05 (21) comes back as about -4.17."""
+    channels = load_channels(Space.build(block3d.mesh, block3d.kind), block3d)
+    deck = write_deck(block3d, [1 / 3] * 4, CONTACT, channels.forces, channels.amplitudes, load_scale=1 / 3e6)
+    fields = [f.strip() for line in deck.splitlines() if line and not line.startswith("*") for f in line.split(",")]
+    assert any(re.fullmatch(r"-\d\.\d+e-\d\d", f) for f in fields)          # the case that broke it is there
+    assert max(map(len, fields)) <= 20
 
 
 @pytest.mark.parametrize("model, gap", [(lambda: interference_model(), "-0.01"),

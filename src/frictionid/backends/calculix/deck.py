@@ -56,7 +56,7 @@ def _nodes(model: Model) -> list[str]:
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
     out = ["*NODE, NSET=NALL"]
-    out += [f"{i + 1}, {x:.15g}, {y:.15g}, {z:.15g}" for i, (x, y, z) in enumerate(points)]
+    out += [f"{i + 1}, {x:.13g}, {y:.13g}, {z:.13g}" for i, (x, y, z) in enumerate(points)]
     return out
 
 
@@ -115,7 +115,7 @@ def _materials(model: Model) -> list[str]:
     for index, name in enumerate(model.mesh.regions, start=1):
         material = model.materials[name]
         out += [f"** region {name}: {material.name or 'material'}", f"*MATERIAL, NAME=M{index}", "*ELASTIC",
-                f"{material.E:.15g}, {material.nu:.15g}",
+                f"{material.E:.13g}, {material.nu:.13g}",
                 f"*SOLID SECTION, ELSET=E{index}, MATERIAL=M{index}"] + thickness
     return out
 
@@ -128,11 +128,11 @@ def _contact(model: Model, mu: np.ndarray, contact: ContactSettings) -> list[str
         for zone in interface.zones:
             zone_index += 1
             value = float(mu[zone_index - 1])
-            out += [f"** zone {zone} of interface {interface.name}, mu = {value:.15g}",
+            out += [f"** zone {zone} of interface {interface.name}, mu = {value:.13g}",
                     f"*SURFACE INTERACTION, NAME=I{zone_index}",
-                    "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{contact.normal_stiffness:.15g}"]
+                    "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{contact.normal_stiffness:.13g}"]
             if value > 0:
-                out += ["*FRICTION", f"{value:.15g}, {contact.stick_slope:.15g}"]
+                out += ["*FRICTION", f"{value:.13g}, {contact.stick_slope:.13g}"]
             out += [f"*CONTACT PAIR, INTERACTION=I{zone_index}, TYPE={contact.pair_type}", f"SZ{zone_index}, {target}"]
     return out
 
@@ -178,17 +178,17 @@ def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reac
     out = [f"** stage {stage + 1}: {model.stages[stage].name}", "*STEP, INC=10000",
            "** up to 20 cutbacks per increment (ccx default 5 stopped an axisymmetric contact run; 20 passed)",
            "*CONTROLS, PARAMETERS=TIME INCREMENTATION", "4, 8, 9, 16, 10, 4, , 20",
-           "*STATIC", f"{dt:.15g}, 1., {dt * 1e-6:.15g}, {dt:.15g}"]
+           "*STATIC", f"{dt:.13g}, 1., {dt * 1e-6:.13g}, {dt:.13g}"]
     moves = [load for load in model.loads if isinstance(load, Displacement)]
     if moves:
         out.append("*BOUNDARY")
         for load in moves:
             k = component_index(load.component, model.dim, f"Displacement on {load.boundary!r}") + 1
-            out.append(f"{set_name(model, load.boundary)}, {k}, {k}, {load_scale * load.values[stage]:.15g}")
+            out.append(f"{set_name(model, load.boundary)}, {k}, {k}, {load_scale * load.values[stage]:.13g}")
     if loaded.size:
         out.append("*CLOAD")
         for node, c in loaded:
-            out.append(f"{node + 1}, {c + 1}, {forces[stage, node, c]:.15g}")
+            out.append(f"{node + 1}, {c + 1}, {forces[stage, node, c]:.13g}")
     out += ["*NODE FILE", "U"] + (["*NODE PRINT, NSET=NOBS", "U"] if observed else [])
     for name in reaction_sets:
         out += [f"*NODE PRINT, NSET={name}, TOTALS=ONLY", "RF"]
