@@ -1,5 +1,5 @@
 # Two entry points that work on a fresh machine with only Python: `make demo` and `make test` (the fast tests);
-# `make check` runs every test, the slow ones too.
+# `make check` runs every test, the slow and the CalculiX ones too.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -17,7 +17,7 @@ demo: $(STAMP)
 	$(VENV)/bin/frictionid demo --resume --out examples/bolt-m20/out
 
 test: $(STAMP)
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow and not calculix"
 
 check: $(STAMP)
 	$(PY) -m pytest -q

@@ -25,8 +25,15 @@ from frictionid.inverse.observations import observations_from
 from frictionid.inverse.parameters import Parameters
 from frictionid.model import Mesh
 
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
-                               reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
+_without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
+                                  reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
+
+
+def needs_ccx(test):
+    """A test that runs CalculiX: marked ``calculix`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
+    return pytest.mark.calculix(_without_ccx(test))
+
+
 Q2D = ("ux", "uy", "exx", "eyy", "exy")
 Q3D = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 #: the 16 strain points of benchmarks/identify_block.py on the block's side faces near the contact

@@ -21,8 +21,15 @@ from frictionid.fem.problem import Problem
 from frictionid.fem.space import Space
 from frictionid.model import Material, Mesh, Model, Support, SurfaceForce
 
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
-                               reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
+_without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
+                                  reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
+
+
+def needs_ccx(test):
+    """A test that runs CalculiX: marked ``calculix`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
+    return pytest.mark.calculix(_without_ccx(test))
+
+
 #: cantilever [0, L] x [-b/2, b/2] x [-h/2, h/2] [mm], E [MPa], nu = 0 (no Poisson coupling at the clamp)
 L, B, H, E = 10.0, 1.0, 1.0, 1000.0
 INERTIA = B * H ** 3 / 12                      # [mm^4]
