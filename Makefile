@@ -17,7 +17,7 @@ demo: $(STAMP)
 	$(VENV)/bin/frictionid demo --resume --out examples/bolt-m20/out
 
 test: $(STAMP)
-	$(PY) -m pytest -q -m "not slow and not calculix"
+	$(PY) -m pytest -q -m "not slow and not ccx"
 
 check: $(STAMP)
 	$(PY) -m pytest -q

@@ -30,8 +30,8 @@ _without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
 
 
 def needs_ccx(test):
-    """A test that runs CalculiX: marked ``calculix`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
-    return pytest.mark.calculix(_without_ccx(test))
+    """A test that runs CalculiX: marked ``ccx`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
+    return pytest.mark.ccx(_without_ccx(test))
 
 
 Q2D = ("ux", "uy", "exx", "eyy", "exy")

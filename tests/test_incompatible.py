@@ -26,8 +26,8 @@ _without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
 
 
 def needs_ccx(test):
-    """A test that runs CalculiX: marked ``calculix`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
-    return pytest.mark.calculix(_without_ccx(test))
+    """A test that runs CalculiX: marked ``ccx`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
+    return pytest.mark.ccx(_without_ccx(test))
 
 
 #: cantilever [0, L] x [-b/2, b/2] x [-h/2, h/2] [mm], E [MPa], nu = 0 (no Poisson coupling at the clamp)
