@@ -5,8 +5,12 @@
 
 - "off" (default): nothing; the fit-adequacy test still says when the misfit exceeds the stated noise;
 - "estimate": the estimate at the start and the fitted coefficients is reported (``fit.model_error``);
-- "include": as "estimate", then the fit is repeated from its end with sigma_eff^2 = sigma^2 + e^2, so the
-  chi-square test and the intervals include the model error.
+- "include": as "estimate", then the fit is repeated from its end with sigma_eff^2 = sigma^2 + (k e)^2, so the
+  intervals include the model error. The estimate gives the error's pattern over the observations; its size k
+  is taken from the misfit (:func:`error_scale`: chi-square equal to its degrees of freedom, k = 0 when the
+  noise explains the misfit). The chi-square test then passes by construction unless the pattern cannot
+  explain the misfit: when the observations where the estimate sees no error hold more misfit than the noise
+  explains, k cannot help and the fit stays inconsistent.
 
 ``identify.refine_target`` > 0 refines the model (element sizes halved, up to ``identify.refine_budget``
 times) before fitting until the estimated error at the start values is below that many noise levels RMS; a
