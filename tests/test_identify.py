@@ -113,6 +113,25 @@ def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_r
     assert _evaluations(store) == reference["n_forward_solves"]   # nothing evaluated twice
 
 
+def test_ctrl_c_as_a_real_signal_stops_with_exit_1_a_result_and_the_resume_hint(measured):
+    """SIGINT to the command-line process mid-run (after gmsh built the mesh: gmsh must not leave Ctrl-C killing
+    the process): exit status 1, the message naming --resume, result.json "interrupted", the store kept."""
+    extra = '[identify]\nmethod = "gradient-descent"\njacobian = "forward"\nmax_iterations = 30\n'
+    config = _config(measured, "sigint.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", extra, "runs/sigint")
+    store = measured / "runs/sigint/store.sqlite"
+    child = subprocess.Popen([sys.executable, "-m", "frictionid.cli", "identify", str(config)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while _evaluations(store) < 10 and time.monotonic() < deadline and child.poll() is None:
+        time.sleep(0.02)
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=60)
+    assert child.returncode == 1, (child.returncode, err)
+    assert "interrupted" in err and "--resume" in err and "Traceback" not in err
+    result = json.loads((measured / "runs/sigint/result.json").read_text())
+    assert result["status"] == "interrupted" and _evaluations(store) >= 10
+
+
 @pytest.mark.parametrize("change, message", [
     (("A = 0.1, B = 0.1, C = 0.1", "A = 0.1, B = 0.1, Z = 0.1"), "unknown zone(s) ['Z']"),
     (("A = 0.1, B = 0.1, C = 0.1", "A = 1.5, B = 0.1, C = 0.1"), "zones.A = 1.5 lies outside bounds"),

@@ -15,8 +15,11 @@ from ..model.mesh import CELL_DIM, FACET_NODES, FACET_TYPE, Mesh
 
 @contextlib.contextmanager
 def gmsh_session(name: str = "frictionid"):
-    """Initialise gmsh quietly for the duration of a block and always finalise it."""
-    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    """Initialise gmsh quietly for the duration of a block and always finalise it.
+
+    ``interruptible=False``: otherwise gmsh sets SIGINT to the system default (Ctrl-C kills the process without
+    a result or a message) and, in gmsh 4.15, never restores Python's handler at finalize."""
+    gmsh.initialize(["-noenv"], readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(name)
