@@ -60,10 +60,11 @@ def _replicates(mode: str):
             return optimise(problem, "trf"), problem
 
         outcome, problem = fit(params.x0)
+        error = None
         if mode == "include":
-            _, outcome = with_model_error(evaluator, params, MODEL, model, outcome, mode,
-                                          lambda x0, offset: fit(x0)[0])
-        stats = fit_statistics(evaluator, problem, outcome.x, RESOLUTION)
+            error, outcome = with_model_error(evaluator, params, MODEL, model, outcome, mode,
+                                              lambda x0, offset: fit(x0)[0])
+        stats = fit_statistics(evaluator, problem, outcome.x, RESOLUTION, error)
         unc = stats.uncertainty
         inside = (unc.ci95[:, 0] <= TRUE) & (TRUE <= unc.ci95[:, 1])
         rows.append((outcome.x, unc.identifiable, inside, stats.adequacy.consistent))

@@ -66,6 +66,54 @@ def test_the_estimate_is_reported_and_included_in_the_weights(measured, capsys):
         assert low <= value <= high
 
 
+ABSORBED_POINTS = """# block sides and base top; at a 0.01 mm pull zone A sticks and B partly slips
+point,x,y,z,stage
+L1,-5.0,0.5,0.0,2
+L2,-5.0,1.5,0.0,2
+L3,-5.0,3.0,0.0,2
+R1,5.0,0.5,0.0,2
+R2,5.0,1.5,0.0,2
+R3,5.0,3.0,0.0,2
+B1,-7.0,0.0,0.0,2
+B2,7.0,0.0,0.0,2
+"""
+ABSORBED_MODEL = '[model]\nbuilder = "block2d"\nn_zones = 2\npull = 0.01\nmesh_size = '
+ABSORBED_DATA = ('observables = ["ux", "uy", "force"]\nstages = [2]\nnoise = { u = 0.0005, force = 0.05 }\n'
+                 'regions = { L1 = "block", L2 = "block", L3 = "block", R1 = "block", R2 = "block", '
+                 'R3 = "block", "*" = "base" }\n')
+
+
+@pytest.mark.parametrize("mode", ["estimate", "include"])
+def test_a_model_error_the_coefficients_absorb_is_found_by_the_estimate(tmp_path, capsys, mode):
+    """Quadratic triangles of 1 mm fitted to data of a 0.5 mm mesh: the machine force's discretisation error
+    (about 5 noise levels) lies along zone B's sensitivity, so the fit absorbs it into B (0.08 for 0.15) and leaves
+    no misfit: the chi-square test passes and, without the estimate, B would be claimed resolved 4 standard errors
+    from the truth. The estimate's signed error, mapped through the sensitivities, moves B by about the error the
+    fit made, and B is not claimed."""
+    (tmp_path / "points.csv").write_text(ABSORBED_POINTS)
+    (tmp_path / "truth.toml").write_text(ABSORBED_MODEL + '0.5\n[friction]\nzones = { A = 0.3, B = 0.15 }\n'
+                                         '[data]\nfile = "points.csv"\n' + ABSORBED_DATA)
+    assert main(["simulate", str(tmp_path / "truth.toml"), "--out", str(tmp_path / "measured.csv")]) == 0
+    results = {}
+    for name, extra in (("off", ""), (mode, f'[identify]\nmodel_error = "{mode}"\n')):
+        config = tmp_path / f"{name}.toml"
+        config.write_text(ABSORBED_MODEL + '1.0\n[friction]\nzones = { A = 0.1, B = 0.1 }\n'
+                          '[data]\nfile = "measured.csv"\n' + ABSORBED_DATA + extra + f'[run]\ndir = "runs/{name}"\n')
+        assert main(["identify", str(config)]) == 0
+        results[name] = json.loads((tmp_path / f"runs/{name}/result.json").read_text())
+    out = capsys.readouterr().out
+    off, checked = results["off"], results[mode]
+    b = off["parameters"]["B"]
+    assert off["fit"]["consistent"] is True and b["identifiable"]            # the blind spot this closes
+    assert abs(b["value"] - 0.15) > 3 * b["stderr"]
+    assert "not checked: the mesh's discretisation error" in out
+    shift = checked["fit"]["model_error"]["shift"]["B"]
+    assert 0.5 < shift / (0.15 - checked["parameters"]["B"]["value"]) < 2.0
+    assert not checked["parameters"]["B"]["identifiable"]
+    assert "estimated discretisation error moves it" in checked["parameters"]["B"]["why"]
+    assert "corrected for that error the coefficients would move by" in out
+
+
 def test_refinement_reaches_its_target_or_names_the_error_reached(measured, capsys):
     start = dict.fromkeys(TRUE, 0.1)
     config = _config(measured, "budget", 2.0, start, "measured.csv", "refine_target = 0.01\nrefine_budget = 1\n")

@@ -24,7 +24,7 @@ from .inverse.observations import observations_from
 from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
 from .discretisation import check_options, refine_until, with_model_error
-from .inverse.adequacy import Adequacy, assess
+from .inverse.adequacy import Adequacy, assess, bias_shift
 from .inverse.uncertainty import Uncertainty, at_bounds, estimate
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
@@ -214,7 +214,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
             wall: float, error=None) -> dict:
     params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
     free = list(params.free_names)
-    stats = fit_statistics(evaluator, problem, outcome.x, float(config.identify["resolution"]))
+    stats = fit_statistics(evaluator, problem, outcome.x, float(config.identify["resolution"]), error)
     r, f, weights, adequacy, unc = stats.r, stats.f, stats.weights, stats.adequacy, stats.uncertainty
     why = contact_reasons(evaluator.backend, params.full(outcome.x), sorted(set(obs.stage.tolist())), free, unc)
     parameters = {}
@@ -238,7 +238,10 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                 "loss": problem.loss, "n_downweighted": int(np.sum(weights < 0.5)),
                 "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2))),
                 "points": point_misfit(obs, r),
-                "model_error": None if error is None else {"mode": config.identify["model_error"], **error.as_dict()}},
+                "model_error": None if error is None else {
+                    "mode": config.identify["model_error"], **error.as_dict(),
+                    "shift": {name: None if not np.isfinite(v) else float(v)
+                              for name, v in zip(free, stats.model_shift)}}},
         "model": setup.model_options,
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
@@ -262,20 +265,28 @@ class FitStatistics:
     weights: np.ndarray
     adequacy: Adequacy
     uncertainty: Uncertainty
+    model_shift: np.ndarray | None = None
 
 
-def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float) -> FitStatistics:
-    """Adequacy and uncertainty of the free coefficients x with the evaluator's observations and weights."""
+def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float,
+                   error=None) -> FitStatistics:
+    """Adequacy and uncertainty of the free coefficients x with the evaluator's observations and weights;
+    ``error``: the :class:`~frictionid.inverse.model_error.ModelError` estimated for this fit, if any (the
+    coefficient shift its signed error causes decides, with the rest, which zones are identifiable)."""
     params, obs = evaluator.params, evaluator.obs
     r = evaluator.residuals(x)[:obs.n_obs]
     jac = evaluator.jacobian(x)[:obs.n_obs]
     # a robust fit is the least-squares fit with the weights it ends with: its statistics are computed so
     weights = robust_weights(r, problem.loss, problem.loss_scale)
     r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
-    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known,
-                      inner=~at_bounds(x, params.lower, params.upper))
-    unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy)
-    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc)
+    inner = ~at_bounds(x, params.lower, params.upper)
+    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner)
+    shift = None
+    if error is not None and error.signed is not None:
+        shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
+    unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
+                   shift)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:

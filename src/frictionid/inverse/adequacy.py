@@ -176,6 +176,29 @@ def _shift(jac: np.ndarray, r: np.ndarray, out: np.ndarray, inner: np.ndarray) -
     return z
 
 
+def bias_shift(jac: np.ndarray, bias: np.ndarray, inner=None) -> np.ndarray:
+    """(n_free,) linearised change of the fitted coefficients if the model's weighted values were corrected by
+    -``bias`` (e.g. the estimated discretisation error over the noise): dx = (J^T J)^-1 J^T bias over the
+    ``inner`` zones (not held at a bound) that the data see (least squares of minimum norm where they see only
+    combinations); nan for the others.
+
+    A model error along the sensitivities is absorbed by the coefficients and leaves no misfit, so the
+    chi-square test cannot see it; this shift is how far it moved them.
+
+    >>> jac = np.array([[1.0, 0.0], [0.0, 2.0], [1.0, 1.0]])
+    >>> bias_shift(jac, jac @ np.array([0.1, -0.2])).round(12).tolist()
+    [0.1, -0.2]
+    """
+    jac, bias = np.asarray(jac, dtype=float), np.asarray(bias, dtype=float)
+    inner = np.ones(jac.shape[1], dtype=bool) if inner is None else np.asarray(inner, dtype=bool)
+    dx = np.full(jac.shape[1], np.nan)
+    norms = np.linalg.norm(jac, axis=0)
+    seen = inner & (norms > 1e-12 * max(norms.max(initial=0.0), 1e-300))
+    if seen.any():
+        dx[seen] = np.linalg.lstsq(jac[:, seen], bias, rcond=None)[0]
+    return dx
+
+
 def _hint(by_quantity: dict, by_group: dict, r: np.ndarray) -> str:
     """What to try when the stated noise does not explain the misfit."""
     advice = []

@@ -109,6 +109,10 @@ class ModelError:
     seconds : wall time of the refined model's build, condensation and solves [s]
     scale : factor on ``estimate`` where it is used as extra variance (:func:`inflated_sigma`): the size of the
         error the data show relative to the estimate (``frictionid.discretisation.error_scale``); 1 by default
+    signed : (n_obs,) the signed error (model minus converged value, observations' units) at the last
+        coefficient set (an identification's fitted point): what the coarse model's values would be corrected
+        by; it moves the fitted coefficients along the sensitivities, which the misfit alone cannot show
+        (:func:`frictionid.inverse.adequacy.bias_shift`)
     """
 
     estimate: np.ndarray
@@ -121,6 +125,7 @@ class ModelError:
     n_points: int
     seconds: float
     scale: float = 1.0
+    signed: np.ndarray | None = None
     summary: dict = field(init=False)
 
     def __post_init__(self):
@@ -133,7 +138,8 @@ class ModelError:
         """JSON-ready: per-observation lists, the orders, the refined options and the summaries (in noise)."""
         return {"estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(), "orders": dict(self.orders),
                 "factor": self.factor, "refined_options": dict(self.refined_options), "n_points": self.n_points,
-                "seconds": self.seconds, "scale": self.scale, "summary": self.summary}
+                "seconds": self.seconds, "scale": self.scale, "summary": self.summary,
+                "signed": None if self.signed is None else self.signed.tolist()}
 
 
 def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:
@@ -231,7 +237,8 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
     if coarse is None:
         coarse = _predictions(coarse_model, observations, mu_points, keep=True)
     p = np.array([orders[k] for k in kinds], dtype=float)
-    estimate = np.max([np.abs(richardson(c, f, p, factor)) for c, f in zip(coarse, fine)], axis=0)
+    errors = [richardson(c, f, p, factor) for c, f in zip(coarse, fine)]
+    estimate = np.max(np.abs(errors), axis=0)
     return ModelError(estimate=estimate, in_noise=estimate / observations.sigma, kinds=kinds,
                       stages=observations.stage + 1, orders=orders, factor=factor, refined_options=fine_options,
-                      n_points=len(mu_points), seconds=seconds)
+                      n_points=len(mu_points), seconds=seconds, signed=errors[-1])

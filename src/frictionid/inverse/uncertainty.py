@@ -11,7 +11,8 @@ Intervals never leave the bounds: an inner parameter's 95 % interval is x +- q s
 interval [b, b + 1.645 s] (or [b - 1.645 s, b] at an upper bound), never a symmetric one through the bound.
 
 A parameter is reported identifiable when its standard error is within a tolerance (by default a quarter of
-its bound interval) and the data do not contradict each other about it (:attr:`.Adequacy.affected`); every
+its bound interval), the data do not contradict each other about it (:attr:`.Adequacy.affected`) and, where the
+discretisation error was estimated, that error does not move it by more than SHIFT_LIMIT standard errors; every
 other one gets a reason (``why``).
 """
 
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from .adequacy import SHIFT_LIMIT
 from .resolution import predicted_stderr
 
 #: |correlation| above which a poorly resolved zone is said to be confounded with its partner
@@ -57,12 +59,14 @@ def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
 
 
 def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
-             tolerance: float | None = None, names=None, adequacy=None) -> Uncertainty:
+             tolerance: float | None = None, names=None, adequacy=None, model_shift=None) -> Uncertainty:
     """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x.
 
     ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds);
     ``names``: parameter names for the reasons; ``adequacy``: the fit's :class:`~.adequacy.Adequacy` (its
-    consistency decides s^2, its ``affected`` zones are not identifiable).
+    consistency decides s^2, its ``affected`` zones are not identifiable); ``model_shift``: (n_free,) how far
+    the estimated discretisation error moved each coefficient (:func:`~.adequacy.bias_shift`; nan unknown): a
+    zone moved by more than SHIFT_LIMIT standard errors is not identifiable.
 
     Examples
     --------
@@ -96,10 +100,16 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
                       else stats.t.ppf(0.975, dof), stats.norm.ppf(0.95) if noise_known else stats.t.ppf(0.95, dof))
     limit = np.broadcast_to(0.25 * (upper - lower) if tolerance is None else tolerance, (n_free,))
     affected = np.zeros(n_free, dtype=bool) if adequacy is None else adequacy.affected
-    identifiable = (se <= limit) & ~affected
+    shift = np.full(n_free, np.nan) if model_shift is None else np.asarray(model_shift, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        moved = np.nan_to_num(np.abs(shift) / se, nan=0.0) > SHIFT_LIMIT
+    identifiable = (se <= limit) & ~affected & ~moved
     why = tuple("" if identifiable[k] else
                 adequacy.why_affected(k, names) if affected[k] else
-                _why_unresolved(k, jac, se, limit[k], correlation, vt, s, names) for k in range(n_free))
+                _why_unresolved(k, jac, se, limit[k], correlation, vt, s, names) if not moved[k] else
+                f"the mesh's estimated discretisation error moves it by {shift[k]:+.3g} ({abs(shift[k]) / se[k]:.1f} "
+                "standard errors): refine the mesh (identify.refine_target) or observe where the model converges"
+                for k in range(n_free))
     return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message, scale, why)
 
 

@@ -104,6 +104,13 @@ def _adequacy_lines(fit: dict) -> list[str]:
                      + (f"; included in the weights scaled by {error['scale']:.3g} (the size the misfit shows)"
                         if error["mode"] == "include" else
                         "; not included in the weights (identify.model_error = \"include\" does)"))
+        shift = {zone: v for zone, v in error.get("shift", {}).items() if v is not None}
+        if shift:
+            lines.append("    corrected for that error the coefficients would move by (linearised): "
+                         + ", ".join(f"{zone} {v:+.3g}" for zone, v in shift.items()))
+    elif fit["consistent"] is not False:
+        lines.append("    not checked: the mesh's discretisation error, which a coefficient can absorb without leaving "
+                     "a misfit (identify.model_error = \"estimate\" checks it)")
     misfit = fit["misfit"]
     for title, table in (("quantity", misfit["by_quantity"]), ("stage", misfit["by_stage"]),
                          ("point group", misfit["by_group"])):
