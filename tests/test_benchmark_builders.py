@@ -1,5 +1,5 @@
 """Tests of the benchmark builders: named groups, node-to-node pairing at equal tangential coordinate, initial
-gaps, separate bodies, load resultants, and the analytical reference formulas (NUMERICS.md section 5)."""
+gaps, separate bodies, load resultants, and the analytical reference formulas (docs/design.md, verification)."""
 
 import math
 
@@ -159,7 +159,7 @@ def test_hertz_reference_reproduces_vm191():
 @pytest.mark.parametrize("mu, c_over_a", [(0.2, 0.729), (0.3, 0.829)])
 def test_mindlin_reference_reproduces_numerics_md(mu, c_over_a):
     ref = mindlin_reference(mu)
-    # NUMERICS.md 5.3: E* = 109.89, R_eff = 4, a = 0.6808 mm, p0 = 9.351 MPa
+    # docs/design.md, verification: E* = 109.89, R_eff = 4, a = 0.6808 mm, p0 = 9.351 MPa
     assert ref["E_star"] == pytest.approx(109.89, rel=1e-4)
     assert ref["R"] == pytest.approx(4.0, rel=1e-12)
     assert ref["a"] == pytest.approx(0.6808, rel=2e-4)
@@ -195,7 +195,7 @@ def test_lame_reference():
 
 
 def test_pushout_force():
-    # F = sum mu_i p_i 2 pi a L_i (NUMERICS.md 5.4)
+    # F = sum mu_i p_i 2 pi a L_i (docs/design.md, verification)
     assert pushout_force([0.1, 0.3], [80.0, 90.0], 10.0, [4.0, 6.0]) == pytest.approx(
         2 * math.pi * 10.0 * (0.1 * 80.0 * 4.0 + 0.3 * 90.0 * 6.0), rel=1e-12)
     assert pushout_force(0.2, 50.0, 10.0, 10.0) == pytest.approx(0.2 * 50.0 * 2 * math.pi * 100.0, rel=1e-12)

@@ -1,5 +1,5 @@
-"""The axisymmetric bolt-nut model (DESIGN.md reference test 2): layout numbers, conforming flank interface,
-zones, equilibrium, thread load shares against Sopwith (BOLT.md), report outputs, measurement points, bad input.
+"""The axisymmetric bolt-nut model (reference test 2 (docs/models.md)): layout numbers, conforming flank interface,
+zones, equilibrium, thread load shares against Sopwith (docs/design.md), report outputs, measurement points, bad input.
 
 The solved model uses a 0.25 mm flank size instead of 0.1 to keep the suite fast: the load shares at 0.25, 0.2
 and 0.1 mm agree to 0.01 percentage points (measured here), far inside every tolerance below.
@@ -142,7 +142,7 @@ def test_global_equilibrium(solution):
 
 
 def test_load_shares_default_setup(model, solution):
-    """DESIGN.md set-up (flanks 0.1, head and nut on the plates 0.15): shares sum to the force; they decay from
+    """docs/models.md set-up (flanks 0.1, head and nut on the plates 0.15): shares sum to the force; they decay from
     the bearing face over threads 1-6, the last thread takes a little more than the sixth (end effect of the
     bolt beyond the nut). Plate 1 gives under the nut (it bends under the rim load) and the nut's bearing face slides
     outward on it, so the distribution is flatter than Sopwith's: first thread 20.6 % here (0.1 mm mesh: 20.6 %),
@@ -156,7 +156,7 @@ def test_load_shares_default_setup(model, solution):
 
 
 def test_load_shares_with_the_nut_held_radially_agree_with_sopwith(model, problem):
-    """Acceptance (BOLT.md): with the nut bearing face held radially (nut-plate mu = 1, sticking over the
+    """Acceptance (docs/design.md): with the nut bearing face held radially (nut-plate mu = 1, sticking over the
     outer half) - Sopwith's assumption of axial thread springs - the shares decay monotonically, sum to the
     force within 0.5 %, the first thread carries 25-35 %, and the fitted lam P lies in 0.3-0.45."""
     loads = thread_loads(model, problem.solve(coefficients(model, plate_mu=1.0)))
@@ -257,7 +257,7 @@ def test_registry_builds_the_bolt_and_checks_options():
 
 def test_quadratic_cells_are_not_inverted(model):
     """det J of every 6-node triangle at its corners and mid-edge points is positive (curved root arcs
-    included: BOLT.md saw inverted quadratic quads there)."""
+    included: docs/design.md saw inverted quadratic quads there)."""
     mesh = model.mesh
     x = mesh.points[mesh.cells]                                            # (n_cells, 6, 2), meshio order
     e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]

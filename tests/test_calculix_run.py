@@ -184,7 +184,7 @@ def test_axisymmetric_forces_are_whole_ring():
 
 @needs_ccx
 def test_bolt_thread_loads_agree_with_calculix():
-    """The M20 load distribution on the DESIGN.md set-up (issue 4: flatter than Sopwith's, the first flank about
+    """The M20 load distribution on the docs/models.md set-up (issue 4: flatter than Sopwith's, the first flank about
     20 % and the last above the sixth) is what CalculiX gives too: one zone per engaged flank, the flank normal
     forces at 30 kN from both backends on the same CAX6 mesh (measured: within 0.05 %, shares within 0.01 points)."""
     model = bolt_model(flank_size=0.25, n_radial=1, n_axial=7)

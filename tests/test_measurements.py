@@ -204,7 +204,7 @@ def test_axisymmetric_mapping_refuses_points_on_the_axis_and_half_given_displace
         map_to_axisymmetric(off_plane)
 
 
-# 10 DIC points on the first two engaged bolt flanks (DESIGN.md reference test 2), two stages
+# 10 DIC points on the first two engaged bolt flanks (reference test 2 (docs/models.md)), two stages
 DIC = """# M20 bolt-nut connection, DIC (synthetic values for the test)
 # units: x, y, z, uy, sigma_uy [mm]; force [N]
 point,x,y,z,stage,force,uy,sigma_uy,ux

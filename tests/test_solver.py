@@ -24,7 +24,7 @@ def test_gross_slip_tangential_reaction_equals_sum_mu_n(gross):
     assert np.all(solution.state[-1][closed] == SLIP)
     normal = solution.zone_normal_force[-1]
     pulled = solution.reactions[-1][solution.reaction_labels.index("block_top.x")]
-    assert abs(pulled) == pytest.approx(MU @ normal, rel=1e-8)   # NUMERICS.md 5.1, exact for Coulomb
+    assert abs(pulled) == pytest.approx(MU @ normal, rel=1e-8)   # docs/design.md, verification, exact for Coulomb
 
 
 def test_every_slipping_pair_is_on_the_friction_cone(gross):

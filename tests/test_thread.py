@@ -1,4 +1,4 @@
-"""ISO thread tables and profile geometry (pure functions, no gmsh): BOLT.md numbers, flank and root geometry,
+"""ISO thread tables and profile geometry (pure functions, no gmsh): docs/design.md numbers, flank and root geometry,
 the nut bore with its countersinks, flanks that touch while the free flanks are open, bad sizes."""
 
 import math
@@ -15,7 +15,7 @@ SIZES = list(COARSE_PITCH)
 
 
 def test_m20_matches_bolt_md():
-    """BOLT.md table (M20 x 2.5), quoted to its printed digits."""
+    """docs/design.md table (M20 x 2.5), quoted to its printed digits."""
     s = thread_size("M20")
     assert s.P == 2.5 and s.d == 20.0
     assert s.H == pytest.approx(2.16506, abs=1e-5)
@@ -130,7 +130,7 @@ def test_load_flanks_touch_and_free_flanks_open_by_es_over_sqrt3():
         bolt_free = f.z_bolt + (s.d / 2 + s.H / 8 - shift - r) / SQRT3
         nut_free = f.z_nut + s.P - (r - (s.d / 2 - 7 * s.H / 8)) / SQRT3
         np.testing.assert_allclose(nut_free - bolt_free, 0.042 / SQRT3, atol=1e-12)
-    # DESIGN.md: nut moved by 0.0123; exact touching with the rounded |es| = 0.042 needs 0.021 / sqrt(3)
+    # the default set-up: nut moved by 0.0123; exact touching with the rounded |es| = 0.042 needs 0.021 / sqrt(3)
     assert flanks[0].z_nut - (flanks[0].z_bolt - s.P / 2) == pytest.approx(0.012124, abs=1e-6)
 
 

@@ -1,4 +1,4 @@
-"""Embedded solver against analytical solutions (NUMERICS.md section 5) and across element kinds."""
+"""Embedded solver against analytical solutions (docs/design.md, verification) and across element kinds."""
 
 import gmsh
 import numpy as np
@@ -179,10 +179,10 @@ def mindlin():
 
 @pytest.mark.parametrize("mu", [0.2, 0.3])
 def test_cattaneo_mindlin_stick_zone_and_traction(mindlin, mu):
-    """NUMERICS.md 5.3 (VM272-like data): theory evaluated at the computed tangential force Q."""
+    """docs/design.md, verification (VM272-like data): theory evaluated at the computed tangential force Q."""
     solution = mindlin.solve([mu, mu])
     Q = abs(solution.reactions[-1][solution.reaction_labels.index("upper_flat.x")])
-    assert Q == pytest.approx(0.936, rel=0.005)                     # the NUMERICS.md load
+    assert Q == pytest.approx(0.936, rel=0.005)                     # the verification load of docs/design.md
     ref = bm.mindlin_reference(mu, Q=Q)
     x, state = mindlin.pairs.position[:, 0], solution.state[-1]
     stick = x[state == STICK]

@@ -1,4 +1,4 @@
-"""The paper's block study (section 4.1, DESIGN.md reference test 1) with frictionid, from one command.
+"""The paper's block study (section 4.1, reference test 1 (docs/models.md)) with frictionid, from one command.
 
 Goal coefficients drawn at random in [0.1, 0.5] (fixed seed), reference data computed on a finer mesh than the
 one identified with (no inverse crime), start 0.1 everywhere; the paper's algorithm (gradient descent, Armijo

@@ -26,7 +26,7 @@ from frictionid.identify import identify
 ID_MESH = {"mesh_size": 2.5, "order": 2, "block_divisions": 6, "grading": 3}
 #: data mesh: 8 divisions per block side, graded 4 (49.9k dofs; different nodes everywhere)
 DATA_MESH = {"mesh_size": 2.5, "order": 2, "block_divisions": 8, "grading": 4}
-#: the pull ends at 0.2 mm (DESIGN.md); an intermediate stage ends at 0.04 mm (2 of the 10 increments)
+#: the pull ends at 0.2 mm (docs/models.md); an intermediate stage ends at 0.04 mm (2 of the 10 increments)
 PULL_LEVELS = (0.04,)
 STAGES = (2, 3)
 OBSERVABLES = ("ux", "uy", "uz", "force")

@@ -1,6 +1,6 @@
 """How the thread load shares of the M20 model depend on what the nut bears on (issue 4's load-share check).
 
-DESIGN.md's set-up pulls plate 1 at its outer rim (r = 40) while the nut bears on it next to the hole; the classic
+docs/models.md's set-up pulls plate 1 at its outer rim (r = 40) while the nut bears on it next to the hole; the classic
 25-35 % first-thread share (Sopwith, lam P about 0.3-0.45) assumes a nut on a stiff, radially holding bearing.
 This study solves the default model (thread zones 0.1, head-plate 0.15) for three supports of the nut's plate
 and three nut-plate friction coefficients and prints the per-thread shares with the fitted lam P:

@@ -1,4 +1,4 @@
-"""The paper's M20 bolt-nut study (sections 4.2-4.3, DESIGN.md reference test 2) from one command.
+"""The paper's M20 bolt-nut study (sections 4.2-4.3, reference test 2 (docs/models.md)) from one command.
 
 Same as `frictionid demo --out examples/bolt-m20/out` (what `make demo` runs); add --quick for coarse meshes.
 The study itself is frictionid.demo: twin data from a finer mesh (noise-free and with 0.5 um DIC-like noise),

@@ -1,4 +1,4 @@
-"""Models of the analytical verification benchmarks (NUMERICS.md section 5) on conforming node-to-node interfaces."""
+"""Models of the analytical verification benchmarks (docs/design.md, verification) on conforming node-to-node interfaces."""
 
 from __future__ import annotations
 
@@ -78,7 +78,7 @@ def hertz_gap(x, R1: float, R2: float):
 
 
 def _effective(E1, nu1, R1, E2, nu2, R2) -> tuple[float, float]:
-    """(E*, R) with 1/E* = (1-nu1^2)/E1 + (1-nu2^2)/E2, 1/R = 1/R1 + 1/R2 (NUMERICS.md 5)."""
+    """(E*, R) with 1/E* = (1-nu1^2)/E1 + (1-nu2^2)/E2, 1/R = 1/R1 + 1/R2 (docs/design.md, verification)."""
     return 1.0 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2), 1.0 / (1.0 / R1 + 1.0 / R2)
 
 
@@ -100,7 +100,7 @@ def mindlin_model(R: float = 8.0, E: float = 200.0, nu: float = 0.3, P: float = 
                   Q_expected: float = 0.936, contact_size: float = 0.02, size: float = 0.5,
                   half_width_refined: float = 1.2, n_tangential: int = 10, n_press: int = 1,
                   balance_moment: bool = True) -> Model:
-    """Cattaneo-Mindlin partial slip of two identical half-cylinders in plane strain (NUMERICS.md 5.3).
+    """Cattaneo-Mindlin partial slip of two identical half-cylinders in plane strain (docs/design.md, verification).
 
     Geometry and conforming arcs as :func:`hertz_model` (R1 = R2 = R, one material). Stage "press": normal
     force P [N/mm] on "upper_flat" (n_press increments); stage "shift": P held, "upper_flat" moved by ``shift``
@@ -109,7 +109,7 @@ def mindlin_model(R: float = 8.0, E: float = 200.0, nu: float = 0.3, P: float = 
     held in x while pressing), so the two bodies are mirror images: pressing then causes no slip (the
     half-space theory's assumption for identical materials). With the upper flat face free laterally instead,
     pressing slipped by up to 5e-4 mm and the stick zone came out 9 % too large. The defaults give Q = 0.936
-    within 0.5 % for mu = 0.2 and 0.3 (the NUMERICS.md data).
+    within 0.5 % for mu = 0.2 and 0.3 (the verification data of docs/design.md).
 
     Q at the flat face, a height R above the contact, is a moment Q R about it. With balance_moment (default)
     the normal force is shared unequally between "upper_flat_left" and "upper_flat_right",
@@ -141,7 +141,7 @@ def mindlin_reference(mu: float, R: float = 8.0, E: float = 200.0, nu: float = 0
     zone |x| < c; 0 outside the contact. Q >= mu P is gross slip: c = 0.
 
     >>> ref = mindlin_reference(0.2)
-    >>> round(ref["c"] / ref["a"], 3)      # NUMERICS.md 5.3
+    >>> round(ref["c"] / ref["a"], 3)      # docs/design.md, verification
     0.729
     """
     hertz = hertz_reference(E, nu, R, E, nu, R, P)
@@ -169,7 +169,7 @@ def interference_model(a: float = 10.0, b: float = 20.0, delta: float = 0.01, le
                        hub_length: float = 10.0, E: float = 210000.0, nu: float = 0.3, size: float = 0.5,
                        contact_size: float | None = None, push: float = 0.05, n_zones: int = 2,
                        n_push: int = 10) -> Model:
-    """Axisymmetric shrink fit and push-out (x = r, y = axis; NUMERICS.md 5.4).
+    """Axisymmetric shrink fit and push-out (x = r, y = axis; docs/design.md, verification).
 
     A solid shaft r <= a + delta (delta: radial interference), y in [-(length - hub_length)/2,
     (length + hub_length)/2], carries a hub a <= r <= b, 0 <= y <= hub_length, on its middle; one material.
@@ -228,7 +228,7 @@ def lame_reference(a: float, b: float, delta: float, E: float, nu: float, shaft_
 
 
 def pushout_force(mu, p_c, a: float, lengths) -> float:
-    """Gross-slip axial force [N] of a fit, whole ring: F = sum_i mu_i p_c,i 2 pi a L_i (NUMERICS.md 5.4).
+    """Gross-slip axial force [N] of a fit, whole ring: F = sum_i mu_i p_c,i 2 pi a L_i (docs/design.md, verification).
 
     mu, p_c and lengths (zone lengths [mm]) are scalars or per-zone sequences.
 

@@ -1,6 +1,6 @@
 """Reference test 2: the axisymmetric bolt-nut tensile test (ISO 4014 bolt, ISO 4032 nut, two plates) in gmsh.
 
-Axis y, x = r [mm]. Layout (DESIGN.md, M20 numbers in brackets, other sizes scale with d): head y in [-k, 0]
+Axis y, x = r [mm]. Layout (docs/models.md, M20 numbers in brackets, other sizes scale with d): head y in [-k, 0]
 (k = 12.5), bolt end y = l (6 d = 120), thread from l - b (74), nut top l - 3 P (112.5), nut bearing face
 l - 3 P - m (94.5); plate 2 y in [0, d] and plate 1 y in [bearing - d, bearing], both with the ISO 273 medium
 clearance hole (radius 11) and outer radius 2 d (40); hexagons as area-equivalent rings (15.75). The bolt profile
@@ -22,9 +22,9 @@ from .thread import Flank, thread_size
 __all__ = ["BoltLayout", "bolt_layout", "bolt_mesh", "bolt_model", "default_sizes", "fixed_friction",
            "measurement_points"]
 
-#: steel of bolt, nut and plates (DESIGN.md)
+#: steel of bolt, nut and plates (docs/models.md)
 STEEL = Material(E=200000.0, nu=0.3, name="steel")
-#: fixed friction coefficient of the head-plate and nut-plate contacts (DESIGN.md)
+#: fixed friction coefficient of the head-plate and nut-plate contacts (docs/models.md)
 PLATE_MU = 0.15
 #: default element sizes as divisors of the nominal diameter d: plate contacts d / 40, largest element d / 8
 SIZE_DIVISORS = {"contact_size": 40, "mesh_size": 8}
@@ -52,12 +52,12 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                contact_size: float | None = None, mesh_size: float | None = None, n_radial: int = 2,
                n_axial: int = 3, length: float | None = None, engaged_length: float | None = None,
                clearance: float | None = None, bearing_diameter: float | str | None = None) -> Model:
-    """The axisymmetric bolt-nut tensile test (DESIGN.md, reference test 2) for a coarse M size.
+    """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
     ----------
     size : str
-        "M6" ... "M36" (tables in :mod:`frictionid.builders.thread`); "M20" is the DESIGN.md set-up.
+        "M6" ... "M36" (tables in :mod:`frictionid.builders.thread`); "M20" is the docs/models.md set-up.
     forces : sequence of float [N]
         Machine force at the end of each stage (e.g. the measured force of each DIC stage), applied in +y on
         plate 1's outer rim (whole ring); plate 2's outer rim is held.
@@ -82,7 +82,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         Flank clearance |es| of the 6g bolt; default ISO 965-1 (0.042 for M20).
     bearing_diameter : "dw" or float [mm], optional
         Outer diameter of the nut's bearing face on plate 1; "dw" takes ISO 4032 dw (27.7 for M20). The ring
-        beyond it is chamfered at 30 deg (both nut faces). Default: the whole ring face (DESIGN.md).
+        beyond it is chamfered at 30 deg (both nut faces). Default: the whole ring face (docs/models.md).
 
     Returns
     -------
@@ -116,7 +116,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
 
 
 def fixed_friction() -> dict[str, float]:
-    """Coefficients of the zones that identification holds fixed: head-plate and nut-plate, 0.15 (DESIGN.md)."""
+    """Coefficients of the zones that identification holds fixed: head-plate and nut-plate, 0.15 (docs/models.md)."""
     return {"head_plate": PLATE_MU, "nut_plate": PLATE_MU}
 
 

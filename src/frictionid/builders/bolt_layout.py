@@ -1,6 +1,6 @@
 """The bolt-nut tensile test set-up of one thread size: heights, radii, thread phases, engaged flanks, zones.
 
-The numbers are those of DESIGN.md reference test 2 (see :mod:`frictionid.builders.bolt`).
+The numbers are those of reference test 2 (docs/models.md) (see :mod:`frictionid.builders.bolt`).
 """
 
 from __future__ import annotations

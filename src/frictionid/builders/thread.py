@@ -3,9 +3,9 @@
 Axial section, x = r (radius), y = axis [mm]. Sources as reproduced in public tables: ISO 68-1 (basic profile),
 ISO 261 (coarse pitch), ISO 965-1 (6g fundamental deviation es, 6H: EI = 0), ISO 4014 (hexagon head bolt:
 head height k, width across flats s), ISO 4032 (hexagon nut: height m, s, bearing diameter dw, countersink da),
-ISO 273 (medium clearance hole). See /work/shared/BOLT.md for the formulas.
+ISO 273 (medium clearance hole). See docs/design.md (bolt thread geometry) for the formulas.
 
-Profile conventions (BOLT.md): a bolt tooth centred at y = z has its load flank below the centre (facing -y,
+Profile conventions (docs/design.md): a bolt tooth centred at y = z has its load flank below the centre (facing -y,
 towards the nut bearing face and the head) and its free flank above; flanks are 30 deg from the radial
 direction, ``y = z -/+ (r_apex - r) / sqrt(3)`` with the fundamental triangle's apex at r_apex = d/2 + H/8.
 The bolt root is an arc of radius H/6 tangent to both flanks at r = d1/2. A nut tooth centred at y = z points
@@ -44,7 +44,7 @@ NUT = {"M6": (5.2, 10.0, 8.9, 6.0, 6.75), "M8": (6.8, 13.0, 11.6, 8.0, 8.75),
 #: ISO 273 medium-series clearance hole diameter [mm]
 CLEARANCE_HOLE = {"M6": 6.6, "M8": 9.0, "M10": 11.0, "M12": 13.5, "M14": 15.5, "M16": 17.5, "M18": 20.0,
                   "M20": 22.0, "M22": 24.0, "M24": 26.0, "M27": 30.0, "M30": 33.0, "M33": 36.0, "M36": 39.0}
-#: countersink diameter as a fraction of d (M20: 21, DESIGN.md); inside the ISO 4032 da range for every size
+#: countersink diameter as a fraction of d (M20: 21, docs/models.md); inside the ISO 4032 da range for every size
 DA_RATIO = 1.05
 #: nut root radius beyond d/2, in units of H
 NUT_ROOT_CLEARANCE = 1.0 / 16.0

@@ -1,4 +1,4 @@
-"""Measurement files: the generic CSV of DESIGN.md, read with file:line:column errors and written to read back equal.
+"""Measurement files: the generic CSV of docs/data.md, read with file:line:column errors and written to read back equal.
 
 The table itself (:class:`Measurements`) and the axisymmetric mapping live in :mod:`.table` and are re-exported
 here, so that ``frictionid.data.measurements`` is the one import for measured data.
@@ -33,7 +33,7 @@ def _at(source: str, line: int, column: str | None = None) -> str:
 
 
 def read_measurements(path) -> Measurements:
-    """Read a measurement CSV (DESIGN.md "Measurement CSV (generic)").
+    """Read a measurement CSV (docs/data.md, "The generic CSV").
 
     ``#`` comment lines (kept), a header ``point,x,y,z,stage[,force][,ux,...,exz][,sigma_<quantity>...]``
     in any column order, then one row per (point, stage). Empty cells of optional columns are missing values.

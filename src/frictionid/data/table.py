@@ -15,7 +15,7 @@ QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 DISPLACEMENTS = QUANTITIES[:3]
 STRAINS = QUANTITIES[3:]
 UNITS = {**{q: "mm" for q in DISPLACEMENTS}, **{q: "-" for q in STRAINS}}
-#: a comment line a writer can put first so that the file states its units (DESIGN.md conventions)
+#: a comment line a writer can put first so that the file states its units (docs/design.md, conventions)
 UNITS_COMMENT = "units: x, y, z, ux, uy, uz [mm] (undeformed coordinates); strains [-], tensor shear; force [N]"
 #: |z| / r below this counts as "in the x-y plane" when mapping onto an axisymmetric model
 PLANE_TOL = 1e-9
@@ -199,7 +199,7 @@ def _quantity_line(q: str, column: np.ndarray) -> str:
 
 
 def map_to_axisymmetric(measurements: Measurements) -> Measurements:
-    """Measurements at 3-D points mapped onto an axisymmetric model (axis y, x = r; DESIGN.md conventions).
+    """Measurements at 3-D points mapped onto an axisymmetric model (axis y, x = r; docs/design.md, conventions).
 
     - Coordinates: (x, y, z) -> (r, y, 0) with r = sqrt(x^2 + z^2).
     - Displacements: ``ux`` becomes u_r = (ux x + uz z) / r (sigma: independent errors propagated);

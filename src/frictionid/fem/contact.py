@@ -9,7 +9,7 @@ Per pair, with g = gap + w_N, ds = w_T - w_T_prev, lam_hat = max(0, lam_N - r g)
       slip:                       F_T = lam_T - mu lam_hat tau / |tau|
 
 plus equilibrium of the floating bodies h = R^T (b + B^T lam) = 0. The generalised Jacobian of each pair's rows
-is ``P dlam_i + Q dw_i`` with d×d blocks P, Q; dw = [W | W_a] dx (Alart & Curnier 1991, NUMERICS.md section 3).
+is ``P dlam_i + Q dw_i`` with d×d blocks P, Q; dw = [W | W_a] dx (Alart & Curnier 1991, docs/design.md, contact formulation).
 """
 
 from __future__ import annotations

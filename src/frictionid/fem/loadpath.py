@@ -1,6 +1,6 @@
 """The load path: increments solved in order, cut when Newton fails, sensitivities carried along (DDM).
 
-Direct differentiation of the converged increment n (NUMERICS.md section 4):
+Direct differentiation of the converged increment n (docs/design.md, sensitivities):
 
     J_n S_n = -(dF/dmu + dF/dw_prev W_full S_{n-1}),   S = dx/dmu,   S_0 = 0,
 

@@ -77,7 +77,7 @@ class ThreadLoads:
 def sopwith_shares(lam_p: float, n_threads: int) -> np.ndarray:
     """(n,) Sopwith's load share of threads 1..n (1 at the bearing face), engaged length L = n P.
 
-    share_i = [sinh(lam (L - (i-1) P)) - sinh(lam (L - i P))] / sinh(lam L)  (BOLT.md).
+    share_i = [sinh(lam (L - (i-1) P)) - sinh(lam (L - i P))] / sinh(lam L)  (docs/design.md).
 
     >>> np.round(100 * sopwith_shares(0.406, 6)).astype(int).tolist()
     [34, 23, 16, 11, 9, 7]
