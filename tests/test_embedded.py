@@ -39,3 +39,47 @@ def test_the_least_recently_used_condensation_is_dropped_first():
     assert backend(0.1).problem is a.problem          # a is now the most recent
     backend(0.3)                                      # evicts b
     assert backend(0.1).problem is a.problem and backend(0.2).problem is not b.problem
+
+
+def test_a_cache_folder_keeps_condensations_and_solves_for_a_later_session(tmp_path, monkeypatch, caplog):
+    import pickle
+
+    import frictionid.backends.embedded as embedded
+    from frictionid.fem.problem import Problem
+
+    embedded.use_cache(tmp_path)
+    try:
+        monkeypatch.setattr(embedded, "_RECENT", {})
+        model = block_model_2d(mesh_size=2.0, order=1)
+        mu = np.array([0.2, 0.3])
+        first = EmbeddedBackend(model, POINTS, ("ux", "exx"), ["block"] * 2)
+        solved = first.predict(mu, sensitivities=True)
+        assert len(list(tmp_path.glob("condensed-*.pkl"))) == 1 and len(list(tmp_path.glob("predicted-*.npz"))) == 1
+        monkeypatch.setattr(embedded, "_RECENT", {})                # a new session: only the folder is left
+
+        def no_build(*args, **kwargs):
+            raise AssertionError("built again although the cache holds it")
+
+        monkeypatch.setattr(Problem, "build", no_build)
+        again = EmbeddedBackend(block_model_2d(mesh_size=2.0, order=1), POINTS, ("ux", "exx"), ["block"] * 2)
+        assert again.problem is not first.problem
+        replayed = again.predict(mu, sensitivities=True)
+        assert np.array_equal(replayed.values, solved.values)
+        assert np.array_equal(replayed.derivatives, solved.derivatives)
+        other = np.array([0.25, 0.3])                               # a new solve with the read condensation
+        assert np.allclose(again.predict(other).values, first.predict(other).values, rtol=0, atol=1e-14)
+        monkeypatch.undo()
+        # a truncated file is built again with a warning; a changed model never reads another's file
+        embedded.use_cache(tmp_path)
+        monkeypatch.setattr(embedded, "_RECENT", {})
+        path = next(tmp_path.glob("condensed-*.pkl"))
+        path.write_bytes(path.read_bytes()[:100])
+        with caplog.at_level("WARNING"):
+            rebuilt = EmbeddedBackend(model, POINTS, ("ux", "exx"), ["block"] * 2)
+        assert "unreadable" in caplog.text
+        assert isinstance(pickle.loads(path.read_bytes()), Problem)
+        assert np.array_equal(rebuilt.predict(mu).values, solved.values)
+        EmbeddedBackend(block_model_2d(mesh_size=2.0, order=1, pull=0.3), POINTS, ("ux", "exx"), ["block"] * 2)
+        assert len(list(tmp_path.glob("condensed-*.pkl"))) == 2
+    finally:
+        embedded.use_cache(None)

@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .backends.embedded import EmbeddedBackend  # noqa: E402
+from .backends.embedded import EmbeddedBackend, cache_in  # noqa: E402
 from .builders.bolt import bolt_layout, bolt_model, fixed_friction, measurement_points  # noqa: E402
 from .config import read_config  # noqa: E402
 from .data.measurements import Measurements, write_measurements  # noqa: E402
@@ -185,6 +185,11 @@ def run_demo(out: Path, settings: Settings = Settings(), resume: bool = False, e
         raise InputError(f"{out}: already holds the demo's runs {stored}; continue or replay them with --resume, "
                          "or choose another --out")
     (out / "runs").mkdir(parents=True, exist_ok=True)
+    with cache_in(out / "cache"):            # a replay (--resume) reads the condensations and solves stored there
+        return _run(out, settings, resume, echo)
+
+
+def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
     start = time.perf_counter()
     points = measurement_points(bolt_layout("M20"))
     true = {**TRUE_MU, **fixed_friction()}

@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import logging
+import os
+import pickle
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -23,9 +29,77 @@ class Prediction:
     derivatives: np.ndarray | None
 
 
+log = logging.getLogger(__name__)
 _RECENT: dict = {}
 #: condensations kept for reuse: an identification's and its pre-fit candidates' (see :func:`_built`)
 N_KEPT = 2
+_CACHE: list[Path] = []
+
+
+@contextlib.contextmanager
+def cache_in(folder: str | Path):
+    """:func:`use_cache` for the duration of a ``with`` block; the previous setting afterwards."""
+    previous = list(_CACHE)
+    use_cache(folder)
+    try:
+        yield
+    finally:
+        _CACHE[:] = previous
+
+
+def use_cache(folder: str | Path | None) -> None:
+    """Store condensations and the solves made with them in ``folder`` (None: nowhere) and reuse them from there
+    in later sessions.
+
+    A condensation is filed under a hash of the model's content (:meth:`Model.fingerprint`), the observation
+    points, quantities and regions, and the solver's source code, so any change to one of them builds anew. Files are
+    a few MB (plane strain) to tens of MB (3-D); the folder is the caller's to remove.
+    """
+    _CACHE[:] = [] if folder is None else [Path(folder)]
+
+
+def _code_version() -> str:
+    """Hash of the source of the packages a condensation depends on: a changed solver never reads old files."""
+    root = Path(__file__).parents[1]
+    digest = hashlib.sha256()
+    for path in sorted([*(root / "fem").glob("*.py"), *(root / "model").glob("*.py")]):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _cached(key, kind: str = "condensed", *extra) -> Path | None:
+    """The cache file of a condensation (or of one of its solves: ``kind`` "predicted" and the solve's
+    arguments in ``extra``), None without a cache folder."""
+    if not _CACHE:
+        return None
+    digest = hashlib.sha256(repr((key, _code_version(), *extra)).encode()).hexdigest()[:32]
+    return _CACHE[0] / f"{kind}-{digest}.{'pkl' if kind == 'condensed' else 'npz'}"
+
+
+def _key(model: Model, points, quantities: tuple[str, ...], regions) -> tuple:
+    return (model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
+            quantities, None if regions is None else tuple(regions))
+
+
+def _load_or_build(key, model: Model, points, quantities, regions) -> Problem:
+    path = _cached(key)
+    if path is not None and path.exists():
+        try:
+            with path.open("rb") as handle:
+                problem = pickle.load(handle)
+            if problem.model.fingerprint() == key[0]:
+                log.info("condensation read from %s", path)
+                return problem
+        except Exception as exc:                              # a truncated or stale file: build anew
+            log.warning("condensation cache %s unreadable (%s); building it again", path, exc)
+    problem = Problem.build(model, points=points, quantities=quantities, regions=regions)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_suffix(f".{os.getpid()}.part")
+        with partial.open("wb") as handle:
+            pickle.dump(problem, handle, protocol=pickle.HIGHEST_PROTOCOL)
+        partial.replace(path)                                  # whole files only, also when interrupted
+    return problem
 
 
 def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: bool = True) -> Problem:
@@ -34,18 +108,18 @@ def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: boo
     Runs of one session (a study's several identifications, an example's methods) share the condensation;
     at most :data:`N_KEPT` builds are kept, so memory holds few factorisations besides the ones in use.
     ``keep=False``: a one-off build (e.g. a refined mesh for an error estimate) that uses a kept build if there
-    is one but neither stores itself nor pushes a kept build out.
+    is one but neither stores itself nor pushes a kept build out. With :func:`use_cache` the builds are also
+    stored on disk and read back in later sessions.
     """
-    key = (model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
-           quantities, None if regions is None else tuple(regions))
+    key = _key(model, points, quantities, regions)
     if key in _RECENT:
         _RECENT[key] = _RECENT.pop(key)                        # most recently used last
         return _RECENT[key]
     if not keep:
-        return Problem.build(model, points=points, quantities=quantities, regions=regions)
+        return _load_or_build(key, model, points, quantities, regions)
     while len(_RECENT) >= N_KEPT:
         _RECENT.pop(next(iter(_RECENT)))
-    _RECENT[key] = Problem.build(model, points=points, quantities=quantities, regions=regions)
+    _RECENT[key] = _load_or_build(key, model, points, quantities, regions)
     return _RECENT[key]
 
 
@@ -71,8 +145,16 @@ class EmbeddedBackend:
                              f"{list(self.problem.reaction_labels)}")
         self.reactions = tuple(reactions)
         self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
+        self._key = _key(model, points, tuple(quantities), regions) if _CACHE else None
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
+        """The observation rows at ``mu``; with :func:`use_cache` read from (or written to) the cache folder."""
+        mu = np.asarray(mu, dtype=float)
+        path = None if self._key is None else _cached(self._key, "predicted", mu.tobytes(), bool(sensitivities),
+                                                      self.reactions)
+        if path is not None and path.exists():
+            with np.load(path) as stored:
+                return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
         solution = self.problem.solve(mu, sensitivities=sensitivities)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
@@ -80,6 +162,10 @@ class EmbeddedBackend:
         if solution.d_observations is not None:
             derivatives = np.concatenate([solution.d_observations[ends],
                                           solution.d_reactions[ends][:, self._reaction_rows]], axis=1)
+        if path is not None:
+            partial = path.with_suffix(f".{os.getpid()}.part.npz")
+            np.savez(partial, values=values, derivatives=derivatives if derivatives is not None else np.zeros(0))
+            partial.replace(path)
         return Prediction(values, derivatives)
 
     def contact_states(self, mu: np.ndarray) -> list[dict[str, dict[str, float]]]:

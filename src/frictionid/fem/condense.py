@@ -43,20 +43,32 @@ class Affine:
 
 
 class GeneralisedInverse:
-    """Solves K_ff u = b for self-equilibrated b, with the floating bodies pinned at a few dofs."""
+    """Solves K_ff u = b for self-equilibrated b, with the floating bodies pinned at a few dofs.
+
+    Pickled without its factor (SuperLU objects cannot be), which is computed again at the first solve after
+    unpickling."""
 
     def __init__(self, K_ff: sp.csr_matrix, modes: np.ndarray, ordering: str = "MMD_AT_PLUS_A"):
         n = K_ff.shape[0]
         pinned = la.qr(modes.T, pivoting=True, mode="r")[1][:modes.shape[1]] if modes.size else np.zeros(0, int)
         self.keep = np.setdiff1d(np.arange(n), pinned)
         self.n = n
+        self.matrix, self.ordering = K_ff[self.keep][:, self.keep].tocsc(), ordering
+        self.lu = self._factor()
+
+    def _factor(self):
         try:
-            self.lu = spla.splu(K_ff[self.keep][:, self.keep].tocsc(), permc_spec=ordering)
+            return spla.splu(self.matrix, permc_spec=self.ordering)
         except RuntimeError:
             raise InputError("model: the stiffness matrix is singular: a body is not held by supports or "
                              "contact in some direction (a mechanism)") from None
 
+    def __getstate__(self):
+        return {**self.__dict__, "lu": None}
+
     def solve(self, b: np.ndarray) -> np.ndarray:
+        if self.lu is None:
+            self.lu = self._factor()
         out = np.zeros((self.n,) + b.shape[1:])
         out[self.keep] = self.lu.solve(np.ascontiguousarray(b[self.keep]))
         return out

@@ -85,6 +85,10 @@ class Space:
     kind: str = "3d"
     element: str = "standard"
 
+    def __reduce__(self):
+        """Pickled as what builds it: the bases' quadrature data are most of its size and cheap to rebuild."""
+        return type(self).build, (self.mesh, self.kind, self.element)
+
     @classmethod
     def build(cls, mesh: Mesh, kind: str | None = None, element: str = "standard") -> "Space":
         """The space of a mesh; ``kind`` ("3d" | "plane_strain" | "axisymmetric") defaults by dimension,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Mapping
 
@@ -95,6 +95,9 @@ class Mesh:
         object.__setattr__(self, "boundaries", MappingProxyType(boundaries))
         object.__setattr__(self, "cell_region", self._cell_region())
 
+    def __reduce__(self):
+        return rebuild, (type(self), init_arguments(self))
+
     def _cell_region(self) -> np.ndarray:
         """(n_cells,) index into :attr:`region_names`, -1 for a cell in no region."""
         out = np.full(len(self.cells), -1, dtype=np.int64)
@@ -148,3 +151,15 @@ class Mesh:
     def boundary_nodes(self, name: str) -> np.ndarray:
         """Sorted unique node indices of the named boundary."""
         return np.unique(self.boundary(name))
+
+
+def init_arguments(instance) -> dict:
+    """The constructor arguments of a frozen dataclass instance, read-only mappings as plain dicts (so that the
+    instance can be pickled, e.g. into the condensation cache, and rebuilt, validated, by :func:`rebuild`)."""
+    return {f.name: dict(v) if isinstance(v := getattr(instance, f.name), MappingProxyType) else v
+            for f in fields(instance) if f.init}
+
+
+def rebuild(cls, arguments: dict):
+    """``cls(**arguments)``: the unpickling half of :func:`init_arguments`."""
+    return cls(**arguments)

@@ -10,7 +10,7 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import InputError
-from .mesh import Mesh
+from .mesh import Mesh, init_arguments, rebuild
 
 KINDS = ("3d", "plane_strain", "axisymmetric")
 #: element technologies: "standard" (the mesh's Lagrange elements), "incompatible" (linear hexahedra with
@@ -157,6 +157,9 @@ class Model:
     interfaces: tuple[ContactInterface, ...] = ()
     element: str = "standard"
     zone_names: tuple[str, ...] = field(init=False)
+
+    def __reduce__(self):
+        return rebuild, (type(self), init_arguments(self))
 
     def __post_init__(self):
         object.__setattr__(self, "materials", MappingProxyType(dict(self.materials)))
