@@ -83,3 +83,11 @@ def test_a_cache_folder_keeps_condensations_and_solves_for_a_later_session(tmp_p
         assert len(list(tmp_path.glob("condensed-*.pkl"))) == 2
     finally:
         embedded.use_cache(None)
+
+
+def test_equal_model_tables_share_one_built_model_and_others_do_not():
+    from frictionid.builders.registry import build_model
+
+    first = build_model({"builder": "block2d", "mesh_size": 2.0, "n_zones": 3})
+    assert build_model({"n_zones": 3, "mesh_size": 2.0, "builder": "block2d"}) is first
+    assert build_model({"builder": "block2d", "mesh_size": 2.0, "n_zones": 2}) is not first

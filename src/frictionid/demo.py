@@ -22,7 +22,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .backends.embedded import EmbeddedBackend, cache_in  # noqa: E402
-from .builders.bolt import bolt_layout, bolt_model, fixed_friction, measurement_points  # noqa: E402
+from .builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
+from .builders.registry import build_model  # noqa: E402
 from .config import read_config  # noqa: E402
 from .data.measurements import Measurements, write_measurements  # noqa: E402
 from .errors import InputError  # noqa: E402
@@ -114,7 +115,7 @@ def _mesh_sequence(settings: Settings, points: np.ndarray, true: dict, initial: 
     rows, kept = [], None
     for size in sorted(set(settings.sequence) | {settings.data_flank, settings.flank}, reverse=True):
         start = time.perf_counter()
-        model = bolt_model(forces=FORCES, flank_size=size)
+        model = build_model({"builder": "bolt", "size": "M20", "forces": list(FORCES), "flank_size": size})
         mu, mu0 = (np.array([c[z] for z in model.zone_names]) for c in (true, initial))
         backend = EmbeddedBackend(model, points, QUANTITIES, ["bolt"] * len(points))
         rows.append(MeshRow(size, model.mesh.n_nodes, backend.problem.pairs.n_pairs, backend.predict(mu).values,

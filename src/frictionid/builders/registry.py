@@ -19,9 +19,29 @@ SIZE_OPTIONS = {"block": ("mesh_size",), "block2d": ("mesh_size", "contact_size"
 COUNT_OPTIONS = {"block": ("block_divisions",)}
 
 
+#: models built recently, by their [model] table (models are immutable, so equal tables share one)
+_BUILT: dict = {}
+N_BUILT = 4
+
+
 def build_model(options: dict, where: str = "[model]") -> Model:
-    """The model a [model] table describes: ``builder`` plus that builder's keyword options."""
-    options = dict(options)
+    """The model a [model] table describes: ``builder`` plus that builder's keyword options.
+
+    The last :data:`N_BUILT` models are kept, so the runs of one session that describe the same model (a study's
+    identifications, a replay) mesh it once.
+    """
+    key = repr(sorted(options.items()))
+    if key in _BUILT:
+        _BUILT[key] = _BUILT.pop(key)                          # most recently used last
+        return _BUILT[key]
+    model = _build(dict(options), where)
+    while len(_BUILT) >= N_BUILT:
+        _BUILT.pop(next(iter(_BUILT)))
+    _BUILT[key] = model
+    return model
+
+
+def _build(options: dict, where: str) -> Model:
     name = options.pop("builder", None)
     if name not in BUILDERS:
         raise InputError(f"{where} builder = {name!r} is not one of {sorted(BUILDERS)}")
