@@ -172,7 +172,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
     store.put_result(result)
     store.set_status(result["status"])
-    write_outputs(run_dir, result, store)
+    write_outputs(run_dir, result, store, config.text, config.resolve(config.data["file"]))
     return result
 
 
@@ -207,7 +207,7 @@ def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path
               "wall_time_s": wall}
     store.set_status(status, message)
     store.put_result(result)
-    (run_dir / "result.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_outputs(run_dir, result, store, config.text, config.resolve(config.data["file"]))
 
 
 def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, report: Prefit,
@@ -238,6 +238,9 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                 "loss": problem.loss, "n_downweighted": int(np.sum(weights < 0.5)),
                 "rms_residual": float(np.sqrt(np.mean((f - obs.y) ** 2))),
                 "points": point_misfit(obs, r),
+                "observations": [{"label": label, "measured": float(y), "model": float(v),
+                                  "sigma": float(s) if obs.noise_known else None}
+                                 for label, y, v, s in zip(obs.labels, obs.y, f, obs.sigma)],
                 "model_error": None if error is None else {
                     "mode": config.identify["model_error"], **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)

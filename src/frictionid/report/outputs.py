@@ -1,8 +1,9 @@
-"""Files of a finished run: result.json, history.csv and convergence.png in the run directory."""
+"""Files of a run: result.json, history.csv, convergence.png, residuals.png and report.html in the run directory."""
 
 from __future__ import annotations
 
 import csv
+import io
 import json
 from pathlib import Path
 
@@ -10,15 +11,22 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
+
+from .html import write_html  # noqa: E402
 
 
-def write_outputs(run_dir: Path, result: dict, store=None) -> list[Path]:
-    """Write the run's files; returns their paths."""
+def write_outputs(run_dir: Path, result: dict, store=None, config_text: str | None = None,
+                  data_file: Path | None = None) -> list[Path]:
+    """Write the run's files, also for a run that stopped early (with what it has); returns their paths.
+
+    ``store``: the run's :class:`~frictionid.run.store.RunStore`, whose iterations give the history of a run
+    without one in ``result``; ``config_text`` and ``data_file`` go into report.html's provenance.
+    """
     run_dir = Path(run_dir)
+    if not result.get("history") and store is not None:
+        result = {**result, "history": stored_history(result, store)}
     paths = [run_dir / "result.json", run_dir / "history.csv", run_dir / "convergence.png"]
-    if result.get("fit", {}).get("points"):
-        paths.append(run_dir / "residuals.png")
-        residual_plot(result, paths[3])
     paths[0].write_text(json.dumps(result, indent=2) + "\n")
     names = list(result["parameters"])
     history = result.get("history", {})
@@ -27,24 +35,75 @@ def write_outputs(run_dir: Path, result: dict, store=None) -> list[Path]:
         writer.writerow(["iteration", "objective", *names])
         for k, (objective, mu) in enumerate(zip(history.get("objective", []), history.get("coefficients", []))):
             writer.writerow([k, repr(objective), *map(repr, mu)])
-    convergence_plot(result, paths[2])
+    save(convergence_figure(result), paths[2])
+    if result.get("fit", {}).get("points"):
+        paths.append(run_dir / "residuals.png")
+        residual_plot(result, paths[-1])
+    figures = {path.stem: path.read_bytes() for path in paths[2:]}
+    if result.get("fit", {}).get("observations"):
+        stream = io.BytesIO()
+        save(fit_figure(result["fit"]["observations"]), stream)
+        figures["fit"] = stream.getvalue()
+    paths.append(write_html(run_dir, result, figures, config_text, data_file))
     return paths
 
 
-def convergence_plot(result: dict, path: Path) -> None:
-    """Objective (log scale) and coefficients per iteration."""
+def stored_history(result: dict, store) -> dict:
+    """Objective and coefficients (all zones, fixed ones at their value) per stored iteration."""
+    rows = store.iterations()
+    free = [k for k, p in enumerate(result["parameters"].values()) if not p["fixed"]]
+    coefficients = []
+    for row in rows:
+        mu = [p["value"] for p in result["parameters"].values()]
+        for k, v in zip(free, row.x):
+            mu[k] = float(v)
+        coefficients.append(mu)
+    return {"objective": [float(row.objective) for row in rows], "coefficients": coefficients}
+
+
+def save(fig, path) -> None:
+    """Write a figure (PNG, 100 dpi) to a path or binary stream and close it."""
+    fig.savefig(path, dpi=100, format="png")
+    plt.close(fig)
+
+
+def convergence_figure(result: dict):
+    """Objective (log scale) and the free zones' coefficients per iteration (integer ticks), with the final
+    standard errors as error bars and, when ``result["truth"]`` gives them, the true values dashed."""
     history = result.get("history", {})
     objective, coefficients = history.get("objective", []), history.get("coefficients", [])
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
-    left.semilogy(range(len(objective)), objective, "o-")
+    if objective:
+        left.semilogy(range(len(objective)), objective, "o-")
     left.set(xlabel="iteration", ylabel="objective J", title=f"{result['method']} ({result['jacobian']} Jacobian)")
-    for k, name in enumerate(result["parameters"]):
-        right.plot(range(len(coefficients)), [mu[k] for mu in coefficients], "o-", label=name)
-    right.set(xlabel="iteration", ylabel="friction coefficient", title="coefficients")
-    right.legend()
+    truth = result.get("truth") or {}
+    free = [(k, name, p) for k, (name, p) in enumerate(result["parameters"].items()) if not p["fixed"]]
+    for j, (k, name, p) in enumerate(free):
+        values = [mu[k] for mu in coefficients]
+        line, = right.plot(range(len(values)), values, "o-", ms=4, label=name)
+        if values and p.get("stderr") is not None:
+            right.errorbar([len(values) - 1 + 0.08 * (j - (len(free) - 1) / 2)], [values[-1]],
+                           yerr=error_bar(values[-1], p), color=line.get_color(), capsize=3)
+        if name in truth:
+            right.axhline(truth[name], color=line.get_color(), ls="--", lw=1)
+    fixed = [name for name, p in result["parameters"].items() if p["fixed"]]
+    notes = (["bars: +/- 1 stderr at the end, within the bounds"] if any(p.get("stderr") is not None
+                                                                        for _, _, p in free) else []) \
+        + (["dashed: true values"] if truth else []) + ([f"fixed: {', '.join(fixed)}"] if fixed else [])
+    right.set(xlabel="iteration", ylabel="friction coefficient", title="coefficients of the free zones")
+    for axes in (left, right):
+        axes.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if right.lines:
+        right.legend(fontsize=8, title="\n".join(notes) or None, title_fontsize=7, alignment="left")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return fig
+
+
+def error_bar(value: float, p: dict) -> list[list[float]]:
+    """Lower and upper length of a +/- 1 stderr bar at ``value``, cut at the 95 % interval (which lies within
+    the bounds), so that no bar reaches a negative coefficient."""
+    low, high = p["ci95"] if p.get("ci95") else (value - p["stderr"], value + p["stderr"])
+    return [[value - max(value - p["stderr"], low)], [min(value + p["stderr"], high) - value]]
 
 
 def residual_plot(result: dict, path: Path) -> None:
@@ -65,5 +124,27 @@ def residual_plot(result: dict, path: Path) -> None:
                    f"({verdict[fit.get('consistent')]})", fontsize=9)
     fig.colorbar(shown, ax=axes, label="RMS residual / noise", shrink=0.8)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path)
+
+
+def fit_figure(observations: list[dict]):
+    """Measured (with +/- sigma) and fitted value per observation, one panel per quantity; ``observations``
+    as in result.json's ``fit.observations`` (label "point:quantity@stage" or "force@stage")."""
+    panels: dict[str, list[dict]] = {}
+    for o in observations:
+        quantity = o["label"].rpartition("@")[0].rpartition(":")[2]
+        panels.setdefault(quantity, []).append(o)
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.6 * len(panels)), squeeze=False)
+    for ax, (quantity, rows) in zip(axes[:, 0], panels.items()):
+        index = range(len(rows))
+        sigma = [o["sigma"] if o.get("sigma") is not None else 0.0 for o in rows]
+        ax.errorbar(index, [o["measured"] for o in rows], yerr=sigma, fmt="o", ms=3, capsize=2, label="measured")
+        ax.plot(index, [o["model"] for o in rows], "x", color="C3", label="fitted model")
+        ax.set(ylabel=quantity, title=f"{quantity}: {len(rows)} observations", xlabel="observation")
+        if len(rows) <= 40:
+            ax.set_xticks(index, [o["label"].replace(f":{quantity}", "") for o in rows], rotation=60, fontsize=7)
+        else:
+            ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
