@@ -1,6 +1,7 @@
 """`frictionid demo --quick`: the M20 study end to end on coarse meshes (what `make demo` runs, finer)."""
 
 import json
+import re
 
 import pytest
 
@@ -55,3 +56,17 @@ def test_out_must_be_a_folder(tmp_path, capsys):
     (tmp_path / "file").write_text("")
     assert main(["demo", "--quick", "--out", str(tmp_path / "file")]) == 2
     assert "expected a folder" in capsys.readouterr().err
+
+
+def test_table_flags_zones_on_a_bound_and_no_interval_holds_negative_friction(demo):
+    """table.txt: value [95 % interval] per run and zone; a value that prints as a bound carries 'b'."""
+    cells = re.findall(r"(\d\.\d{4}) \[(?:(-?\d\.\d{4}), (-?\d\.\d{4})|not seen)\]( [b?]+)?",
+                       (demo / "table.txt").read_text())
+    assert len(cells) == 4 * len(TRUE_MU)
+    for value, low, high, flags in cells:
+        assert value not in ("0.0000", "1.0000") or "b" in flags, (value, flags)
+        assert low == "" or 0.0 <= float(low) <= float(value) <= float(high) <= 1.0, (value, low, high)
+    for run in ("trf", "paper", "trf-noisy", "trf-noisy-uy"):
+        result = json.loads((demo / f"runs/{run}/result.json").read_text())
+        assert all(p["ci95"][0] >= 0.0 for p in result["parameters"].values() if p.get("ci95")), run
+        assert result["truth"] == TRUE_MU and (demo / f"runs/{run}/report.html").stat().st_size > 10000

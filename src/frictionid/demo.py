@@ -28,6 +28,8 @@ from .config import read_config  # noqa: E402
 from .data.measurements import Measurements, write_measurements  # noqa: E402
 from .errors import InputError  # noqa: E402
 from .identify import identify, prepare  # noqa: E402
+from .report.html import NEAR_BOUND  # noqa: E402
+from .report.outputs import write_outputs  # noqa: E402
 from .report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads  # noqa: E402
 from .report.tables import prefit_summary, result_summary  # noqa: E402
 
@@ -37,6 +39,8 @@ TRUE_MU = {"A": 0.14, "B": 0.18, "C": 0.22, "D": 0.12, "E": 0.16, "F": 0.20}
 NOISE = 0.0005
 FORCES = (10000.0, 30000.0)
 START = 0.1
+#: friction.bounds of the demo's configs (they set none: the config default)
+BOUNDS = (0.0, 1.0)
 METHODS = (("trf", "analytic"), ("gradient-descent", "forward"))
 #: per-method options: trf stops once an iteration lowers J by less than 0.1 % (J is a chi-square here: the
 #: unresolved zones otherwise drift along their flat valley for dozens of iterations) or the coefficients change
@@ -167,10 +171,12 @@ def _bolt_results(out: Path, backend, mu: np.ndarray, echo) -> str:
 
 
 def _cell(p: dict) -> str:
-    """'0.1376 +-0.0013', with '?' when the data do not resolve the zone and 'b' when it sits on a bound."""
-    se = "" if p.get("stderr") is None else f" +-{p['stderr']:.4f}" if p["stderr"] < 10 else f" +-{p['stderr']:.3g}"
-    flags = ("b" if p.get("at_bound") else "") + ("" if p.get("identifiable") else "?")
-    return f"{p['value']:.4f}{se}{' ' + flags if flags else ''}"
+    """'0.1376 [0.1350, 0.1402]': value and 95 % interval (within the bounds), with '?' when the data do not
+    resolve the zone and 'b' when it ends on a bound or within NEAR_BOUND of one (it then prints as the bound)."""
+    interval = " [not seen]" if p.get("ci95") is None else f" [{p['ci95'][0]:.4f}, {p['ci95'][1]:.4f}]"
+    near = min(p["value"] - BOUNDS[0], BOUNDS[1] - p["value"]) <= NEAR_BOUND * (BOUNDS[1] - BOUNDS[0])
+    flags = ("b" if p.get("at_bound") or near else "") + ("" if p.get("identifiable") else "?")
+    return f"{p['value']:.4f}{interval}{' ' + flags if flags else ''}"
 
 
 def run_demo(out: Path, settings: Settings = Settings(), resume: bool = False, echo=print) -> dict:
@@ -221,10 +227,14 @@ def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
         path = _config(out, name, data, method, jacobian, iterations, settings.flank, noise, observables)
         echo(f"\n3. identify {name}: {method} with {jacobian} Jacobian, {'+'.join(observables)} from {data}, "
              f"noise {noise * 1000:.4f} um")
-        result = identify(read_config(path, need=("model", "friction", "data", "run")), resume=resume,
+        config = read_config(path, need=("model", "friction", "data", "run"))
+        result = identify(config, resume=resume,
                           progress=lambda k, m, j, ev: echo(f"   iter {k:3d}  J={j:.4e}  "
                                                             + " ".join(f"{v:.4f}" for v in m[:6])),
                           on_prefit=lambda report: echo(prefit_summary(report.as_dict())))
+        result = {**result, "truth": dict(TRUE_MU)}      # the plots and report.html then show the true values
+        write_outputs(config.resolve(config.run["dir"]), result, None, config.text,
+                      config.resolve(config.data["file"]))
         runs[name] = (path, result)
     echo("\n" + result_summary(runs["trf"][1]))
     obs_of = prepare(read_config(runs["trf"][0], need=("model", "friction", "data", "run"))).observations.predicted
@@ -242,7 +252,7 @@ def _write_summary(out: Path, settings: Settings, runs: dict, curves: dict, mode
     fig.tight_layout()
     fig.savefig(out / "fig9.png", dpi=110)
     plt.close(fig)
-    width = 20
+    width = 28
     table = [f"{'run':<13}{'status':<16}{'iter':>5}{'solves':>8}{'time [s]':>9}  "
              + "".join(f"{z:>{width}}" for z in TRUE_MU)]
     table.append(f"{'true':<13}{'':<16}{'':>5}{'':>8}{'':>9}  " + "".join(f"{v:>{width}.4f}" for v in TRUE_MU.values()))
@@ -250,8 +260,9 @@ def _write_summary(out: Path, settings: Settings, runs: dict, curves: dict, mode
         cells = "".join(_cell(r["parameters"][z]).rjust(width) for z in TRUE_MU)
         table.append(f"{name:<13}{r['status']:<16}{r['n_iterations']:>5}"
                      f"{r['n_forward_solves'] + r['n_sensitivity_solves']:>8}{r['wall_time_s']:>9.1f}  " + cells)
-    table.append("value +- standard error; '?' not resolved by the data (standard error above identify.resolution "
-                 "= 0.02), 'b' left on a bound (no standard error)")
+    table.append("value [95 % interval, within the bounds]; '?' not resolved by the data (standard error above "
+                 "identify.resolution = 0.02 or the data contradict each other), "
+                 f"'b' on a bound (within {NEAR_BOUND:g})")
     (out / "table.txt").write_text("\n".join(table) + "\n")
     summary = {"true": TRUE_MU, "noise_mm": NOISE, "model_error_mm": model_error, "settings": settings.__dict__,
                "runs": {name: r for name, (_, r) in runs.items()}, "wall_time_s": time.perf_counter() - start}
@@ -259,5 +270,5 @@ def _write_summary(out: Path, settings: Settings, runs: dict, curves: dict, mode
     echo("\n" + "\n".join(table))
     echo(f"\nresults in {out.resolve()}: table.txt, fig9.png, load_shares.png, bolt.txt, mesh_sequence.txt, "
          "measured*.csv, runs/*/ "
-         f"(result.json, history.csv, convergence.png); {summary['wall_time_s']:.0f} s in all")
+         f"(result.json, history.csv, convergence.png, report.html); {summary['wall_time_s']:.0f} s in all")
     return summary
