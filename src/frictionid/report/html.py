@@ -23,7 +23,7 @@ body { font-family: sans-serif; margin: 1.5em auto; max-width: 70em; color: #222
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.92em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; vertical-align: top; }
-th { background: #eee; } td.text, th.text { text-align: left; }
+th { background: #eee; } td { white-space: nowrap; } td.text, th.text { text-align: left; white-space: normal; }
 .bad { color: #a00; font-weight: bold; } .good { color: #070; } .note { color: #555; }
 img { max-width: 100%; border: 1px solid #ddd; }
 pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em; }
@@ -117,7 +117,7 @@ def _bound_flag(p: dict, bounds) -> str:
         gap = min(abs(p["value"] - bounds[0]), abs(bounds[1] - p["value"]))
         if gap <= NEAR_BOUND * width:
             return f"<span class=\"bad\">at bound</span> (within {gap:.2g})"
-    return "no"
+    return "no" if "at_bound" in p else "&ndash;"
 
 
 def _verdict(p: dict) -> str:
@@ -143,7 +143,8 @@ def _coefficients(result: dict, bounds) -> str:
                      *([_num(truth.get(name), ".4f")] if truth else []),
                      "&ndash;" if p["fixed"] else _bound_flag(p, bounds), _verdict(p), _e(p.get("why", ""))])
     note = "" if bounds is None else f"<p class=\"note\">bounds [{bounds[0]:g}, {bounds[1]:g}]</p>"
-    return _section("Coefficients", _table(header, rows, text_columns=(0, 6, 7, len(header) - 1)) + note)
+    text = [header.index(h) for h in ("zone", "at bound", "verdict", "why")]
+    return _section("Coefficients", _table(header, rows, text_columns=text) + note)
 
 
 def _group_table(title: str, table: dict) -> str:
