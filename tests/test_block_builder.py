@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import skfem
 
-from frictionid.builders.block import block_model, block_model_2d
+from frictionid.builders.block import DEFAULT_GRADING, block_model, block_model_2d
 from frictionid.errors import InputError
 from frictionid.fem.space import Space
 from frictionid.model import Displacement, Pressure
@@ -14,8 +14,8 @@ MATCH_TOL = 1e-9  # [mm] contact and target node must coincide to this (brief of
 
 @pytest.fixture(scope="module")
 def coarse_3d():
-    """mesh_size 2.5: block 4 x 4 x 4 hexahedra, plate 2 layers."""
-    return {1: block_model(mesh_size=2.5, order=1), 2: block_model(mesh_size=2.5, order=2)}
+    """mesh_size 2.5, uniform: block 4 x 4 x 4 hexahedra, plate 2 layers."""
+    return {1: block_model(mesh_size=2.5, order=1, grading=1.0), 2: block_model(mesh_size=2.5, order=2, grading=1.0)}
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +128,7 @@ def graded_3d():
     """Graded 4:1: linear 8 x 8 block bottom with 3 plate layers and its uniform twin; quadratic 4 x 4 (whose
     mid-nodes at the quarter points move)."""
     kwargs = dict(mesh_size=1.7, block_divisions=8)
-    return {1: block_model(**kwargs, order=1, grading=4.0), "uniform": block_model(**kwargs, order=1),
+    return {1: block_model(**kwargs, order=1, grading=4.0), "uniform": block_model(**kwargs, order=1, grading=1.0),
             2: block_model(mesh_size=2.5, order=2, grading=4.0)}
 
 
@@ -179,8 +179,23 @@ def test_3d_grading_refines_edges_borders_and_interface(graded_3d):
 
 
 def test_3d_grading_one_is_the_uniform_mesh(coarse_3d):
-    np.testing.assert_array_equal(block_model(mesh_size=2.5, order=1, grading=1.0).mesh.points,
-                                  coarse_3d[1].mesh.points)
+    mesh = coarse_3d[1].mesh
+    for axis, region in [(0, "block"), (1, "block"), (2, "block"), (2, "plate")]:
+        x = np.unique(np.round(mesh.points[region_nodes(mesh, region), axis], 9))
+        x = x[np.abs(x) <= 5.0 + MATCH_TOL] if axis < 2 else x
+        np.testing.assert_allclose(np.diff(x), 2.5, rtol=1e-12)
+
+
+def test_3d_defaults_are_graded_with_incompatible_modes():
+    """The defaults chosen with benchmarks/block_strains.py: grading DEFAULT_GRADING and, for linear hexahedra,
+    incompatible modes; quadratic hexahedra keep the standard element (incompatible modes need order 1)."""
+    default, quadratic = block_model(mesh_size=2.5), block_model(mesh_size=2.5, order=2)
+    assert (default.element, quadratic.element) == ("incompatible", "standard")
+    assert DEFAULT_GRADING > 1.0
+    np.testing.assert_array_equal(default.mesh.points,
+                                  block_model(mesh_size=2.5, grading=DEFAULT_GRADING, element="standard").mesh.points)
+    np.testing.assert_array_equal(quadratic.mesh.points,
+                                  block_model(mesh_size=2.5, order=2, grading=DEFAULT_GRADING).mesh.points)
 
 
 # ---------------------------------------------------------------------------------------------- 2-D

@@ -67,7 +67,7 @@ def solved(model: Model, forces: np.ndarray, prescribed: np.ndarray, values: np.
 def test_nodal_block_is_the_standard_hexahedron():
     """K_uu of the element matrices, assembled, is scikit-fem's Q1 stiffness (same 2x2x2 rule): this fixes the
     dof order and the B matrices the modes are coupled with."""
-    model = block_model(mesh_size=5.0)
+    model = block_model(mesh_size=5.0, element="standard")
     mesh = model.mesh
     K = incompatible.element_matrices(mesh.points[mesh.cells], incompatible.cell_lame(mesh, model.materials))
     dofs = incompatible.cell_dofs(mesh.cells)
@@ -267,7 +267,7 @@ def test_block_sensitivities_match_central_differences(pull):
 
 
 def test_block_model_carries_the_element_into_its_fingerprint():
-    standard, modes = block_model(mesh_size=5.0), block_model(mesh_size=5.0, element="incompatible")
+    standard, modes = block_model(mesh_size=5.0, element="standard"), block_model(mesh_size=5.0, element="incompatible")
     assert modes.element == "incompatible" and standard.element == "standard"
     assert standard.fingerprint() != modes.fingerprint()
     assert standard.with_element("incompatible").fingerprint() == modes.fingerprint()
