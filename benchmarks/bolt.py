@@ -26,7 +26,7 @@ from frictionid.builders.bolt import bolt_layout, bolt_model, measurement_points
 from frictionid.config import read_config  # noqa: E402
 from frictionid.data.measurements import write_measurements  # noqa: E402
 from frictionid.demo import FORCES, METHODS, QUANTITIES, TRUE_MU, _config, _points_measurements, START  # noqa: E402
-from frictionid.identify import identify  # noqa: E402
+from frictionid.identification import identify_config  # noqa: E402
 
 
 def main(flank: float = 0.1, data_flank: float = 0.05, gd_iterations: int = 20):
@@ -64,7 +64,8 @@ def main(flank: float = 0.1, data_flank: float = 0.05, gd_iterations: int = 20):
                 trace.append((np.array(mu), evaluator.n_forward, evaluator.n_sensitivity,
                               time.perf_counter() - start))
 
-            result = identify(read_config(path, need=("model", "friction", "data", "run")), progress=progress)
+            result = identify_config(read_config(path, need=("model", "friction", "data", "run")),
+                                     on_iteration=progress)
             traces[name] = (result, trace)
     report(traces, backend, exact, figures)
 

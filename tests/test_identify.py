@@ -176,14 +176,12 @@ def test_a_point_outside_its_region_is_named_by_label_and_file(measured, capsys,
 def test_an_interrupted_run_leaves_its_result_and_store(measured, monkeypatch):
     """Ctrl-C after the second iteration: exit 1, result.json says interrupted with the last iterate."""
     import frictionid.cli as cli_module
-    calls = []
 
-    def interrupt(iteration, mu, objective, evaluator):
-        calls.append(iteration)
-        if iteration == 2:
+    def interrupt(text):
+        if text.startswith("iter   2 "):
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli_module, "_progress", interrupt)
+    monkeypatch.setattr(cli_module, "_echo", interrupt)
     config = _config(measured, "ctrlc.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", run="runs/ctrlc")
     assert main(["identify", str(config)]) == 1
     result = json.loads((measured / "runs/ctrlc/result.json").read_text())

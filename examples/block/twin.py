@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from frictionid.config import read_config
-from frictionid.identify import identify
+from frictionid.identification import identify_config
 
 #: identification mesh: quadratic hexahedra, 6 divisions per block side, graded 3 (29.8k dofs)
 ID_MESH = {"mesh_size": 2.5, "order": 2, "block_divisions": 6, "grading": 3}
@@ -139,6 +139,7 @@ def identify_traced(folder: Path, name: str, method: str, jacobian: str, iterati
         trace.append((np.abs(mu - mu_true).max(), evaluator.n_forward + evaluator.n_sensitivity,
                       time.perf_counter() - start[0]))
 
-    result = identify(read_config(path, need=("model", "friction", "data", "run")), progress=progress)
+    result = identify_config(read_config(path, need=("model", "friction", "data", "run")),
+                             on_iteration=progress)
     reached = next(((solves, t) for error, solves, t in trace if error < TARGET), None)
     return {"result": result, "trace": trace, "reached": reached}

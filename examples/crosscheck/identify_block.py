@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 
 from frictionid.cli import main as cli  # noqa: E402
 from frictionid.config import read_config  # noqa: E402
-from frictionid.identify import identify  # noqa: E402
+from frictionid.identification import identify_config  # noqa: E402
 
 STRAINS = '["exx", "eyy", "ezz", "exy", "eyz", "exz"]'
 
@@ -66,7 +66,7 @@ def run(folder: Path, name: str, data: str, start: str, model: str, stages: tupl
              f'max_iterations = {iterations}\n[run]\ndir = "runs/{name}"\nworkers = {workers}\n')
     (folder / f"{name}.toml").write_text(config(model, stages, data, start, extra))
     t0 = time.perf_counter()
-    result = identify(read_config(folder / f"{name}.toml", need=("model", "friction", "data", "run")))
+    result = identify_config(read_config(folder / f"{name}.toml", need=("model", "friction", "data", "run")))
     return result, time.perf_counter() - t0
 
 

@@ -39,7 +39,7 @@ import twin  # noqa: E402
 
 from frictionid.cli import main as cli  # noqa: E402
 from frictionid.config import read_config  # noqa: E402
-from frictionid.identify import identify  # noqa: E402
+from frictionid.identification import identify_config  # noqa: E402
 
 
 def measured(folder: Path, mesh: dict, goal: dict, levels: dict) -> None:
@@ -78,8 +78,8 @@ def main(mesh: dict, iterations: int = 12, pull_levels=twin.PULL_LEVELS, stages=
             path = twin.config(folder, solver, mesh, dict.fromkeys("ABCD", 0.1), "measured.csv", table, **levels)
             path.write_text(path.read_text() + "workers = 2\n")
             start = time.perf_counter()
-            result = identify(read_config(path, need=("model", "friction", "data", "run")),
-                              progress=lambda k, mu, j, ev: print(f"  {solver} iteration {k}: J = {j:.4g}, mu = "
+            result = identify_config(read_config(path, need=("model", "friction", "data", "run")),
+                              on_iteration=lambda k, mu, j, ev: print(f"  {solver} iteration {k}: J = {j:.4g}, mu = "
                                                                   f"{np.round(mu, 4).tolist()}", flush=True))
             values = "  ".join(f"{z} {p['value']:.4f} +- {p['stderr']:.4f}" if p.get("stderr") is not None
                                else f"{z} {p['value']:.4f}" for z, p in result["parameters"].items())

@@ -67,28 +67,23 @@ def _add_identify(sub):
     parser.set_defaults(run=_run_identify)
 
 
-def _progress(iteration, mu, objective, evaluator):
-    values = "  ".join(f"{name}={value:.4f}" for name, value in zip(evaluator.params.names, mu))
-    print(f"iter {iteration:3d}  J={objective:.6e}  {values}  "
-          f"(solves {evaluator.n_forward} + {evaluator.n_sensitivity} with sensitivities, "
-          f"{evaluator.n_replayed} replayed)", flush=True)
+def _echo(text: str) -> None:
+    print(text, flush=True)
 
 
 def _run_identify(args) -> int:
     from .config import read_config
-    from .identify import identify
-    from .report.tables import prefit_summary, result_summary
+    from .identification import identify_config
 
     config = read_config(args.config, need=("model", "friction", "data", "run"))
     try:
-        result = identify(config, resume=args.resume, progress=_progress,
-                          on_prefit=lambda report: print(prefit_summary(report.as_dict()), flush=True))
+        result = identify_config(config, resume=args.resume, echo=_echo)
     except KeyboardInterrupt:
         print(f"frictionid: interrupted; every finished evaluation is stored in "
               f"{config.resolve(config.run['dir'])}; continue with --resume", file=sys.stderr)
         return 1
-    print(result_summary(result))
-    print(f"results in {config.resolve(config.run['dir'])}")
+    print(result.fit_report())
+    print(f"results in {result.run_dir}")
     return 0
 
 
@@ -101,7 +96,7 @@ def _add_simulate(sub):
 
 def _run_simulate(args) -> int:
     from .config import read_config
-    from .simulate import simulate
+    from .simulation import simulate
 
     config = read_config(args.config, need=("model", "friction", "data"))
     path = simulate(config, args.out)
@@ -154,7 +149,9 @@ def main(argv: list[str] | None = None) -> int:
     _add_demo(sub)
     _add_crosscheck(sub)
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")
+    # -v shows frictionid's own log; the libraries' (scikit-fem, matplotlib, ...) stay at warnings
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")
+    logging.getLogger("frictionid").setLevel(logging.INFO if args.verbose else logging.WARNING)
     np.set_printoptions(precision=4, suppress=True)
     try:
         return args.run(args)

@@ -7,6 +7,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+import tomli_w
+
 from .errors import InputError
 
 REQUIRED = object()   # marks a key without a default
@@ -31,7 +33,7 @@ OPEN_TABLES = {"model"}
 TYPES = {
     "friction.zones": (dict, "a table of zone = start value"),
     "friction.fixed": (dict, "a table of zone = value"),
-    "friction.bounds": (list, "a pair [lower, upper]"),
+    "friction.bounds": ((list, dict), "a pair [lower, upper] or a table zone = [lower, upper] (\"*\": the others)"),
     "data.file": (str, "a file name"),
     "data.observables": (list, 'a list of quantity names, e.g. ["ux", "uy"]'),
     "data.stages": (list, "a list of stage numbers, e.g. [2]"),
@@ -96,6 +98,12 @@ class Config:
     solver: dict
     identify: dict
     run: dict
+    name: str | None = None
+
+    @property
+    def where(self) -> str:
+        """How messages name the config: its file, or the name given to :func:`config_from_dict`."""
+        return self.name if self.name is not None else str(self.path)
 
     def resolve(self, value: str) -> Path:
         """A path from the config, relative to the config file's folder."""
@@ -132,21 +140,56 @@ def read_config(path: str | Path, need: tuple[str, ...] = ("model", "friction"))
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    return _validated(raw, path.resolve(), text, need)
+
+
+def config_from_dict(tables: dict, need: tuple[str, ...] = ("model", "friction"), base: str | Path = ".",
+                     name: str = "config") -> Config:
+    """A :class:`Config` from tables as a TOML file would give them (``{"model": {...}, "friction": {...}}``),
+    validated the same way; relative paths resolve against ``base``, messages start with ``name``.
+
+    >>> config = config_from_dict({"model": {"builder": "block2d"}, "friction": {"zones": {"A": 0.1, "B": 0.1}}})
+    >>> config.identify["method"], config.friction["bounds"]
+    ('trf', [0.0, 1.0])
+    """
+    if not isinstance(tables, dict):
+        raise InputError(f"{name}: expected a table of tables, got {type(tables).__name__}")
+    tables = {key: value for key, value in tables.items() if value is not None}
+    try:
+        text = tomli_w.dumps(_without_none(tables))
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: cannot be written as TOML: {exc}") from None
+    return _validated(tables, Path(base).resolve() / name, text, need, name)
+
+
+def _without_none(value):
+    """TOML has no null: keys whose value is None (a default) are left out of the text."""
+    if isinstance(value, dict):
+        return {k: _without_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, (list, tuple)):
+        return [_without_none(v) for v in value]
+    return value
+
+
+def _validated(raw: dict, path: Path, text: str, need: tuple[str, ...], name: str | None = None) -> Config:
+    where = Path(name) if name is not None else path
     for table in raw:
         if table not in SCHEMA:
-            raise InputError(f"{path}: unknown table [{table}]{_suggest(table, SCHEMA)}; "
+            raise InputError(f"{where}: unknown table [{table}]{_suggest(table, SCHEMA)}; "
                              f"known tables are {sorted(SCHEMA)}")
     for table in need:
         if table not in raw:
-            raise InputError(f"{path}: missing table [{table}]")
-    tables = {name: _table(raw, name, path) for name in SCHEMA}
-    _check_types(tables, path)
+            raise InputError(f"{where}: missing table [{table}]")
+    tables = {table: _table(raw, table, where) for table in SCHEMA}
+    _check_types(tables, where)
+    if isinstance(tables["model"].get("file"), str):      # a builder's mesh file: relative to the config's folder
+        tables["model"]["file"] = str(path.resolve().parent / tables["model"]["file"])
     for table, key in (("model", "builder"), ("friction", "zones")):
         if table in need and key not in tables[table]:
-            raise InputError(f"{path}: missing key {table}.{key}")
+            raise InputError(f"{where}: missing key {table}.{key}")
     for key in ("file", "observables", "stages"):
         if "data" in need and key not in tables["data"]:
-            raise InputError(f"{path}: missing key data.{key}")
+            raise InputError(f"{where}: missing key data.{key}")
     if "run" in need and "dir" not in tables["run"]:
-        raise InputError(f"{path}: missing key run.dir")
-    return Config(path=path.resolve(), text=text, **tables)
+        raise InputError(f"{where}: missing key run.dir")
+    return Config(path=path, text=text, **tables, name=name)

@@ -27,7 +27,7 @@ from .builders.registry import build_model  # noqa: E402
 from .config import read_config  # noqa: E402
 from .data.measurements import Measurements, write_measurements  # noqa: E402
 from .errors import InputError  # noqa: E402
-from .identify import identify, prepare  # noqa: E402
+from .identification import identify_config, prepare  # noqa: E402
 from .report.html import NEAR_BOUND  # noqa: E402
 from .report.outputs import write_outputs  # noqa: E402
 from .report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads  # noqa: E402
@@ -228,11 +228,11 @@ def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
         echo(f"\n3. identify {name}: {method} with {jacobian} Jacobian, {'+'.join(observables)} from {data}, "
              f"noise {noise * 1000:.4f} um")
         config = read_config(path, need=("model", "friction", "data", "run"))
-        result = identify(config, resume=resume,
-                          progress=lambda k, m, j, ev: echo(f"   iter {k:3d}  J={j:.4e}  "
+        result = identify_config(config, resume=resume,
+                          on_iteration=lambda k, m, j, ev: echo(f"   iter {k:3d}  J={j:.4e}  "
                                                             + " ".join(f"{v:.4f}" for v in m[:6])),
                           on_prefit=lambda report: echo(prefit_summary(report.as_dict())))
-        result = {**result, "truth": dict(TRUE_MU)}      # the plots and report.html then show the true values
+        result = {**result.to_dict(), "truth": dict(TRUE_MU)}      # the plots and report.html then show the true values
         write_outputs(config.resolve(config.run["dir"]), result, None, config.text,
                       config.resolve(config.data["file"]))
         runs[name] = (path, result)

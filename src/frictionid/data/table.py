@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -104,6 +105,17 @@ class Measurements:
     @property
     def n_rows(self) -> int:
         return len(self.points)
+
+    def digest(self) -> str:
+        """SHA-256 of the content (every field but ``source`` and ``comments``): equal measurements, equal digest."""
+        h = hashlib.sha256("\n".join(self.points).encode())
+        for array in (self.coordinates, self.stage.astype(np.int64), self.force):
+            h.update(np.ascontiguousarray(array).tobytes())
+        for kind, columns in (("v", self.values), ("s", self.sigma)):
+            for name in sorted(columns):
+                h.update(f"{kind}:{name}".encode())
+                h.update(np.ascontiguousarray(columns[name], dtype=float).tobytes())
+        return h.hexdigest()
 
     @property
     def n_points(self) -> int:

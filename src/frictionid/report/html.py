@@ -7,7 +7,6 @@ import hashlib
 import html
 import importlib.metadata
 import platform
-import tomllib
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -45,8 +44,7 @@ def write_html(run_dir: Path, result: dict, figures: dict[str, bytes] | None = N
 def report_html(result: dict, figures: dict[str, bytes], config_text: str | None = None,
                 data_file: Path | None = None, title: str = "") -> str:
     """The page as a string; every section says so when the run did not get far enough to fill it."""
-    bounds = _bounds(config_text)
-    sections = [_summary(result), _coefficients(result, bounds), _adequacy(result.get("fit")),
+    sections = [_summary(result), _coefficients(result), _adequacy(result.get("fit")),
                 _figure("Convergence", figures.get("convergence"), "objective and free coefficients per iteration"),
                 _fit(result.get("fit"), figures.get("fit")),
                 _figure("Residual map", figures.get("residuals"),
@@ -85,17 +83,6 @@ def _missing(what: str) -> str:
     return f"<p class=\"note\">{_e(what)}</p>"
 
 
-def _bounds(config_text: str | None) -> tuple[float, float] | None:
-    """friction.bounds of the config (default [0, 1]); None without a config."""
-    if config_text is None:
-        return None
-    try:
-        bounds = tomllib.loads(config_text).get("friction", {}).get("bounds", [0.0, 1.0])
-        return float(bounds[0]), float(bounds[1])
-    except (tomllib.TOMLDecodeError, TypeError, ValueError, IndexError):
-        return None
-
-
 def _summary(result: dict) -> str:
     status = result.get("status", "unknown")
     ok = status == "converged"
@@ -109,9 +96,10 @@ def _summary(result: dict) -> str:
     return "\n".join(lines)
 
 
-def _bound_flag(p: dict, bounds) -> str:
+def _bound_flag(p: dict) -> str:
     if p.get("at_bound"):
         return "<span class=\"bad\">at bound</span>"
+    bounds = p.get("bounds")
     if bounds is not None:
         width = bounds[1] - bounds[0]
         gap = min(abs(p["value"] - bounds[0]), abs(bounds[1] - p["value"]))
@@ -128,10 +116,10 @@ def _verdict(p: dict) -> str:
     return "<span class=\"good\">resolved</span>" if p["identifiable"] else "<span class=\"bad\">NOT RESOLVED</span>"
 
 
-def _coefficients(result: dict, bounds) -> str:
+def _coefficients(result: dict) -> str:
     truth = result.get("truth") or {}
-    header = ["zone", "value", "stderr", "95 % interval", "initial", *(["true"] if truth else []), "at bound",
-              "verdict", "why"]
+    header = ["zone", "value", "stderr", "95 % interval", "initial", *(["true"] if truth else []), "bounds",
+              "at bound", "verdict", "why"]
     rows = []
     for name, p in result["parameters"].items():
         ci = p.get("ci95")
@@ -141,10 +129,10 @@ def _coefficients(result: dict, bounds) -> str:
             p.get("stderr"), ".4g")
         rows.append([_e(name), f"{p['value']:.6f}", stderr, interval, _num(p.get("initial"), ".4f"),
                      *([_num(truth.get(name), ".4f")] if truth else []),
-                     "&ndash;" if p["fixed"] else _bound_flag(p, bounds), _verdict(p), _e(p.get("why", ""))])
-    note = "" if bounds is None else f"<p class=\"note\">bounds [{bounds[0]:g}, {bounds[1]:g}]</p>"
+                     "&ndash;" if p.get("bounds") is None else f"[{p['bounds'][0]:g}, {p['bounds'][1]:g}]",
+                     "&ndash;" if p["fixed"] else _bound_flag(p), _verdict(p), _e(p.get("why", ""))])
     text = [header.index(h) for h in ("zone", "at bound", "verdict", "why")]
-    return _section("Coefficients", _table(header, rows, text_columns=text) + note)
+    return _section("Coefficients", _table(header, rows, text_columns=text))
 
 
 def _group_table(title: str, table: dict) -> str:

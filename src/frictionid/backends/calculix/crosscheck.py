@@ -291,7 +291,7 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     from ...data.measurements import read_measurements
     from ...inverse.observations import observations_from
     from ...inverse.parameters import Parameters
-    from ...simulate import DEFAULT_QUANTITIES
+    from ...simulation import DEFAULT_QUANTITIES
 
     model = build_model(config.model)
     friction = config.friction

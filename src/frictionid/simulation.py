@@ -25,7 +25,7 @@ def simulate(config: Config, out: str | Path) -> Path:
     The `force` column is the machine force (see :func:`~frictionid.inverse.observations.machine_force`) where
     the model is driven by a prescribed displacement, empty otherwise.
     """
-    check_backend(config.solver["backend"], None, solver_options(config), f"{config.path}: [solver]")
+    check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
     model = build_model(config.model)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
@@ -44,7 +44,7 @@ def simulate(config: Config, out: str | Path) -> Path:
     try:
         backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
                                [regions.get(p, regions.get("*")) for p in labels], solver_options(config),
-                               f"{config.path}: [solver]", reactions)
+                               f"{config.where}: [solver]", reactions)
     except PointsOutside as exc:
         raise exc.named(labels, source.source) from None
     prediction = backend.predict(mu.full(mu.x0))

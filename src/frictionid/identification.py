@@ -1,10 +1,12 @@
-"""identify: a config in, coefficients with uncertainty out; every evaluation stored, runs resumable."""
+"""identify: a model, measurements and parameters (or a config) in, coefficients with uncertainty out; every
+evaluation stored, runs resumable."""
 
 from __future__ import annotations
 
 import hashlib
 import json
 import logging
+import tempfile
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -14,8 +16,8 @@ import numpy as np
 from .backends import check_backend, make_backend, solver_options
 from .backends.embedded import EmbeddedBackend
 from .builders.registry import build_model
-from .config import Config
-from .data.measurements import read_measurements
+from .config import Config, config_from_dict
+from .data.measurements import Measurements, read_measurements
 from .errors import InputError, SolverError
 from .fem.points import PointsOutside
 from .inverse.evaluator import JACOBIANS, Evaluator
@@ -26,8 +28,11 @@ from .inverse.parameters import Parameters
 from .discretisation import check_options, refine_until, with_model_error
 from .inverse.adequacy import Adequacy, assess, bias_shift
 from .inverse.uncertainty import Uncertainty, at_bounds, estimate
+from .model import Model
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
+from .report.tables import prefit_summary
+from .result import IdentificationResult
 from .run.store import RunStore
 
 log = logging.getLogger(__name__)
@@ -35,68 +40,91 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Setup:
-    """Everything an identification needs, built and validated from a config before anything runs."""
+    """Everything an identification needs, built and validated before anything runs; ``model_options`` is the
+    [model] table the model was built from ({} for a model given as an object), ``data_file`` the measurement
+    file (None for measurements given as an object)."""
 
     model: object
     observations: object
     parameters: Parameters
     fingerprint: str
     model_options: dict
+    data_file: Path | None = None
 
 
-def fingerprint(config: Config) -> str:
-    """Hash of everything that determines forward results: model, data (file bytes), observables, solver."""
-    data_file = config.resolve(config.data["file"])
-    content = {"model": config.model, "data": {k: v for k, v in config.data.items() if k != "file"},
-               "data_bytes": hashlib.sha256(data_file.read_bytes()).hexdigest(),
+def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
+    """Hash of everything that determines forward results: model (its [model] table, or the model's own
+    fingerprint when given as an object), data (file bytes, or the content of given measurements),
+    observables, solver."""
+    data = {k: v for k, v in config.data.items() if k != "file"}
+    content = {"model": config.model if model is None else model.fingerprint(), "data": data,
+               "data_bytes": hashlib.sha256(config.resolve(config.data["file"]).read_bytes()).hexdigest()
+               if measurements is None else measurements.digest(),
                "solver": config.solver, "fixed": config.friction.get("fixed", {}),
                "jacobian": config.identify["jacobian"], "step": config.identify["step"]}
     return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def prepare(config: Config) -> Setup:
-    """Build the model, read and map the data, validate the parameters and options."""
-    ident = config.identify
+def prepare(config: Config, model: Model | None = None, measurements: Measurements | None = None,
+            parameters: Parameters | None = None, echo=lambda text: None) -> Setup:
+    """Build the model, read and map the data, validate the parameters and options; a model, measurements or
+    parameters given as objects are used instead of the config's [model], data.file and [friction]."""
+    ident, where = config.identify, config.where
     if ident["jacobian"] not in JACOBIANS:
-        raise InputError(f"{config.path}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
-    check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{config.path}: [solver]",
+        raise InputError(f"{where}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
+    check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{where}: [solver]",
                   float(ident["step"]))
     if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
-        raise InputError(f"{config.path}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
+        raise InputError(f"{where}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
                          f"{ident['resolution']!r} and {ident['suggestions']!r}")
     if int(config.run["workers"]) < 1:
-        raise InputError(f"{config.path}: run.workers must be at least 1, got {config.run['workers']}")
+        raise InputError(f"{where}: run.workers must be at least 1, got {config.run['workers']}")
     if config.run.get("scheduler"):
-        raise InputError(f"{config.path}: run.scheduler (a Dask cluster) is not available yet; use run.workers "
+        raise InputError(f"{where}: run.scheduler (a Dask cluster) is not available yet; use run.workers "
                          "for parallel evaluations on this machine")
-    model = build_model(config.model)
-    parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
-                                        config.friction.get("fixed"))
-    prior = config.identify["prior"]
-    if prior is not None and not (isinstance(prior, (int, float)) and not isinstance(prior, bool)
-                                  or isinstance(prior, list) and len(prior) == len(parameters.free_names)
-                                  and all(isinstance(v, (int, float)) for v in prior)):
-        raise InputError(f"{config.path}: identify.prior must be a number or a list of "
-                         f"{len(parameters.free_names)} numbers (one per free zone {list(parameters.free_names)}), "
-                         f"got {prior!r}")
-    if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
-        raise InputError(f"{config.path}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
-                         " (a robust loss only with method = \"trf\")")
-    if not float(ident["loss_scale"]) > 0:
-        raise InputError(f"{config.path}: identify.loss_scale must be > 0, got {ident['loss_scale']!r}")
-    try:
-        check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"],
-                     len(parameters.free_names))
-    except InputError as exc:
-        raise InputError(f"{config.path}: [identify] {exc}") from None
-    check_options(ident, config.model, f"{config.path}:")
+    given_model, model_options = model, dict(config.model) if model is None else {}
+    if model is None:
+        start = time.perf_counter()
+        model = build_model(config.model)
+        echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
+             f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
+    if parameters is None:
+        parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
+                                            config.friction.get("fixed"))
+    else:
+        parameters = parameters.ordered_as(model.zone_names, f"{where}: parameters")
+    _check_identify(config, ident, len(parameters.free_names), list(parameters.free_names))
+    check_options(ident, model_options, f"{where}:")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
-        raise InputError(f"{config.path}: identify.model_error = {ident['model_error']!r} needs the embedded "
+        raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
-    measurements = read_measurements(config.resolve(config.data["file"]))
+    data_file = config.resolve(config.data["file"]) if measurements is None else None
+    given = measurements
+    if measurements is None:
+        measurements = read_measurements(data_file)
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
                                      config.data.get("noise"), config.data.get("regions"))
-    return Setup(model, observations, parameters, fingerprint(config), dict(config.model))
+    return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
+                 data_file)
+
+
+def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
+    """The [identify] keys that need the number of free zones: prior, loss, the method's options."""
+    where, prior = config.where, ident["prior"]
+    if prior is not None and not (isinstance(prior, (int, float)) and not isinstance(prior, bool)
+                                  or isinstance(prior, list) and len(prior) == n_free
+                                  and all(isinstance(v, (int, float)) for v in prior)):
+        raise InputError(f"{where}: identify.prior must be a number or a list of {n_free} numbers (one per free "
+                         f"zone {free}), got {prior!r}")
+    if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
+        raise InputError(f"{where}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
+                         " (a robust loss only with method = \"trf\")")
+    if not float(ident["loss_scale"]) > 0:
+        raise InputError(f"{where}: identify.loss_scale must be > 0, got {ident['loss_scale']!r}")
+    try:
+        check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"], n_free)
+    except InputError as exc:
+        raise InputError(f"{where}: [identify] {exc}") from None
 
 
 def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config, store: RunStore,
@@ -117,13 +145,86 @@ def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config,
                         evaluator.obs.noise_known, config.identify["loss"], float(config.identify["loss_scale"]))
 
 
-def identify(config: Config, resume: bool = False, progress=lambda *args: None, on_prefit=lambda report: None) -> dict:
-    """Run (or resume) the identification a config describes; returns and writes result.json.
+def identify(model: Model | dict, measurements: Measurements | str | Path, parameters: Parameters | dict, *,
+             observables, stages, noise: dict | None = None, regions: dict | None = None,
+             run_dir: str | Path | None = None, resume: bool = False, solver: dict | None = None, workers: int = 1,
+             progress=None, **options) -> IdentificationResult:
+    """Identify the zone coefficients of ``model`` from ``measurements`` (the Python interface; the command line
+    runs :func:`identify_config`, and both give the same result.json).
 
-    ``progress(iteration, mu, objective, evaluator)`` is called after each iteration, ``on_prefit(Prefit)``
-    once before fitting with the resolution of the planned data (see :mod:`frictionid.prefit`).
+    Parameters
+    ----------
+    model : Model or dict
+        A model object (e.g. from :func:`frictionid.builders.block.block_model_2d`) or a [model] table such as
+        ``{"builder": "block2d", "mesh_size": 1.0}``; only a table can be refined (identify.model_error).
+    measurements : Measurements, str or Path
+        The measured values, or a measurement file (docs/data.md).
+    parameters : Parameters or dict
+        Start values, bounds and held zones; a dict zone -> start value means bounds [0, 1] and no held zone.
+    observables, stages, noise, regions
+        As the [data] keys of a config (docs/config.md).
+    run_dir : str or Path, optional
+        Folder of the run: its store (so that ``resume=True`` continues an interrupted run), result.json,
+        history, plots and report.html. Default: none is kept (the store lives in a temporary folder).
+    solver : dict, optional
+        The [solver] table (default: the embedded backend).
+    workers : int
+        Parallel evaluations (run.workers).
+    progress : callable, optional
+        ``progress(text)`` gets one line per phase and iteration; default quiet.
+    **options
+        [identify] keys: method, jacobian, max_iterations, tol, loss, model_error, ... (docs/config.md).
+
+    Returns
+    -------
+    IdentificationResult
+
+    Examples
+    --------
+    >>> from frictionid import Parameter, Parameters, identify
+    >>> params = Parameters([Parameter("A", 0.1, max=0.6), Parameter("B", 0.1)])
+    >>> result = identify({"builder": "block2d"}, "measured.csv", params, observables=["ux", "uy"],
+    ...                   stages=[2], noise={"u": 5e-4})  # doctest: +SKIP
+    >>> print(result.fit_report())  # doctest: +SKIP
     """
-    setup = prepare(config)
+    if isinstance(parameters, dict):
+        parameters = Parameters.from_dict(parameters)
+    if not isinstance(parameters, Parameters):
+        raise InputError(f"identify(): parameters must be Parameters or a dict zone -> start value, got "
+                         f"{type(parameters).__name__}")
+    given = measurements if isinstance(measurements, Measurements) else None
+    tables = {"model": model if isinstance(model, dict) else {},
+              "friction": {"zones": {p.name: p.value for p in parameters.items if p.vary},
+                           "fixed": {p.name: p.value for p in parameters.items if not p.vary},
+                           "bounds": {p.name: [p.min, p.max] for p in parameters.items if p.vary}},
+              "data": {"file": given.source or "(measurements given in memory)" if given else str(measurements),
+                       "observables": list(observables), "stages": list(stages), "noise": dict(noise or {}),
+                       "regions": dict(regions or {})},
+              "solver": dict(solver or {}), "identify": options,
+              "run": {"dir": str(run_dir or "(temporary)"), "workers": workers}}
+    config = config_from_dict(tables, need=("friction", "data", "run") + (("model",) if isinstance(model, dict)
+                                                                          else ()), name="identify()")
+    setup = prepare(config, None if isinstance(model, dict) else model, given, parameters)
+    echo = progress or (lambda text: None)
+    if run_dir is not None:
+        return identify_config(config, resume, echo=echo, setup=setup)
+    with tempfile.TemporaryDirectory(prefix="frictionid-") as folder:
+        result = identify_config(replace(config, run={**config.run, "dir": folder}), echo=echo, setup=setup,
+                                 write_files=False)
+    return replace(result, run_dir=None)
+
+
+def identify_config(config: Config, resume: bool = False, echo=lambda text: None, on_prefit=None,
+                    on_iteration=None, setup: Setup | None = None, write_files: bool = True) -> IdentificationResult:
+    """Run (or resume) the identification a config describes; writes result.json and the run's files.
+
+    ``echo(text)`` gets one line per phase (model, condensation, resolution, iterations, model error);
+    ``on_prefit(Prefit)`` is called once before fitting with the resolution of the planned data (see
+    :mod:`frictionid.prefit`; default: its summary goes to ``echo``), ``on_iteration(iteration, mu, objective,
+    evaluator)`` after each iteration with all zones' coefficients mu; ``setup`` is :func:`prepare`'s
+    (built here when not given); ``write_files=False`` keeps only the store (no result.json, plots, report).
+    """
+    setup = setup or prepare(config, echo=echo)
     run_dir = config.resolve(config.run["dir"])
     start = time.perf_counter()
     obs = setup.observations
@@ -132,27 +233,51 @@ def identify(config: Config, resume: bool = False, progress=lambda *args: None, 
                                          float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
         setup = replace(setup, model=model, model_options=options)
     try:                    # built before the store is opened: bad points leave no store behind
+        condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
-                               solver_options(config), f"{config.path}: [solver]", obs.reactions)
+                               solver_options(config), f"{config.where}: [solver]", obs.reactions)
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
+    echo(f"{config.solver['backend']} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "
+         f"({time.perf_counter() - condensed:.1f} s{', condensed' if config.solver['backend'] == 'embedded' else ''})")
     store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     evaluator = Evaluator(backend,
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),
                           config.identify["prior"], float(config.identify["penalty"]), int(config.run["workers"]))
+    progress = _iteration_lines(echo, on_iteration)
     problem = _least_squares(evaluator, setup.parameters, config, store, progress)
+    if on_prefit is None:
+        def on_prefit(report):
+            echo(prefit_summary(report.as_dict()))
     store.set_status("running")
     try:
-        return _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit, progress)
+        result = _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit, progress, write_files)
     finally:
         evaluator.close()
+    return IdentificationResult(result, run_dir if write_files else None)
+
+
+def _iteration_lines(echo, on_iteration=None):
+    """The optimiser's callback: one line per iteration with the objective, the step and the coefficients to
+    ``echo``, then ``on_iteration``."""
+    previous = {}
+
+    def progress(iteration, mu, objective, evaluator):
+        if on_iteration is not None:
+            on_iteration(iteration, mu, objective, evaluator)
+        step = "" if "mu" not in previous else f"  step={np.max(np.abs(mu - previous['mu'])):.2e}"
+        previous["mu"] = np.array(mu)
+        values = "  ".join(f"{name}={value:.4f}" for name, value in zip(evaluator.params.names, mu))
+        echo(f"iter {iteration:3d}  J={objective:.6e}{step}  {values}  (solves {evaluator.n_forward} + "
+             f"{evaluator.n_sensitivity} with sensitivities, {evaluator.n_replayed} replayed)")
+    return progress
 
 
 def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: RunStore, run_dir: Path,
-            start: float, on_prefit, progress) -> dict:
+            start: float, on_prefit, progress, write_files: bool = True) -> dict:
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
-    leaves result.json."""
+    leaves result.json (with ``write_files``; the store keeps the result either way)."""
     try:
         factory = EmbeddedBackend if evaluator.backend.has_sensitivities else None
         report = prefit(evaluator, setup.model, float(config.identify["resolution"]),
@@ -164,15 +289,17 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
             error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
     except KeyboardInterrupt:
         _stopped(config, setup, evaluator, store, run_dir, "interrupted",
-                 "stopped by the user; continue with --resume", time.perf_counter() - start)
+                 "stopped by the user; continue with --resume", time.perf_counter() - start, write_files)
         raise
     except SolverError as exc:
-        _stopped(config, setup, evaluator, store, run_dir, "failed", str(exc), time.perf_counter() - start)
+        _stopped(config, setup, evaluator, store, run_dir, "failed", str(exc), time.perf_counter() - start,
+                 write_files)
         raise
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
     store.put_result(result)
     store.set_status(result["status"])
-    write_outputs(run_dir, result, store, config.text, config.resolve(config.data["file"]))
+    if write_files:
+        write_outputs(run_dir, result, store, config.text, setup.data_file)
     return result
 
 
@@ -193,21 +320,23 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
 
 
 def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path, status: str, message: str,
-             wall: float) -> None:
+             wall: float, write_files: bool = True) -> None:
     """result.json of a run that did not finish: the last stored iterate, the counts, the reason."""
     iterations = store.iterations()
     x = iterations[-1].x if iterations else setup.parameters.x0
     mu = setup.parameters.full(np.asarray(x))
     result = {"status": status, "message": message, "method": config.identify["method"],
               "jacobian": config.identify["jacobian"], "backend": config.solver["backend"],
-              "parameters": {p.name: {"value": float(v), "initial": p.value, "fixed": not p.vary}
+              "parameters": {p.name: {"value": float(v), "initial": p.value, "fixed": not p.vary,
+                                      **({"bounds": [p.min, p.max]} if p.vary else {})}
                              for p, v in zip(setup.parameters.items, mu)},
               "n_iterations": len(iterations) - 1 if iterations else 0, "n_forward_solves": evaluator.n_forward,
               "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
               "wall_time_s": wall}
     store.set_status(status, message)
     store.put_result(result)
-    write_outputs(run_dir, result, store, config.text, config.resolve(config.data["file"]))
+    if write_files:
+        write_outputs(run_dir, result, store, config.text, setup.data_file)
 
 
 def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome: OptimiseResult, report: Prefit,
@@ -223,7 +352,8 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         if p.vary:
             k = free.index(p.name)
             stderr = unc.stderr[k]
-            entry.update(value=float(outcome.x[k]), stderr=None if np.isnan(stderr) else float(stderr),
+            entry.update(value=float(outcome.x[k]), bounds=[p.min, p.max],
+                         stderr=None if np.isnan(stderr) else float(stderr),
                          ci95=None if np.isnan(stderr) else [float(v) for v in unc.ci95[k]],
                          at_bound=bool(unc.at_bound[k]), identifiable=bool(unc.identifiable[k]))
             if why[k]:

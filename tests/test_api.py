@@ -1,0 +1,153 @@
+"""The Python interface: Parameters in code with per-zone bounds, identify() on objects or files, the result
+object, config_from_dict; the command line and the API give the same result.json."""
+
+import doctest
+import json
+import shutil
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import frictionid
+from frictionid import (IdentificationResult, InputError, Parameter, Parameters, block_model_2d, config_from_dict,
+                        identify, read_measurements)
+from frictionid.cli import main
+
+ROOT = Path(__file__).parents[1]
+#: examples/first: the block's side points L*, R* lie on the block, the others on the base
+REGIONS = {**{f"{side}{k}": "block" for side in "LR" for k in range(1, 7)}, "*": "base"}
+#: entries of result.json that differ between two runs of the same identification
+TIMING = {"wall_time_s"}
+
+
+@pytest.fixture(scope="module")
+def first(tmp_path_factory):
+    """examples/first with its twin data made (A 0.30, B 0.15 on the 0.5 mm mesh)."""
+    folder = tmp_path_factory.mktemp("api") / "first"
+    shutil.copytree(ROOT / "examples" / "first", folder)
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
+    return folder
+
+
+@pytest.fixture(scope="module")
+def cli_run(first):
+    """The example's identification through the command line: its run folder."""
+    assert main(["identify", str(first / "identify.toml")]) == 0
+    return first / "runs/first"
+
+
+def without_timing(result: dict) -> dict:
+    return {key: value for key, value in result.items() if key not in TIMING}
+
+
+def test_cli_and_api_write_the_same_result_json(first, cli_run, monkeypatch):
+    cli = json.loads((cli_run / "result.json").read_text())
+    monkeypatch.chdir(first)                                   # the API resolves relative paths against the cwd
+    result = identify({"builder": "block2d", "mesh_size": 1.0, "pull": 0.05}, "measured.csv",
+                      {"A": 0.1, "B": 0.1}, observables=["ux", "uy"], stages=[2], noise={"u": 0.0005},
+                      regions=REGIONS, run_dir="runs/api")
+    api = json.loads((first / "runs/api/result.json").read_text())
+    assert without_timing(api) == without_timing(cli)
+    assert result.to_dict() == api and result.run_dir == (first / "runs/api").resolve()
+    assert (first / "runs/api/report.html").exists()
+
+
+def test_model_and_measurements_as_objects_give_the_table_and_file_results(first, cli_run):
+    from_files = IdentificationResult.read(cli_run)
+    params = Parameters([Parameter("A", 0.1), Parameter("B", 0.1)])
+    result = identify(block_model_2d(mesh_size=1.0, pull=0.05), read_measurements(first / "measured.csv"), params,
+                      observables=["ux", "uy"], stages=[2], noise={"u": 0.0005}, regions=REGIONS)
+    assert result.run_dir is None and result.status == from_files.status
+    for zone in ("A", "B"):
+        assert result.coefficients[zone] == pytest.approx(from_files.coefficients[zone], abs=1e-12)
+        assert result.stderr[zone] == pytest.approx(from_files.stderr[zone], rel=1e-9)
+    assert result["model"] == {}                              # a model object has no [model] table
+
+
+def test_the_result_object_reads_like_result_json_and_cannot_be_changed(cli_run):
+    result = IdentificationResult.read(cli_run / "result.json")
+    assert result["parameters"]["B"]["identifiable"] is True and result.identifiable == {"A": False, "B": True}
+    low, high = result.ci95["B"]
+    assert low <= 0.15 <= high and result.stderr["B"] > 0
+    report = result.fit_report()
+    assert "[[Variables]]" in report and "NOT RESOLVED" in report.split("    A ")[1].splitlines()[0]
+    with pytest.raises(TypeError):
+        result["status"] = "converged"
+    with pytest.raises(TypeError):
+        result["parameters"]["B"]["value"] = 0.0
+    copy = result.to_dict()
+    copy["parameters"]["B"]["value"] = 0.0
+    assert result.coefficients["B"] != 0.0
+
+
+def test_per_zone_bounds_hold_and_reach_result_json(first):
+    params = Parameters.from_dict({"A": 0.1, "B": 0.1}, bounds={"B": [0.0, 0.12], "*": [0.0, 0.8]})
+    result = identify({"builder": "block2d", "mesh_size": 1.0, "pull": 0.05}, first / "measured.csv", params,
+                      observables=["ux", "uy"], stages=[2], noise={"u": 0.0005}, regions=REGIONS)
+    b = result["parameters"]["B"]
+    assert b["bounds"] == (0.0, 0.12) and result["parameters"]["A"]["bounds"] == (0.0, 0.8)   # lists read as tuples
+    assert b["value"] == pytest.approx(0.12, abs=1e-6) and b["at_bound"]      # B wants 0.15
+    assert 0.0 <= b["ci95"][0] <= b["ci95"][1] <= 0.12
+
+
+def test_the_package_exports_its_interface_lazily():
+    assert {"identify", "Parameters", "IdentificationResult", "config_from_dict"} <= set(frictionid.__all__)
+    assert callable(frictionid.identify) and frictionid.identify.__module__ == "frictionid.identification"
+    with pytest.raises(AttributeError):
+        frictionid.no_such_name
+
+
+@pytest.mark.parametrize("build, message", [
+    (lambda: Parameter("A", 0.7, max=0.6), "start value 0.7 lies outside bounds [0.0, 0.6]"),
+    (lambda: Parameter("A", 0.1, min=-0.1), "lower bound -0.1 is negative"),
+    (lambda: Parameters([Parameter("A", 0.1), Parameter("A", 0.2)]), "zone(s) ['A'] given more than once"),
+    (lambda: Parameters.from_dict({"A": 0.1}, bounds={"B": [0, 1]}), "zone(s) ['B'] are not free zones"),
+    (lambda: Parameters.from_dict({"A": 0.1}, bounds={"A": [0.5, 0.2]}), "bounds.A [0.5, 0.2]: the lower"),
+    (lambda: Parameters.from_dict({"A": 0.9}, bounds={"*": [0, 0.5]}), "zones.A = 0.9 lies outside"),
+    (lambda: Parameters([Parameter("A", 0.1, vary=False)]), "every zone is fixed"),
+])
+def test_bad_parameters_are_refused_by_name(build, message):
+    with pytest.raises(InputError) as info:
+        build()
+    assert message in str(info.value)
+
+
+def test_bad_api_input_names_the_key(first):
+    common = dict(observables=["ux", "uy"], stages=[2], regions=REGIONS)
+    model = {"builder": "block2d", "mesh_size": 1.0, "pull": 0.05}
+    with pytest.raises(InputError, match=r"unknown zone\(s\) \['Z'\]"):
+        identify(model, first / "measured.csv", {"A": 0.1, "B": 0.1, "Z": 0.1}, **common)
+    with pytest.raises(InputError, match=r"identify\(\): unknown key identify.methd \(did you mean 'method'\?\)"):
+        identify(model, first / "measured.csv", {"A": 0.1, "B": 0.1}, methd="trf", **common)
+    with pytest.raises(InputError, match="identify.max_iterations must be a whole number"):
+        identify(model, first / "measured.csv", {"A": 0.1, "B": 0.1}, max_iterations=2.5, **common)
+
+
+def test_config_from_dict_validates_like_a_file():
+    config = config_from_dict({"model": {"builder": "block2d"}, "friction": {"zones": {"A": 0.1, "B": 0.1},
+                               "bounds": {"A": [0, 0.5]}}, "solver": {"work_dir": None}})
+    assert config.friction["bounds"] == {"A": [0, 0.5]} and config.where == "config"
+    assert tomllib.loads(config.text) == {"model": {"builder": "block2d"}, "solver": {},      # TOML has no null
+                                          "friction": {"zones": {"A": 0.1, "B": 0.1}, "bounds": {"A": [0, 0.5]}}}
+    with pytest.raises(InputError, match=r"^config: unknown table \[frcition\] \(did you mean 'friction'\?\)"):
+        config_from_dict({"model": {"builder": "block2d"}, "frcition": {}})
+
+
+def test_the_readme_example_runs(first, monkeypatch):
+    """README.md's Python example, as a doctest in the example's folder."""
+    monkeypatch.chdir(first)
+    failures, tried = doctest.testfile(str(ROOT / "README.md"), module_relative=False,
+                                       optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert tried >= 4 and failures == 0
+
+
+def test_measurements_digest_follows_the_content(first):
+    m = read_measurements(first / "measured.csv")
+    same = read_measurements(first / "measured.csv")
+    assert m.digest() == same.digest()
+    values = {q: v.copy() for q, v in m.values.items()}
+    values["ux"][0] += 1e-12
+    changed = type(m)(m.points, m.coordinates, m.stage, m.force, values, m.sigma, m.comments, m.source)
+    assert changed.digest() != m.digest() and np.isfinite(m.values["ux"][0])
