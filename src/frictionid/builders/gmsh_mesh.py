@@ -127,3 +127,18 @@ def read_msh(path: str | Path) -> Mesh:
         except Exception as exc:  # gmsh raises a bare Exception with its own message
             raise InputError(f"{path}: gmsh could not read it ({exc})") from None
         return mesh_from_gmsh(str(path))
+
+
+def read_geo(path: str | Path) -> Mesh:
+    """Mesh a gmsh .geo file with the installed gmsh (its own options, e.g. ``Mesh.ElementOrder``, apply) in the
+    dimension of its geometry; physical groups become regions and boundaries."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: geometry file not found")
+    with gmsh_session():
+        try:
+            gmsh.open(str(path))
+            gmsh.model.mesh.generate(gmsh.model.getDimension())
+        except Exception as exc:  # gmsh raises a bare Exception with its own message
+            raise InputError(f"{path}: gmsh could not mesh it ({exc})") from None
+        return mesh_from_gmsh(str(path))

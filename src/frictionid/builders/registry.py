@@ -9,8 +9,9 @@ from ..errors import InputError
 from ..model import Model
 from .block import block_model, block_model_2d
 from .bolt import bolt_model, default_sizes
+from .mesh import mesh_model
 
-BUILDERS = {"block": block_model, "block2d": block_model_2d, "bolt": bolt_model}
+BUILDERS = {"block": block_model, "block2d": block_model_2d, "bolt": bolt_model, "mesh": mesh_model}
 #: the element-size options [mm] :func:`refined` divides, per builder; block2d's ``contact_size`` left out
 #: follows its ``mesh_size``
 SIZE_OPTIONS = {"block": ("mesh_size",), "block2d": ("mesh_size", "contact_size"),

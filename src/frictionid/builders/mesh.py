@@ -1,0 +1,277 @@
+"""A user's own mesh as a model (``builder = "mesh"``): a gmsh .msh / .geo or an Abaqus / CalculiX .inp whose named
+groups are the regions, boundaries and friction zones; materials, supports, loads and stages from [model]."""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, SurfaceForce, Support
+from ..model.mesh import FACET_NODES, FACET_TYPE
+from ..model.model import KINDS
+from .gmsh_mesh import read_geo, read_msh
+from .mesh_checks import check_contact_sides, check_held
+from .mesh_inp import read_inp
+
+logger = logging.getLogger(__name__)
+
+LOAD_TYPES = {"pressure": Pressure, "force": SurfaceForce, "displacement": Displacement}
+
+
+@dataclass(frozen=True)
+class MeshFile:
+    """The named sets of a mesh file, before the [model] table picks the ones it uses.
+
+    Attributes
+    ----------
+    path : the file; points : (n_nodes, dim) [mm]; cell_type : meshio name; cells : (n_cells, n_cell_nodes)
+    regions : name -> cell indices (physical groups of the top dimension / *ELSET)
+    boundaries : name -> facets (physical groups one dimension lower / element-face *SURFACE)
+    node_sets : name -> node indices (*NSET; supports and displacements only)
+    case_insensitive : names match whatever their case (.inp)
+    """
+
+    path: Path
+    points: np.ndarray
+    cell_type: str
+    cells: np.ndarray
+    regions: dict
+    boundaries: dict
+    node_sets: dict
+    case_insensitive: bool = False
+
+    def find(self, name, kinds: tuple[str, ...], where: str) -> tuple[str, str]:
+        """(kind, the file's spelling) of a configured name among the given kinds of set, else an
+        :class:`InputError` naming what the file has, with a "did you mean"."""
+        if not isinstance(name, str):
+            raise InputError(f"{where}: must be a name (a string), got {name!r}")
+        fold = str.casefold if self.case_insensitive else (lambda s: s)
+        for kind in kinds:
+            for known in getattr(self, kind):
+                if fold(known) == fold(name):
+                    return kind, known
+        wanted = " or ".join(_WHAT[k] for k in kinds)
+        for kind in set(_WHAT) - set(kinds):
+            if any(fold(known) == fold(name) for known in getattr(self, kind)):
+                raise InputError(f"{where} = {name!r}: {self.path.name} has {name!r} as a {_WHAT[kind]}, this "
+                                 f"needs a {wanted}{_NEEDS.get(kinds, '')}")
+        names = sorted(n for kind in kinds for n in getattr(self, kind))
+        by_fold = {fold(n): n for n in names}
+        close = difflib.get_close_matches(fold(name), list(by_fold), n=1)
+        hint = f" (did you mean {by_fold[close[0]]!r}?)" if close else ""
+        raise InputError(f"{where} = {name!r}: {self.path.name} has no {wanted} of that name{hint}; it has "
+                         f"{names or 'none'}")
+
+
+_WHAT = {"regions": "region", "boundaries": "boundary", "node_sets": "node set"}
+_NEEDS = {("boundaries",): " (a physical group of facets, in an .inp an element-face *SURFACE)"}
+
+
+def read_mesh_file(path: Path) -> MeshFile:
+    """The named sets of a .msh, .geo or .inp file."""
+    suffix = path.suffix.lower()
+    if suffix == ".inp":
+        sets = read_inp(path)
+        return MeshFile(path, sets.points, sets.cell_type, sets.cells, sets.elsets, sets.surfaces, sets.nsets, True)
+    if suffix not in (".msh", ".geo"):
+        raise InputError(f"[model] file = {str(path)!r}: a mesh file must be a gmsh .msh or .geo or an "
+                         "Abaqus / CalculiX .inp")
+    mesh = read_msh(path) if suffix == ".msh" else read_geo(path)
+    return MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries), {})
+
+
+def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials=None, supports=(), loads=(),
+               interfaces=(), element: str = "standard") -> Model:
+    """A model on a user's mesh file; every name is a region, boundary or node set of the file.
+
+    Parameters
+    ----------
+    file : str or Path
+        gmsh .msh (physical groups name regions and boundaries), .geo (meshed by the installed gmsh) or
+        Abaqus / CalculiX .inp (*ELSET regions, element-face *SURFACE boundaries, *NSET node sets; names
+        case-insensitive). Relative to the config file's folder.
+    kind : "3d" | "plane_strain" | "axisymmetric"
+        Axisymmetric: x = r >= 0, y the axis, forces for the whole ring; plane strain: forces per mm thickness.
+    stages : list of str
+        Stage names, in order. increments : int or list of int
+        Load increments per stage (one number: each stage).
+    materials : table region -> { E [MPa], nu }
+        One per region of the file that has cells; regions must not overlap and must cover every cell.
+    supports : list of { boundary, components }
+        Components ("x", "y", "z") held at zero; default all.
+    loads : list of { type, boundary, component, values }
+        ``type`` "pressure" [MPa, positive pushing into the body], "force" [N, total over the boundary, spread
+        uniformly; ``component``] or "displacement" [mm; ``component``]; ``values`` one per stage.
+    interfaces : list of { name, zones, target, discretisation }
+        Contact-side boundaries (one per friction zone) and the target boundary on the other body;
+        ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D).
+    element : "standard" | "incompatible"
+        Element technology (incompatible modes need linear hexahedra).
+
+    Examples
+    --------
+    >>> model = mesh_model("joint.msh", stages=["press"], materials={"plate": {"E": 3500, "nu": 0.35}},
+    ...                    interfaces=[{"name": "c", "zones": ["A"], "target": "plate_top"}])  # doctest: +SKIP
+    """
+    path = Path(file) if isinstance(file, (str, Path)) else None
+    if path is None:
+        raise InputError(f"[model] file: must be the name of a mesh file, got {file!r}")
+    if not path.is_file():
+        raise InputError(f"[model] file = {str(file)!r}: no such file ({path.resolve()})")
+    if kind not in KINDS:
+        raise InputError(f"[model] kind = {kind!r}: must be one of {list(KINDS)}")
+    stages = _stages(stages, increments)
+    source = read_mesh_file(path)
+    dim = source.points.shape[1]
+    if (kind == "3d") != (dim == 3):
+        raise InputError(f"[model] kind = {kind!r} does not fit {path.name}, a {dim}-D mesh "
+                         f"({source.cell_type} cells)")
+    if kind == "axisymmetric" and source.points[:, 0].min() < -1e-9 * np.ptp(source.points):
+        raise InputError(f"[model] kind = 'axisymmetric': {path.name} has nodes at x < 0 (x is the radius)")
+    regions, material_of = _materials(source, materials)
+    used: dict[str, tuple[str, str]] = {}            # configured name -> (kind of set, file's name)
+    model_supports = tuple(_support(source, entry, i, dim, used) for i, entry in enumerate(_list(supports,
+                                                                                              "supports"), 1))
+    model_loads = tuple(_load(source, entry, i, len(stages), used) for i, entry in enumerate(_list(loads,
+                                                                                                "loads"), 1))
+    model_interfaces = tuple(_interface(source, entry, i, used) for i, entry in enumerate(_list(interfaces,
+                                                                                               "interfaces"), 1))
+    mesh = Mesh(points=source.points, cell_type=source.cell_type, cells=source.cells, regions=regions,
+                boundaries={name: _facets(source, kind_, known) for name, (kind_, known) in used.items()})
+    check_contact_sides(mesh, model_interfaces)
+    model = Model(mesh=mesh, kind=kind, materials=material_of, supports=model_supports, loads=model_loads,
+                  stages=stages, interfaces=model_interfaces, element=element)
+    check_held(model)
+    logger.info("%s: %d nodes, %d %s cells, regions %s", path.name, mesh.n_nodes, mesh.n_cells, mesh.cell_type,
+                list(regions))
+    return model
+
+
+# ---------------------------------------------------------------------------------------------- the [model] keys
+
+def _list(value, key: str) -> list:
+    if isinstance(value, dict) or not isinstance(value, (list, tuple)):
+        raise InputError(f"[[model.{key}]]: must be a list of tables, got {value!r}")
+    return list(value)
+
+
+def _entry(entry, allowed: dict, where: str) -> dict:
+    """A table's keys checked: unknown ones (with a "did you mean"), missing required ones (value ``...``)."""
+    if not isinstance(entry, dict):
+        raise InputError(f"{where}: must be a table, got {entry!r}")
+    for key in entry:
+        if key not in allowed:
+            close = difflib.get_close_matches(key, list(allowed), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise InputError(f"{where}: unknown key {key!r}{hint}; keys are {list(allowed)}")
+    missing = [k for k, v in allowed.items() if v is ... and k not in entry]
+    if missing:
+        raise InputError(f"{where}: missing key {missing[0]!r}")
+    return {**allowed, **entry}
+
+
+def _stages(names, increments) -> tuple[Stage, ...]:
+    if isinstance(names, str) or not isinstance(names, (list, tuple)) or not names \
+            or not all(isinstance(n, str) and n for n in names):
+        raise InputError(f"[model] stages: must be a list of stage names, e.g. [\"press\", \"pull\"], got {names!r}")
+    if len(set(names)) != len(names):
+        raise InputError(f"[model] stages: a stage name is used twice in {list(names)}")
+    counts = [increments] * len(names) if not isinstance(increments, (list, tuple)) else list(increments)
+    if len(counts) != len(names) or any(isinstance(c, bool) or not isinstance(c, int) or c < 1 for c in counts):
+        raise InputError(f"[model] increments: must be a whole number >= 1 or one per stage ({len(names)}), "
+                         f"got {increments!r}")
+    return tuple(Stage(n, c) for n, c in zip(names, counts))
+
+
+def _number(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{where}: must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _materials(source: MeshFile, materials) -> tuple[dict, dict]:
+    """Regions (file cells) and materials under the configured names; every cell must get one."""
+    where = "[model.materials]"
+    if not isinstance(materials, dict) or not materials:
+        raise InputError(f"{where}: needs a table region = {{ E = ..., nu = ... }} for each region of "
+                         f"{source.path.name}: {sorted(source.regions)}")
+    regions, material_of = {}, {}
+    for name, value in materials.items():
+        _, known = source.find(name, ("regions",), f"{where} region")
+        entry = _entry(value, {"E": ..., "nu": ...}, f"{where} {name}")
+        regions[name] = source.regions[known]
+        material_of[name] = Material(_number(entry["E"], f"{where} {name}.E"),
+                                     _number(entry["nu"], f"{where} {name}.nu"), name=name)
+    covered = np.zeros(len(source.cells), dtype=bool)
+    for cells in regions.values():
+        covered[cells] = True
+    if not covered.all():
+        bare = [n for n, cells in source.regions.items() if len(cells) and not covered[cells].any()]
+        which = f"region(s) {bare} have" if bare else f"{int((~covered).sum())} cell(s) (in no region given) have"
+        raise InputError(f"{where}: {which} no material; give one for every region of {source.path.name} "
+                         f"({sorted(source.regions)})")
+    return regions, material_of
+
+
+def _support(source: MeshFile, entry, index: int, dim: int, used: dict) -> Support:
+    where = f"[[model.supports]] {index}"
+    entry = _entry(entry, {"boundary": ..., "components": list("xyz"[:dim])}, where)
+    components = entry["components"]
+    if isinstance(components, str) or not isinstance(components, (list, tuple)) or not components:
+        raise InputError(f"{where} components: must be a list such as [\"x\", \"y\"], got {components!r}")
+    return Support(_name(source, entry["boundary"], ("boundaries", "node_sets"), f"{where} boundary", used),
+                   tuple(components))
+
+
+def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict):
+    where = f"[[model.loads]] {index}"
+    entry = _entry(entry, {"type": ..., "boundary": ..., "component": None, "values": ...}, where)
+    kind = entry["type"]
+    if kind not in LOAD_TYPES:
+        raise InputError(f"{where} type = {kind!r}: must be one of {list(LOAD_TYPES)}")
+    values = entry["values"]
+    if not isinstance(values, (list, tuple)) or len(values) != n_stages:
+        raise InputError(f"{where} values: must give one value per stage ({n_stages}), got {values!r}")
+    values = tuple(_number(v, f"{where} values") for v in values)
+    sets = ("boundaries", "node_sets") if kind == "displacement" else ("boundaries",)
+    boundary = _name(source, entry["boundary"], sets, f"{where} boundary", used)
+    if kind == "pressure":
+        if entry["component"] is not None:
+            raise InputError(f"{where}: a pressure acts along the normal; it takes no component")
+        return Pressure(boundary, values)
+    if entry["component"] is None:
+        raise InputError(f"{where}: a {kind} needs a component (\"x\", \"y\" or \"z\")")
+    return LOAD_TYPES[kind](boundary, entry["component"], values)
+
+
+def _interface(source: MeshFile, entry, index: int, used: dict) -> ContactInterface:
+    where = f"[[model.interfaces]] {index}"
+    entry = _entry(entry, {"name": f"interface {index}", "zones": ..., "target": ..., "discretisation": "auto"},
+                   where)
+    zones = entry["zones"]
+    if isinstance(zones, str) or not isinstance(zones, (list, tuple)) or not zones:
+        raise InputError(f"{where} zones: must be a list of boundaries, one per friction zone, got {zones!r}")
+    zones = tuple(_name(source, z, ("boundaries",), f"{where} zones", used) for z in zones)
+    target = _name(source, entry["target"], ("boundaries",), f"{where} target", used)
+    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"])
+
+
+def _name(source: MeshFile, name, kinds: tuple[str, ...], where: str, used: dict) -> str:
+    """The configured name, recorded with the set of the file it stands for."""
+    used[name] = source.find(name, kinds, where)
+    return name
+
+
+def _facets(source: MeshFile, kind: str, known: str) -> np.ndarray:
+    """A boundary's facets; a node set becomes facets of one repeated node each (its nodes are all that
+    supports and displacements read, through :meth:`Mesh.boundary_nodes`)."""
+    if kind == "boundaries":
+        return source.boundaries[known]
+    n_facet = FACET_NODES[FACET_TYPE[source.cell_type]]
+    return np.repeat(np.asarray(source.node_sets[known], dtype=np.int64)[:, None], n_facet, axis=1)
