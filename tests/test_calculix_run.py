@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
-from frictionid.backends.calculix.crosscheck import cross_check_config
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.benchmarks import sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.bolt import bolt_model
 from frictionid.cli import main
 from frictionid.config import read_config
+from frictionid.crosscheck import cross_check_config
 from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError, SolverError
 from frictionid.inverse.evaluator import Evaluator

@@ -4,12 +4,14 @@ coefficients, checked on differences whose cause is known (the embedded backend 
 import numpy as np
 import pytest
 
-from frictionid.backends.calculix.crosscheck import CrossCheck, coefficient_shift, cross_check_table, observed_shift
-from frictionid.data.measurements import read_measurements
+from frictionid.backends.comparison import CrossCheck
 from frictionid.builders.block import block_model_2d
+from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError
 from frictionid.fem.problem import Problem
 from frictionid.inverse.observations import observations_from
+from frictionid.inverse.shift import coefficient_shift, observed_shift
+from frictionid.report.crosscheck import cross_check_table
 
 QUANTITIES = ("ux", "uy", "exx", "eyy", "exy")
 POINTS = np.array([[x, y] for x in (-4.0, 0.0, 4.0) for y in (1.0, 3.0)])

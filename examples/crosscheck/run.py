@@ -11,8 +11,9 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from frictionid.backends.calculix.crosscheck import cross_check_config, cross_check_table  # noqa: E402
 from frictionid.config import read_config  # noqa: E402
+from frictionid.crosscheck import cross_check_config  # noqa: E402
+from frictionid.report.crosscheck import cross_check_table  # noqa: E402
 
 HERE = Path(__file__).parent
 

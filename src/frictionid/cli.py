@@ -128,8 +128,9 @@ def _add_crosscheck(sub):
 def _run_crosscheck(args) -> int:
     from pathlib import Path
 
-    from .backends.calculix.crosscheck import cross_check_config, cross_check_table
     from .config import read_config
+    from .crosscheck import cross_check_config
+    from .report.crosscheck import cross_check_table
 
     table = cross_check_table(*cross_check_config(read_config(args.config, need=("model", "friction"))))
     print(table, end="")
