@@ -151,3 +151,24 @@ def test_measurements_digest_follows_the_content(first):
     values["ux"][0] += 1e-12
     changed = type(m)(m.points, m.coordinates, m.stage, m.force, values, m.sigma, m.comments, m.source)
     assert changed.digest() != m.digest() and np.isfinite(m.values["ux"][0])
+
+
+def test_the_api_is_quiet_unless_asked_and_the_cli_shows_each_phase(first, cli_run, capsys):
+    """One line per phase (model, condensation, resolution, iterations with objective and step) on the command
+    line and with progress=print; nothing from identify() by default."""
+    common = dict(observables=["ux", "uy"], stages=[2], noise={"u": 0.0005}, regions=REGIONS)
+    model = {"builder": "block2d", "mesh_size": 1.0, "pull": 0.05}
+    capsys.readouterr()
+    identify(model, first / "measured.csv", {"A": 0.1, "B": 0.1}, **common)
+    assert capsys.readouterr() == ("", "")
+    lines = []
+    identify(model, first / "measured.csv", {"A": 0.1, "B": 0.1}, progress=lines.append, **common)
+    assert lines[0].startswith("model: builder 'block2d', plane_strain, ") and "zones A, B" in lines[0]
+    assert lines[1].startswith("embedded backend ready: 40 observations at 20 points")
+    assert lines[2].startswith("[[Resolution before fitting]]")
+    iterations = [line for line in lines if line.startswith("iter ")]
+    assert iterations[0].startswith("iter   0  J=") and "step=" not in iterations[0]
+    assert all("step=" in line and "A=" in line for line in iterations[1:]) and len(iterations) >= 3
+    assert main(["identify", str(first / "identify.toml"), "--resume"]) == 0          # replays cli_run's store
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("model: ") and out[1].startswith("embedded backend ready") and "[[Variables]]" in out

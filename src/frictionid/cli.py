@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from .errors import InputError, SolverError
+from .progress import shown
 
 
 def _add_demo(sub):
@@ -155,7 +156,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("frictionid").setLevel(logging.INFO if args.verbose else logging.WARNING)
     np.set_printoptions(precision=4, suppress=True)
     try:
-        return args.run(args)
+        with shown():                     # progress bars of long loops on stderr
+            return args.run(args)
     except InputError as exc:
         print(f"frictionid: error: {exc}", file=sys.stderr)
         return 2

@@ -204,8 +204,8 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
               "run": {"dir": str(run_dir or "(temporary)"), "workers": workers}}
     config = config_from_dict(tables, need=("friction", "data", "run") + (("model",) if isinstance(model, dict)
                                                                           else ()), name="identify()")
-    setup = prepare(config, None if isinstance(model, dict) else model, given, parameters)
     echo = progress or (lambda text: None)
+    setup = prepare(config, None if isinstance(model, dict) else model, given, parameters, echo)
     if run_dir is not None:
         return identify_config(config, resume, echo=echo, setup=setup)
     with tempfile.TemporaryDirectory(prefix="frictionid-") as folder:
@@ -252,7 +252,8 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
             echo(prefit_summary(report.as_dict()))
     store.set_status("running")
     try:
-        result = _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit, progress, write_files)
+        result = _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit, progress, write_files,
+                         echo)
     finally:
         evaluator.close()
     return IdentificationResult(result, run_dir if write_files else None)
@@ -275,7 +276,7 @@ def _iteration_lines(echo, on_iteration=None):
 
 
 def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: RunStore, run_dir: Path,
-            start: float, on_prefit, progress, write_files: bool = True) -> dict:
+            start: float, on_prefit, progress, write_files: bool = True, echo=lambda text: None) -> dict:
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
     leaves result.json (with ``write_files``; the store keeps the result either way)."""
     try:
@@ -286,7 +287,10 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
         outcome = _optimise(problem, config)
         error = None
         if config.identify["model_error"] != "off":
+            echo(f"fit {outcome.status}; model error: the model refined by 2 at the start and the fitted point ...")
             error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
+            echo(f"model error: RMS {error.summary['all']['rms']:.3g} noise levels, largest "
+                 f"{error.summary['all']['max']:.3g} ({error.seconds:.1f} s)")
     except KeyboardInterrupt:
         _stopped(config, setup, evaluator, store, run_dir, "interrupted",
                  "stopped by the user; continue with --resume", time.perf_counter() - start, write_files)

@@ -19,6 +19,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..progress import bar
 from .assembly import LoadChannels
 
 _BLOCK = 256  # right-hand sides per block solve
@@ -137,7 +138,7 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     O_f, O_p = observe[:, f].tocsr(), observe[:, p].tocsr()
     n_w = B.shape[0]
     W, G, KX = np.zeros((n_w, n_w)), np.zeros((observe.shape[0], n_w)), np.zeros((len(p), n_w))
-    for start in range(0, n_w, _BLOCK):
+    for start in bar(range(0, n_w, _BLOCK), -(-n_w // _BLOCK), f"condensation ({n_w} columns)"):
         cols = slice(start, min(start + _BLOCK, n_w))
         X = inverse.solve(B_f[cols].T.toarray())
         W[:, cols] = B_f @ X

@@ -16,6 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import SolverError
+from ..progress import bar
 from .observations import Observations
 from .parameters import Parameters
 
@@ -150,7 +151,8 @@ class Evaluator:
         points = [x + e for e in steps] + ([] if self.jacobian_kind == "forward" else [x - e for e in steps])
         if self.workers > 1:
             self._solve_in_parallel(points)
-        return np.column_stack([self._difference(x, steps[k], h[k]) for k in range(len(x))])
+        columns = bar(range(len(x)), len(x), f"{self.jacobian_kind}-difference Jacobian")
+        return np.column_stack([self._difference(x, steps[k], h[k]) for k in columns])
 
     def _difference(self, x: np.ndarray, e: np.ndarray, h: float) -> np.ndarray:
         """One Jacobian column: forward or central; where a perturbed solve failed, the other side's one-sided
@@ -178,7 +180,8 @@ class Evaluator:
             _BACKEND = self.backend
             self._pool = multiprocessing.get_context("fork").Pool(self.workers)
         start = time.perf_counter()
-        results = self._pool.map(_worker_predict, [np.maximum(self.params.full(p), 0.0) for p in missing])
+        results = list(bar(self._pool.imap(_worker_predict, [np.maximum(self.params.full(p), 0.0) for p in missing]),
+                           len(missing), f"{len(missing)} solves on {self.workers} workers"))
         wall = (time.perf_counter() - start) / len(missing)
         for p, prediction in zip(missing, results):
             self._keep(p, False, prediction, wall)
