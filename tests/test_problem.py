@@ -125,3 +125,14 @@ def test_a_model_without_contact_is_plain_elasticity():
     assert reactions["base_bottom.y"] == pytest.approx(800.0, rel=1e-10)
     assert reactions["block_top.y"] == pytest.approx(0.0, abs=1e-9)
     assert solution.lam.shape == (1, 0, 2)
+
+
+def test_reprs_are_one_line_summaries():
+    """print(model / problem / solution) says what it is in a line, not megabytes of arrays."""
+    model = block_model_2d(mesh_size=2.0)
+    problem = Problem.build(model)
+    solution = problem.solve({"A": 0.2, "B": 0.3}, sensitivities=True)
+    for obj, start in [(model.mesh, "Mesh("), (model, "Model(plane_strain, "), (problem, "Problem(Model("),
+                       (solution, "Solution(A=0.2, B=0.3; 11 increments, ")]:
+        text = repr(obj)
+        assert text.startswith(start) and "\n" not in text and len(text) < 300, text

@@ -54,6 +54,10 @@ class Problem:
     observation_labels: tuple[str, ...]
     reaction_labels: tuple[str, ...]
 
+    def __repr__(self) -> str:
+        return (f"Problem({self.model!r}, {self.pairs.n_pairs} contact pairs, "
+                f"{len(self.observation_labels)} observations, {len(self.reaction_labels)} reactions)")
+
     @classmethod
     def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
               points=None, quantities=("ux", "uy"), regions=None) -> "Problem":

@@ -52,6 +52,12 @@ class Solution:
     def n_increments(self) -> int:
         return len(self.stage)
 
+    def __repr__(self) -> str:
+        mu = ", ".join(f"{name}={value:.4g}" for name, value in zip(self.zone_names, self.mu))
+        return (f"Solution({mu}; {self.n_increments} increments, {self.pairs.n_pairs} contact pairs, "
+                f"{self.observations.shape[1]} observations, {self.reactions.shape[1]} reactions, sensitivities "
+                f"{'yes' if self.d_observations is not None else 'no'})")
+
     def stage_end(self, stage: int) -> int:
         """Index of the last increment of a stage (0-based stage index)."""
         hits = np.flatnonzero(self.stage == stage)

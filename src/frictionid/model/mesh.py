@@ -123,6 +123,10 @@ class Mesh:
     def n_cells(self) -> int:
         return len(self.cells)
 
+    def __repr__(self) -> str:
+        return (f"Mesh({self.n_nodes:,} nodes, {self.n_cells:,} {self.cell_type} cells, regions "
+                f"{sorted(self.regions)}, boundaries {sorted(self.boundaries)})")
+
     @property
     def facet_type(self) -> str:
         return FACET_TYPE[self.cell_type]

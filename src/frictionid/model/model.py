@@ -197,6 +197,11 @@ class Model:
     def n_stages(self) -> int:
         return len(self.stages)
 
+    def __repr__(self) -> str:
+        return (f"Model({self.kind}, {self.mesh.n_nodes:,} nodes, {self.mesh.n_cells:,} {self.mesh.cell_type} "
+                f"cells, element {self.element!r}, stages {[s.name for s in self.stages]}, zones "
+                f"{list(self.zone_names)})")
+
     @property
     def n_zones(self) -> int:
         return len(self.zone_names)
