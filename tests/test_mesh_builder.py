@@ -210,31 +210,39 @@ def test_bodies_sharing_nodes_at_the_interface_are_refused_with_the_count(tmp_pa
                    interfaces=[{"name": "joint", "zones": ["contact"], "target": "contact"}])
 
 
-DECK = """*NODE
+NODES = """** six nodes of two squares
+*Node
 1, 0, 0
 2, 1, 0
 3, 1, 1
 4, 0, 1
 5, 2, 0
 6, 2, 1
+"""
+DECK = """*HEADING
+two squares side by side, x in [0, 2], y in [0, 1]
+*INCLUDE, INPUT=nodes.inp
 *ELEMENT, TYPE={type}, ELSET=Left
 1, 1, 2, 3, 4
 *ELEMENT, TYPE={type}, ELSET=RIGHT
 2, 2, 5, 6, 3
-*NSET, NSET={nset}
-1, 4
+*NSET, NSET={nset}, GENERATE
+1, 4, 3
 *SURFACE, NAME=Bottom
 Left, S1
 2, S1
 """
 
 
-def test_inp_names_are_case_insensitive_but_two_spellings_of_one_name_are_refused(tmp_path):
+def test_inp_names_are_case_insensitive_but_two_spellings_of_one_name_are_refused(tmp_path, caplog):
+    """Also: *INCLUDE, GENERATE, element-face surfaces built from an element set and an element number."""
+    (tmp_path / "nodes.inp").write_text(NODES)
     path = tmp_path / "two.inp"
     path.write_text(DECK.format(type="CPE4", nset="fixed"))
     model = mesh_model(path, kind="plane_strain", materials={"left": {"E": 1, "nu": 0.3}, "Right": {"E": 1, "nu": 0.3}},
                        supports=[{"boundary": "FIXED"}], loads=[{"type": "pressure", "boundary": "bottom",
                                                                  "values": [1.0]}])
+    assert "keywords ignored" in caplog.text and "*HEADING" in caplog.text           # the note
     assert set(model.mesh.regions) == {"left", "Right"}
     assert model.mesh.boundary_nodes("FIXED").tolist() == [0, 3]
     assert sorted(model.mesh.boundary_nodes("bottom").tolist()) == [0, 1, 4]
@@ -244,6 +252,7 @@ def test_inp_names_are_case_insensitive_but_two_spellings_of_one_name_are_refuse
 
 
 def test_inp_element_type_without_a_cell_is_refused_by_name(tmp_path):
+    (tmp_path / "nodes.inp").write_text(NODES)
     path = tmp_path / "shell.inp"
     path.write_text(DECK.format(type="S4R", nset="fixed"))
     with pytest.raises(InputError, match="element type 'S4R' has no matching cell"):

@@ -99,8 +99,9 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     kind : "3d" | "plane_strain" | "axisymmetric"
         Axisymmetric: x = r >= 0, y the axis, forces for the whole ring; plane strain: forces per mm thickness.
     stages : list of str
-        Stage names, in order. increments : int or list of int
-        Load increments per stage (one number: each stage).
+        Stage names, in order.
+    increments : int or list of int
+        Load increments per stage (one number: the same for each stage).
     materials : table region -> { E [MPa], nu }
         One per region of the file that has cells; regions must not overlap and must cover every cell.
     supports : list of { boundary, components }
@@ -114,10 +115,16 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     element : "standard" | "incompatible"
         Element technology (incompatible modes need linear hexahedra).
 
-    Examples
+    Raises
+    ------
+    InputError
+        Naming the [model] key: a missing file, a name the file does not have (with the names it has and a "did
+        you mean"), a region without a material, bodies sharing nodes at an interface, a zone not on the contact
+        side, supports that leave a mechanism.
+
+    See Also
     --------
-    >>> model = mesh_model("joint.msh", stages=["press"], materials={"plate": {"E": 3500, "nu": 0.35}},
-    ...                    interfaces=[{"name": "c", "zones": ["A"], "target": "plate_top"}])  # doctest: +SKIP
+    docs/models.md, "`mesh`: your own mesh", and tests/fixtures/user_block (reference test 1 as a user's mesh).
     """
     path = Path(file) if isinstance(file, (str, Path)) else None
     if path is None:
@@ -136,12 +143,11 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
         raise InputError(f"[model] kind = 'axisymmetric': {path.name} has nodes at x < 0 (x is the radius)")
     regions, material_of = _materials(source, materials)
     used: dict[str, tuple[str, str]] = {}            # configured name -> (kind of set, file's name)
-    model_supports = tuple(_support(source, entry, i, dim, used) for i, entry in enumerate(_list(supports,
-                                                                                              "supports"), 1))
-    model_loads = tuple(_load(source, entry, i, len(stages), used) for i, entry in enumerate(_list(loads,
-                                                                                                "loads"), 1))
-    model_interfaces = tuple(_interface(source, entry, i, used) for i, entry in enumerate(_list(interfaces,
-                                                                                               "interfaces"), 1))
+    model_supports = tuple(_support(source, entry, i, dim, used)
+                           for i, entry in enumerate(_list(supports, "supports"), 1))
+    model_loads = tuple(_load(source, entry, i, len(stages), used) for i, entry in enumerate(_list(loads, "loads"), 1))
+    model_interfaces = tuple(_interface(source, entry, i, used)
+                             for i, entry in enumerate(_list(interfaces, "interfaces"), 1))
     mesh = Mesh(points=source.points, cell_type=source.cell_type, cells=source.cells, regions=regions,
                 boundaries={name: _facets(source, kind_, known) for name, (kind_, known) in used.items()})
     check_contact_sides(mesh, model_interfaces)
