@@ -273,3 +273,20 @@ def test_relative_file_is_resolved_against_the_config_folder(folder, monkeypatch
     monkeypatch.chdir(tmp_path)                                           # not the config's folder
     assert tomllib.loads((folder / "truth.toml").read_text())["model"]["file"] == "block.msh"
     assert read_config(folder / "truth.toml").model["file"] == str(folder.resolve() / "block.msh")
+
+
+def test_a_mesh_file_written_again_builds_a_new_model(tmp_path):
+    """build_model keeps recent models by their [model] table; a rewritten mesh file must not return the old one."""
+    (tmp_path / "nodes.inp").write_text(NODES)
+    path = tmp_path / "two.inp"
+    path.write_text(DECK.format(type="CPE4", nset="fixed"))
+    table = {"builder": "mesh", "file": str(path), "kind": "plane_strain",
+             "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
+             "supports": [{"boundary": "fixed"}]}
+    first = build_model(table)
+    assert build_model(table) is first
+    (tmp_path / "nodes.inp").write_text(NODES.replace("6, 2, 1", "6, 2, 1.5"))
+    path.write_text(DECK.format(type="CPE4", nset="fixed") + "** written again\n")
+    second = build_model(table)
+    assert second is not first and second.mesh.points[:, 1].max() == 1.5
+

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import inspect
+import os
 
 from ..errors import InputError
 from ..model import Model
@@ -29,9 +30,13 @@ def build_model(options: dict, where: str = "[model]") -> Model:
     """The model a [model] table describes: ``builder`` plus that builder's keyword options.
 
     The last :data:`N_BUILT` models are kept, so the runs of one session that describe the same model (a study's
-    identifications, a replay) mesh it once.
+    identifications, a replay) mesh it once. A table naming a mesh ``file`` is keyed by the file's size and
+    modification time too, so a mesh file written again builds a new model.
     """
     key = repr(sorted(options.items()))
+    if isinstance(options.get("file"), str) and os.path.isfile(options["file"]):
+        stat = os.stat(options["file"])
+        key += f" {stat.st_size} {stat.st_mtime_ns}"
     if key in _BUILT:
         _BUILT[key] = _BUILT.pop(key)                          # most recently used last
         return _BUILT[key]
