@@ -25,8 +25,9 @@ from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
 from frictionid.builders.bolt import bolt_layout, bolt_model, measurement_points  # noqa: E402
 from frictionid.config import read_config  # noqa: E402
 from frictionid.data.measurements import write_measurements  # noqa: E402
-from frictionid.demo import FORCES, METHODS, QUANTITIES, TRUE_MU, _config, _points_measurements, START  # noqa: E402
 from frictionid.identification import identify_config  # noqa: E402
+from frictionid.studies.bolt import (FORCES, METHODS, QUANTITIES, START, TRUE_MU, points_measurements,  # noqa: E402
+                                     write_config)
 
 
 def main(flank: float = 0.1, data_flank: float = 0.05, gd_iterations: int = 20):
@@ -53,10 +54,10 @@ def main(flank: float = 0.1, data_flank: float = 0.05, gd_iterations: int = 20):
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         (out / "runs").mkdir()
-        write_measurements(out / "measured.csv", _points_measurements(points, exact, None, ["benchmark data"]))
+        write_measurements(out / "measured.csv", points_measurements(points, exact, None, ["benchmark data"]))
         traces = {}
         for name, (method, jacobian) in zip(("trf", "paper"), METHODS):
-            path = _config(out, name, "measured.csv", method, jacobian,
+            path = write_config(out, name, "measured.csv", method, jacobian,
                            gd_iterations if name == "paper" else 30, flank, 1e-5)
             trace, start = [], time.perf_counter()
 

@@ -1,7 +1,7 @@
 """Solves and wall time to reach |mu - mu_true| < 0.01 on the 3-D block: trf + analytic Jacobian versus the
 paper's gradient descent + forward differences, measured in one run (issue 3 target: 20x fewer, 20x faster).
 
-Same data for both: the shipped twin experiment (examples/block/twin.py): goal coefficients random in
+Same data for both: the shipped twin experiment (frictionid.studies.block): goal coefficients random in
 [0.1, 0.5] (fixed seed), data from a finer mesh (no inverse crime), DIC displacements on the block's faces and
 the plate top plus the machine force at pull levels 0.04 and 0.2 mm; both methods start from 0.1.
 When gradient descent does not reach the target within its budget, the ratio printed is a lower bound.
@@ -17,10 +17,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "block"))
-
-import twin  # noqa: E402
 from frictionid.cli import main as cli  # noqa: E402
+from frictionid.studies import block as twin  # noqa: E402
 
 def main(gd_iterations: int = 150):
     mu_true = np.array(list(twin.goal_coefficients().values()))

@@ -32,7 +32,6 @@ import argparse
 import dataclasses
 import hashlib
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -41,17 +40,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "examples" / "block"))
-
-import twin  # noqa: E402
 from _measure import best_of, peak_memory_mb, timed  # noqa: E402
 from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
 from frictionid.builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
 from frictionid.builders.registry import build_model, refined  # noqa: E402
-from frictionid.demo import FORCES, TRUE_MU  # noqa: E402
 from frictionid.inverse.model_error import (ELEMENT_ORDER, convergence_orders, estimate_model_error,  # noqa: E402
                                             observation_kinds, richardson)
 from frictionid.inverse.observations import Observations  # noqa: E402
+from frictionid.studies import block as twin  # noqa: E402
+from frictionid.studies.bolt import FORCES, TRUE_MU  # noqa: E402
 
 STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
 #: noise per kind: DIC 0.5 um, strain gauges 2e-5, load cell 1 N (plane strain: N/mm)

@@ -1,13 +1,12 @@
 """Twin experiment on the 3-D block (DESIGN.md reference test 1, issue 3): data from a finer mesh, trf recovers
 all four zone coefficients, noise-free within 0.01 and with 0.5 um displacement noise within 3 standard errors.
 
-The set-up is the shipped example's (examples/block/twin.py, reasons and screening in examples/block/README.md):
+The set-up is the shipped example's (frictionid.studies.block, reasons and screening in examples/block/README.md):
 stereo DIC on the block's side faces, 2-D DIC of the plate top around the block and the machine force, at the
 pull levels 0.04 mm (trailing zones sliding, leading zones partly sticking) and 0.2 mm (gross slip); quadratic
 hexahedra graded towards the interface, 6 divisions per block side for the identification, 8 for the data.
 """
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -15,11 +14,8 @@ import numpy as np
 import pytest
 
 from frictionid.cli import main
+from frictionid.studies import block as twin
 
-_SPEC = importlib.util.spec_from_file_location(
-    "block_twin_setup", Path(__file__).resolve().parents[1] / "examples" / "block" / "twin.py")
-twin = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(twin)
 
 #: issue 3 acceptance for noise-free finer-mesh data; the first-order bias pinv(J) e of this set-up is at most
 #: 0.0065 (zone B, examples/block/README.md), so the margin is the set-up's, not a tuned tolerance

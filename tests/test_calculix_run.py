@@ -2,10 +2,8 @@
 (fake ccx executables; no ccx needed)."""
 
 import dataclasses
-import importlib.util
 import shutil
 import stat
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +22,7 @@ from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.observations import observations_from
 from frictionid.inverse.parameters import Parameters
 from frictionid.model import Mesh
+from frictionid.studies import block as twin
 
 _without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
                                   reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
@@ -126,10 +125,6 @@ def test_small_sliding_ccx_predicts_the_embedded_coefficients_on_the_twin_set(tm
     cross-check's first-order shift of a ccx identification from the embedded one. Measured: at most 0.0013
     (the ccx identification itself: examples/crosscheck/identify_block_dic.py, README); on the uniform
     mesh 5/3 at load_scale 1 it is 0.020 (zone D)."""
-    spec = importlib.util.spec_from_file_location(
-        "block_twin_setup", Path(__file__).resolve().parents[1] / "examples" / "block" / "twin.py")
-    twin = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(twin)
     mesh, goal = {"mesh_size": 2.5, "block_divisions": 8, "grading": 4.0}, twin.goal_coefficients()
     twin.write_points(tmp_path / "points.csv")
     assert main(["simulate", str(twin.config(tmp_path, "truth", mesh, goal, "points.csv")),

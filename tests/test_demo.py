@@ -6,7 +6,7 @@ import re
 import pytest
 
 from frictionid.cli import main
-from frictionid.demo import TRUE_MU
+from frictionid.studies.bolt import TRUE_MU
 
 #: issue 4 acceptance: the coefficients the noise-free twin data resolve are recovered within 0.02
 RESOLVED_TOL = 0.02

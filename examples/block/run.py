@@ -4,8 +4,8 @@ Goal coefficients drawn at random in [0.1, 0.5] (fixed seed), reference data com
 one identified with (no inverse crime), start 0.1 everywhere; the paper's algorithm (gradient descent, Armijo
 step, forward differences) and ours (bounded trust-region Gauss-Newton, analytic sensitivities) side by side:
 the paper's Fig. 5 (|mu_k - mu| / |mu_0 - mu| and the relative misfit per iteration) and a table. The
-observation set and meshes are those of twin.py (README.md here explains them); with ``--noise`` the data carry
-0.5 um displacement noise and 1 N force noise (fixed seed).
+observation set and meshes are those of frictionid.studies.block (README.md here explains them); with ``--noise``
+the data carry 0.5 um displacement noise and 1 N force noise (fixed seed).
 
 Run: .venv/bin/python examples/block/run.py [--gd-iterations 60] [--noise]
 Outputs in examples/block/out/: points.csv, measured.csv, runs/<method>/ (result.json, history.csv, ...),
@@ -15,7 +15,6 @@ fig5.png, table.txt
 import argparse
 import os
 import shutil
-import sys
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -26,11 +25,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-HERE = Path(__file__).parent
-sys.path.insert(0, str(HERE))
-
-import twin  # noqa: E402
 from frictionid.cli import main as cli  # noqa: E402
+from frictionid.studies import block as twin  # noqa: E402
+
+HERE = Path(__file__).parent
 
 METHODS = {"gradient-descent": "forward", "trf": "analytic"}
 def fig5(curves: dict, path: Path) -> None:

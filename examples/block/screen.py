@@ -6,26 +6,22 @@ sensitivities). A design is usable when that bias is well below the target (0.01
 errors show what the stated noise (0.5 um, 1 N) adds. Two solves per mesh, no fitting.
 
 Run: .venv/bin/python examples/block/screen.py [--seeds 8] ['{"mesh_size": 2.5, ...}' '{"mesh_size": 2.5, ...}']
-(identification and data mesh options; default twin.ID_MESH and twin.DATA_MESH). ``--seeds N`` also screens the
+(identification and data mesh options; default frictionid.studies.block's ID_MESH and DATA_MESH). ``--seeds N`` also screens the
 shipped design at N other random goals (seeds 1..N, uniform in [0.1, 0.5]).
 """
 
 import argparse
 import json
 import os
-import sys
 import time
-from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).parent))
-
-import twin  # noqa: E402
 from frictionid.builders.block import block_model  # noqa: E402
 from frictionid.fem.problem import Problem  # noqa: E402
+from frictionid.studies import block as twin  # noqa: E402
 
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 SIGMA_STRAIN = 1e-5

@@ -26,20 +26,18 @@ Run: .venv/bin/python examples/crosscheck/identify_block_dic.py [--mesh-size H] 
 
 import argparse
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "block"))
 
 import numpy as np  # noqa: E402
-import twin  # noqa: E402
 
 from frictionid.cli import main as cli  # noqa: E402
 from frictionid.config import read_config  # noqa: E402
 from frictionid.identification import identify_config  # noqa: E402
+from frictionid.studies import block as twin  # noqa: E402
 
 
 def measured(folder: Path, mesh: dict, goal: dict, levels: dict) -> None:

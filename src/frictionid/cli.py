@@ -28,7 +28,7 @@ def _add_demo(sub):
 def _run_demo(args) -> int:
     if args.block:
         return _run_block_demo(args)
-    from .demo import Settings, run_demo
+    from .studies.bolt import Settings, run_demo
 
     try:
         run_demo(args.out, Settings.quick() if args.quick else Settings(), resume=args.resume,

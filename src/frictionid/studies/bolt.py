@@ -21,17 +21,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .backends.embedded import EmbeddedBackend, cache_in  # noqa: E402
-from .builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
-from .builders.registry import build_model  # noqa: E402
-from .config import read_config  # noqa: E402
-from .data.measurements import Measurements, write_measurements  # noqa: E402
-from .errors import InputError  # noqa: E402
-from .identification import identify_config, prepare  # noqa: E402
-from .report.html import NEAR_BOUND  # noqa: E402
-from .report.outputs import write_outputs  # noqa: E402
-from .report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads  # noqa: E402
-from .report.tables import prefit_summary, result_summary  # noqa: E402
+from ..backends.embedded import EmbeddedBackend, cache_in  # noqa: E402
+from ..builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
+from ..builders.registry import build_model  # noqa: E402
+from ..config import read_config  # noqa: E402
+from ..data.measurements import Measurements, write_measurements  # noqa: E402
+from ..errors import InputError  # noqa: E402
+from ..identification import identify_config, prepare  # noqa: E402
+from ..report.html import NEAR_BOUND  # noqa: E402
+from ..report.outputs import write_outputs  # noqa: E402
+from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads  # noqa: E402
+from ..report.tables import prefit_summary, result_summary  # noqa: E402
 
 #: the coefficients the data are made with (thread zones; outer A-C, inner D-F, section 1 at the bearing face)
 TRUE_MU = {"A": 0.14, "B": 0.18, "C": 0.22, "D": 0.12, "E": 0.16, "F": 0.20}
@@ -68,8 +68,9 @@ class Settings:
 QUANTITIES = ("ux", "uy")
 
 
-def _points_measurements(points: np.ndarray, values: np.ndarray, sigma: float | None, comments) -> Measurements:
-    """ux, uy at the points for every stage (values (n_stages, n_points * 2), point-major) as a table."""
+def points_measurements(points: np.ndarray, values: np.ndarray, sigma: float | None, comments) -> Measurements:
+    """ux, uy [mm] at the points (n, 2) [mm] for every stage (values (n_stages, n_points * 2), point-major) as a
+    measurement table with the study's machine forces; ``sigma`` [mm] per value, or None."""
     n_stages, n = values.shape[0], len(points)
     labels = tuple(f"P{k + 1}" for k in range(n)) * n_stages
     xyz = np.tile(np.column_stack([points, np.zeros(n)]), (n_stages, 1))
@@ -79,8 +80,11 @@ def _points_measurements(points: np.ndarray, values: np.ndarray, sigma: float | 
                         force=np.repeat(FORCES[:n_stages], n), values=columns, sigma=extra, comments=tuple(comments))
 
 
-def _config(out: Path, name: str, data: str, method: str, jacobian: str, iterations: int, flank: float,
+def write_config(out: Path, name: str, data: str, method: str, jacobian: str, iterations: int, flank: float,
             noise: float, observables=QUANTITIES) -> Path:
+    """``out``/``name``.toml: an identification of the thread zones from ``START`` on the data file ``data``
+    (relative to ``out``) with ``method`` and ``jacobian``, the flank mesh size ``flank`` [mm] and the
+    displacement noise ``noise`` [mm]; returns its path."""
     zones = ", ".join(f"{z} = {START}" for z in TRUE_MU)
     fixed = ", ".join(f"{z} = {v}" for z, v in fixed_friction().items())
     path = out / f"{name}.toml"
@@ -211,8 +215,8 @@ def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
     provenance = [f"frictionid demo: M20 bolt-nut, made on a {settings.data_flank:g} mm flank mesh with "
                   + ", ".join(f"{z}={v}" for z, v in TRUE_MU.items()) + ", head/nut-plate 0.15",
                   "units: mm, N; ux, uy of the bolt load flanks 1 and 2 (from the nut bearing face), 1/6 ... 5/6"]
-    write_measurements(out / "measured_exact.csv", _points_measurements(points, exact, None, provenance))
-    write_measurements(out / "measured.csv", _points_measurements(
+    write_measurements(out / "measured_exact.csv", points_measurements(points, exact, None, provenance))
+    write_measurements(out / "measured.csv", points_measurements(
         points, noisy, NOISE, provenance + [f"Gaussian noise sigma = {NOISE} mm added (seed {settings.seed})"]))
     model_error = _model_error(rows, settings)
     echo(f"\nmodel (discretisation) error of the identification mesh at the start values: {model_error * 1000:.4f} um "
@@ -224,7 +228,7 @@ def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
     runs = {}
     for name, data, method, jacobian, noise, observables in plan:
         iterations = settings.gd_iterations if method == "gradient-descent" else settings.trf_iterations
-        path = _config(out, name, data, method, jacobian, iterations, settings.flank, noise, observables)
+        path = write_config(out, name, data, method, jacobian, iterations, settings.flank, noise, observables)
         echo(f"\n3. identify {name}: {method} with {jacobian} Jacobian, {'+'.join(observables)} from {data}, "
              f"noise {noise * 1000:.4f} um")
         config = read_config(path, need=("model", "friction", "data", "run"))

@@ -1,6 +1,7 @@
-"""The block twin experiment's set-up, shared by run.py, screen.py and benchmarks/identify_block.py.
+"""The block twin experiment's set-up (the paper's block study, docs/models.md reference test 1), shared by
+examples/block (run.py, screen.py), examples/crosscheck/identify_block_dic.py, benchmarks and tests.
 
-Why this set-up (README.md in this folder has the numbers): the trailing zones A and B carry about 45 N of the
+Why this set-up (examples/block/README.md has the numbers): the trailing zones A and B carry about 45 N of the
 2000 N normal load in gross slip, so their friction (about 15 N) is a small part of what any gauge sees, and
 the discretisation error of a practical mesh is larger than that signal unless (1) the meshes are quadratic and
 graded towards the interface, where the zone loads settle, and (2) the data contain a pull level at which the
