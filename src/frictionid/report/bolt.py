@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 from scipy.optimize import minimize_scalar
 
 from ..errors import InputError
@@ -143,16 +144,13 @@ def nut_dilation(model: Model, displacement: np.ndarray) -> tuple[np.ndarray, np
 
 
 def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "", reference: float | None = 0.406) -> Path:
-    """Bar chart of the FE load shares [%] with the fitted Sopwith curve; written as PNG (matplotlib Agg).
+    """Bar chart of the FE load shares [%] with the fitted Sopwith curve; written as PNG.
 
     ``reference``: a further Sopwith curve at this lam P, dashed (default 0.406, the classic 34/23/16/... %).
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     i = np.arange(1, loads.n_threads + 1)
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig = Figure(figsize=(6, 4))
+    ax = fig.subplots()
     ax.bar(i, 100 * loads.share, color="0.6", label="FE (contact forces)")
     ax.plot(i, 100 * sopwith_shares(loads.lam_p, loads.n_threads), "o-", color="C3",
             label=f"Sopwith, fitted lam P = {loads.lam_p:.3f}")
@@ -167,18 +165,14 @@ def plot_load_shares(loads: ThreadLoads, path: str | Path, title: str = "", refe
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
 def plot_flank_profile(profile: FlankProfile, path: str | Path, title: str = "") -> Path:
-    """Flank pressure [MPa] and slip [um] against the axial position of each thread contact pair (PNG, Agg);
+    """Flank pressure [MPa] and slip [um] against the axial position of each thread contact pair (PNG);
     slipping pairs as filled markers, sticking ones open."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+    fig = Figure(figsize=(7, 5))
+    top, bottom = fig.subplots(2, 1, sharex=True)
     y = profile.position[:, 1]
     for flank in np.unique(profile.flank):
         k = profile.flank == flank
@@ -193,7 +187,6 @@ def plot_flank_profile(profile: FlankProfile, path: str | Path, title: str = "")
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 

@@ -7,13 +7,10 @@ import io
 import json
 from pathlib import Path
 
-import matplotlib
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
-
-from .html import write_html  # noqa: E402
+from .html import write_html
 
 
 def write_outputs(run_dir: Path, result: dict, store=None, config_text: str | None = None,
@@ -61,18 +58,20 @@ def stored_history(result: dict, store) -> dict:
     return {"objective": [float(row.objective) for row in rows], "coefficients": coefficients}
 
 
-def save(fig, path) -> None:
-    """Write a figure (PNG, 100 dpi) to a path or binary stream and close it."""
+# Figures are matplotlib.figure.Figure objects, not pyplot ones: they need no backend (savefig renders with Agg)
+# and leave the caller's pyplot state and backend alone; nothing holds them once they are saved.
+def save(fig: Figure, path) -> None:
+    """Write a figure (PNG, 100 dpi) to a path or binary stream."""
     fig.savefig(path, dpi=100, format="png")
-    plt.close(fig)
 
 
-def convergence_figure(result: dict):
+def convergence_figure(result: dict) -> Figure:
     """Objective (log scale) and the free zones' coefficients per iteration (integer ticks), with the final
     standard errors as error bars and, when ``result["truth"]`` gives them, the true values dashed."""
     history = result.get("history", {})
     objective, coefficients = history.get("objective", []), history.get("coefficients", [])
-    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
+    fig = Figure(figsize=(10, 4))
+    left, right = fig.subplots(1, 2)
     if objective:
         left.semilogy(range(len(objective)), objective, "o-")
     left.set(xlabel="iteration", ylabel="objective J", title=f"{result['method']} ({result['jacobian']} Jacobian)")
@@ -112,7 +111,7 @@ def residual_plot(result: dict, path: Path) -> None:
     xyz = [p["xyz"] for p in points]
     rms = [p["rms"] for p in points]
     three_d = len(xyz[0]) == 3
-    fig = plt.figure(figsize=(7, 5.5))
+    fig = Figure(figsize=(7, 5.5))
     axes = fig.add_subplot(projection="3d" if three_d else None)
     columns = list(zip(*xyz))
     shown = axes.scatter(*columns, c=rms, cmap="viridis", vmin=0.0, s=18)
@@ -127,14 +126,15 @@ def residual_plot(result: dict, path: Path) -> None:
     save(fig, path)
 
 
-def fit_figure(observations: list[dict]):
+def fit_figure(observations: list[dict]) -> Figure:
     """Measured (with +/- sigma) and fitted value per observation, one panel per quantity; ``observations``
     as in result.json's ``fit.observations`` (label "point:quantity@stage" or "force@stage")."""
     panels: dict[str, list[dict]] = {}
     for o in observations:
         quantity = o["label"].rpartition("@")[0].rpartition(":")[2]
         panels.setdefault(quantity, []).append(o)
-    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.6 * len(panels)), squeeze=False)
+    fig = Figure(figsize=(10, 2.6 * len(panels)))
+    axes = fig.subplots(len(panels), 1, squeeze=False)
     for ax, (quantity, rows) in zip(axes[:, 0], panels.items()):
         index = range(len(rows))
         sigma = [o["sigma"] if o.get("sigma") is not None else 0.0 for o in rows]

@@ -15,23 +15,20 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ..backends.embedded import EmbeddedBackend, cache_in  # noqa: E402
-from ..builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
-from ..builders.registry import build_model  # noqa: E402
-from ..config import read_config  # noqa: E402
-from ..data.measurements import Measurements, write_measurements  # noqa: E402
-from ..errors import InputError  # noqa: E402
-from ..identification import identify_config, prepare  # noqa: E402
-from ..report.html import NEAR_BOUND  # noqa: E402
-from ..report.outputs import write_outputs  # noqa: E402
-from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads  # noqa: E402
-from ..report.tables import prefit_summary, result_summary  # noqa: E402
+from ..backends.embedded import EmbeddedBackend, cache_in
+from ..builders.bolt import bolt_layout, fixed_friction, measurement_points
+from ..builders.registry import build_model
+from ..config import read_config
+from ..data.measurements import Measurements, write_measurements
+from ..errors import InputError
+from ..identification import identify_config, prepare
+from ..report.html import NEAR_BOUND
+from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads
+from ..report.outputs import write_outputs
+from ..report.tables import prefit_summary, result_summary
 
 #: the coefficients the data are made with (thread zones; outer A-C, inner D-F, section 1 at the bearing face)
 TRUE_MU = {"A": 0.14, "B": 0.18, "C": 0.22, "D": 0.12, "E": 0.16, "F": 0.20}
@@ -248,14 +245,14 @@ def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
 
 def _write_summary(out: Path, settings: Settings, runs: dict, curves: dict, model_error: float, start: float,
                    echo) -> dict:
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig = Figure(figsize=(6, 4))
+    ax = fig.subplots()
     for name, curve in curves.items():
         ax.semilogy(curve, "o-", ms=3, label=f"{runs[name][1]['method']} ({runs[name][1]['jacobian']})")
     ax.set(xlabel="iteration k", ylabel="|u_k - u| / |u_0 - u|", title="M20 bolt-nut, 10 DIC points (Fig. 9)")
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "fig9.png", dpi=110)
-    plt.close(fig)
     width = 28
     table = [f"{'run':<13}{'status':<16}{'iter':>5}{'solves':>8}{'time [s]':>9}  "
              + "".join(f"{z:>{width}}" for z in TRUE_MU)]
