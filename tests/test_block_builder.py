@@ -259,6 +259,7 @@ def test_2d_contact_size_refines_the_interface_only():
     (block_model, {"pull": 0.0}, "pull"),
     (block_model, {"force": -1.0}, "force"),
     (block_model, {"mesh_size": float("nan")}, "mesh_size"),
+    (block_model, {"pull": True}, "pull"),                  # a bool is no length (it passed as 1 mm)
     (block_model, {"order": 3}, "order"),
     (block_model, {"n_press": 0}, "n_press"),
     (block_model, {"n_pull": 2.5}, "n_pull"),

@@ -9,30 +9,20 @@ import numpy as np
 from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support, SurfaceForce
 from .arcs import cylinders_mesh
+from .arguments import count, positive
 from .collar import shaft_and_collar_mesh
 
 
-def _positive(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value) or not value > 0:
-        raise InputError(f"`{name}` must be a finite number > 0, got {value!r}")
-    return float(value)
-
-
-def _count(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InputError(f"`{name}` must be an integer >= 1, got {value!r}")
-    return int(value)
 
 
 # ------------------------------------------------------------------------------------------ two cylinders
 
 def _cylinders(R_upper: float, R_lower: float, half_width: float, contact_size: float, size: float) -> Mesh:
-    half_width = _positive("half_width_refined", half_width)
+    half_width = positive("half_width_refined", half_width)
     if not half_width < min(R_upper, R_lower):
         raise InputError(f"`half_width_refined` must be smaller than the radii, got {half_width}")
-    return cylinders_mesh(R_upper, R_lower, half_width, _positive("contact_size", contact_size),
-                          _positive("size", size))
+    return cylinders_mesh(R_upper, R_lower, half_width, positive("contact_size", contact_size),
+                          positive("size", size))
 
 def _cylinder_interface() -> ContactInterface:
     return ContactInterface("contact", ("left", "right"), "lower_contact", discretisation="node-to-node")
@@ -60,11 +50,11 @@ def hertz_model(E1: float = 30000.0, nu1: float = 0.25, R1: float = 10.0, E2: fl
     ('left', 'right')
     """
     materials = {"upper": Material(E1, nu1, "upper"), "lower": Material(E2, nu2, "lower")}
-    mesh = _cylinders(_positive("R1", R1), _positive("R2", R2), half_width_refined, contact_size, size)
+    mesh = _cylinders(positive("R1", R1), positive("R2", R2), half_width_refined, contact_size, size)
     return Model(mesh=mesh, kind="plane_strain", materials=materials,
                  supports=(Support("lower_flat", (0, 1)), Support("upper_axis", (0,))),
-                 loads=(SurfaceForce("upper_flat", 1, (-_positive("force", force),)),),
-                 stages=(Stage("load", _count("n_increments", n_increments)),),
+                 loads=(SurfaceForce("upper_flat", 1, (-positive("force", force),)),),
+                 stages=(Stage("load", count("n_increments", n_increments)),),
                  interfaces=(_cylinder_interface(),))
 
 
@@ -116,8 +106,8 @@ def mindlin_model(R: float = 8.0, E: float = 200.0, nu: float = 0.3, P: float = 
     P/2 + Q_expected and P/2 - Q_expected, whose couple cancels Q_expected R: the contact then carries P and
     Q with (almost) no moment, as in the half-space theory.
     """
-    mesh = _cylinders(_positive("R", R), R, half_width_refined, contact_size, size)
-    P, Q = _positive("P", P), float(Q_expected)
+    mesh = _cylinders(positive("R", R), R, half_width_refined, contact_size, size)
+    P, Q = positive("P", P), float(Q_expected)
     if balance_moment:
         loads = (SurfaceForce("upper_flat_left", 1, (-P / 2, -(P / 2 + Q))),
                  SurfaceForce("upper_flat_right", 1, (-P / 2, -(P / 2 - Q))))
@@ -126,9 +116,9 @@ def mindlin_model(R: float = 8.0, E: float = 200.0, nu: float = 0.3, P: float = 
     return Model(mesh=mesh, kind="plane_strain",
                  materials={"upper": Material(E, nu, "upper"), "lower": Material(E, nu, "lower")},
                  supports=(Support("lower_flat", (0, 1)),),
-                 loads=loads + (Displacement("upper_flat", 0, (0.0, _positive("shift", shift))),),
-                 stages=(Stage("press", _count("n_press", n_press)),
-                         Stage("shift", _count("n_tangential", n_tangential))),
+                 loads=loads + (Displacement("upper_flat", 0, (0.0, positive("shift", shift))),),
+                 stages=(Stage("press", count("n_press", n_press)),
+                         Stage("shift", count("n_tangential", n_tangential))),
                  interfaces=(_cylinder_interface(),))
 
 
@@ -146,7 +136,7 @@ def mindlin_reference(mu: float, R: float = 8.0, E: float = 200.0, nu: float = 0
     """
     hertz = hertz_reference(E, nu, R, E, nu, R, P)
     a, p0 = hertz["a"], hertz["p0"]
-    c = a * math.sqrt(max(0.0, 1.0 - abs(Q) / (_positive("mu", mu) * P)))
+    c = a * math.sqrt(max(0.0, 1.0 - abs(Q) / (positive("mu", mu) * P)))
 
     def q(x):
         x = np.abs(np.asarray(x, dtype=float))
@@ -162,7 +152,7 @@ def mindlin_reference(mu: float, R: float = 8.0, E: float = 200.0, nu: float = 0
 # ---------------------------------------------------------------------------------- axisymmetric fits
 
 def _zone_edges(y0: float, length: float, n_zones: int) -> np.ndarray:
-    return np.linspace(y0, y0 + length, _count("n_zones", n_zones) + 1)
+    return np.linspace(y0, y0 + length, count("n_zones", n_zones) + 1)
 
 
 def interference_model(a: float = 10.0, b: float = 20.0, delta: float = 0.01, length: float = 20.0,
@@ -181,21 +171,21 @@ def interference_model(a: float = 10.0, b: float = 20.0, delta: float = 0.01, le
     -push in y in n_push increments. push must exceed the elastic travel before gross slip (about 3e-3 mm
     for the defaults with mu = 0.2, so 0.05 is ample).
     """
-    a, b, delta = _positive("a", a), _positive("b", b), _positive("delta", delta)
-    length, hub_length = _positive("length", length), _positive("hub_length", hub_length)
+    a, b, delta = positive("a", a), positive("b", b), positive("delta", delta)
+    length, hub_length = positive("length", length), positive("hub_length", hub_length)
     if not (a < b and hub_length < length):
         raise InputError(f"need a < b and hub_length < length, got a={a}, b={b}, hub_length={hub_length}, "
                          f"length={length}")
     y0 = -(length - hub_length) / 2
-    zones = [f"Z{k + 1}" for k in range(_count("n_zones", n_zones))]
+    zones = [f"Z{k + 1}" for k in range(count("n_zones", n_zones))]
     mesh = shaft_and_collar_mesh(a + delta, a, b, (y0, y0 + length), _zone_edges(0.0, hub_length, n_zones),
-                                 zones, "hub", _positive("size", size),
-                                 _positive("contact_size", contact_size or size))
+                                 zones, "hub", positive("size", size),
+                                 positive("contact_size", contact_size or size))
     return Model(mesh=mesh, kind="axisymmetric",
                  materials={"shaft": Material(E, nu, "shaft"), "hub": Material(E, nu, "hub")},
                  supports=(Support("shaft_bottom", (1,)),),
-                 loads=(Displacement("hub_top", 1, (0.0, -_positive("push", push))),),
-                 stages=(Stage("fit", 1), Stage("push", _count("n_push", n_push))),
+                 loads=(Displacement("hub_top", 1, (0.0, -positive("push", push))),),
+                 stages=(Stage("fit", 1), Stage("push", count("n_push", n_push))),
                  interfaces=(ContactInterface("fit", tuple(zones), "shaft_surface", "node-to-node"),))
 
 
@@ -255,19 +245,19 @@ def sleeve_model(inner: float = 10.0, outer: float = 14.0, sleeve_length: float 
     away from the sleeve's ends, and the gross-slip force is about :func:`pushout_force` (mu, pressure,
     inner, zone lengths); the ends of the short sleeve make it differ by a few per cent.
     """
-    inner, outer = _positive("inner", inner), _positive("outer", outer)
-    sleeve_length, shaft_length = _positive("sleeve_length", sleeve_length), _positive("shaft_length", shaft_length)
+    inner, outer = positive("inner", inner), positive("outer", outer)
+    sleeve_length, shaft_length = positive("sleeve_length", sleeve_length), positive("shaft_length", shaft_length)
     if not (inner < outer and sleeve_length < shaft_length):
         raise InputError("need inner < outer and sleeve_length < shaft_length")
     y0 = -(shaft_length - sleeve_length) / 2
     mesh = shaft_and_collar_mesh(inner, inner, outer, (y0, y0 + shaft_length), _zone_edges(0.0, sleeve_length, 2),
-                                 ["lower", "upper"], "sleeve", _positive("size", size),
-                                 _positive("contact_size", contact_size or size))
-    pressure = _positive("pressure", pressure)
+                                 ["lower", "upper"], "sleeve", positive("size", size),
+                                 positive("contact_size", contact_size or size))
+    pressure = positive("pressure", pressure)
     return Model(mesh=mesh, kind="axisymmetric",
                  materials={"shaft": Material(E, nu, "shaft"), "sleeve": Material(E, nu, "sleeve")},
                  supports=(Support("shaft_bottom", (1,)),),
                  loads=(Pressure("sleeve_outer", (pressure, pressure)),
-                        Displacement("sleeve_top", 1, (0.0, -_positive("push", push)))),
-                 stages=(Stage("press", _count("n_press", n_press)), Stage("push", _count("n_push", n_push))),
+                        Displacement("sleeve_top", 1, (0.0, -positive("push", push)))),
+                 stages=(Stage("press", count("n_press", n_press)), Stage("push", count("n_push", n_push))),
                  interfaces=(ContactInterface("fit", ("lower", "upper"), "shaft_surface", "node-to-node"),))

@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 from ..model.model import ELEMENTS
+from .arguments import count, positive
 from .gmsh_mesh import distance_size_field, gmsh_session, mesh_from_gmsh, use_size_fields
 
 logger = logging.getLogger(__name__)
@@ -35,16 +36,6 @@ DEFAULT_GRADING = 4.0
 
 # ---------------------------------------------------------------------------------------------- arguments
 
-def _positive(name: str, value) -> float:
-    if not isinstance(value, (int, float, np.integer, np.floating)) or not value > 0 or not math.isfinite(value):
-        raise InputError(f"`{name}` must be a finite number > 0, got {value!r}")
-    return float(value)
-
-
-def _count(name: str, value, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise InputError(f"`{name}` must be an integer >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def _order(value) -> int:
@@ -71,7 +62,7 @@ def _grading(value) -> float:
 
 
 def _stages(n_press: int, n_pull: int) -> tuple[Stage, Stage]:
-    return Stage("press", _count("n_press", n_press)), Stage("pull", _count("n_pull", n_pull))
+    return Stage("press", count("n_press", n_press)), Stage("pull", count("n_pull", n_pull))
 
 
 def _pull_levels(levels, pull: float) -> tuple[float, ...]:
@@ -189,13 +180,13 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     >>> model.zone_names
     ('A', 'B', 'C', 'D')
     """
-    pull, force, mesh_size = _positive("pull", pull), _positive("force", force), _positive("mesh_size", mesh_size)
+    pull, force, mesh_size = positive("pull", pull), positive("force", force), positive("mesh_size", mesh_size)
     order = _order(order)
     element = _element(element, order)
     stages, pulled = _pull_stages(n_press, n_pull, pull, _pull_levels(pull_levels, pull))
     if block_divisions is None:
         block_divisions = 2 * max(1, round(BLOCK_SIDE / 2 / mesh_size))
-    block_divisions = _count("block_divisions", block_divisions, minimum=2)
+    block_divisions = count("block_divisions", block_divisions, 2)
     if block_divisions % 2:
         raise InputError(f"`block_divisions` must be even (the zones split the block bottom in half), "
                          f"got {block_divisions}")
@@ -388,13 +379,13 @@ def block_model_2d(kind: str = "plane_strain", pull: float = 0.2, force: float =
     """
     if kind != "plane_strain":
         raise InputError(f"`kind` must be 'plane_strain' for the 2-D block model, got {kind!r}")
-    pull, force = _positive("pull", pull), _positive("force", force)
-    sizes = {name: _positive(name, value) for name, value in
+    pull, force = positive("pull", pull), positive("force", force)
+    sizes = {name: positive(name, value) for name, value in
              [("width", width), ("height", height), ("base_width", base_width), ("base_height", base_height),
               ("mesh_size", mesh_size), ("contact_size", mesh_size if contact_size is None else contact_size)]}
     if not sizes["base_width"] > sizes["width"]:
         raise InputError(f"`base_width` must exceed `width` ({width}), got {base_width}")
-    n_zones = _count("n_zones", n_zones)
+    n_zones = count("n_zones", n_zones)
     if n_zones > len(string.ascii_uppercase):
         raise InputError(f"`n_zones` must be at most {len(string.ascii_uppercase)}, got {n_zones}")
     order, stages = _order(order), _stages(n_press, n_pull)

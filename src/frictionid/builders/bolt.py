@@ -15,7 +15,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import ContactInterface, Material, Model, Stage, Support, SurfaceForce
-from .bolt_layout import BoltLayout, _count, _number, bolt_layout
+from .arguments import count, positive
+from .bolt_layout import BoltLayout, bolt_layout
 from .bolt_mesh import bolt_mesh
 from .thread import Flank, thread_size
 
@@ -35,7 +36,7 @@ def _forces(forces) -> tuple[float, ...]:
         forces = (forces,)
     if not isinstance(forces, (list, tuple)) or not forces:
         raise InputError(f"`forces` must be a list of machine forces [N], one per stage, got {forces!r}")
-    return tuple(_number(f"forces[{i}]", f) for i, f in enumerate(forces))
+    return tuple(positive(f"forces[{i}]", f) for i, f in enumerate(forces))
 
 
 def default_sizes(size: str = "M20") -> dict[str, float]:
@@ -95,14 +96,14 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     """
     layout = bolt_layout(size, length, engaged_length, clearance, n_radial, n_axial, bearing_diameter)
     defaults = default_sizes(size)
-    flank_size = _number("flank_size", flank_size)
-    contact_size = defaults["contact_size"] if contact_size is None else _number("contact_size", contact_size)
-    mesh_size = defaults["mesh_size"] if mesh_size is None else _number("mesh_size", mesh_size)
+    flank_size = positive("flank_size", flank_size)
+    contact_size = defaults["contact_size"] if contact_size is None else positive("contact_size", contact_size)
+    mesh_size = defaults["mesh_size"] if mesh_size is None else positive("mesh_size", mesh_size)
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
     forces = _forces(forces)
-    n_increments = _count("n_increments", n_increments, 1, 1000)
+    n_increments = count("n_increments", n_increments, 1, 1000)
     mesh = bolt_mesh(layout, flank_size, contact_size, max(mesh_size, flank_size))
     interfaces = (ContactInterface("thread", layout.thread_zones, "nut_contact", "node-to-node"),
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
@@ -129,7 +130,7 @@ def measurement_points(layout: BoltLayout, points=None, flanks=(1, 2), n_per_fla
     The points lie on the bolt-nut interface: observe them in region "bolt" (config: regions = { "*" = "bolt" }).
     """
     if points is None:
-        n_per_flank = _count("n_per_flank", n_per_flank, 1, 100)
+        n_per_flank = count("n_per_flank", n_per_flank, 1, 100)
         fractions = np.arange(1, n_per_flank + 1) / (n_per_flank + 1)
         for i in flanks:
             if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 1 <= i <= len(layout.flanks):

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from .arguments import count, positive
 from .thread import SQRT3, Flank, ThreadSize, engaged_flanks, first_tooth_window, nut_bore, thread_size
 
 _TOL = 1e-9  # [mm] coordinates closer than this are the same point
@@ -59,17 +60,6 @@ class BoltLayout:
         return tuple(self.zone_name(i, k) for i in range(self.n_radial) for k in range(len(self.sections)))
 
 
-def _number(key: str, value, low: float = 0.0) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value) or not value > low:
-        raise InputError(f"`{key}` must be a finite number > {low:g}, got {value!r}")
-    return float(value)
-
-
-def _count(key: str, value, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
-        raise InputError(f"`{key}` must be an integer in [{low}, {high}], got {value!r}")
-    return int(value)
 
 
 def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: float | None = None,
@@ -82,9 +72,9 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     (94.5, 112.5, 7)
     """
     s = thread_size(size)
-    length = 6 * s.d if length is None else _number("length", length)
+    length = 6 * s.d if length is None else positive("length", length)
     m = s.nut_m
-    engaged = m if engaged_length is None else _number("engaged_length", engaged_length)
+    engaged = m if engaged_length is None else positive("engaged_length", engaged_length)
     if engaged > m + _TOL:
         raise InputError(f"`engaged_length` = {engaged:g} mm is longer than the nut: expected at most the "
                          f"{s.name} nut height m = {m:g} mm (ISO 4032)")
@@ -105,7 +95,7 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     if not flanks:
         raise InputError(f"`engaged_length` = {engaged:g} mm leaves no complete load flank engaged; expected at "
                          f"least about {2 * s.P:g} mm (two pitches)")
-    n_radial, n_axial = _count("n_radial", n_radial, 1, 4), _count("n_axial", n_axial, 1, len(flanks))
+    n_radial, n_axial = count("n_radial", n_radial, 1, 4), count("n_axial", n_axial, 1, len(flanks))
     if n_radial * n_axial > 26:
         raise InputError(f"`n_radial` x `n_axial` = {n_radial * n_axial} zones: at most 26 (letters A-Z)")
     splits = _zone_splits(s, shift, n_radial)
