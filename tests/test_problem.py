@@ -33,6 +33,14 @@ def test_observations_equal_the_point_operator_on_the_reconstructed_field(observ
     assert solution.observation_labels[:2] == ("P0.ux", "P0.uy")
 
 
+def test_the_models_reaction_labels_are_the_solvers(observed):
+    """Model.reaction_labels (which the CalculiX backend and the machine force use) name the embedded solver's
+    reaction sums in its order: the supports' components, then the driven one."""
+    problem, solution, _, _ = observed
+    assert problem.model.reaction_labels == solution.reaction_labels == ("base_bottom.x", "base_bottom.y",
+                                                                        "block_top.x")
+
+
 def test_reconstructed_field_meets_the_supports_and_the_pull(observed):
     problem, solution, _, _ = observed
     u = problem.displacement(solution)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Displacement, Model
-from ..model.model import component_index
+from ..model.model import component_index, reaction_label
 
 DISPLACEMENTS = ("ux", "uy", "uz")
 STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
@@ -33,7 +33,7 @@ def machine_force(model: Model) -> str:
         not measured) or more than one.
     """
     driven = list(dict.fromkeys(
-        f"{load.boundary}.{'xyz'[component_index(load.component, model.dim, load.boundary)]}"
+        reaction_label(load.boundary, component_index(load.component, model.dim, load.boundary))
         for load in model.loads if isinstance(load, Displacement) and any(v != 0 for v in load.values)))
     if len(driven) != 1:
         raise InputError(f"data.observables: 'force' needs a model driven by one prescribed displacement whose "

@@ -27,6 +27,15 @@ def component_index(component, dim: int, where: str) -> int:
     return int(index)
 
 
+def reaction_label(boundary: str, component: int) -> str:
+    """Label of the reaction sum of one boundary component (index 0..2): "boundary.axis".
+
+    >>> reaction_label("block_top", 1)
+    'block_top.y'
+    """
+    return f"{boundary}.{'xyz'[component]}"
+
+
 def check_element(element, cell_type: str, where: str) -> str:
     """``element`` if it is one of :data:`ELEMENTS` and fits the cell type, else an :class:`InputError`."""
     if element not in ELEMENTS:
@@ -205,6 +214,21 @@ class Model:
     @property
     def n_zones(self) -> int:
         return len(self.zone_names)
+
+    @property
+    def reaction_entries(self) -> tuple[tuple[str, int], ...]:
+        """(boundary, component index) of each reaction sum, each once: the supports' components, then those
+        driven by a prescribed displacement."""
+        entries = [(s.boundary, component_index(c, self.dim, s.boundary))
+                   for s in self.supports for c in s.components]
+        entries += [(l.boundary, component_index(l.component, self.dim, l.boundary))
+                    for l in self.loads if isinstance(l, Displacement)]
+        return tuple(dict.fromkeys(entries))
+
+    @property
+    def reaction_labels(self) -> tuple[str, ...]:
+        """:func:`reaction_label` of each of :attr:`reaction_entries`, e.g. "block_top.y"."""
+        return tuple(reaction_label(boundary, c) for boundary, c in self.reaction_entries)
 
     def _validate(self):
         mesh = self.mesh

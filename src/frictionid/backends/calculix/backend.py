@@ -15,8 +15,7 @@ from ...fem.assembly import load_channels
 from ...fem.interface import contact_pairs as embedded_pairs
 from ...fem.points import point_operator
 from ...fem.space import Space
-from ...model import Displacement, Model
-from ...model.model import component_index
+from ...model import Model
 from ..embedded import Prediction
 from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck
 from .elements import calculix_cells, fill_dropped_nodes
@@ -24,7 +23,6 @@ from .parse import DatFile, read_dat, read_frd
 from .runner import JOB, find_ccx, remove_work, run_ccx
 
 log = logging.getLogger(__name__)
-_AXES = "xyz"
 #: penalty slopes relative to E_min / h (softest Young's modulus over the contact element size), see README
 PENALTY_FACTOR = 500.0
 #: [N/mm^3] cap of the default slopes: steel sleeves in CAX6 did not converge at 1e8 and matched at 1e7
@@ -161,15 +159,6 @@ class CalculixSolution:
     wall_time: float
 
 
-def _reaction_entries(model: Model) -> list[tuple[str, int]]:
-    """(boundary, component) of each reaction sum, in the embedded solver's order."""
-    dim = model.dim
-    entries = [(s.boundary, component_index(c, dim, s.boundary)) for s in model.supports for c in s.components]
-    entries += [(l.boundary, component_index(l.component, dim, l.boundary))
-                for l in model.loads if isinstance(l, Displacement)]
-    return list(dict.fromkeys(entries))
-
-
 class CalculixBackend:
     """Forward solves by CalculiX on the exported model; observations through the embedded point operator.
 
@@ -207,8 +196,8 @@ class CalculixBackend:
         channels = load_channels(self.space, model)
         self.forces, self.amplitudes = channels.forces, channels.amplitudes
         self.contact = self.settings.contact_settings(model)
-        self.reaction_entries = _reaction_entries(model)
-        self.reaction_labels = tuple(f"{b}.{_AXES[c]}" for b, c in self.reaction_entries)
+        self.reaction_entries = list(model.reaction_entries)          # the embedded solver's order
+        self.reaction_labels = model.reaction_labels
         unknown = [r for r in reactions if r not in self.reaction_labels]
         if unknown:
             raise InputError(f"model: no reaction {unknown}; the model's reactions are {list(self.reaction_labels)}")
