@@ -20,12 +20,11 @@ import numpy as np  # noqa: E402
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings  # noqa: E402
 from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
 from frictionid.builders.block import block_model  # noqa: E402
-from frictionid.data.measurements import read_measurements  # noqa: E402
+from frictionid.data.measurements import QUANTITIES, read_measurements  # noqa: E402
 from frictionid.inverse.evaluator import Evaluator  # noqa: E402
 from frictionid.inverse.observations import observations_from  # noqa: E402
 from frictionid.inverse.parameters import Parameters  # noqa: E402
 
-QUANTITIES = ["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"]
 MU = {"A": 0.3, "B": 0.2, "C": 0.4, "D": 0.25}
 
 

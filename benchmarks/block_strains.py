@@ -26,7 +26,6 @@ import argparse
 import hashlib
 import json
 import multiprocessing
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -34,10 +33,9 @@ import numpy as np
 from _measure import peak_memory_mb, timed
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
-from frictionid.data.measurements import read_measurements
+from frictionid.data.measurements import QUANTITIES, read_measurements
 
 FIXTURE = Path(__file__).parents[1] / "tests" / "fixtures" / "independent_block" / "measured.csv"
-QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 #: noise per kind: DIC 0.5 um, strain gauges 2e-5 (issue 12)
 SIGMA = {"u": 5e-4, "e": 2e-5}
 #: the fixture's true coefficients, zones A B C D

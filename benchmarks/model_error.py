@@ -44,13 +44,13 @@ from _measure import best_of, peak_memory_mb, timed  # noqa: E402
 from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
 from frictionid.builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
 from frictionid.builders.registry import build_model, refined  # noqa: E402
+from frictionid.data.table import STRAINS  # noqa: E402
 from frictionid.inverse.model_error import (ELEMENT_ORDER, convergence_orders, estimate_model_error,  # noqa: E402
                                             observation_kinds, richardson)
 from frictionid.inverse.observations import Observations  # noqa: E402
 from frictionid.studies import block as twin  # noqa: E402
 from frictionid.studies.bolt import FORCES, TRUE_MU  # noqa: E402
 
-STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
 #: noise per kind: DIC 0.5 um, strain gauges 2e-5, load cell 1 N (plane strain: N/mm)
 SIGMA = {"u": 0.0005, "e": 2e-5, "force": 1.0}
 #: observations whose actual error is below this fraction of the noise do not count in the within-2 fraction

@@ -20,10 +20,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from frictionid.builders.block import block_model  # noqa: E402
+from frictionid.data.measurements import QUANTITIES  # noqa: E402
 from frictionid.fem.problem import Problem  # noqa: E402
 from frictionid.studies import block as twin  # noqa: E402
 
-QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 SIGMA_STRAIN = 1e-5
 #: the paper's gauges (the earlier example): block side faces, 0.5 and 1.5 mm above the contact, 3 mm off centre
 GAUGES = [(x, y, z) for z in (0.5, 1.5) for s in (-3.0, 3.0) for x, y in ((-5.0, s), (5.0, s), (s, -5.0), (s, 5.0))]

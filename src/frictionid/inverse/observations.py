@@ -6,12 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..data.table import DISPLACEMENTS
 from ..errors import InputError
 from ..model import Displacement, Model
 from ..model.model import component_index, reaction_label
 
-DISPLACEMENTS = ("ux", "uy", "uz")
-STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
 #: the observable for the measurement file's `force` column: the machine force of each stage [N]
 FORCE = "force"
 
