@@ -65,7 +65,7 @@ def test_trf_with_displacement_noise_lands_within_three_standard_errors(simulate
 
 # ------------------------------------------------------------------ the pieces the twin needs: pull levels, force
 
-def test_pull_levels_split_the_pull_into_stages_on_the_default_load_path():
+def test_pull_levels_split_the_pull_into_stages_on_the_default_load_path(block3d):
     from frictionid.backends.embedded import EmbeddedBackend
     from frictionid.builders.block import block_model
 
@@ -76,7 +76,7 @@ def test_pull_levels_split_the_pull_into_stages_on_the_default_load_path():
     points = np.array([[-5.0, -2.0, 1.0], [5.0, 2.0, 3.0]])
     mu = np.array([0.3, 0.2, 0.4, 0.25])
     by_stage = EmbeddedBackend(staged, points, ("ux", "uy", "uz"), reactions=("block_top.y",)).predict(mu)
-    one = EmbeddedBackend(block_model(mesh_size=5.0), points, ("ux", "uy", "uz"), reactions=("block_top.y",))
+    one = EmbeddedBackend(block3d, points, ("ux", "uy", "uz"), reactions=("block_top.y",))
     solution = one.problem.solve(mu)
     # stage ends at pull 0.04, 0.1, 0.2 mm are increments 2, 5, 10 of the single pull stage (index 0 presses)
     for stage, increment in ((1, 2), (2, 5), (3, 10)):
@@ -94,12 +94,11 @@ def test_bad_pull_levels_are_refused(levels, message):
         block_model(mesh_size=5.0, pull_levels=levels)
 
 
-def test_machine_force_rows_are_the_driven_reaction_with_its_sensitivities():
+def test_machine_force_rows_are_the_driven_reaction_with_its_sensitivities(block3d):
     from frictionid.backends.embedded import EmbeddedBackend
-    from frictionid.builders.block import block_model
     from frictionid.inverse.observations import machine_force
 
-    model = block_model(mesh_size=5.0)
+    model = block3d
     assert machine_force(model) == "block_top.y"
     backend = EmbeddedBackend(model, np.array([[5.0, 0.0, 2.0]]), ("uy",), reactions=("block_top.y",))
     mu = np.array([0.3, 0.2, 0.4, 0.25])

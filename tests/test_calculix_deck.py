@@ -43,11 +43,6 @@ def cards(deck: str, keyword: str) -> list[list[str]]:
     return out
 
 
-@pytest.fixture(scope="module")
-def block3d():
-    return block_model(mesh_size=5.0)
-
-
 def test_every_zone_gets_its_own_pair_interaction_and_friction(block3d):
     mu = [0.3, 0.2, 0.4, 0.0]
     deck, _ = deck_of(block3d, mu)

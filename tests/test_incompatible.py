@@ -77,8 +77,9 @@ def test_nodal_block_is_the_standard_hexahedron():
     np.testing.assert_allclose(ours, reference, rtol=0, atol=1e-12 * np.abs(reference).max())
 
 
-def test_condensed_stiffness_is_symmetric_and_has_the_rigid_modes():
-    model = block_model(mesh_size=5.0, element="incompatible")
+def test_condensed_stiffness_is_symmetric_and_has_the_rigid_modes(block3d):
+    model = block3d
+    assert model.element == "incompatible"
     K = stiffness(Space.build(model.mesh, "3d", "incompatible"), model)
     x = model.mesh.points
     scale = abs(K).max() * np.abs(x).max()
@@ -234,8 +235,9 @@ def test_cantilever_against_calculix_c3d8i():
     np.testing.assert_allclose(ours[len(tip):, 1:], strains, rtol=0, atol=2e-6 * np.abs(strains).max())
 
 
-def test_the_deck_of_an_incompatible_model_has_c3d8i():
-    model = block_model(mesh_size=5.0, element="incompatible")
+def test_the_deck_of_an_incompatible_model_has_c3d8i(block3d):
+    model = block3d
+    assert model.element == "incompatible"
     channels = load_channels(Space.build(model.mesh, model.kind, model.element), model)
     deck = write_deck(model, [0.3] * 4, ContactSettings(1e6, 2e6), channels.forces, channels.amplitudes)
     assert deck.count("*ELEMENT, TYPE=C3D8I") == 2 and "TYPE=C3D8," not in deck

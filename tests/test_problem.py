@@ -135,9 +135,9 @@ def test_a_model_without_contact_is_plain_elasticity():
     assert solution.lam.shape == (1, 0, 2)
 
 
-def test_reprs_are_one_line_summaries():
+def test_reprs_are_one_line_summaries(block2d):
     """print(model / problem / solution) says what it is in a line, not megabytes of arrays."""
-    model = block_model_2d(mesh_size=2.0)
+    model = block2d
     problem = Problem.build(model)
     solution = problem.solve({"A": 0.2, "B": 0.3}, sensitivities=True)
     for obj, start in [(model.mesh, "Mesh("), (model, "Model(plane_strain, "), (problem, "Problem(Model("),

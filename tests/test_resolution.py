@@ -50,8 +50,8 @@ def test_suggest_picks_the_row_that_sees_the_unresolved_zone_and_stops_when_reso
     assert suggest(J, [("sees nothing", [[0.0, 0.0, 0.0]])], tolerance=0.02) == []
 
 
-def test_surface_nodes_lie_on_the_region_outline():
-    mesh = block_model_2d(mesh_size=2.0).mesh
+def test_surface_nodes_lie_on_the_region_outline(block2d):
+    mesh = block2d.mesh
     xy = mesh.points[mesh.surface_nodes("block")]
     on_outline = (np.isclose(np.abs(xy[:, 0]), 5.0) | np.isclose(xy[:, 1], 0.0) | np.isclose(xy[:, 1], 10.0))
     assert on_outline.all() and len(xy) >= 4 * 5
