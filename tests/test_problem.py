@@ -94,6 +94,18 @@ def test_unknown_zone_and_negative_coefficient_are_refused():
         problem.solve([0.1, -0.1])
 
 
+@pytest.mark.parametrize("mu, message", [({"A": 0.1, "B": 0.1, "C": 0.2}, r"unknown zone\(s\) \['C'\]"),
+                                         ({"A": 0.1}, r"no coefficient for zone\(s\) \['B'\]"),
+                                         ([0.1, -0.1], "2 finite non-negative coefficients"),
+                                         ([0.1, float("nan")], "finite non-negative"), ([0.1], "need 2 ")])
+def test_the_models_coefficient_check_refuses_what_a_solver_cannot_take(mu, message):
+    """Model.coefficients, the check the CalculiX backend uses, refuses what the embedded solver refuses."""
+    model = _block()
+    for check in (model.coefficients, Problem.build(model).solve):
+        with pytest.raises(InputError, match=message):
+            check(mu)
+
+
 def test_a_body_pulled_off_its_contact_reports_the_increment():
     """Lifting the block with a force leaves it held by nothing: no increment can converge."""
     model = _block(loads=(SurfaceForce("block_top", 1, (50.0,)),), stages=(Stage("lift", 2),),

@@ -215,6 +215,28 @@ class Model:
     def n_zones(self) -> int:
         return len(self.zone_names)
 
+    def coefficients(self, mu) -> np.ndarray:
+        """(n_zones,) friction coefficients in :attr:`zone_names` order, from a sequence or a mapping zone ->
+        value; an InputError unless there is one finite, non-negative value per zone.
+
+        >>> from frictionid.builders.block import block_model_2d
+        >>> block_model_2d(mesh_size=4.0).coefficients({"B": 0.3, "A": 0.2}).tolist()
+        [0.2, 0.3]
+        """
+        if isinstance(mu, Mapping):
+            unknown = set(mu) - set(self.zone_names)
+            if unknown:
+                raise InputError(f"friction: unknown zone(s) {sorted(unknown)}; the model's zones are "
+                                 f"{list(self.zone_names)}")
+            missing = [z for z in self.zone_names if z not in mu]
+            if missing:
+                raise InputError(f"friction: no coefficient for zone(s) {missing}")
+            mu = [mu[z] for z in self.zone_names]
+        mu = np.asarray(mu, dtype=float).reshape(-1)
+        if mu.shape != (self.n_zones,) or not np.all(np.isfinite(mu)) or np.any(mu < 0):
+            raise InputError(f"friction: need {self.n_zones} finite non-negative coefficients, got {mu}")
+        return mu
+
     @property
     def reaction_entries(self) -> tuple[tuple[str, int], ...]:
         """(boundary, component index) of each reaction sum, each once: the supports' components, then those

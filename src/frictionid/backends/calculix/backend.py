@@ -207,7 +207,7 @@ class CalculixBackend:
 
     def deck(self, mu) -> str:
         """The .inp text for zone coefficients ``mu`` (n_zones,), with print requests for the observation nodes."""
-        return write_deck(self.model, self._mu(mu), self.contact, self.forces, self.amplitudes,
+        return write_deck(self.model, self.model.coefficients(mu), self.contact, self.forces, self.amplitudes,
                           observed_nodes=self.observed_nodes(), load_scale=self.settings.load_scale)
 
     def observed_nodes(self) -> np.ndarray:
@@ -220,12 +220,6 @@ class CalculixBackend:
         return np.unique(self.model.mesh.cells[cells]) if self.model.mesh.cell_type in ("quad9", "hexahedron27") \
             else nodes
 
-    def _mu(self, mu) -> np.ndarray:
-        mu = np.asarray(mu, dtype=float).reshape(-1)
-        if mu.shape != (self.model.n_zones,) or not np.all(np.isfinite(mu)) or np.any(mu < 0):
-            raise InputError(f"friction: need {self.model.n_zones} finite non-negative coefficients, got {mu}")
-        return mu
-
     def predict(self, mu, sensitivities: bool = False) -> Prediction:
         """Observation rows at every stage end (no derivatives: use finite differences)."""
         if sensitivities:
@@ -236,7 +230,7 @@ class CalculixBackend:
 
     def solve(self, mu, full_field: bool = True) -> CalculixSolution:
         """One ccx run; ``full_field`` also reads the displacement field of every stage end from the .frd file."""
-        mu = self._mu(mu)
+        mu = self.model.coefficients(mu)
         start = time.perf_counter()
         work = run_ccx(self.deck(mu), self.executable, self.settings.timeout, self.settings.work_dir,
                        self.settings.threads)
