@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from threadpoolctl import threadpool_limits
 
 from ..errors import InputError, SolverError
 from ..model import Displacement, Model
@@ -162,13 +163,17 @@ class Problem:
         mu_pair = self.pairs.mu(mu)
         records = []
         previous = np.zeros(amps.shape[1])
-        for i, (stage, amp) in enumerate(zip(stages, amps)):
-            where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
-            step = solver.step(path, previous, amp, mu_pair, sensitivities, where)
-            records.append((path.x.copy(), step.state, None if path.S is None else path.S.copy(),
-                            step.n_newton, step.n_cuts))
-            log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
-            previous = amp
+        # one BLAS thread: the Newton steps' dense solves (a few hundred to a few thousand unknowns) gain little
+        # from threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared
+        # (benchmarks/blas_threads.py)
+        with threadpool_limits(1, user_api="blas"):
+            for i, (stage, amp) in enumerate(zip(stages, amps)):
+                where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
+                step = solver.step(path, previous, amp, mu_pair, sensitivities, where)
+                records.append((path.x.copy(), step.state, None if path.S is None else path.S.copy(),
+                                step.n_newton, step.n_cuts))
+                log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
+                previous = amp
         solution = self._solution(mu, stages, amps, records, sensitivities)
         if max_slip is not None:
             self.check_small_sliding(solution, max_slip)
