@@ -43,6 +43,7 @@ def _identify(folder: Path, name: str, data: str) -> dict:
     return json.loads((folder / f"runs/{name}/result.json").read_text())
 
 
+@pytest.mark.slow     # with the fixture's data on a quadratic graded mesh: 45 s
 def test_trf_recovers_all_four_zones_from_finer_mesh_data(simulated):
     twin.as_measured(simulated / "simulated.csv", simulated / "measured.csv")
     result = _identify(simulated, "noise_free", "measured.csv")
@@ -51,6 +52,7 @@ def test_trf_recovers_all_four_zones_from_finer_mesh_data(simulated):
         assert abs(result["parameters"][zone]["value"] - value) < NOISE_FREE_TOL, zone
 
 
+@pytest.mark.slow     # shares the 26 s fixture above
 def test_trf_with_displacement_noise_lands_within_three_standard_errors(simulated):
     twin.as_measured(simulated / "simulated.csv", simulated / "noisy.csv", np.random.default_rng(NOISE_SEED))
     result = _identify(simulated, "noisy", "noisy.csv")
