@@ -10,8 +10,7 @@ import scipy.sparse as sp
 from threadpoolctl import threadpool_limits
 
 from ..errors import InputError, SolverError
-from ..model import Displacement, Model
-from ..model.model import component_index
+from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
 from .interface import contact_pairs
@@ -22,25 +21,22 @@ from .solution import Solution
 from .space import Space
 
 log = logging.getLogger(__name__)
-_AXES = "xyz"
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
-    """Rows summing the reactions of each supported/driven boundary component, labelled 'boundary.x'."""
-    dim, position = model.dim, {int(d): i for i, d in enumerate(prescribed)}
-    entries = [(s.boundary, component_index(c, dim, s.boundary)) for s in model.supports for c in s.components]
-    entries += [(l.boundary, component_index(l.component, dim, l.boundary))
-                for l in model.loads if isinstance(l, Displacement)]
-    rows, cols, labels = [], [], []
-    for boundary, c in dict.fromkeys(entries):
-        dofs = dim * model.mesh.boundary_nodes(boundary) + c
+    """Rows summing the reactions of each of :attr:`Model.reaction_entries`, labelled as
+    :attr:`Model.reaction_labels` ('boundary.x')."""
+    position = {int(d): i for i, d in enumerate(prescribed)}
+    rows, cols = [], []
+    for k, (boundary, c) in enumerate(model.reaction_entries):
+        dofs = model.dim * model.mesh.boundary_nodes(boundary) + c
         cols.append([position[int(d)] for d in dofs])
-        rows.append(np.full(len(dofs), len(labels)))
-        labels.append(f"{boundary}.{_AXES[c]}")
+        rows.append(np.full(len(dofs), k))
+    labels = model.reaction_labels
     if not labels:
         return sp.csr_matrix((0, len(prescribed))), ()
     rows, cols = np.concatenate(rows), np.concatenate(cols)
-    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(labels), len(prescribed))), tuple(labels)
+    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(labels), len(prescribed))), labels
 
 
 @dataclass(frozen=True)
@@ -108,21 +104,6 @@ class Problem:
             previous = end
         return np.array(stages), np.array(amps)
 
-    def _mu(self, mu) -> np.ndarray:
-        if isinstance(mu, dict):
-            unknown = set(mu) - set(self.model.zone_names)
-            if unknown:
-                raise InputError(f"friction: unknown zone(s) {sorted(unknown)}; the model's zones are "
-                                 f"{list(self.model.zone_names)}")
-            missing = [z for z in self.model.zone_names if z not in mu]
-            if missing:
-                raise InputError(f"friction: no coefficient for zone(s) {missing}")
-            mu = [mu[z] for z in self.model.zone_names]
-        mu = np.asarray(mu, dtype=float).reshape(-1)
-        if mu.shape != (self.model.n_zones,) or not np.all(np.isfinite(mu)) or np.any(mu < 0):
-            raise InputError(f"friction: need {self.model.n_zones} finite non-negative coefficients, got {mu}")
-        return mu
-
     def pair_length(self) -> np.ndarray:
         """(n_pairs,) [mm] size of the largest contact facet at each pair (corner-to-corner edge length)."""
         mesh = self.model.mesh
@@ -156,7 +137,7 @@ class Problem:
         ``max_slip``: small-sliding limit in local element lengths (None: no check), see
         :meth:`check_small_sliding`.
         """
-        mu = self._mu(mu)
+        mu = self.model.coefficients(mu)
         solver = LoadPathSolver(self.condensed, self.pairs)
         path = solver.start()
         stages, amps = self.amplitudes()
