@@ -13,17 +13,15 @@ import tempfile
 import time
 from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings  # noqa: E402
-from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
-from frictionid.builders.block import block_model  # noqa: E402
-from frictionid.data.measurements import QUANTITIES, read_measurements  # noqa: E402
-from frictionid.inverse.evaluator import Evaluator  # noqa: E402
-from frictionid.inverse.observations import observations_from  # noqa: E402
-from frictionid.inverse.parameters import Parameters  # noqa: E402
+from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
+from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.builders.block import block_model
+from frictionid.data.measurements import QUANTITIES, read_measurements
+from frictionid.inverse.evaluator import Evaluator
+from frictionid.inverse.observations import observations_from
+from frictionid.inverse.parameters import Parameters
 
 MU = {"A": 0.3, "B": 0.2, "C": 0.4, "D": 0.25}
 

@@ -10,23 +10,20 @@ ten default DIC points, both stages, made on a finer flank mesh (0.05 mm) with k
 Run: .venv/bin/python benchmarks/bolt.py [flank_size] [data_flank_size] [gd_iterations]
 """
 
-import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from _measure import best_of, peak_memory_mb, timed  # noqa: E402
-from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
-from frictionid.builders.bolt import bolt_layout, bolt_model, measurement_points  # noqa: E402
-from frictionid.config import read_config  # noqa: E402
-from frictionid.data.measurements import write_measurements  # noqa: E402
-from frictionid.identification import identify_config  # noqa: E402
-from frictionid.studies.bolt import (FORCES, METHODS, QUANTITIES, START, TRUE_MU, points_measurements,  # noqa: E402
+from _measure import best_of, peak_memory_mb, timed
+from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.builders.bolt import bolt_layout, bolt_model, measurement_points
+from frictionid.config import read_config
+from frictionid.data.measurements import write_measurements
+from frictionid.identification import identify_config
+from frictionid.studies.bolt import (FORCES, METHODS, QUANTITIES, START, TRUE_MU, points_measurements,
                                      write_config)
 
 

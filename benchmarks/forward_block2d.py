@@ -4,16 +4,11 @@ Issue 2 targets on one core: condensation under 5 s, 25-increment forward solve 
 4 zones under 0.3 s (an unvectorised prototype: 6.5 s and 0.3 s). Run: .venv/bin/python benchmarks/forward_block2d.py
 """
 
-import os
+import numpy as np
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-import numpy as np  # noqa: E402
-
-from _measure import best_of, peak_memory_mb, timed  # noqa: E402
-from frictionid.builders.block import block_model_2d  # noqa: E402
-from frictionid.fem.problem import Problem  # noqa: E402
+from _measure import best_of, peak_memory_mb, timed
+from frictionid.builders.block import block_model_2d
+from frictionid.fem.problem import Problem
 
 
 def main(mesh_size: float = 0.21):

@@ -3,17 +3,13 @@
 Run: .venv/bin/python benchmarks/forward_block3d.py [mesh_size]
 """
 
-import os
 import sys
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from _measure import best_of, peak_memory_mb, timed  # noqa: E402
-from frictionid.builders.block import block_model  # noqa: E402
-from frictionid.fem.problem import Problem  # noqa: E402
+from _measure import best_of, peak_memory_mb, timed
+from frictionid.builders.block import block_model
+from frictionid.fem.problem import Problem
 
 
 def main(mesh_size: float = 1.0):

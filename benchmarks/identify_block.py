@@ -8,17 +8,14 @@ When gradient descent does not reach the target within its budget, the ratio pri
 Run: .venv/bin/python benchmarks/identify_block.py [max_gd_iterations]
 """
 
-import os
 import sys
 import tempfile
 from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from frictionid.cli import main as cli  # noqa: E402
-from frictionid.studies import block as twin  # noqa: E402
+from frictionid.cli import main as cli
+from frictionid.studies import block as twin
 
 def main(gd_iterations: int = 150):
     mu_true = np.array(list(twin.goal_coefficients().values()))

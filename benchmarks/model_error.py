@@ -31,25 +31,21 @@ Run (times with both cores shared with other jobs):
 import argparse
 import dataclasses
 import hashlib
-import os
 import time
 from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from _measure import best_of, peak_memory_mb, timed  # noqa: E402
-from frictionid.backends.embedded import EmbeddedBackend  # noqa: E402
-from frictionid.builders.bolt import bolt_layout, fixed_friction, measurement_points  # noqa: E402
-from frictionid.builders.registry import build_model, refined  # noqa: E402
-from frictionid.data.table import STRAINS  # noqa: E402
-from frictionid.inverse.model_error import (ELEMENT_ORDER, convergence_orders, estimate_model_error,  # noqa: E402
+from _measure import best_of, peak_memory_mb, timed
+from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.builders.bolt import bolt_layout, fixed_friction, measurement_points
+from frictionid.builders.registry import build_model, refined
+from frictionid.data.table import STRAINS
+from frictionid.inverse.model_error import (ELEMENT_ORDER, convergence_orders, estimate_model_error,
                                             observation_kinds, richardson)
-from frictionid.inverse.observations import Observations  # noqa: E402
-from frictionid.studies import block as twin  # noqa: E402
-from frictionid.studies.bolt import FORCES, TRUE_MU  # noqa: E402
+from frictionid.inverse.observations import Observations
+from frictionid.studies import block as twin
+from frictionid.studies.bolt import FORCES, TRUE_MU
 
 #: noise per kind: DIC 0.5 um, strain gauges 2e-5, load cell 1 N (plane strain: N/mm)
 SIGMA = {"u": 0.0005, "e": 2e-5, "force": 1.0}

@@ -17,16 +17,13 @@ Run: .venv/bin/python examples/bolt-m20/load_shares.py [--flank-size 0.25] [--ca
 
 import argparse
 import dataclasses
-import os
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from frictionid.builders.bolt import PLATE_MU, STEEL, bolt_model  # noqa: E402
-from frictionid.fem.problem import Problem  # noqa: E402
-from frictionid.model import Material, Support  # noqa: E402
-from frictionid.report.bolt import thread_loads  # noqa: E402
+from frictionid.builders.bolt import PLATE_MU, STEEL, bolt_model
+from frictionid.fem.problem import Problem
+from frictionid.model import Material, Support
+from frictionid.report.bolt import thread_loads
 
 FLANK_MU = 0.1
 
