@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import math
 
 import numpy as np
@@ -34,3 +35,23 @@ def count(name: str, value, low: int = 1, high: int | None = None) -> int:
         span = f">= {low}" if high is None else f"in [{low}, {high}]"
         raise InputError(f"`{name}` must be an integer {span}, got {value!r}")
     return int(value)
+
+
+def checked_table(table, allowed: dict, where: str) -> dict:
+    """``table`` with the defaults of ``allowed`` (key -> default, ``...`` for a required key) filled in, else an
+    InputError naming ``where``: not a table, an unknown key (with a "did you mean"), a missing required key.
+
+    >>> checked_table({"E": 1.0}, {"E": ..., "nu": 0.3}, "[model.materials] steel")
+    {'E': 1.0, 'nu': 0.3}
+    """
+    if not isinstance(table, dict):
+        raise InputError(f"{where}: must be a table, got {table!r}")
+    for key in table:
+        if key not in allowed:
+            close = difflib.get_close_matches(key, list(allowed), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise InputError(f"{where}: unknown key {key!r}{hint}; keys are {list(allowed)}")
+    missing = [k for k, v in allowed.items() if v is ... and k not in table]
+    if missing:
+        raise InputError(f"{where}: missing key {missing[0]!r}")
+    return {**allowed, **table}

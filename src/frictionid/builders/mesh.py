@@ -15,9 +15,11 @@ from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, SurfaceForce, Support
 from ..model.mesh import FACET_NODES, FACET_TYPE
 from ..model.model import KINDS
+from .arguments import checked_table
 from .gmsh_mesh import read_geo, read_msh
 from .mesh_checks import check_contact_sides, check_held
 from .mesh_inp import read_inp
+from .zone_rules import split_facets, zone_rules
 
 logger = logging.getLogger(__name__)
 
@@ -109,9 +111,10 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     loads : list of { type, boundary, component, values }
         ``type`` "pressure" [MPa, positive pushing into the body], "force" [N, total over the boundary, spread
         uniformly; ``component``] or "displacement" [mm; ``component``]; ``values`` one per stage.
-    interfaces : list of { name, zones, target, discretisation }
-        Contact-side boundaries (one per friction zone) and the target boundary on the other body;
-        ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D).
+    interfaces : list of { name, zones, contact, zone_rules, target, discretisation }
+        Contact-side boundaries (``zones``, one per friction zone) and/or contact-side boundaries (``contact``)
+        split into zones by ``zone_rules`` (see :mod:`frictionid.builders.zone_rules`), and the target boundary
+        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D).
     element : "standard" | "incompatible"
         Element technology (incompatible modes need linear hexahedra).
 
@@ -120,7 +123,7 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     InputError
         Naming the [model] key: a missing file, a name the file does not have (with the names it has and a "did
         you mean"), a region without a material, bodies sharing nodes at an interface, a zone not on the contact
-        side, supports that leave a mechanism.
+        side, supports that leave a mechanism, zone rules that leave a facet without a zone or a zone empty.
 
     See Also
     --------
@@ -146,10 +149,12 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     model_supports = tuple(_support(source, entry, i, dim, used)
                            for i, entry in enumerate(_list(supports, "supports"), 1))
     model_loads = tuple(_load(source, entry, i, len(stages), used) for i, entry in enumerate(_list(loads, "loads"), 1))
-    model_interfaces = tuple(_interface(source, entry, i, used)
+    ruled: dict[str, np.ndarray] = {}                # zone by rule -> its facets
+    model_interfaces = tuple(_interface(source, entry, i, used, ruled)
                              for i, entry in enumerate(_list(interfaces, "interfaces"), 1))
     mesh = Mesh(points=source.points, cell_type=source.cell_type, cells=source.cells, regions=regions,
-                boundaries={name: _facets(source, kind_, known) for name, (kind_, known) in used.items()})
+                boundaries={**{name: _facets(source, kind_, known) for name, (kind_, known) in used.items()},
+                            **ruled})
     check_contact_sides(mesh, model_interfaces)
     model = Model(mesh=mesh, kind=kind, materials=material_of, supports=model_supports, loads=model_loads,
                   stages=stages, interfaces=model_interfaces, element=element)
@@ -165,21 +170,6 @@ def _list(value, key: str) -> list:
     if isinstance(value, dict) or not isinstance(value, (list, tuple)):
         raise InputError(f"[[model.{key}]]: must be a list of tables, got {value!r}")
     return list(value)
-
-
-def _entry(entry, allowed: dict, where: str) -> dict:
-    """A table's keys checked: unknown ones (with a "did you mean"), missing required ones (value ``...``)."""
-    if not isinstance(entry, dict):
-        raise InputError(f"{where}: must be a table, got {entry!r}")
-    for key in entry:
-        if key not in allowed:
-            close = difflib.get_close_matches(key, list(allowed), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise InputError(f"{where}: unknown key {key!r}{hint}; keys are {list(allowed)}")
-    missing = [k for k, v in allowed.items() if v is ... and k not in entry]
-    if missing:
-        raise InputError(f"{where}: missing key {missing[0]!r}")
-    return {**allowed, **entry}
 
 
 def _stages(names, increments) -> tuple[Stage, ...]:
@@ -210,7 +200,7 @@ def _materials(source: MeshFile, materials) -> tuple[dict, dict]:
     regions, material_of = {}, {}
     for name, value in materials.items():
         _, known = source.find(name, ("regions",), f"{where} region")
-        entry = _entry(value, {"E": ..., "nu": ...}, f"{where} {name}")
+        entry = checked_table(value, {"E": ..., "nu": ...}, f"{where} {name}")
         regions[name] = source.regions[known]
         material_of[name] = Material(_number(entry["E"], f"{where} {name}.E"),
                                      _number(entry["nu"], f"{where} {name}.nu"), name=name)
@@ -227,7 +217,7 @@ def _materials(source: MeshFile, materials) -> tuple[dict, dict]:
 
 def _support(source: MeshFile, entry, index: int, dim: int, used: dict) -> Support:
     where = f"[[model.supports]] {index}"
-    entry = _entry(entry, {"boundary": ..., "components": list("xyz"[:dim])}, where)
+    entry = checked_table(entry, {"boundary": ..., "components": list("xyz"[:dim])}, where)
     components = entry["components"]
     if isinstance(components, str) or not isinstance(components, (list, tuple)) or not components:
         raise InputError(f"{where} components: must be a list such as [\"x\", \"y\"], got {components!r}")
@@ -237,7 +227,7 @@ def _support(source: MeshFile, entry, index: int, dim: int, used: dict) -> Suppo
 
 def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict):
     where = f"[[model.loads]] {index}"
-    entry = _entry(entry, {"type": ..., "boundary": ..., "component": None, "values": ...}, where)
+    entry = checked_table(entry, {"type": ..., "boundary": ..., "component": None, "values": ...}, where)
     kind = entry["type"]
     if kind not in LOAD_TYPES:
         raise InputError(f"{where} type = {kind!r}: must be one of {list(LOAD_TYPES)}")
@@ -256,16 +246,70 @@ def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict):
     return LOAD_TYPES[kind](boundary, entry["component"], values)
 
 
-def _interface(source: MeshFile, entry, index: int, used: dict) -> ContactInterface:
+def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> ContactInterface:
     where = f"[[model.interfaces]] {index}"
-    entry = _entry(entry, {"name": f"interface {index}", "zones": ..., "target": ..., "discretisation": "auto"},
-                   where)
+    entry = checked_table(entry, {"name": f"interface {index}", "zones": None, "contact": None, "zone_rules": None,
+                                  "target": ..., "discretisation": "auto"}, where)
     zones = entry["zones"]
-    if isinstance(zones, str) or not isinstance(zones, (list, tuple)) or not zones:
+    if zones is None and entry["zone_rules"] is None and entry["contact"] is None:
+        raise InputError(f"{where}: needs zones (boundaries on the contact side, one per friction zone) or contact "
+                         "and zone_rules (a contact-side boundary split into zones by rules)")
+    if zones is not None and (isinstance(zones, str) or not isinstance(zones, (list, tuple)) or not zones):
         raise InputError(f"{where} zones: must be a list of boundaries, one per friction zone, got {zones!r}")
-    zones = tuple(_name(source, z, ("boundaries",), f"{where} zones", used) for z in zones)
+    zones = tuple(_name(source, z, ("boundaries",), f"{where} zones", used) for z in zones or ())
+    zones += _ruled_zones(source, entry, where, used, ruled, zones)
     target = _name(source, entry["target"], ("boundaries",), f"{where} target", used)
     return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"])
+
+
+def _ruled_zones(source: MeshFile, entry: dict, where: str, used: dict, ruled: dict, zones: tuple) -> tuple:
+    """The zones ``zone_rules`` make of the ``contact`` boundaries (none without them), recorded in ``ruled``."""
+    contact, tables = entry["contact"], entry["zone_rules"]
+    if tables is None and contact is None:
+        return ()
+    if tables is None:
+        raise InputError(f"{where} contact: a contact surface is split into zones by zone_rules, which are "
+                         "missing; add [[model.interfaces.zone_rules]] tables, or give the zones as zones = [...]")
+    if contact is None:
+        raise InputError(f"{where} zone_rules: need contact, the contact-side boundary (or list of boundaries) "
+                         "the rules split into zones")
+    names = [contact] if isinstance(contact, str) else contact
+    if not isinstance(names, (list, tuple)) or not names:
+        raise InputError(f"{where} contact: must be a boundary or a list of boundaries, got {contact!r}")
+    parts = [source.boundaries[source.find(n, ("boundaries",), f"{where} contact")[1]] for n in names]
+    facets = _distinct(np.concatenate(parts))
+    if zones:
+        given = {frozenset(f) for z in zones for f in _facets(source, *used[z]).tolist()}
+        shared = sum(frozenset(f) in given for f in facets.tolist())
+        if shared:
+            raise InputError(f"{where}: zones and zone_rules are ambiguous: {shared} facet(s) of contact "
+                             f"{list(names)} are also in zones {list(zones)}, so they would get two zones; "
+                             "split the contact boundaries by rules alone, or give zones of other facets")
+    rules = zone_rules(tables, source.points.shape[1], f"{where} zone_rules")
+    for k, rule in enumerate(rules, 1):
+        _new_name(source, rule.name, f"{where} zone_rules {k} name", set(ruled) | set(zones))
+    split = split_facets(source.points, facets, rules, f"{where} zone_rules")
+    logger.info("%s: zone_rules split %d facets of %s: %s", where, len(facets), list(names),
+                ", ".join(f"{name} {len(f)}" for name, f in split.items()))
+    ruled.update(split)
+    return tuple(split)
+
+
+def _distinct(facets: np.ndarray) -> np.ndarray:
+    """Facets (n, n_facet_nodes) each once, in the order first met (contact boundaries may overlap)."""
+    _, first = np.unique(np.sort(facets, axis=1), axis=0, return_index=True)
+    return facets[np.sort(first)]
+
+
+def _new_name(source: MeshFile, name: str, where: str, taken: set) -> None:
+    """A zone made by a rule is a new boundary: its name must be no set of the file and no other zone."""
+    fold = str.casefold if source.case_insensitive else (lambda s: s)
+    if fold(name) in {fold(t) for t in taken}:
+        raise InputError(f"{where} = {name!r}: another zone of the model has that name")
+    for kind in _WHAT:
+        if any(fold(known) == fold(name) for known in getattr(source, kind)):
+            raise InputError(f"{where} = {name!r}: {source.path.name} has a {_WHAT[kind]} of that name; a zone "
+                             "made by zone_rules is a new boundary, so give it a name of its own")
 
 
 def _name(source: MeshFile, name, kinds: tuple[str, ...], where: str, used: dict) -> str:
