@@ -45,9 +45,13 @@ class IdentificationResult(Mapping):
 
     Examples
     --------
-    >>> result = IdentificationResult.read("runs/first/result.json")  # doctest: +SKIP
-    >>> result.status, result.coefficients["B"]  # doctest: +SKIP
-    ('converged', 0.1579)
+    >>> result = IdentificationResult({"status": "converged", "parameters": {
+    ...     "A": {"value": 0.29, "fixed": False, "stderr": 0.042, "ci95": [0.21, 0.37], "identifiable": False},
+    ...     "B": {"value": 0.158, "fixed": False, "stderr": 0.014, "ci95": [0.13, 0.19], "identifiable": True}}})
+    >>> result.status, result.coefficients["B"], result.ci95["B"], result.identifiable
+    ('converged', 0.158, (0.13, 0.19), {'A': False, 'B': True})
+
+    ``IdentificationResult.read("runs/first")`` reads the result.json of a run folder.
     """
 
     data: Mapping
