@@ -107,14 +107,16 @@ def _run_simulate(args) -> int:
 
 def _add_check_data(sub):
     parser = sub.add_parser("check-data", help="validate a measurement file and print a summary")
-    parser.add_argument("file", help="measurement CSV")
+    parser.add_argument("file", help="measurement CSV or DIC export")
+    parser.add_argument("--format", help="force an export format (docs/data.md); default: recognised")
+    parser.add_argument("--strain", help="strain measure where the export does not say it")
     parser.set_defaults(run=_run_check_data)
 
 
 def _run_check_data(args) -> int:
-    from .data.measurements import read_measurements
+    from .data.sources import check_data
 
-    print(read_measurements(args.file).summary())
+    print(check_data(args.file, args.format, args.strain))
     return 0
 
 

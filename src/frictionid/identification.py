@@ -17,7 +17,8 @@ from .backends import check_backend, make_backend, solver_options
 from .backends.embedded import EmbeddedBackend
 from .builders.registry import build_model
 from .config import Config, config_from_dict
-from .data.measurements import Measurements, read_measurements
+from .data.measurements import Measurements
+from .data.sources import data_digest, data_paths, read_data
 from .errors import InputError, SolverError
 from .fem.points import PointsOutside
 from .inverse.evaluator import JACOBIANS, Evaluator
@@ -58,7 +59,7 @@ def fingerprint(config: Config, model: Model | None = None, measurements: Measur
     observables, solver."""
     data = {k: v for k, v in config.data.items() if k != "file"}
     content = {"model": config.model if model is None else model.fingerprint(), "data": data,
-               "data_bytes": hashlib.sha256(config.resolve(config.data["file"]).read_bytes()).hexdigest()
+               "data_bytes": data_digest(config.data, config.resolve)
                if measurements is None else measurements.digest(),
                "solver": config.solver, "fixed": config.friction.get("fixed", {}),
                "jacobian": config.identify["jacobian"], "step": config.identify["step"]}
@@ -98,10 +99,10 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
-    data_file = config.resolve(config.data["file"]) if measurements is None else None
+    data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None
     given = measurements
     if measurements is None:
-        measurements = read_measurements(data_file)
+        measurements = read_data(config.data, config.resolve, where)
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
                                      config.data.get("noise"), config.data.get("regions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,

@@ -1,0 +1,42 @@
+"""DICe (Sandia's Digital Image Correlation Engine) solution files, ``DICe_solution_<n>.txt``.
+
+Layout implemented (from DICe's output: a ``***`` preamble, then a comma-separated header of field names, as
+read by public post-processing scripts such as aa55865/DIC_scripts' ``data_parser.py``, and DICe's field names):
+``SUBSET_ID`` (the point id), ``COORDINATE_X/Y`` and ``DISPLACEMENT_X/Y`` (image coordinates, pixels),
+stereo / calibrated runs add ``MODEL_COORDINATES_X/Y/Z`` and ``MODEL_DISPLACEMENT_X/Y/Z`` (in the units of the
+calibration, taken as mm), ``VSG_STRAIN_XX/YY/XY`` (virtual strain gauge, Green-Lagrange tensor components),
+``SIGMA`` (-1 where the correlation failed), ``STATUS_FLAG``, ``GAMMA``, ``BETA``, ... The model columns are read
+when present; pixel columns alone are refused (a pixel is not a length). ``NORMAL_STRAIN_X`` etc. are the
+subset shape function's parameters, not the strain field, and are not read. Rows with ``SIGMA = -1`` are dropped.
+"""
+
+from __future__ import annotations
+
+from .layout import Layout
+
+NAME = "dice"
+TITLE = "DICe solution file"
+KEY_COLUMNS = "SUBSET_ID, COORDINATE_X or MODEL_COORDINATES_X, ..., SIGMA"
+_AXES = {"X": "x", "Y": "y", "Z": "z"}
+
+
+def recognise(names: tuple[str, ...]) -> bool:
+    return "SUBSET_ID" in names and ("COORDINATE_X" in names or "MODEL_COORDINATES_X" in names)
+
+
+def layout(names: tuple[str, ...]) -> Layout:
+    model = "MODEL_COORDINATES_X" in names
+    coordinates, displacements = ("MODEL_COORDINATES_", "MODEL_DISPLACEMENT_") if model else \
+        ("COORDINATE_", "DISPLACEMENT_")
+    columns = {"point": "SUBSET_ID"}
+    for axis, c in _AXES.items():
+        for prefix, target in ((coordinates, c), (displacements, "u" + c)):
+            if prefix + axis in names:
+                columns[target] = prefix + axis
+    for component in ("XX", "YY", "XY"):
+        if f"VSG_STRAIN_{component}" in names:
+            columns["e" + component.lower()] = f"VSG_STRAIN_{component}"
+    unit = "mm" if model else "px"
+    units = {t: unit for t in columns if t in ("x", "y", "z", "ux", "uy", "uz")}
+    invalid = (("SIGMA", lambda v: v == -1.0, "with SIGMA = -1 (correlation failed)"),) if "SIGMA" in names else ()
+    return Layout(NAME, columns, "green-lagrange", "DICe's VSG_STRAIN_* are Green-Lagrange", invalid, units)

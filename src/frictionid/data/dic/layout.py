@@ -1,0 +1,200 @@
+"""A DIC export's layout (which column is which quantity, in which unit and strain measure) and its reading into
+:class:`~frictionid.data.table.Measurements`, invalid points dropped and counted."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ...errors import InputError
+from ..table import DISPLACEMENTS, QUANTITIES, STRAINS, Measurements
+from .text import ExportText
+from .units import MEASURES, length_factor, small_strain, strain_factor
+
+#: what a layout may map: a point label, undeformed coordinates [mm], the measured quantities
+TARGETS = ("point", "x", "y", "z") + QUANTITIES
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Which column of an export is which quantity.
+
+    Attributes
+    ----------
+    flavour : the export's name in messages and ``format``, e.g. "vic3d"
+    columns : target (point, x, y, z, ux, ..., exz) -> column name as in :attr:`ExportText.names`
+    strain_measure : one of :data:`~.units.MEASURES`, None where the file does not say
+    measure_from : why that measure (a header name, the program's default), for the report
+    invalid : (column, test on its value, reason): rows whose value passes the test are dropped
+    units : target -> unit where the file states none (a program that writes no units but documents them)
+    """
+
+    flavour: str
+    columns: dict[str, str]
+    strain_measure: str | None = None
+    measure_from: str = ""
+    invalid: tuple[tuple[str, Callable[[float], bool], str], ...] = ()
+    units: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ExportReport:
+    """What was recognised in one file and what became of its rows (printed by ``frictionid check-data``)."""
+
+    source: str
+    flavour: str
+    columns: dict[str, str]
+    units: dict[str, str]
+    strain: str
+    stage: int
+    n_rows: int
+    n_valid: int
+    dropped: dict[str, int]
+    n_missing: int
+    text: str
+
+    def lines(self) -> list[str]:
+        mapped = ", ".join(f"{t} <- {c!r}" for t, c in self.columns.items())
+        units = ", ".join(f"{t} [{u}]" for t, u in self.units.items())
+        why = "; ".join(f"{n} {reason}" for reason, n in self.dropped.items()) or "none"
+        return [f"{self.source}: {self.flavour} export ({self.text}), stage {self.stage}",
+                f"  columns: {mapped}", f"  units: {units}", f"  strains: {self.strain}",
+                f"  points: {self.n_valid} valid of {self.n_rows} rows; dropped: {why}; "
+                f"{self.n_missing} empty quantity cells left as missing values"]
+
+
+def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None = None
+                ) -> tuple[Measurements, ExportReport]:
+    """The rows of ``text`` as measurements at ``stage``: coordinates and displacements in mm, strains as small
+    tensor strains; invalid rows (the layout's tests, empty or NaN coordinates, no value at all) dropped and
+    counted. ``strain`` (config ``[data] strain``) states the measure where the layout does not know it.
+
+    Raises
+    ------
+    InputError
+        A missing coordinate column, a unit that cannot be converted, strains of unknown measure, a cell that is
+        not a number (file:line: column), a point label given twice.
+    """
+    src = text.source
+    _check_columns(text, layout)
+    measure, measure_text = _measure(text, layout, strain)
+    factors, units = _factors(text, layout)
+    index = {t: text.index(c) for t, c in layout.columns.items()}
+    tests = [(text.index(c), test, reason) for c, test, reason in layout.invalid]
+    labels, rows, dropped = [], [], {}
+    for number, (line, fields) in enumerate(text.rows, start=1):
+        reason = _invalid(src, line, text, fields, tests, index)
+        if reason is None:
+            values = {t: _cell(src, line, text.names[i], fields[i] if i < len(fields) else "") * factors[t]
+                      for t, i in index.items() if t != "point"}
+            reason = "with empty or NaN coordinates" if any(math.isnan(values[c]) for c in "xy" if c in values) \
+                else "without any value" if all(math.isnan(v) for t, v in values.items() if t in QUANTITIES) \
+                else None
+        if reason is not None:
+            dropped[reason] = dropped.get(reason, 0) + 1
+            continue
+        labels.append(_label(src, line, fields, index, number))
+        rows.append(values)
+    return _measurements(text, layout, stage, labels, rows, measure), ExportReport(
+        src, layout.flavour, dict(layout.columns), units, measure_text, stage, len(text.rows), len(rows), dropped,
+        sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text))
+
+
+def _check_columns(text: ExportText, layout: Layout) -> None:
+    absent = {t: c for t, c in layout.columns.items() if c not in text.names}
+    if absent:
+        raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: no column "
+                         f"{', '.join(repr(c) for c in absent.values())} (for {', '.join(absent)}); the header has "
+                         f"{text.header()}")
+    missing = [c for c in ("x", "y") if c not in layout.columns]
+    if missing:
+        raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: no coordinate column for "
+                         f"{' and '.join(missing)} (undeformed coordinates are required); the header has "
+                         f"{text.header()}; map them with [data] columns = {{ x = \"...\", y = \"...\" }}")
+    if not set(layout.columns) & set(QUANTITIES):
+        raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: no displacement or strain column "
+                         f"found in {text.header()}")
+
+
+def _measure(text: ExportText, layout: Layout, strain: str | None) -> tuple[str | None, str]:
+    if not set(layout.columns) & set(STRAINS):
+        return None, "none read"
+    if strain is not None:
+        if strain not in MEASURES:
+            raise InputError(f"{text.source}: [data] strain = {strain!r} is not one of {', '.join(MEASURES)}")
+        return strain, f"{MEASURES[strain]} (from [data] strain)"
+    if layout.strain_measure is None:
+        raise InputError(f"{text.source}: {layout.flavour}: the file does not say which strain measure its "
+                         f"columns {', '.join(layout.columns[q] for q in STRAINS if q in layout.columns)} hold; "
+                         f"state it with [data] strain = \"engineering\", \"green-lagrange\" or \"log\"")
+    return layout.strain_measure, f"{MEASURES[layout.strain_measure]} ({layout.measure_from})"
+
+
+def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
+    factors, units = {}, {}
+    for target, column in layout.columns.items():
+        if target == "point":
+            continue
+        unit = text.units[text.index(column)] or layout.units.get(target)
+        if target in STRAINS:
+            factors[target] = strain_factor(unit, column, text.source)
+            units[target] = unit if unit is not None else "-"
+        else:
+            factors[target] = length_factor(unit, column, text.source)
+            units[target] = unit if unit is not None else "mm (no unit in the file)"
+    return factors, units
+
+
+def _invalid(src, line, text, fields, tests, index) -> str | None:
+    for i, test, reason in tests:
+        cell = fields[i] if i < len(fields) else ""
+        value = _cell(src, line, text.names[i], cell)
+        if test(value):
+            return reason
+    return None
+
+
+def _cell(src: str, line: int, column: str, cell: str) -> float:
+    if not cell.strip():
+        return math.nan
+    try:
+        return float(cell)
+    except ValueError:
+        raise InputError(f"{src}:{line}: column {column!r}: {cell!r} is not a number") from None
+
+
+def _label(src, line, fields, index, number) -> str:
+    if "point" not in index:
+        return str(number)
+    label = fields[index["point"]].strip() if index["point"] < len(fields) else ""
+    if not label:
+        raise InputError(f"{src}:{line}: the point id is empty")
+    return label[:-2] if label.endswith(".0") and label[:-2].isdigit() else label
+
+
+def _measurements(text: ExportText, layout: Layout, stage: int, labels, rows, measure) -> Measurements:
+    seen = {}
+    for line_label in labels:
+        if line_label in seen:
+            raise InputError(f"{text.source}: point id {line_label!r} appears twice")
+        seen[line_label] = True
+    n = len(rows)
+    if n == 0:
+        raise InputError(f"{text.source}: no valid point ({len(text.rows)} rows, all dropped)")
+    column = lambda t: np.array([r.get(t, 0.0 if t == "z" else math.nan) for r in rows])  # noqa: E731
+    values = {}
+    for q in QUANTITIES:
+        if q in layout.columns:
+            values[q] = column(q) if q in DISPLACEMENTS else small_strain(column(q), measure, q[1] == q[2])
+    return Measurements(points=tuple(labels), coordinates=np.column_stack([column(c) for c in "xyz"]),
+                        stage=np.full(n, stage), force=np.full(n, math.nan), values=values,
+                        comments=(f"{layout.flavour} export {text.source}, stage {stage}",), source=text.source)
+
+
+def _describe(text: ExportText) -> str:
+    separator = {"\t": "tab", ";": "';'", ",": "','"}[text.separator]
+    return (f"{separator}-separated, {'decimal comma, ' if text.decimal_comma else ''}{text.encoding}, "
+            f"header on line {text.header_line}")

@@ -1,0 +1,83 @@
+"""Which reader a DIC export needs: recognised from its header, forced with ``format``, or mapped with ``columns``;
+never guessed (a header no flavour or two flavours claim is an error saying what would work)."""
+
+from __future__ import annotations
+
+from ...errors import InputError
+from . import davis, dice, gom, matchid, vic3d
+from .layout import TARGETS, ExportReport, Layout, read_layout
+from .text import ExportText, name_unit, read_text
+
+#: the export flavours by ``format`` name, in the order they are tried
+FLAVOURS = {m.NAME: m for m in (dice, vic3d, matchid, gom, davis)}
+#: every ``format`` value: the generic CSV, the flavours
+FORMATS = ("generic",) + tuple(FLAVOURS)
+
+
+def is_generic(text: ExportText) -> bool:
+    """The generic CSV of docs/data.md has a ``point`` and a ``stage`` column."""
+    return "point" in text.names and "stage" in text.names
+
+
+def choose_layout(text: ExportText, format: str | None = None, columns: dict | None = None) -> Layout:
+    """The layout of ``text``: the flavour ``format`` names, else the one flavour that recognises the header;
+    ``columns`` (target -> column name) replaces or adds single columns (and, without ``format``, is the whole
+    layout)."""
+    where = f"{text.source}:{text.header_line}"
+    if format is not None and format not in FLAVOURS:
+        raise InputError(f"{text.source}: [data] format = {format!r} is not one of {', '.join(FORMATS)}")
+    if columns:
+        _check_columns_option(text, columns)
+        # "X [mm]" as written in the file names the column X (its unit is read from the header)
+        columns = {t: c if c in text.names else name_unit(c)[0] for t, c in columns.items()}
+    name = format if format is not None else None if columns else _recognise(text, where)
+    try:
+        base = FLAVOURS[name].layout(text.names) if name else Layout("columns", {}, None, "")
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    if not columns:
+        return base
+    mapped = {**base.columns, **columns}
+    return Layout(base.flavour + (" + columns" if name else ""), {t: mapped[t] for t in TARGETS if t in mapped},
+                  base.strain_measure, base.measure_from, base.invalid, base.units)
+
+
+def _recognise(text: ExportText, where: str) -> str:
+    found = [name for name, flavour in FLAVOURS.items() if flavour.recognise(text.names)]
+    if len(found) == 1:
+        return found[0]
+    if found:
+        raise InputError(f"{where}: the header fits several exports ({', '.join(found)}); choose one with "
+                         f"[data] format = \"...\"; the header has {text.header()}")
+    expected = "\n".join(f"  {name:8s} {f.TITLE}: {f.KEY_COLUMNS}" for name, f in FLAVOURS.items())
+    raise InputError(
+        f"{where}: no known layout in this header: {text.header()}.\nExpected one of:\n"
+        f"  generic  frictionid's CSV: point, x, y, z, stage, ux, ... (docs/data.md)\n{expected}\n"
+        f"or name the columns: [data] columns = {{ x = \"...\", y = \"...\", ux = \"...\", ... }} "
+        f"(targets: {', '.join(TARGETS)}), with [data] format = \"...\" to force a flavour")
+
+
+def _check_columns_option(text: ExportText, columns: dict) -> None:
+    unknown = [t for t in columns if t not in TARGETS]
+    if unknown:
+        raise InputError(f"{text.source}: [data] columns: {', '.join(map(repr, unknown))} not among "
+                         f"{', '.join(TARGETS)}")
+    for target, name in columns.items():
+        if not isinstance(name, str):
+            raise InputError(f"{text.source}: [data] columns.{target} must be a column name, got {name!r}")
+
+
+def read_export(path, stage: int, format: str | None = None, columns: dict | None = None,
+                strain: str | None = None):
+    """Read one DIC export as the measurements of ``stage``; returns (Measurements, ExportReport).
+
+    Examples
+    --------
+    >>> m, report = read_export("stage2.csv", stage=2)  # doctest: +SKIP
+    >>> print("\\n".join(report.lines()))  # doctest: +SKIP
+    """
+    text = read_text(path)
+    return read_layout(text, choose_layout(text, format, columns), stage, strain)
+
+
+__all__ = ["FLAVOURS", "FORMATS", "ExportReport", "choose_layout", "is_generic", "read_export"]

@@ -1,0 +1,197 @@
+"""DIC exports (issue 15, item 1): each flavour reads to the values of the generic CSV, invalid points dropped and
+counted; bad exports exit 2 with a message saying what would work; per-stage exports identify like the CSV."""
+
+import json
+import shutil
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomli_w
+
+from frictionid.cli import main
+from frictionid.data import read_measurements, write_measurements
+from frictionid.data.dic import read_export
+from frictionid.data.sources import read_data
+from frictionid.errors import InputError
+
+ROOT = Path(__file__).parents[1]
+FIXTURES = ROOT / "tests" / "fixtures" / "dic"
+sys.path.insert(0, str(FIXTURES))
+import generate  # noqa: E402  (the fixtures' generator, tests/fixtures/dic/generate.py)
+
+#: exports carry values to 17 digits; unit and strain-measure conversions cost a few ulp
+RTOL = 1e-12
+
+
+def relative_error(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300)))
+
+
+def test_the_fixtures_are_what_the_generator_writes(tmp_path):
+    generate.main(tmp_path)
+    for name in ["generic.csv"] + [file for _, file, _, _ in generate.WRITERS.values()]:
+        assert (tmp_path / name).read_bytes() == (FIXTURES / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("flavour", list(generate.WRITERS))
+def test_each_export_reads_to_the_generic_values_with_invalid_points_dropped(flavour, tmp_path):
+    writer, file, strain, n_invalid = generate.WRITERS[flavour]
+    generic = read_measurements(FIXTURES / "generic.csv")
+    labels = writer(tmp_path / file, generic)                  # the labels the reader must give
+    m, report = read_export(FIXTURES / file, stage=1, strain=strain)
+    assert report.flavour == flavour                          # recognised from the header, no format given
+    assert m.points == tuple(labels)
+    assert report.n_rows == generic.n_rows + n_invalid and report.n_valid == generic.n_rows
+    assert sum(report.dropped.values()) == n_invalid
+    assert relative_error(m.coordinates, generic.coordinates) < RTOL
+    assert m.quantities == generic.quantities
+    for q in generic.quantities:
+        assert relative_error(m.values[q], generic.values[q]) < RTOL, q
+    assert np.all(m.stage == 1) and np.all(np.isnan(m.force))
+
+
+def test_check_data_says_what_it_recognised(capsys):
+    assert main(["check-data", str(FIXTURES / "gom_correlate.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "gom export (';'-separated, decimal comma, latin-1" in out
+    assert "ux <- 'dx'" in out and "ux [µm]" in out and "exx [%]" in out
+    assert "engineering (technical) strain" in out
+    assert "12 valid of 14 rows; dropped: 1 without any value; 1 with empty or NaN coordinates" in out
+    assert "points: 12, rows: 12" in out                       # the measurements' summary follows
+
+
+def test_check_data_reads_a_generic_csv_as_before(capsys):
+    assert main(["check-data", str(FIXTURES / "generic.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "generic CSV, stages 1 from its stage column" in out and "points: 12, rows: 12" in out
+
+
+def check_data_error(capsys, path, *options) -> str:
+    assert main(["check-data", str(path), *options]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("frictionid: error:") and "Traceback" not in err
+    return err
+
+
+def test_a_header_no_flavour_knows_lists_what_was_found_and_what_is_expected(capsys, tmp_path):
+    path = tmp_path / "unknown.csv"
+    path.write_text("Id;Xpos [mm];Ypos [mm];Ux [mm]\n1;0,5;1,5;0,001\n", encoding="utf-8")
+    err = check_data_error(capsys, path)
+    assert "no known layout in this header: 'Id', 'Xpos [mm]', 'Ypos [mm]', 'Ux [mm]'" in err
+    for flavour in generate.WRITERS:
+        assert f"  {flavour}" in err
+    assert "generic" in err and "[data] columns = { x = " in err
+
+
+def test_a_forced_format_without_a_coordinate_column_is_refused(capsys, tmp_path):
+    path = tmp_path / "davis.csv"
+    path.write_text("x [mm];Vx [mm];Vy [mm]\n0,5;0,001;0,002\n", encoding="utf-8")
+    err = check_data_error(capsys, path, "--format", "davis")
+    assert "no coordinate column for y" in err and "'x [mm]', 'Vx [mm]', 'Vy [mm]'" in err
+
+
+def test_a_mix_of_strain_measures_is_refused(capsys, tmp_path):
+    path = tmp_path / "gom.csv"
+    path.write_text("x [mm];y [mm];dx [mm];epsX [%];phiY [%]\n1;2;0,001;0,1;0,2\n", encoding="latin-1")
+    err = check_data_error(capsys, path)
+    assert "a mix of strain measures: epsX, phiY" in err
+
+
+@pytest.mark.parametrize("header, unit", [("x [px];y [px];dx [px];dy [px]", "'px'"),
+                                          ("x [mm];y [mm];dx [in];dy [mm]", "'in'")])
+def test_a_unit_that_cannot_be_converted_is_refused(capsys, tmp_path, header, unit):
+    path = tmp_path / "gom.csv"
+    path.write_text(f"{header}\n1;2;0,001;0,002\n", encoding="utf-8")
+    err = check_data_error(capsys, path)
+    assert f"unit {unit} cannot be converted to mm" in err
+
+
+def test_dice_pixels_alone_are_refused(capsys, tmp_path):
+    path = tmp_path / "DICe_solution_0.txt"
+    path.write_text("***\nSUBSET_ID,COORDINATE_X,COORDINATE_Y,DISPLACEMENT_X,DISPLACEMENT_Y,SIGMA\n"
+                    "0,100,200,0.5,0.25,0.01\n", encoding="utf-8")
+    assert "unit 'px' cannot be converted to mm" in check_data_error(capsys, path)
+
+
+def test_strains_of_unstated_measure_need_the_strain_key(capsys):
+    err = check_data_error(capsys, FIXTURES / "davis.txt")
+    assert "does not say which strain measure" in err and 'strain = "engineering"' in err
+
+
+def config_data(**data):
+    return {"observables": ["ux"], "stages": [1], **data}
+
+
+def test_columns_map_an_unknown_layout(tmp_path):
+    generic = read_measurements(FIXTURES / "generic.csv")
+    path = tmp_path / "own.csv"
+    rows = [f"{p};{float(x)!r};{float(y)!r};{float(ux)!r}".replace(".", ",") for p, (x, y, _), ux in
+            zip(generic.points, generic.coordinates, generic.values["ux"])]
+    path.write_text("\n".join(["Id;Xpos [µm];Ypos [µm];Ux [mm]"] + rows) + "\n", encoding="latin-1")
+    columns = {"point": "Id", "x": "Xpos [µm]", "y": "Ypos", "ux": "Ux [mm]"}     # with or without the unit
+    m = read_data(config_data(file=str(path), columns=columns), Path)
+    assert m.points == generic.points and np.all(m.coordinates[:, 2] == 0)
+    assert relative_error(m.coordinates[:, :2], generic.coordinates[:, :2] * 1e-3) < RTOL
+    assert relative_error(m.values["ux"], generic.values["ux"]) < RTOL
+    with pytest.raises(InputError, match="'uu' not among point, x, y, z"):
+        read_data(config_data(file=str(path), columns={**columns, "uu": "Ux"}), Path)
+
+
+def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
+    files = [str(FIXTURES / "vic3d.csv"), {"path": str(FIXTURES / "DICe_solution_0001.txt"), "stage": 3,
+                                            "force": 1500.0}]
+    m = read_data(config_data(file=files, forces=[1000.0, 1200.0, 1400.0]), Path)
+    assert m.stages == (1, 3) and m.stage_force(1) == 1000.0 and m.stage_force(3) == 1500.0
+    assert m.n_rows == 24
+    with pytest.raises(InputError, match="point '2' at stage 1 is also in"):
+        read_data(config_data(file=[{"path": files[0]}, {"path": files[0], "stage": 1}]), Path)
+
+
+@pytest.mark.parametrize("data", [config_data(file="m.csv", transform={"rotation_deg": [0, 0, 90]}),
+                                  config_data(file=[{"path": "m.csv", "transform": {"translation": [1, 0, 0]}}])])
+def test_transform_is_refused_as_not_yet_available(data):
+    with pytest.raises(InputError, match="transform: mapping a DIC frame .* is not available yet"):
+        read_data(data, Path)
+
+
+@pytest.fixture(scope="module")
+def first(tmp_path_factory):
+    """examples/first with its twin data made (A 0.30, B 0.15 on the 0.5 mm mesh): stages 1 and 2."""
+    folder = tmp_path_factory.mktemp("dic") / "first"
+    shutil.copytree(ROOT / "examples" / "first", folder)
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
+    return folder
+
+
+def identified(folder: Path, name: str, **data) -> dict:
+    """Coefficients of examples/first's identify.toml with [data] changed, run into runs/<name>."""
+    config = tomllib.loads((folder / "identify.toml").read_text())
+    config["data"].update(data)
+    config["run"]["dir"] = f"runs/{name}"
+    path = folder / f"{name}.toml"
+    path.write_text(tomli_w.dumps(config))
+    assert main(["identify", str(path)]) == 0
+    result = json.loads((folder / "runs" / name / "result.json").read_text())
+    return {zone: p["value"] for zone, p in result["parameters"].items()}
+
+
+def test_per_stage_exports_of_two_flavours_identify_like_the_generic_csv(first):
+    measured = read_measurements(first / "measured.csv")
+    assert measured.stages == (1, 2)
+    regions = tomllib.loads((first / "identify.toml").read_text())["data"]["regions"]
+    stages = [measured.select(stages=[s]) for s in measured.stages]
+    vic_labels = [generate.write_vic3d(first / f"vic_{k}.csv", m) for k, m in enumerate(stages, start=1)]
+    gom_labels = [generate.write_gom(first / f"gom_{k}.csv", m) for k, m in enumerate(stages, start=1)]
+    assert vic_labels[0] == vic_labels[1] and gom_labels[0] == list(stages[0].points)
+    renamed = {new: regions.get(old, regions["*"]) for old, new in zip(stages[0].points, vic_labels[0])}
+    reference = identified(first, "generic")
+    by_vic = identified(first, "vic", file=["vic_1.csv", "vic_2.csv"], regions=renamed)
+    by_gom = identified(first, "gom", file=["gom_1.csv", {"path": "gom_2.csv", "stage": 2}])
+    for result in (by_vic, by_gom):
+        assert result.keys() == reference.keys()
+        for zone, value in reference.items():
+            assert abs(result[zone] - value) <= 1e-8 * max(abs(value), 1.0), (zone, result[zone], value)
+    assert abs(reference["B"] - 0.15) < 0.05                   # the fit itself found the twin's B
