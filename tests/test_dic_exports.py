@@ -195,3 +195,26 @@ def test_per_stage_exports_of_two_flavours_identify_like_the_generic_csv(first):
         for zone, value in reference.items():
             assert abs(result[zone] - value) <= 1e-8 * max(abs(value), 1.0), (zone, result[zone], value)
     assert abs(reference["B"] - 0.15) < 0.05                   # the fit itself found the twin's B
+
+
+@pytest.mark.parametrize("flavour, header, units", [
+    # DaVis 10 StrainMaster strain export, as public DaVis readers name its columns (Green-Lagrange, "[S]")
+    ("davis", "x[mm];y[mm];z[mm];x-displacement[mm];y-displacement[mm];z-displacement[mm];"
+              "Transverse strain Exx - GL[S];Axial strain Eyy - GL[S];Shear strain Exy - GL[S]", None),
+    # MatchID 2024 names (strain.Strain-global frame: ...), with the [ ] of a pure number
+    ("matchid", "coor.X [mm];coor.Y [mm];coor.Z [mm];disp.Horizontal Displacement U [mm];"
+                "disp.Vertical Displacement V [mm];disp.Out-Of-Plane: W [mm];strain.Strain-global frame: Exx [ ];"
+                "strain.Strain-global frame: Eyy [ ];strain.Strain-global frame: Exy [ ]", "engineering"),
+])
+def test_export_headers_seen_in_public_readers_are_recognised(flavour, header, units, tmp_path):
+    """Headers as public readers of DaVis 10 and MatchID 2024 exports spell them: every column lands where it
+    belongs; a Green-Lagrange normal strain E becomes the small strain sqrt(1 + 2 E) - 1."""
+    rows = ["1.0;2.0;0.5;0.001;-0.002;0.0005;0.0101;-0.002;0.0003", "1.5;2.0;0.5;0.0011;-0.0021;0.0004;0.01;0;0"]
+    path = tmp_path / "stage2.csv"
+    path.write_text("\n".join([header, *rows]) + "\n", encoding="latin-1")
+    m, report = read_export(path, stage=2, strain=units)
+    assert report.flavour == flavour and m.n_rows == 2
+    np.testing.assert_allclose(m.coordinates[0], [1.0, 2.0, 0.5], rtol=1e-15)
+    np.testing.assert_allclose([m.values[q][0] for q in ("ux", "uy", "uz")], [0.001, -0.002, 0.0005], rtol=1e-15)
+    exx = np.sqrt(1 + 2 * 0.0101) - 1 if flavour == "davis" else 0.0101
+    np.testing.assert_allclose([m.values["exx"][0], m.values["exy"][0]], [exx, 0.0003], rtol=1e-12)

@@ -8,8 +8,8 @@ from ...errors import InputError
 
 #: length units -> factor to mm; 'µ' comes as the micro sign (U+00B5, Latin-1) or the Greek mu (U+03BC)
 LENGTH = {"mm": 1.0, "m": 1e3, "cm": 10.0, "µm": 1e-3, "μm": 1e-3, "um": 1e-3}
-#: strain units -> factor to a pure number
-STRAIN = {"-": 1.0, "1": 1.0, "": 1.0, "mm/mm": 1.0, "m/m": 1.0, "%": 1e-2, "µm/m": 1e-6, "μm/m": 1e-6,
+#: strain units -> factor to a pure number ("S": DaVis's name for a pure strain)
+STRAIN = {"-": 1.0, "1": 1.0, "": 1.0, "S": 1.0, "mm/mm": 1.0, "m/m": 1.0, "%": 1e-2, "µm/m": 1e-6, "μm/m": 1e-6,
           "µε": 1e-6, "μɛ": 1e-6, "microstrain": 1e-6}
 #: strain measures a file may state, and how they are called in messages
 MEASURES = {"engineering": "engineering (technical) strain", "green-lagrange": "Green-Lagrange strain",
