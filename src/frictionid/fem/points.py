@@ -76,6 +76,35 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     quantities = _checked_quantities(space.kind, quantities)
     points = _checked_points(space, points)
     cells, reference = locate(space, points, regions)
+    return _located_operator(space, quantities, points, cells, reference, materials)
+
+
+def cell_centre_operator(space: Space, quantities: Sequence[str], materials: Mapping | None = None):
+    """:func:`point_operator` at the centre of every cell (the image of its reference element's centroid).
+
+    Returns
+    -------
+    operator : scipy.sparse.csr_matrix, shape (n_cells * len(quantities), space.n_dofs), cell-major
+    centres : (n_cells, dim) [mm] the points evaluated
+
+    Examples
+    --------
+    >>> H, centres = cell_centre_operator(space, ["exx", "eyy"])   # doctest: +SKIP
+    >>> strains = (H @ u).reshape(len(centres), 2)                  # doctest: +SKIP
+    """
+    quantities = _checked_quantities(space.kind, quantities)
+    n_cells = space.mesh.n_cells
+    centroid = space.scalar.elem.refdom.p.mean(axis=1)
+    reference = np.repeat(centroid[:, None], n_cells, axis=1)
+    cells = np.arange(n_cells)
+    phi, _ = _reference_basis(space, reference)
+    centres = np.einsum("nk,nkd->nd", phi, _cell_nodes(space))
+    return _located_operator(space, quantities, centres, cells, reference, materials), centres
+
+
+def _located_operator(space: Space, quantities: tuple[str, ...], points: np.ndarray, cells: np.ndarray,
+                      reference: np.ndarray, materials) -> sp.csr_matrix:
+    """The rows of :func:`point_operator` for points already located in ``cells`` at ``reference``."""
     phi, grad = _shape_functions(space, cells, reference)
     nodes = space.node_of[space.scalar.element_dofs[:, cells]].T
     n_points = len(nodes)
