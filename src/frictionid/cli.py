@@ -100,7 +100,7 @@ def _run_simulate(args) -> int:
     from .simulation import simulate
 
     config = read_config(args.config, need=("model", "friction", "data"))
-    path = simulate(config, args.out)
+    path = simulate(config, args.out, echo=_echo)
     print(f"wrote {path}")
     return 0
 

@@ -26,7 +26,7 @@ SCHEMA = {
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
                  "model_error": "off", "refine_target": 0.0, "refine_budget": 2},
-    "run": {"dir": REQUIRED, "workers": 1, "scheduler": None},
+    "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "fields": True},
 }
 OPEN_TABLES = {"model"}
 
@@ -73,6 +73,7 @@ TYPES = {
     "identify.refine_budget": (int, "a whole number >= 1 (refinements at most)"),
     "run.dir": (str, "a folder name"),
     "run.workers": (int, "a whole number"),
+    "run.fields": (bool, "true or false"),
 }
 
 
@@ -82,7 +83,8 @@ def _check_types(tables: dict, path: Path) -> None:
         value = tables[table].get(key)
         if value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, types):
+        # a bool is an int to Python: only a key typed bool takes one
+        if isinstance(value, bool) and types is not bool or not isinstance(value, types):
             raise InputError(f"{path}: {dotted} must be {what}, got {value!r}")
     for dotted, kind in (("data.observables", str), ("data.stages", int)):
         table, key = dotted.split(".")

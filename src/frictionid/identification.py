@@ -32,6 +32,7 @@ from .inverse.uncertainty import Uncertainty, at_bounds, estimate
 from .model import Model
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
+from .report.vtu import export_fields
 from .report.tables import prefit_summary
 from .result import IdentificationResult
 from .run.store import RunStore
@@ -305,6 +306,9 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     store.set_status(result["status"])
     if write_files:
         write_outputs(run_dir, result, store, config.text, setup.data_file)
+        if config.run["fields"]:
+            export_fields(evaluator.backend, [result["parameters"][z]["value"] for z in setup.model.zone_names],
+                          run_dir / "fields", echo)
     return result
 
 

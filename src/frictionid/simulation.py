@@ -14,16 +14,19 @@ from .errors import InputError
 from .fem.points import PointsOutside
 from .inverse.observations import FORCE, machine_force
 from .inverse.parameters import Parameters
+from .report.vtu import export_fields
 
 DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
                                                                    "eyz", "exz")}
 
 
-def simulate(config: Config, out: str | Path) -> Path:
+def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     """Solve at the configured coefficients; one row per point of the data file and model stage.
 
     The `force` column is the machine force (see :func:`~frictionid.inverse.observations.machine_force`) where
-    the model is driven by a prescribed displacement, empty otherwise.
+    the model is driven by a prescribed displacement, empty otherwise. With ``[run] fields`` (default true) the
+    fields of the solve go to :func:`fields_folder` of ``out`` for ParaView (docs/results.md); ``echo(text)``
+    gets a line about them.
     """
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
     model = build_model(config.model)
@@ -61,4 +64,13 @@ def simulate(config: Config, out: str | Path) -> Path:
                   "coefficients: " + ", ".join(f"{n}={v:g}" for n, v in zip(mu.names, mu.full(mu.x0)))),
         source=str(out))
     write_measurements(out, measurements)
+    if config.run["fields"]:
+        export_fields(backend, mu.full(mu.x0), fields_folder(out), echo)
     return Path(out)
+
+
+def fields_folder(out: str | Path) -> Path:
+    """Where simulate writes the fields of a solve written to the CSV ``out``: ``measured.csv`` -> ``measured.fields``
+    next to it."""
+    out = Path(out)
+    return out.with_name(f"{out.stem}.fields")

@@ -179,3 +179,10 @@ class EmbeddedBackend:
             out.append({zone: {**states[zone], "normal_force": float(normal[z])}
                         for z, zone in enumerate(solution.zone_names)})
         return out
+
+    def fields(self, mu):
+        """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
+        :func:`frictionid.fields.solution_fields`)."""
+        from ..fields import solution_fields
+
+        return solution_fields(self.problem, self.problem.solve(mu))
