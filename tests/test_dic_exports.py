@@ -1,6 +1,7 @@
 """DIC exports (issue 15, item 1): each flavour reads to the values of the generic CSV, invalid points dropped and
 counted; bad exports exit 2 with a message saying what would work; per-stage exports identify like the CSV."""
 
+import dataclasses
 import json
 import shutil
 import sys
@@ -218,3 +219,16 @@ def test_export_headers_seen_in_public_readers_are_recognised(flavour, header, u
     np.testing.assert_allclose([m.values[q][0] for q in ("ux", "uy", "uz")], [0.001, -0.002, 0.0005], rtol=1e-15)
     exx = np.sqrt(1 + 2 * 0.0101) - 1 if flavour == "davis" else 0.0101
     np.testing.assert_allclose([m.values["exx"][0], m.values["exy"][0]], [exx, 0.0003], rtol=1e-12)
+
+
+def test_simulate_reads_data_file_like_identify(tmp_path):
+    """[data] file as a list (and an export) reaches simulate's points as it reaches identify's (a list was a
+    traceback before)."""
+    folder = tmp_path / "first"
+    shutil.copytree(ROOT / "examples" / "first", folder)
+    text = (folder / "truth.toml").read_text()
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "one.csv")]) == 0
+    (folder / "listed.toml").write_text(text.replace('file = "points.csv"', 'file = ["points.csv"]'))
+    assert main(["simulate", str(folder / "listed.toml"), "--out", str(folder / "listed.csv")]) == 0
+    listed, one = (dataclasses.replace(read_measurements(folder / f), comments=()) for f in ("listed.csv", "one.csv"))
+    assert listed == one          # the comments name the config

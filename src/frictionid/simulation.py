@@ -9,7 +9,8 @@ import numpy as np
 from .backends import check_backend, make_backend, solver_options
 from .builders.registry import build_model
 from .config import Config
-from .data.measurements import Measurements, read_measurements, write_measurements
+from .data.measurements import Measurements, write_measurements
+from .data.sources import read_data
 from .errors import InputError
 from .fem.points import PointsOutside
 from .inverse.observations import FORCE, machine_force
@@ -32,7 +33,7 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     model = build_model(config.model)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
-    source = read_measurements(config.resolve(config.data["file"]))
+    source = read_data(config.data, config.resolve, f"{config.where}: [data]")
     labels = list(dict.fromkeys(source.points))
     first = {p: i for i, p in reversed(list(enumerate(source.points)))}
     xyz = np.array([source.coordinates[first[p]] for p in labels])
