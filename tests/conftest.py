@@ -1,8 +1,14 @@
-"""Models several test modules share; models are immutable, so one build per session serves them all."""
+"""Models and data several test modules share; models are immutable, so one build per session serves them all."""
+
+import shutil
+from pathlib import Path
 
 import pytest
 
 from frictionid.builders.block import block_model, block_model_2d
+from frictionid.cli import main
+
+ROOT = Path(__file__).parents[1]
 
 
 @pytest.fixture(scope="session")
@@ -16,3 +22,13 @@ def block3d():
 def block2d():
     """The plane-strain block (two zones, quadratic triangles) with the builder's defaults, mesh_size 2 mm."""
     return block_model_2d(mesh_size=2.0)
+
+
+@pytest.fixture(scope="session")
+def first(tmp_path_factory):
+    """A copy of examples/first with its twin data made (A 0.30, B 0.15 on the 0.5 mm mesh), stages 1 and 2; tests
+    write their runs into it under names of their own."""
+    folder = tmp_path_factory.mktemp("first") / "first"
+    shutil.copytree(ROOT / "examples" / "first", folder)
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
+    return folder

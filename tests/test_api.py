@@ -3,7 +3,6 @@ object, config_from_dict; the command line and the API give the same result.json
 
 import doctest
 import json
-import shutil
 import tomllib
 from pathlib import Path
 
@@ -20,15 +19,6 @@ ROOT = Path(__file__).parents[1]
 REGIONS = {**{f"{side}{k}": "block" for side in "LR" for k in range(1, 7)}, "*": "base"}
 #: entries of result.json that differ between two runs of the same identification
 TIMING = {"wall_time_s"}
-
-
-@pytest.fixture(scope="module")
-def first(tmp_path_factory):
-    """examples/first with its twin data made (A 0.30, B 0.15 on the 0.5 mm mesh)."""
-    folder = tmp_path_factory.mktemp("api") / "first"
-    shutil.copytree(ROOT / "examples" / "first", folder)
-    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
-    return folder
 
 
 @pytest.fixture(scope="module")

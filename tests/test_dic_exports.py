@@ -158,15 +158,6 @@ def test_transform_is_refused_as_not_yet_available(data):
         read_data(data, Path)
 
 
-@pytest.fixture(scope="module")
-def first(tmp_path_factory):
-    """examples/first with its twin data made (A 0.30, B 0.15 on the 0.5 mm mesh): stages 1 and 2."""
-    folder = tmp_path_factory.mktemp("dic") / "first"
-    shutil.copytree(ROOT / "examples" / "first", folder)
-    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
-    return folder
-
-
 def identified(folder: Path, name: str, **data) -> dict:
     """Coefficients of examples/first's identify.toml with [data] changed, run into runs/<name>."""
     config = tomllib.loads((folder / "identify.toml").read_text())
