@@ -7,8 +7,8 @@ import pytest
 
 from frictionid.backends import check_backend, make_backend
 from frictionid.backends.calculix.backend import CalculixSettings
-from frictionid.backends.calculix.deck import ContactSettings, write_deck
-from frictionid.backends.calculix.elements import (SHAPE, calculix_cells, face_lookup, fill_dropped_nodes,
+from frictionid.backends.calculix.deck import ContactSettings, stage_forces, write_deck
+from frictionid.backends.calculix.elements import (N_KEPT, SHAPE, calculix_cells, face_lookup, fill_dropped_nodes,
                                                    lump_dropped_forces)
 from frictionid.builders.benchmarks import hertz_model, interference_model, sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
@@ -16,6 +16,8 @@ from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels
 from frictionid.fem.space import Space
 from frictionid.model import Mesh
+
+from element_models import ELEMENTS, element_model
 
 CONTACT = ContactSettings(normal_stiffness=1e6, stick_slope=2e6)
 #: CalculiX edge mid-nodes (0-based corner pairs) of C3D10 and C3D20 (CalculiX manual, element chapter)
@@ -245,3 +247,100 @@ def test_moved_loads_do_the_same_work(builder, cell_type):
     assert np.sum(moved * field) == pytest.approx(np.sum(forces * field), rel=1e-12)
     dropped = np.setdiff1d(np.arange(mesh.n_nodes), calculix_cells(mesh.points, cell_type, mesh.cells))
     assert dropped.size and np.all(moved[dropped] == 0)
+
+
+# ------------------------------------------------------------------- every number as ccx 2.20 reads it back
+
+def read_as_ccx(field: str):
+    """A data field as ccx 2.20 reads it: blanks removed (its input reader drops them), then the first 20
+    characters as a real (nodes.f, cload.f, boundaries.f, ...: ``read(textpart(k)(1:20), '(f20.0)')``; measured:
+    1.000000000000000e-03, 21 characters, came back as 1.0, and leading blanks do not count)."""
+    return float(field.replace(" ", "")[:20])
+
+
+def with_round_off(model, seed=14):
+    """The model's mesh with gmsh-like round-off in every coordinate: values at zero become +-1e-8 .. 1e-17
+    (e.g. -2.41620220683044e-08, the coordinate of the issue) and the others get all 17 digits."""
+    import dataclasses
+    rng = np.random.default_rng(seed)
+    points = np.array(model.mesh.points, dtype=float)
+    zero = points == 0.0
+    points[zero] = rng.choice([-1.0, 1.0], zero.sum()) * 10.0 ** rng.uniform(-17, -8, zero.sum())
+    points[~zero] *= 1.0 + rng.uniform(-1e-15, 1e-15, (~zero).sum())
+    points.flat[np.flatnonzero(zero)[0]] = -2.41620220683044e-08
+    mesh = Mesh(points, model.mesh.cell_type, model.mesh.cells, dict(model.mesh.regions), dict(model.mesh.boundaries))
+    return dataclasses.replace(model, mesh=mesh)
+
+
+@pytest.mark.parametrize("element", ["block2d default"] + list(ELEMENTS))
+def test_every_number_reads_back_as_written(element, tmp_path):
+    """Issue 14: every field of the deck, read as ccx reads it, is the value frictionid meant within the 13
+    printed digits, for every element type the deck writes, on meshes with gmsh round-off coordinates (the
+    default 2-D block's triangles have them; the others get them added). Written with 15 digits, a coordinate
+    like -2.41620220683044e-08 (21 characters) came back as -2.416202206830 and turned cells inside out
+    ('nonpositive jacobian determinant')."""
+    if element == "block2d default":
+        model, mu = block_model_2d(), [0.3, 0.2]
+    else:
+        model, zones = element_model(element, tmp_path)
+        model, mu = with_round_off(model), [zones[z] for z in model.zone_names]
+    deck, channels = deck_of(model, mu)
+    digits = 5e-13                                      # half a unit in the 13th significant digit
+    keyword = None
+    for line in deck.splitlines():
+        if line.startswith("*"):
+            keyword = keyword if line.startswith("**") else line.split(",")[0]
+            continue
+        if keyword == "*HEADING":                       # free text
+            continue
+        for field in line.split(","):
+            text = field.strip()
+            try:
+                value = float(text)
+            except ValueError:          # names (set, surface), face labels S1..S6, defaults left empty
+                assert re.fullmatch(r"([A-Z][A-Z0-9]*)?", text), line
+                continue
+            if re.fullmatch(r"\d+", text):
+                assert len(text) <= 10, line             # integers are read from 10 characters
+            assert read_as_ccx(field) == value, f"{text!r} is read as {read_as_ccx(field)!r} by ccx"
+    # the coordinates and nodal forces ccx reads are the model's within the printed digits
+    nodes = np.array([[read_as_ccx(f) for f in line.split(",")] for line in cards(deck, "*NODE")[0]])
+    np.testing.assert_array_equal(nodes[:, 0], np.arange(1, model.mesh.n_nodes + 1))
+    points = np.column_stack([model.mesh.points, np.zeros((model.mesh.n_nodes, 3 - model.dim))])
+    assert np.all(np.abs(nodes[:, 1:] - points) <= digits * np.abs(points))
+    assert np.abs(points).min() < 1e-8 and np.any(np.abs(points) > 1.0)     # round-off and ordinary values
+    written = stage_forces(model, channels.forces, channels.amplitudes)
+    for stage, lines in enumerate(cards(deck, "*CLOAD")):
+        for line in lines:
+            node, dof, value = (read_as_ccx(f) for f in line.split(","))
+            expected = written[stage, int(node) - 1, int(dof) - 1]
+            assert abs(value - expected) <= digits * abs(expected)
+    # the cells CalculiX gets are those of the model, with positive volume (turned counter-clockwise in 2-D)
+    cells = np.array([[int(read_as_ccx(f)) for f in ",".join(chunk).split(",")]
+                      for chunk in _element_records(cards(deck, "*ELEMENT"), N_KEPT[model.mesh.cell_type] + 1)])
+    assert len(cells) == model.mesh.n_cells
+    kept = calculix_cells(np.asarray(model.mesh.points), model.mesh.cell_type, model.mesh.cells)
+    np.testing.assert_array_equal(cells[np.argsort(cells[:, 0]), 1:] - 1, kept)
+    assert np.all(_corner_volumes(nodes[:, 1:], kept, model.mesh.cell_type) > 0)
+
+
+def _element_records(blocks, n_entries):
+    """Element data lines joined into records of ``n_entries`` entries (C3D20 takes two lines)."""
+    for lines in blocks:
+        record = []
+        for line in lines:
+            record.append(line)
+            if sum(len(r.split(",")) for r in record) == n_entries:
+                yield record
+                record = []
+        assert not record
+
+
+def _corner_volumes(points, cells, cell_type):
+    """Signed area (2-D, of the first three corners) or volume (3-D, of the corner tetrahedron at node 1)."""
+    if SHAPE[cell_type] in ("tri", "quad"):
+        a, b, c = (points[cells[:, k], :2] for k in (0, 1, 2))
+        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    corners = (0, 1, 2, 3) if SHAPE[cell_type] == "tet" else (0, 1, 3, 4)
+    a, b, c, d = (points[cells[:, k]] for k in corners)
+    return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
