@@ -280,6 +280,22 @@ def test_failures_keep_and_name_the_work_directory(tmp_path, script, message):
     assert (kept / "job.inp").is_file() and (kept / "ccx.log").is_file()
 
 
+def test_contact_that_does_not_converge_names_the_penalty(tmp_path):
+    """ccx stopping with 'increment size smaller than minimum' (seen on the user_block fixture plane.msh at the
+    default 3.5e6 N/mm^3; it runs at 1.75e6): the message names the slopes, where they come from and the keys."""
+    script = ('echo " *ERROR: increment size smaller than minimum"; '
+              'echo " best solution and residuals are in the frd file"; exit 201')
+    settings = CalculixSettings(ccx=fake_ccx(tmp_path, script), work_dir=str(tmp_path / "work"))
+    with pytest.raises(SolverError, match=r"penalty slopes normal 1.12e\+06 / stick 1.12e\+06 N/mm\^3 \(the default "
+                                          r"min\(500 E_min / h, 1e\+07\) with the contact facet size h = 1.56 mm\): set "
+                                          r"\[solver\] normal_stiffness and stick_slope lower") as failure:
+        CalculixBackend(small_2d(), POINTS_2D, Q2D, None, settings).predict([0.1, 0.1])
+    assert "work directory kept" in str(failure.value)
+    given = dataclasses.replace(settings, normal_stiffness=1e5)
+    with pytest.raises(SolverError, match=r"normal 1e\+05 / stick 1.12e\+06 N/mm\^3 \(as set in \[solver\]\)"):
+        CalculixBackend(small_2d(), POINTS_2D, Q2D, None, given).predict([0.1, 0.1])
+
+
 def test_run_failure_exits_1_with_the_directory(tmp_path, capsys):
     (tmp_path / "points.csv").write_text("point,x,y,z,stage\nP1,-4,1,0,2\n")
     ccx = fake_ccx(tmp_path, "exit 3")

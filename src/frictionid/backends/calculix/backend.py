@@ -27,6 +27,8 @@ log = logging.getLogger(__name__)
 PENALTY_FACTOR = 500.0
 #: [N/mm^3] cap of the default slopes: steel sleeves in CAX6 did not converge at 1e8 and matched at 1e7
 PENALTY_CAP = 1e7
+#: what ccx prints when its increments are cut below the minimum (here: contact iterations that do not converge)
+NOT_CONVERGED = "increment size smaller than minimum"
 _PAIR_TYPES = {"surface-to-surface": "SURFACE TO SURFACE", "node-to-surface": "NODE TO SURFACE"}
 _TIME_TOL = 1e-6
 
@@ -232,8 +234,13 @@ class CalculixBackend:
         """One ccx run; ``full_field`` also reads the displacement field of every stage end from the .frd file."""
         mu = self.model.coefficients(mu)
         start = time.perf_counter()
-        work = run_ccx(self.deck(mu), self.executable, self.settings.timeout, self.settings.work_dir,
-                       self.settings.threads)
+        try:
+            work = run_ccx(self.deck(mu), self.executable, self.settings.timeout, self.settings.work_dir,
+                           self.settings.threads)
+        except SolverError as exc:
+            if NOT_CONVERGED not in str(exc):
+                raise
+            raise SolverError(f"{exc}. {self._penalty_hint()}") from None
         wall = time.perf_counter() - start
         try:
             solution = self._read(work, mu, full_field, wall)
@@ -242,6 +249,19 @@ class CalculixBackend:
         if not self.settings.keep_work:
             remove_work(work)
         return solution
+
+    def _penalty_hint(self) -> str:
+        """What to change when ccx's contact iterations stop: the penalty slopes it ran with and how to set them."""
+        contact = self.contact
+        if self.settings.normal_stiffness or self.settings.stick_slope:
+            origin = "as set in [solver]"
+        else:
+            origin = (f"the default min({PENALTY_FACTOR:g} E_min / h, {PENALTY_CAP:g}) with the contact facet size "
+                      f"h = {contact_size(self.model):.3g} mm")
+        return (f"ccx's contact iterations did not converge with the penalty slopes normal "
+                f"{contact.normal_stiffness:.3g} / stick {contact.stick_slope:.3g} N/mm^3 ({origin}): set [solver] "
+                "normal_stiffness and stick_slope lower, e.g. to half of these (docs/calculix.md, 'When ccx does not "
+                "converge')")
 
     def _stage_times(self) -> np.ndarray:
         return np.arange(1, self.model.n_stages + 1, dtype=float)
