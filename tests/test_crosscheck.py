@@ -62,6 +62,17 @@ def test_shift_table_and_unresolved_zones():
     assert "Give [data] noise" in cross_check_table(check, None, "Give [data] noise (e.g. ...)")
 
 
+def test_axisymmetric_table_says_which_reactions_to_compare():
+    """ccx 2.20's radial reaction totals of CAX elements are off by several % (Lame check, docs/calculix.md):
+    an axisymmetric cross-check says so under its forces, other kinds do not."""
+    import dataclasses
+    check = stand_in(np.array([0.3, 0.2]), np.array([0.3, 0.2]))
+    assert "radial (x) reaction totals" not in cross_check_table(check)
+    table = cross_check_table(dataclasses.replace(check, kind="axisymmetric"))
+    assert "Axisymmetric: ccx 2.20's radial (x) reaction totals are too small" in table
+    assert table.index("| zone B abs(T)") < table.index("Axisymmetric:") < table.index("| backend |")
+
+
 def test_shift_needs_the_noise_of_every_quantity_and_real_stages():
     check = stand_in(np.array([0.3, 0.2]), np.array([0.3, 0.2]))
     with pytest.raises(InputError, match=r"data.noise: no standard deviation for \['exx', 'eyy', 'exy'\]"):

@@ -60,7 +60,7 @@ def cross_check(model: Model, mu, points, quantities, regions, settings: Calculi
         np.linalg.norm(solution.zone_tangential_force[ends], axis=2), ccx.zone_tangential_force,
         time_embedded, ccx.wall_time, setup,
         (settings.contact_settings(model).normal_stiffness, settings.contact_settings(model).stick_slope),
-        sensitivities.d_observations[ends], sensitivities.d_reactions[ends], settings.load_scale)
+        sensitivities.d_observations[ends], sensitivities.d_reactions[ends], settings.load_scale, model.kind)
 
 
 def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str]:

@@ -21,6 +21,7 @@ class CrossCheck:
     derivatives_embedded : (n_stages, n_rows, n_zones), reaction_derivatives_embedded : (n_stages, n_reac, n_zones)
         the embedded backend's sensitivities of observations and reactions at the stage ends
     load_scale : the CalculiX settings' load_scale (1: ccx at the loads as given)
+    kind : the model kind ("3d", "plane_strain", "axisymmetric"; "" when not known)
     """
 
     model_name: str
@@ -45,3 +46,4 @@ class CrossCheck:
     derivatives_embedded: np.ndarray
     reaction_derivatives_embedded: np.ndarray
     load_scale: float = 1.0
+    kind: str = ""
