@@ -28,6 +28,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/identify_block.py
 	$(PY) benchmarks/bolt.py
 	$(PY) benchmarks/backends.py
+	$(PY) benchmarks/blas_threads.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
