@@ -13,7 +13,7 @@ from .data.measurements import Measurements, write_measurements
 from .data.sources import read_data
 from .errors import InputError
 from .fem.points import PointsOutside
-from .inverse.observations import FORCE, machine_force
+from .inverse.observations import FORCE, machine_force, region_of_points
 from .inverse.parameters import Parameters
 from .report.vtu import export_fields
 
@@ -40,14 +40,14 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     if model.kind != "3d" and np.any(xyz[:, 2] != 0):
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
     quantities = tuple(q for q in config.data.get("observables") or DEFAULT_QUANTITIES[model.dim] if q != FORCE)
-    regions = config.data.get("regions", {})
+    region_of = region_of_points(config.data.get("regions"), labels, model.mesh.region_names)
     try:
         reactions = (machine_force(model),)
     except InputError:      # loaded by a prescribed force: no machine force to report
         reactions = ()
     try:
         backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
-                               [regions.get(p, regions.get("*")) for p in labels], solver_options(config),
+                               [region_of[p] for p in labels], solver_options(config),
                                f"{config.where}: [solver]", reactions)
     except PointsOutside as exc:
         raise exc.named(labels, source.source) from None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
+import fnmatch
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,6 +103,81 @@ def _coordinates(measurements, model: Model):
     return measurements, measurements.coordinates
 
 
+def _is_pattern(key: str) -> bool:
+    return any(c in key for c in "*?[")
+
+
+def _specificity(pattern: str) -> int:
+    """Literal characters of a glob pattern (those outside ``*``, ``?`` and ``[...]``): "*" has 0."""
+    return sum(1 for _ in _literal_parts(pattern))
+
+
+def _literal_parts(pattern: str):
+    """The literal characters of a glob pattern, one by one."""
+    i = 0
+    while i < len(pattern):
+        if pattern[i] == "[" and "]" in pattern[i + 2:]:
+            i = pattern.index("]", i + 2) + 1
+        elif pattern[i] in "*?":
+            i += 1
+        else:
+            yield pattern[i]
+            i += 1
+
+
+def region_of_points(regions: dict | None, labels, region_names, where: str = "data.regions") -> dict:
+    """The region each point label is read from, by the rules of a ``[data] regions`` table.
+
+    A key is a point label or a glob pattern (:func:`fnmatch.fnmatchcase`: ``*``, ``?``, ``[...]``). A label
+    takes the value of its exact key; else of the matching pattern with the most literal characters (so
+    ``"*"`` comes last); two matching patterns equally specific with different regions are an error. Labels
+    no key matches get None (any cell).
+
+    Parameters
+    ----------
+    regions : mapping key -> region name
+    labels : every point label of the data
+    region_names : the model's regions
+    where : how messages name the table
+
+    Raises
+    ------
+    InputError
+        A key that matches no label (naming labels that exist), a value that is not one of the model's regions
+        (with a "did you mean"), or a label two patterns claim equally.
+
+    >>> region_of_points({"B*": "block", "B7": "base", "*": "base"}, ["B1", "B7", "P1"], ["block", "base"])
+    {'B1': 'block', 'B7': 'base', 'P1': 'base'}
+    """
+    regions, labels = dict(regions or {}), list(dict.fromkeys(labels))
+    for key, value in regions.items():
+        if not isinstance(value, str) or value not in region_names:
+            close = difflib.get_close_matches(str(value), list(region_names), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise InputError(f"{where}.{key}: {value!r} is not a region of the model{hint}; the model has "
+                             f"{list(region_names)}")
+        if key not in labels and not (_is_pattern(key) and fnmatch.filter(labels, key)):
+            shown = ", ".join(labels[:5]) + (f", ... ({len(labels)} points)" if len(labels) > 5 else "")
+            raise InputError(f"{where}: key {key!r} matches no point of the data (points: {shown}); a key is a "
+                             "point label or a pattern such as \"B*\"")
+    return {label: _region_of(label, regions, where) for label in labels}
+
+
+def _region_of(label: str, regions: dict, where: str) -> str | None:
+    if label in regions:
+        return regions[label]
+    matching = [k for k in regions if _is_pattern(k) and fnmatch.fnmatchcase(label, k)]
+    if not matching:
+        return None
+    best = max(map(_specificity, matching))
+    claims = {regions[k] for k in matching if _specificity(k) == best}
+    if len(claims) > 1:
+        tied = [k for k in matching if _specificity(k) == best]
+        raise InputError(f"{where}: point {label!r} matches the patterns {tied}, equally specific, with different "
+                         "regions; name the point itself or make one pattern longer")
+    return claims.pop()
+
+
 def noise_of(quantity: str, noise: dict) -> float | None:
     """The stated noise of ``quantity`` from a data.noise table: its own key, else its kind's ("u", "e",
     "force"); None when neither is given.
@@ -125,7 +202,10 @@ def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.nda
 
 def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
                       regions: dict | None = None) -> Observations:
-    """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model."""
+    """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model.
+
+    ``regions`` is the ``[data] regions`` table, resolved by :func:`region_of_points` against every point of the
+    file (also those of stages not fitted)."""
     noise, regions = dict(noise or {}), dict(regions or {})
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
@@ -136,10 +216,12 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     wanted = list(observables)
     if model.kind == "axisymmetric" and "ux" in wanted and "uz" in measurements.quantities and "uz" not in wanted:
         wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
+    all_labels = measurements.points
     measurements = measurements.select(quantities=wanted, stages=list(stages))
     forces = _forces(measurements, stages, noise) if observe_force else []
     measurements, coordinates = _coordinates(measurements, model)
     labels_of = list(dict.fromkeys(measurements.points))
+    region_of = region_of_points(regions, all_labels, model.mesh.region_names)
     point_index = {p: i for i, p in enumerate(labels_of)}
     first = {p: i for i, p in reversed(list(enumerate(measurements.points)))}
     points = np.array([coordinates[first[p]] for p in labels_of]).reshape(-1, coordinates.shape[1])
@@ -171,7 +253,7 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
         raise InputError("data: displacements and strains are observed together without standard deviations; "
                          "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5, "
                          "force = 1.0 })")
-    return Observations(points=points, point_regions=tuple(regions.get(p, regions.get("*")) for p in labels_of),
+    return Observations(points=points, point_regions=tuple(region_of[p] for p in labels_of),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
                         sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
                         reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source))

@@ -1,0 +1,69 @@
+"""[data] regions through the command line: patterns, exact names over patterns, bad keys and values exit 2."""
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from frictionid.cli import main
+
+#: B1, B2 on the block-base interface (y = 0, on both bodies); Q1 on the base's top beside the block
+POINTS = {"B1": (0.5, 0.0), "B2": (2.3, 0.0), "Q1": (-7.0, 0.0)}
+MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
+
+
+def _config(folder: Path, name: str, regions: str, points: dict = POINTS) -> Path:
+    rows = "".join(f"{label},{x!r},{y!r},0.0,2,0.0,0.0\n" for label, (x, y) in points.items())
+    (folder / f"{name}.csv").write_text("point,x,y,z,stage,ux,uy\n" + rows)
+    path = folder / f"{name}.toml"
+    path.write_text(MODEL + "[friction]\nzones = { A = 0.32, B = 0.18, C = 0.41 }\n"
+                    f'[data]\nfile = "{name}.csv"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
+                    f"regions = {{ {regions} }}\n" f'[run]\nfields = false\ndir = "runs/{name}"\n')
+    return path
+
+
+def _simulated(folder: Path, name: str, regions: str, points: dict = POINTS) -> dict:
+    """{label: (ux, uy)} [mm] at the end of stage 2, from `frictionid simulate`."""
+    config = _config(folder, name, regions, points)
+    assert main(["simulate", str(config), "--out", str(folder / f"{name}.out.csv")]) == 0
+    with open(folder / f"{name}.out.csv") as f:
+        rows = [r for r in csv.DictReader(line for line in f if not line.startswith("#")) if r["stage"] == "2"]
+    return {r["point"]: (float(r["ux"]), float(r["uy"])) for r in rows}
+
+
+@pytest.fixture(scope="module")
+def bodies(tmp_path_factory):
+    """The values with every point read from the block, and from the base: they differ where the block slides."""
+    folder = tmp_path_factory.mktemp("regions")
+    block = _simulated(folder, "block", 'B1 = "block", B2 = "block", Q1 = "base"')
+    base = _simulated(folder, "base", '"*" = "base"')
+    # the block slides on the base at stage 2 (ux 0.19 mm against 0.014 mm at B1): a wrong body shows
+    assert abs(block["B1"][0] - base["B1"][0]) > 0.1
+    return folder, block, base
+
+
+def test_a_pattern_names_the_points_it_matches(bodies):
+    folder, block, _ = bodies
+    assert _simulated(folder, "pattern", '"B*" = "block", "*" = "base"') == block
+
+
+def test_an_exact_name_wins_over_a_pattern_and_the_longer_pattern_over_the_shorter(bodies):
+    folder, block, base = bodies
+    got = _simulated(folder, "exact", '"*" = "block", "B*" = "block", B2 = "base", "Q?" = "base"')
+    assert got == {"B1": block["B1"], "B2": base["B2"], "Q1": base["Q1"]}
+
+
+@pytest.mark.parametrize("command", ["identify", "simulate"])
+@pytest.mark.parametrize("regions, message", [
+    ('"b*" = "block", "*" = "base"', "data.regions: key 'b*' matches no point of the data (points: B1, B2, Q1)"),
+    ('P9 = "block"', "data.regions: key 'P9' matches no point of the data"),
+    ('B1 = "blok"', "data.regions.B1: 'blok' is not a region of the model (did you mean 'block'?); the model has"),
+    ('"B*" = "block", "*1" = "base"', "point 'B1' matches the patterns ['B*', '*1'], equally specific"),
+])
+def test_a_key_matching_no_point_or_an_unknown_region_exits_2(tmp_path, capsys, command, regions, message):
+    config = _config(tmp_path, "bad", regions)
+    extra = ["--out", str(tmp_path / "unused.csv")] if command == "simulate" else []
+    assert main([command, str(config), *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "unused.csv").exists() and not (tmp_path / "runs").exists()
