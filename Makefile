@@ -29,6 +29,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bolt.py
 	$(PY) benchmarks/backends.py
 	$(PY) benchmarks/blas_threads.py
+	$(PY) benchmarks/user_mesh.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
