@@ -67,3 +67,29 @@ def test_a_key_matching_no_point_or_an_unknown_region_exits_2(tmp_path, capsys, 
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "unused.csv").exists() and not (tmp_path / "runs").exists()
+
+
+def _relative(got: dict, expected: dict) -> float:
+    return max(abs(g - e) / max(map(abs, expected[label])) for label in expected
+               for g, e in zip(got[label], expected[label]))
+
+
+def test_points_just_off_a_face_are_read_on_it(tmp_path):
+    """1e-7 mm beside the block's side and below its bottom (inside the base there): read on the block's faces."""
+    on = {"S1": (5.0, 1.5), "B1": (0.5, 0.0)}
+    off = {"S1": (5.0 + 1e-7, 1.5), "B1": (0.5, -1e-7)}
+    regions = '"*" = "block"'
+    expected, got = _simulated(tmp_path, "on", regions, on), _simulated(tmp_path, "off", regions, off)
+    assert _relative(got, expected) < 1e-9
+    # read from the base instead, B1 moves 0.18 mm less: the check above sees the body
+    assert abs(_simulated(tmp_path, "base", 'S1 = "block", B1 = "base"', off)["B1"][0] - got["B1"][0]) > 0.1
+
+
+@pytest.mark.parametrize("command", ["identify", "simulate"])
+def test_a_point_half_a_millimetre_off_its_region_exits_2_naming_it(tmp_path, capsys, command):
+    config = _config(tmp_path, "off", '"*" = "block"', {"S1": (5.0, 1.5), "S2": (5.5, 1.5)})
+    extra = ["--out", str(tmp_path / "unused.csv")] if command == "simulate" else []
+    assert main([command, str(config), *extra]) == 2
+    err = capsys.readouterr().err
+    assert "off.csv: point 'S2' at [5.5, 1.5] [mm] is outside region 'block' by 0.5 mm" in err
+    assert "'S1'" not in err and "Traceback" not in err

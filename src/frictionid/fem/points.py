@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -14,6 +15,8 @@ from ..errors import InputError
 from . import incompatible
 from .space import Space
 
+logger = logging.getLogger(__name__)
+
 #: quantities each model kind can observe; "ezz" of plane strain is identically zero
 QUANTITIES = {
     "3d": ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"),
@@ -24,6 +27,11 @@ _AXIS = {"x": 0, "y": 1, "z": 2}
 
 #: a point belongs to a cell if its reference coordinates are inside up to this (dimensionless) margin
 REFERENCE_TOL = 1e-8
+#: a point outside its region (or the mesh) by at most this fraction of the nearest cell's size (its largest
+#: coordinate extent) is read at the nearest point of that cell: measured points on a face carry round-off
+SURFACE_TOL = 1e-3
+#: cells (by nearest centre) searched for the region's point nearest to a point outside it
+N_NEAREST = 32
 #: Newton on the isoparametric map stops when the update is below this (reference units)
 NEWTON_TOL = 1e-13
 NEWTON_MAX_ITER = 30
@@ -66,7 +74,8 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     ------
     InputError
         For an unknown quantity, a badly shaped point array, an unknown region, or a point outside the mesh
-        (or outside its region), naming the point index and coordinates.
+        (or outside its region) by more than SURFACE_TOL of the nearest cell's size, naming the point index,
+        its coordinates and its distance.
 
     Examples
     --------
@@ -137,7 +146,9 @@ def locate(space: Space, points, regions: Sequence[str | None] | None = None):
     -------
     cells : (n,) int
         Cell index (same numbering as ``space.mesh.cells``). A point on a face shared by several cells
-        goes to the one it is deepest inside (ties: the lowest index).
+        goes to the one it is deepest inside (ties: the lowest index). A point outside its region (or the
+        mesh) by at most SURFACE_TOL of the cell size goes to the nearest cell, at its nearest point; the
+        largest such distance is logged.
     reference : (dim, n)
         Reference coordinates of the scikit-fem element (unit simplex or unit square/cube).
     """
@@ -152,11 +163,20 @@ def locate(space: Space, points, regions: Sequence[str | None] | None = None):
     hit = margin >= -REFERENCE_TOL
     order = np.lexsort((pair_cell[hit], -margin[hit], pair_point[hit]))
     best_point, first = np.unique(pair_point[hit][order], return_index=True)
+    chosen = np.flatnonzero(hit)[order[first]]
+    cells, located = np.empty(len(points), dtype=np.int64), np.empty((space.dim, len(points)))
+    cells[best_point], located[:, best_point] = pair_cell[chosen], reference[:, chosen]
     missing = np.setdiff1d(np.arange(len(points)), best_point)
     if missing.size:
-        raise PointsOutside(points, missing, point_region, space.mesh.region_names)
-    chosen = np.flatnonzero(hit)[order[first]]
-    return pair_cell[chosen], reference[:, chosen]
+        near, near_reference, distance, size = _nearest(space, nodes_xyz, points[missing], point_region[missing])
+        far = ~(distance <= SURFACE_TOL * size)
+        if far.any():
+            raise PointsOutside(points, missing[far], point_region, space.mesh.region_names,
+                                dict(zip(missing.tolist(), distance)))
+        cells[missing], located[:, missing] = near, near_reference
+        logger.info("%d point(s) outside their region by at most %.3g mm (allowed: %g of the cell size) are read "
+                    "at its nearest point", missing.size, distance.max(), SURFACE_TOL)
+    return cells, located
 
 
 def _checked_quantities(kind: str, quantities) -> tuple[str, ...]:
@@ -197,27 +217,77 @@ def _point_regions(mesh, regions, n_points: int) -> np.ndarray:
     return np.array([-1 if name is None else index[name] for name in regions], dtype=np.int64)
 
 
+def _nearest(space: Space, nodes_xyz: np.ndarray, targets: np.ndarray, target_region: np.ndarray):
+    """The cell of each target's region (-1: any) holding the point nearest to it among the N_NEAREST cells with
+    the nearest centres, that point's reference coordinates (dim, n), its distance [mm] and the cell's size [mm].
+    """
+    n = len(targets)
+    cells, reference, distance = np.zeros(n, dtype=np.int64), np.zeros((space.dim, n)), np.full(n, np.inf)
+    centres = nodes_xyz.mean(axis=1)
+    for region in np.unique(target_region):
+        allowed = np.arange(len(centres)) if region < 0 else np.flatnonzero(space.mesh.cell_region == region)
+        which, k = np.flatnonzero(target_region == region), min(N_NEAREST, allowed.size)
+        near = allowed[np.reshape(cKDTree(centres[allowed]).query(targets[which], k=k)[1], (len(which), k))]
+        pair_point, pair_cell = np.repeat(which, k), near.ravel()
+        ref, _ = _inverse_map(space, nodes_xyz[pair_cell], targets[pair_point])
+        ref = _clamped(space, ref, _forward_map(space, nodes_xyz[pair_cell], ref, targets[pair_point])[1])
+        phi, _ = _reference_basis(space, ref)
+        gap = np.linalg.norm(np.einsum("nk,nkd->nd", phi, nodes_xyz[pair_cell]) - targets[pair_point], axis=1)
+        best = np.arange(len(which)) * k + gap.reshape(len(which), k).argmin(axis=1)
+        cells[which], reference[:, which], distance[which] = pair_cell[best], ref[:, best], gap[best]
+    return cells, reference, distance, np.ptp(nodes_xyz[cells], axis=1).max(axis=1)
+
+
+def _clamped(space: Space, reference: np.ndarray, jacobian: np.ndarray) -> np.ndarray:
+    """Reference coordinates (dim, n) moved into the reference element.
+
+    A point outside is first projected onto the plane of the face it is farthest outside of in the metric
+    J^T J of the map (jacobian (n, dim, dim)), which is the nearest point of that face in physical space for an
+    affine cell, and then clipped into the element (near an edge or corner).
+    """
+    dim, n = reference.shape
+    faces = [(np.eye(dim)[i], 0.0, -1.0) for i in range(dim)]          # (normal a, offset b, side): side a.X >= b
+    faces += [(np.ones(dim), 1.0, 1.0)] if _is_simplex(space) else [(np.eye(dim)[i], 1.0, 1.0) for i in range(dim)]
+    violation = np.stack([side * (a @ reference - b) for a, b, side in faces])        # > 0: outside that face
+    worst = violation.argmax(axis=0)
+    normal = np.stack([faces[j][0] for j in worst])                                     # (n, dim)
+    metric_inv_normal = np.linalg.solve(np.einsum("nka,nkb->nab", jacobian, jacobian), normal[..., None])[..., 0]
+    excess = np.array([faces[j][2] for j in worst]) * violation[worst, np.arange(n)]
+    step = (excess / np.einsum("nd,nd->n", normal, metric_inv_normal))[:, None] * metric_inv_normal
+    reference = np.where(violation.max(axis=0) > 0, reference - step.T, reference)
+    if not _is_simplex(space):
+        return np.clip(reference, 0.0, 1.0)
+    reference = np.maximum(reference, 0.0)
+    total = reference.sum(axis=0)
+    return np.where(total > 1.0, reference / np.where(total > 1.0, total, 1.0), reference)
+
+
 class PointsOutside(InputError):
     """Observation points that lie in no cell of their region; :meth:`named` restates it with the points' labels.
 
     Attributes: missing (indices of the points), points (n, dim) [mm], and where each one was looked for.
     """
 
-    def __init__(self, points, missing, point_region, region_names):
-        self.missing, self.points = missing, points
+    def __init__(self, points, missing, point_region, region_names, distance: Mapping | None = None):
+        self.missing, self.points, self.distance = missing, points, dict(distance or {})
         self.where = ["the mesh" if point_region[i] < 0 else f"region {region_names[point_region[i]]!r}"
                       for i in range(len(points))]
         super().__init__(f"point operator: {self._listed(lambda i: f'point {i}')}")
 
+    def _by(self, i) -> str:
+        distance = self.distance.get(int(i), np.inf)
+        return f" by {distance:.3g} mm" if np.isfinite(distance) else ""
+
     def _listed(self, name) -> str:
         listed = "; ".join(f"{name(i)} at {np.round(self.points[i], 6).tolist()} [mm] is outside {self.where[i]}"
-                           for i in self.missing[:5])
+                           f"{self._by(i)}" for i in self.missing[:5])
         return listed + (f" (and {self.missing.size - 5} more points)" if self.missing.size > 5 else "")
 
     def named(self, labels, source: str) -> InputError:
         """The same error naming the points by their labels and the file they came from."""
         return InputError(f"{source}: {self._listed(lambda i: f'point {labels[i]!r}')}; a point must lie inside "
-                          "the model (on a surface to within round-off), in the region data.regions names for it")
+                          f"the region data.regions names for it (or the model), or outside it by at most "
+                          f"{SURFACE_TOL:g} of the nearest cell's size")
 
 
 def _cell_nodes(space: Space) -> np.ndarray:
