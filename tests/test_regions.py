@@ -93,3 +93,18 @@ def test_a_point_half_a_millimetre_off_its_region_exits_2_naming_it(tmp_path, ca
     err = capsys.readouterr().err
     assert "off.csv: point 'S2' at [5.5, 1.5] [mm] is outside region 'block' by 0.5 mm" in err
     assert "'S1'" not in err and "Traceback" not in err
+
+
+
+def test_crosscheck_refuses_a_misspelt_region_before_running_ccx(tmp_path, capsys):
+    """crosscheck's points without fitted data take their regions by the same rules (a misspelt region was
+    silently ignored there); the error comes before any ccx run, so this needs no ccx."""
+    import shutil
+    from pathlib import Path as P
+    folder = tmp_path / "first"
+    shutil.copytree(P(__file__).parents[1] / "examples" / "first", folder)
+    text = (folder / "truth.toml").read_text().replace('"*" = "base"', '"*" = "bse"')
+    (folder / "bad.toml").write_text(text)
+    assert main(["crosscheck", str(folder / "bad.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "'bse' is not a region of the model (did you mean 'base'?)" in err and "Traceback" not in err

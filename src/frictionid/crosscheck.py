@@ -20,7 +20,7 @@ from .data.sources import read_data
 from .errors import InputError
 from .fem.points import PointsOutside
 from .fem.problem import Problem
-from .inverse.observations import FORCE, machine_force, observations_from
+from .inverse.observations import FORCE, machine_force, observations_from, region_of_points
 from .inverse.parameters import Parameters
 from .inverse.shift import CoefficientShift, coefficient_shift, observed_shift
 from .model import Model
@@ -91,8 +91,8 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
         labels = list(dict.fromkeys(source.points))
         first = {p: i for i, p in reversed(list(enumerate(source.points)))}
         points = np.array([source.coordinates[first[p]][:model.dim] for p in labels])
-        table = data.get("regions", {})
-        regions = [table.get(p, table.get("*")) for p in labels]
+        region_of = region_of_points(data.get("regions"), labels, model.mesh.region_names)
+        regions = [region_of[p] for p in labels]
     else:
         points, regions = default_points(model)
     settings = CalculixSettings.from_options(solver_options(config), f"{config.path}: [solver]")
