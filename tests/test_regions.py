@@ -1,6 +1,7 @@
 """[data] regions through the command line: patterns, exact names over patterns, bad keys and values exit 2."""
 
 import csv
+import shutil
 from pathlib import Path
 
 import pytest
@@ -99,10 +100,8 @@ def test_a_point_half_a_millimetre_off_its_region_exits_2_naming_it(tmp_path, ca
 def test_crosscheck_refuses_a_misspelt_region_before_running_ccx(tmp_path, capsys):
     """crosscheck's points without fitted data take their regions by the same rules (a misspelt region was
     silently ignored there); the error comes before any ccx run, so this needs no ccx."""
-    import shutil
-    from pathlib import Path as P
     folder = tmp_path / "first"
-    shutil.copytree(P(__file__).parents[1] / "examples" / "first", folder)
+    shutil.copytree(Path(__file__).parents[1] / "examples" / "first", folder)
     text = (folder / "truth.toml").read_text().replace('"*" = "base"', '"*" = "bse"')
     (folder / "bad.toml").write_text(text)
     assert main(["crosscheck", str(folder / "bad.toml")]) == 2
