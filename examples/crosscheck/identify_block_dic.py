@@ -90,7 +90,10 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mesh-size", type=float, default=5 / 3)
     parser.add_argument("--block-divisions", type=int, help="block builder option (default: the builder's)")
-    parser.add_argument("--grading", type=float, help="block builder option (default: the builder's)")
+    parser.add_argument("--grading", type=float, default=1.0,
+                        help="block builder option (default 1: uniform, as docs/calculix.md's figures were measured)")
+    parser.add_argument("--element", default="standard",
+                        help="block builder option (default 'standard': C3D8 in ccx, as docs/calculix.md's figures)")
     parser.add_argument("--iterations", type=int, default=12)
     parser.add_argument("--pull-levels", type=float, nargs="+", default=list(twin.PULL_LEVELS))
     parser.add_argument("--stages", type=int, nargs="+", default=list(twin.STAGES))
@@ -98,7 +101,7 @@ if __name__ == "__main__":
     parser.add_argument("--load-scale", type=float, default=1.0,
                         help="[solver] load_scale of the ccx runs (0.01: ccx's small-sliding limit)")
     args = parser.parse_args()
-    mesh = {"mesh_size": args.mesh_size} | {key: getattr(args, key) for key in ("block_divisions", "grading")
+    mesh = {"mesh_size": args.mesh_size} | {key: getattr(args, key) for key in ("block_divisions", "grading", "element")
                                              if getattr(args, key) is not None}
     if args.predict:
         predict(mesh, args.pull_levels, args.stages, args.load_scale)
