@@ -18,7 +18,7 @@ from .backends.comparison import CrossCheck
 from .builders.registry import build_model
 from .data.sources import read_data
 from .errors import InputError
-from .fem.points import PointsOutside
+from .fem.locate import PointsOutside
 from .fem.problem import Problem
 from .inverse.observations import FORCE, machine_force, observations_from, region_of_points
 from .inverse.parameters import Parameters

@@ -20,7 +20,7 @@ from .config import Config, config_from_dict
 from .data.measurements import Measurements
 from .data.sources import data_digest, data_paths, read_data
 from .errors import InputError, SolverError
-from .fem.points import PointsOutside
+from .fem.locate import PointsOutside
 from .inverse.evaluator import JACOBIANS, Evaluator
 from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
 from .inverse.observations import observations_from

@@ -12,7 +12,7 @@ from .config import Config
 from .data.measurements import Measurements, write_measurements
 from .data.sources import read_data
 from .errors import InputError
-from .fem.points import PointsOutside
+from .fem.locate import PointsOutside
 from .inverse.observations import FORCE, machine_force, region_of_points
 from .inverse.parameters import Parameters
 from .report.vtu import export_fields

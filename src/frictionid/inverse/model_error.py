@@ -43,7 +43,7 @@ import numpy as np
 from ..backends.embedded import EmbeddedBackend
 from ..builders.registry import build_model, refined
 from ..errors import InputError
-from ..fem.points import PointsOutside
+from ..fem.locate import PointsOutside
 from ..model import Model
 from .observations import FORCE, Observations, _kind
 
