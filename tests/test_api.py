@@ -1,6 +1,7 @@
 """The Python interface: Parameters in code with per-zone bounds, identify() on objects or files, the result
 object, config_from_dict; the command line and the API give the same result.json."""
 
+import csv
 import doctest
 import json
 import tomllib
@@ -162,3 +163,19 @@ def test_the_api_is_quiet_unless_asked_and_the_cli_shows_each_phase(first, cli_r
     assert main(["identify", str(first / "identify.toml"), "--resume"]) == 0          # replays cli_run's store
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("model: ") and out[1].startswith("embedded backend ready") and "[[Variables]]" in out
+
+
+def test_observations_csv_holds_measured_against_fitted(cli_run):
+    """observations.csv: one row per observation of result.json's fit.observations, split into point, quantity
+    and stage, with the residual in the quantity's unit and in noise levels."""
+    result = IdentificationResult.read(cli_run)
+    with (cli_run / "observations.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    expected = result["fit"]["observations"]
+    assert len(rows) == len(expected) == result["fit"]["n_obs"]
+    for row, obs in zip(rows, expected):
+        assert f"{row['point']}:{row['quantity']}@{row['stage']}" == obs["label"]
+        assert float(row["measured"]) == obs["measured"] and float(row["model"]) == obs["model"]
+        residual = obs["model"] - obs["measured"]
+        assert float(row["residual"]) == residual
+        assert float(row["residual_sigma"]) == pytest.approx(residual / 0.0005, rel=1e-12)

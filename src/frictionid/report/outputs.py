@@ -38,11 +38,27 @@ def write_outputs(run_dir: Path, result: dict, store=None, config_text: str | No
         residual_plot(result, paths[-1])
     figures = {path.stem: path.read_bytes() for path in paths[2:]}
     if result.get("fit", {}).get("observations"):
+        paths.append(write_observations(run_dir / "observations.csv", result["fit"]["observations"]))
         stream = io.BytesIO()
         save(fit_figure(result["fit"]["observations"]), stream)
         figures["fit"] = stream.getvalue()
     paths.append(write_html(run_dir, result, figures, config_text, data_file))
     return paths
+
+
+def write_observations(path: Path, observations: list[dict]) -> Path:
+    """Measured against fitted, one row per observation: point, quantity, stage, measured, model, residual
+    (model - measured, in the quantity's unit), sigma and the residual in units of sigma (empty without noise)."""
+    with Path(path).open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["point", "quantity", "stage", "measured", "model", "residual", "sigma", "residual_sigma"])
+        for row in observations:
+            point, _, rest = row["label"].rpartition(":")
+            quantity, _, stage = rest.partition("@")
+            residual, sigma = row["model"] - row["measured"], row.get("sigma")
+            writer.writerow([point, quantity, stage, repr(row["measured"]), repr(row["model"]), repr(residual),
+                             "" if sigma is None else repr(sigma), "" if not sigma else repr(residual / sigma)])
+    return Path(path)
 
 
 def stored_history(result: dict, store) -> dict:
