@@ -9,8 +9,8 @@ halved per level by ``builders.registry.refined``). Both are the largest magnitu
 - the fraction of observations whose estimate is within a factor 2 of the actual error, counting those whose
   actual error exceeds a tenth of the noise;
 
-for the library's default orders (p = 1: capped by the contact edges' singularity) and for two alternatives: the
-a priori orders of a smooth solution (k + 1 for u and force, k for strains), and per kind the order observed on
+for the library's default orders (p = 1 for displacements and the force, capped by the contact edges'
+singularity; 1.77 for strains, see frictionid.inverse.model_error) and for two alternatives: the a priori orders of a smooth solution (k + 1 for u and force, k for strains), and per kind the order observed on
 the meshes h, h / 2, h / 4 (RMS of the differences; with only three levels the reference is h / 4 itself).
 Timings: the coarse model's build and condensation, a forward and a forward + sensitivity solve, and the
 estimate's extra cost (refined build, condensation and two forward solves).

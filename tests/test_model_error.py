@@ -13,8 +13,8 @@ from frictionid.builders.bolt import default_sizes
 from frictionid.builders.registry import build_model, refined
 from frictionid.errors import InputError
 from frictionid.inverse import model_error
-from frictionid.inverse.model_error import (ModelError, convergence_orders, estimate_model_error, inflated_sigma,
-                                            observation_kinds, richardson)
+from frictionid.inverse.model_error import (STRAIN_ORDER, ModelError, convergence_orders, estimate_model_error,
+                                            inflated_sigma, observation_kinds, richardson)
 from frictionid.inverse.observations import Observations
 
 # ------------------------------------------------------------------------------------------ refined options
@@ -78,8 +78,7 @@ def test_richardson_recovers_the_error_of_a_sequence_with_known_order():
 
 
 def test_orders_are_capped_by_the_contact_edge_singularity():
-    assert convergence_orders(1) == {"u": 1, "force": 1, "e": 1}
-    assert convergence_orders(2) == {"u": 1, "force": 1, "e": 1}
+    assert convergence_orders(1) == convergence_orders(2) == {"u": 1, "force": 1, "e": STRAIN_ORDER}
     assert convergence_orders(1, singular=False) == {"u": 2, "force": 2, "e": 1}
     assert convergence_orders(2, singular=False) == {"u": 3, "force": 3, "e": 2}
 
@@ -153,7 +152,7 @@ def test_summaries_in_noise_and_json(block2d):
     assert error.summary["kind u"] == pytest.approx({"n": u.sum(), "rms": np.sqrt(np.mean(error.in_noise[u] ** 2)),
                                                     "max": error.in_noise[u].max()})
     assert set(error.summary) == {"all", "kind u", "kind e", "kind force", "stage 2"}
-    assert error.orders == {"u": 1, "force": 1, "e": 1}
+    assert error.orders == {"u": 1, "force": 1, "e": STRAIN_ORDER}
     data = json.loads(json.dumps(error.as_dict()))
     assert data["refined_options"]["mesh_size"] == 2.0 and len(data["in_noise"]) == obs.n_obs
 
@@ -201,10 +200,18 @@ def test_bad_orders_are_refused_naming_the_kind(orders):
         estimate_model_error({**BLOCK2D, "mesh_size": 5.0}, block2d_observations(), MU, orders=orders)
 
 
+def test_the_strain_factor_is_within_sqrt2_of_the_richardson_factor_of_every_order_from_1():
+    factor = 2.0 ** STRAIN_ORDER / (2.0 ** STRAIN_ORDER - 1.0)
+    assert factor == pytest.approx(np.sqrt(2.0), rel=1e-14)
+    for p in (1.0, 1.5, 2.6, 40.0):                            # the true factor 2^p / (2^p - 1) lies in (1, 2]
+        true = 2.0 ** p / (2.0 ** p - 1.0)
+        assert 1 / np.sqrt(2.0) - 1e-12 <= factor / true <= np.sqrt(2.0) + 1e-12
+
+
 def test_given_orders_replace_the_defaults(block2d):
     obs, error = block2d
     twice = estimate_model_error(BLOCK2D, obs, MU, orders={"u": 2})
     u = error.kinds == "u"
     np.testing.assert_allclose(twice.estimate[u], error.estimate[u] * (4 / 3) / 2, rtol=1e-12)
     np.testing.assert_array_equal(twice.estimate[~u], error.estimate[~u])
-    assert twice.orders == {"u": 2, "e": 1, "force": 1}
+    assert twice.orders == {"u": 2, "e": STRAIN_ORDER, "force": 1}

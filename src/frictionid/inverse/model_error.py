@@ -8,23 +8,36 @@ the error of the coarse model is, from the same model refined by a factor r (h -
 (Richardson extrapolation). For a smooth solution on elements of degree k the order of a pointwise value is
 k + 1 for displacements and reaction forces and k for strains. The contact models here are not smooth: at the
 edges of a contact (the block's footprint, the ends of a thread flank) the stress is singular, about r^(-1/2), and
-under uniform refinement the error it pollutes the whole field with decays as h^(2 lambda) = h. So p is capped at
-:data:`SINGULAR_ORDER` = 1 (:func:`convergence_orders`), for linear and quadratic elements alike; with r = 2 the
-factor r^p / (r^p - 1) is then 2, and where the true order is 1 or more the estimate lies between 1 and 2 times
-the error (it leans to the safe side for a weight).
+under uniform refinement the error it pollutes the whole field with decays as h^(2 lambda) = h. So the orders of
+displacements and forces are capped at :data:`SINGULAR_ORDER` = 1 (:func:`convergence_orders`), for linear and
+quadratic elements alike: with r = 2 the factor r^p / (r^p - 1) is 2, and where the true order is 1 or more the
+estimate lies between 1 and 2 times the error (the safe side for a weight). Face displacements of the 3-D
+block converge more slowly than that on coarse meshes (observed order 0.3-0.8), so a higher order for them would
+understate the error further.
+
+Strains at points away from the contact edges converge faster than order 1 on the 3-D block and the bolt
+(observed orders 2.6 and 2.3 over h, h / 2, h / 4), irregularly on coarse plane-strain meshes; by how much
+depends on the element technology, the grading and the distance to the edge, none of which one refinement shows. For an order known only to lie in [1, inf) the factor lies in (1, 2]; the
+estimate uses their geometric mean sqrt(2), which is within a factor sqrt(2) of the Richardson error for any such
+order (:data:`STRAIN_ORDER` = log2(2 + sqrt(2)) = 1.77 is the order that gives it).
 
 Measured with ``benchmarks/model_error.py`` (estimate from h / 2 against the difference to a mesh 4-32 times
-finer, RMS per kind): displacements 0.96-1.11 (91-97 % of the observations within a factor 2) and machine force
-0.92-1.29 on the plane-strain block (quadratic triangles, h = 4, 2, 1 mm), the 3-D block (linear hexahedra,
-2.5 mm) and the M20 bolt (flank 0.2 mm); the a priori orders give 0.55-0.74 there. Strains: 1.3-1.9 (67-77 %
-within a factor 2; on the bolt 1.7, all within), except 4.9 on the plane-strain block at 2 mm, where strains 1 mm from a
-contact edge do not yet converge regularly: for strains the estimate is an order of magnitude, not a bound. On
-the 3-D block with linear hexahedra the face displacements converge at an observed order of only 0.3 over 2.5,
-1.25, 0.625 mm (pre-asymptotic), so there both the estimate and the finest-mesh difference understate the error.
-Those block figures are for uniform standard hexahedra. The block builder's default (grading 4, incompatible
-modes) at 2.5 mm, against 0.625 mm (``model_error.py block --size 2.5 --levels 3``): displacements 1.29 (85 %
-within a factor 2), machine force 1.56, strains 2.06 (62 %): its strains converge at an observed order of 2.6
-over that sequence, so the capped order overstates them by about 2.
+finer, RMS ratio estimate / actual per kind, the runs its docstring lists):
+
+============================================  ============  =====  =======  ===================
+case (coarse mesh, finest)                     displacement  force  strains  strains with p = 1
+============================================  ============  =====  =======  ===================
+3-D block, builder default, 2.5 (0.625) mm     1.29          1.56   1.46     2.06
+M20 bolt, flank 0.2 (0.05) mm                  1.29          --     1.23     1.7
+plane-strain block, quadratic, 4 (0.125) mm    1.04          0.92   0.95     1.3
+plane-strain block, quadratic, 2 (0.125) mm    1.07          0.99   3.47     4.9
+============================================  ============  =====  =======  ===================
+
+The a priori orders give 0.59-0.86 for displacements there. On the plane-strain block at 2 mm strains 1 mm from
+a contact edge do not yet converge regularly (median ratio 1.04, but a few points far off): for strains the
+estimate is an order of magnitude, not a bound. On the 3-D block with uniform linear hexahedra the face
+displacements converge at an observed order of only 0.3 over 2.5, 1.25, 0.625 mm (pre-asymptotic), so there both
+the estimate and the finest-mesh difference understate the error.
 
 The estimate is made at several coefficient sets (an identification's start and end) and the largest
 magnitude per observation is kept, so that it holds along the fit. In units of the noise it says whether the
@@ -58,19 +71,24 @@ ORDER_OFFSET = {"u": 1, FORCE: 1, "e": 0}
 #: order to which the contact edges' stress singularity (about r^(-1/2)) limits every quantity under uniform
 #: refinement: its pollution error is O(h^(2 lambda)), lambda about 1/2 (measured: benchmarks/model_error.py)
 SINGULAR_ORDER = 1
+#: order used for strains under that cap: the one whose Richardson factor 2^p / (2^p - 1) = sqrt(2) is the
+#: geometric mean of the factors of all orders in [1, inf) (module docstring)
+STRAIN_ORDER = float(np.log2(2.0 + np.sqrt(2.0)))
 
 
-def convergence_orders(element_order: int, singular: bool = True) -> dict[str, int]:
+def convergence_orders(element_order: int, singular: bool = True) -> dict[str, float]:
     """Convergence order p of each quantity kind ("u", "e", "force") on elements of ``element_order``.
 
     ``singular``: the model has contact edges (every frictional contact model here has), which cap p at
-    :data:`SINGULAR_ORDER`; False gives the a priori orders of a smooth solution.
+    :data:`SINGULAR_ORDER` for displacements and forces and make the strains' order unknown above it
+    (:data:`STRAIN_ORDER`); False gives the a priori orders of a smooth solution.
 
     >>> convergence_orders(2), convergence_orders(2, singular=False)
-    ({'u': 1, 'force': 1, 'e': 1}, {'u': 3, 'force': 3, 'e': 2})
+    ({'u': 1, 'force': 1, 'e': 1.771553303163612}, {'u': 3, 'force': 3, 'e': 2})
     """
-    cap = SINGULAR_ORDER if singular else np.inf
-    return {kind: int(min(element_order + offset, cap)) for kind, offset in ORDER_OFFSET.items()}
+    if not singular:
+        return {kind: element_order + offset for kind, offset in ORDER_OFFSET.items()}
+    return {kind: STRAIN_ORDER if kind == "e" else SINGULAR_ORDER for kind in ORDER_OFFSET}
 
 
 def richardson(coarse: np.ndarray, fine: np.ndarray, order, factor: int = 2) -> np.ndarray:
