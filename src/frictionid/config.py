@@ -25,8 +25,8 @@ SCHEMA = {
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
-                 "model_error": "off", "refine_target": 0.0, "refine_budget": 2},
-    "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "fields": True},
+                 "model_error": "off", "refine_target": 0.0, "refine_budget": 2, "starts": 1, "seed": 0},
+    "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "retries": 2, "fields": True},
 }
 OPEN_TABLES = {"model"}
 
@@ -71,8 +71,13 @@ TYPES = {
     "identify.refine_target": ((int, float), "a number >= 0 (largest RMS model error in noise levels; 0: no "
                                              "refinement)"),
     "identify.refine_budget": (int, "a whole number >= 1 (refinements at most)"),
+    "identify.starts": ((int, list), "a number of starts or a list of start points (each a list of values or "
+                                     "a table zone = value)"),
+    "identify.seed": (int, "a whole number (seed of the drawn start points)"),
     "run.dir": (str, "a folder name"),
     "run.workers": (int, "a whole number"),
+    "run.scheduler": (str, '"local" or the address of a Dask scheduler, "tcp://host:port"'),
+    "run.retries": (int, "a whole number >= 0 (runs of a task lost with its worker, or failed, after the first)"),
     "run.fields": (bool, "true or false"),
 }
 

@@ -35,6 +35,8 @@ from .report.outputs import write_outputs
 from .report.vtu import export_fields
 from .report.tables import prefit_summary
 from .result import IdentificationResult
+from .run import multistart
+from .run.executor import check_scheduler, make_executor
 from .run.store import RunStore
 
 log = logging.getLogger(__name__)
@@ -81,9 +83,9 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                          f"{ident['resolution']!r} and {ident['suggestions']!r}")
     if int(config.run["workers"]) < 1:
         raise InputError(f"{where}: run.workers must be at least 1, got {config.run['workers']}")
-    if config.run.get("scheduler"):
-        raise InputError(f"{where}: run.scheduler (a Dask cluster) is not available yet; use run.workers "
-                         "for parallel evaluations on this machine")
+    check_scheduler(config.run.get("scheduler"), f"{where}:")
+    if int(config.run["retries"]) < 0:
+        raise InputError(f"{where}: run.retries must be 0 or more, got {config.run['retries']}")
     given_model, model_options = model, dict(config.model) if model is None else {}
     if model is None:
         start = time.perf_counter()
@@ -96,6 +98,8 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     else:
         parameters = parameters.ordered_as(model.zone_names, f"{where}: parameters")
     _check_identify(config, ident, len(parameters.free_names), list(parameters.free_names))
+    multistart.start_points(ident["starts"], parameters.x0, parameters.lower, parameters.upper, int(ident["seed"]),
+                            parameters.free_names, f"{where}:")
     check_options(ident, model_options, f"{where}:")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
@@ -150,7 +154,7 @@ def _least_squares(evaluator: Evaluator, parameters: Parameters, config: Config,
 def identify(model: Model | dict, measurements: Measurements | str | Path, parameters: Parameters | dict, *,
              observables, stages, noise: dict | None = None, regions: dict | None = None,
              run_dir: str | Path | None = None, resume: bool = False, solver: dict | None = None, workers: int = 1,
-             progress=None, **options) -> IdentificationResult:
+             scheduler: str | None = None, progress=None, **options) -> IdentificationResult:
     """Identify the zone coefficients of ``model`` from ``measurements`` (the Python interface; the command line
     runs :func:`identify_config`, and both give the same result.json).
 
@@ -172,6 +176,8 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
         The [solver] table (default: the embedded backend).
     workers : int
         Parallel evaluations (run.workers).
+    scheduler : str, optional
+        A Dask cluster for them (run.scheduler): "local" or "tcp://host:port".
     progress : callable, optional
         ``progress(text)`` gets one line per phase and iteration; default quiet.
     **options
@@ -203,7 +209,7 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
                        "observables": list(observables), "stages": list(stages), "noise": dict(noise or {}),
                        "regions": dict(regions or {})},
               "solver": dict(solver or {}), "identify": options,
-              "run": {"dir": str(run_dir or "(temporary)"), "workers": workers}}
+              "run": {"dir": str(run_dir or "(temporary)"), "workers": workers, "scheduler": scheduler}}
     config = config_from_dict(tables, need=("friction", "data", "run") + (("model",) if isinstance(model, dict)
                                                                           else ()), name="identify()")
     echo = progress or (lambda text: None)
@@ -242,11 +248,19 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
         raise exc.named(obs.point_labels, obs.source) from None
     echo(f"{config.solver['backend']} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "
          f"({time.perf_counter() - condensed:.1f} s{', condensed' if config.solver['backend'] == 'embedded' else ''})")
-    store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
+    executor = make_executor(backend, int(config.run["workers"]), config.run["scheduler"],
+                             int(config.run["retries"]), f"{config.where}:")
+    try:
+        store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
+    except BaseException:
+        executor.close()
+        raise
+    if executor.parallel:
+        echo(f"parallel solves: {executor.describe()}")
     evaluator = Evaluator(backend,
                           setup.observations, setup.parameters, store, config.identify["jacobian"],
                           float(config.identify["step"]), float(config.identify["tikhonov"]),
-                          config.identify["prior"], float(config.identify["penalty"]), int(config.run["workers"]))
+                          config.identify["prior"], float(config.identify["penalty"]), executor=executor)
     progress = _iteration_lines(echo, on_iteration)
     problem = _least_squares(evaluator, setup.parameters, config, store, progress)
     if on_prefit is None:
@@ -286,7 +300,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
         report = prefit(evaluator, setup.model, float(config.identify["resolution"]),
                         int(config.identify["suggestions"]), factory)
         on_prefit(report)
-        outcome = _optimise(problem, config)
+        outcome, starts = _optimise_starts(problem, config, setup, evaluator, store, echo)
         error = None
         if config.identify["model_error"] != "off":
             echo(f"fit {outcome.status}; model error: the model refined by 2 at the start and the fitted point ...")
@@ -302,6 +316,8 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                  write_files)
         raise
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
+    if starts:
+        result["starts"] = starts
     store.put_result(result)
     store.set_status(result["status"])
     if write_files:
@@ -316,6 +332,33 @@ def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
     ident = config.identify
     return optimise(problem, ident["method"], max_iterations=int(ident["max_iterations"]), tol=float(ident["tol"]),
                     options=dict(ident["options"]))
+
+
+def _optimise_starts(problem: LeastSquares, config: Config, setup, evaluator: Evaluator, store: RunStore,
+                     echo) -> tuple[OptimiseResult, list[dict]]:
+    """The fit from the configured start, or with identify.starts the fits from every start (side by side on a
+    parallel executor) and the best of them, whose iterations are then stored as the run's; the list of starts
+    for result.json ([] for one start)."""
+    ident, params = config.identify, setup.parameters
+    points = multistart.start_points(ident["starts"], params.x0, params.lower, params.upper, int(ident["seed"]),
+                                     params.free_names)
+    if len(points) == 1 and np.array_equal(points[0], params.x0):
+        return _optimise(problem, config), []
+    echo(f"{len(points)} starts ({evaluator.executor.describe()})")
+
+    def optimise_from(k, x0):
+        lines = _iteration_lines(lambda text: echo(f"start {k + 1}: {text}"))
+        quiet = replace(problem, x0=x0, progress=lambda i, x, objective: lines(i, params.full(x), objective,
+                                                                              evaluator))
+        return _optimise(quiet, config)
+
+    evaluator.executor.start()
+    runs = multistart.run_starts(points, optimise_from, evaluator.executor.parallel)
+    chosen = multistart.best(runs)
+    for i, (x, objective) in enumerate(zip(chosen.outcome.history_x, chosen.outcome.history_objective)):
+        store.record_iteration(i, x, objective)
+    echo(f"best: start {chosen.index + 1} of {len(points)}, J={chosen.outcome.objective:.6e}")
+    return chosen.outcome, multistart.summary(runs, chosen, params.full, params.names)
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):

@@ -9,28 +9,19 @@ for them; the penalty is what keeps a run from going there.
 from __future__ import annotations
 
 import logging
-import multiprocessing
-import time
+import threading
 from dataclasses import replace
 
 import numpy as np
 
 from ..errors import SolverError
 from ..progress import bar
+from ..run.executor import make_executor
 from .observations import Observations
 from .parameters import Parameters
 
 log = logging.getLogger(__name__)
 JACOBIANS = ("analytic", "forward", "central")
-_BACKEND = None   # the backend a forked worker inherits (fork start method: nothing is pickled)
-
-
-def _worker_predict(mu: np.ndarray):
-    """A forward solve in a worker process: the backend's prediction, or the message of a SolverError."""
-    try:
-        return _BACKEND.predict(mu, False)
-    except SolverError as exc:
-        return str(exc)
 
 
 class Evaluator:
@@ -38,19 +29,23 @@ class Evaluator:
 
     Counts forward solves (``n_forward``) and solves with sensitivities (``n_sensitivity``) actually run,
     and evaluations recovered from the store of an earlier (interrupted) run (``n_replayed``). Within a run,
-    repeated requests for the same point are served from memory and counted nowhere.
+    repeated requests for the same point are served from memory and counted nowhere. Solves run on
+    ``executor`` (:mod:`frictionid.run.executor`; default: this process, or ``workers`` forked processes);
+    the evaluator may be shared by threads (multi-start), each waiting for its own solves.
     """
 
     def __init__(self, backend, observations: Observations, parameters: Parameters, store=None,
                  jacobian: str = "analytic", step: float = 1e-4, tikhonov: float = 0.0, prior=None,
-                 penalty: float = 0.0, workers: int = 1):
+                 penalty: float = 0.0, workers: int = 1, executor=None):
         self.backend, self.obs, self.params, self.store = backend, observations, parameters, store
         self.jacobian_kind, self.step = jacobian, step
         self.tikhonov, self.penalty = tikhonov, penalty
         self.prior = parameters.x0 if prior is None else np.broadcast_to(np.asarray(prior, float), parameters.x0.shape)
         self.n_forward = self.n_sensitivity = self.n_replayed = self.n_failed = 0
         self._memo: dict[tuple[bytes, bool], tuple] = {}
-        self.workers, self._pool = max(int(workers), 1), None
+        self.executor = executor if executor is not None else make_executor(backend, max(int(workers), 1))
+        self.workers = self.executor.n_workers
+        self._lock = threading.Lock()
 
     def _predict(self, x: np.ndarray, sensitivities: bool):
         """(f (n_obs,), df/dmu (n_obs, n_zones) or None) at free coefficients x, from the store if known.
@@ -69,15 +64,11 @@ class Evaluator:
             self.n_replayed += 1
             self._memo[(x.tobytes(), sensitivities)] = stored["f"], stored.get("dfdmu")
             return self._memo[(x.tobytes(), sensitivities)]
-        start = time.perf_counter()
         mu = np.maximum(self.params.full(x), 0.0)
-        try:
-            prediction = self.backend.predict(mu, sensitivities)
-        except SolverError as exc:
-            if np.array_equal(x, self.params.x0):
-                raise
-            prediction = str(exc)
-        return self._keep(x, sensitivities, prediction, time.perf_counter() - start)
+        prediction, wall = self.executor.result(self.executor.submit(mu, sensitivities))
+        if isinstance(prediction, str) and np.array_equal(x, self.params.x0):
+            raise SolverError(prediction)
+        return self._keep(x, sensitivities, prediction, wall)
 
     def _keep(self, x: np.ndarray, sensitivities: bool, prediction, wall: float):
         """Count, store and memoise one solve at x: a Prediction, or the message of a failed solve (f = inf)."""
@@ -86,13 +77,15 @@ class Evaluator:
         if failed:
             log.warning("forward solve failed at mu = %s (f = inf there): %s",
                         np.maximum(self.params.full(x), 0.0).tolist(), prediction)
-            self.n_failed += 1
         f = np.full(self.obs.n_obs, np.inf) if failed else self.obs.predicted(prediction.values)
         dfdmu = None if failed or prediction.derivatives is None else self.obs.derivatives(prediction.derivatives)
-        if sensitivities:
-            self.n_sensitivity += 1
-        else:
-            self.n_forward += 1
+        with self._lock:
+            if failed:
+                self.n_failed += 1
+            if sensitivities:
+                self.n_sensitivity += 1
+            else:
+                self.n_forward += 1
         if self.store is not None:
             outputs = {"f": f} if dfdmu is None else {"f": f, "dfdmu": dfdmu}
             self.store.record(x, kind, outputs, status="failed" if failed else "ok", wall_time=wall)
@@ -144,13 +137,13 @@ class Evaluator:
     def _finite_differences(self, x: np.ndarray) -> np.ndarray:
         """Forward (the paper's) or central differences with step max(step |x|, step) per coefficient.
 
-        With ``workers`` > 1 the perturbed points are solved in parallel worker processes.
+        With a parallel executor the perturbed points are solved at once, each stored as it arrives.
         """
         h = self.step * np.maximum(np.abs(x), 1.0)
         steps = np.diag(h)
         points = [x + e for e in steps] + ([] if self.jacobian_kind == "forward" else [x - e for e in steps])
-        if self.workers > 1:
-            self._solve_in_parallel(points)
+        if self.executor.parallel:
+            self.solve_all(points)
         columns = bar(range(len(x)), len(x), f"{self.jacobian_kind}-difference Jacobian")
         return np.column_stack([self._difference(x, steps[k], h[k]) for k in columns])
 
@@ -170,25 +163,22 @@ class Evaluator:
         raise SolverError(f"finite differences: the forward solves on both sides of mu = "
                           f"{np.maximum(self.params.full(x), 0.0).tolist()} failed (step {h:g}); see the log")
 
-    def _solve_in_parallel(self, points: list[np.ndarray]) -> None:
-        """Solve the points not known yet in the worker pool; record and memoise them here, in order."""
-        missing = [p for p in points if (p.tobytes(), False) not in self._memo and self._stored(p, "forward") is None]
+    def solve_all(self, points: list[np.ndarray]) -> None:
+        """Forward solves at free coefficients ``points`` not known yet, on the executor at once; each one is
+        recorded and memoised as it arrives (in any order: a point's result does not depend on it)."""
+        missing, seen = [], set()
+        for p in points:
+            key = p.tobytes()
+            if key not in seen and (key, False) not in self._memo and self._stored(p, "forward") is None:
+                missing.append(p)
+                seen.add(key)
         if len(missing) < 2:
             return
-        if self._pool is None:
-            global _BACKEND
-            _BACKEND = self.backend
-            self._pool = multiprocessing.get_context("fork").Pool(self.workers)
-        start = time.perf_counter()
-        results = list(bar(self._pool.imap(_worker_predict, [np.maximum(self.params.full(p), 0.0) for p in missing]),
-                           len(missing), f"{len(missing)} solves on {self.workers} workers"))
-        wall = (time.perf_counter() - start) / len(missing)
-        for p, prediction in zip(missing, results):
-            self._keep(p, False, prediction, wall)
+        tasks = [self.executor.submit(np.maximum(self.params.full(p), 0.0), False) for p in missing]
+        done = self.executor.completed(tasks)
+        for k, (prediction, wall) in bar(done, len(missing), f"{len(missing)} solves on {self.workers} workers"):
+            self._keep(missing[k], False, prediction, wall)
 
     def close(self) -> None:
-        """Stop the worker processes, if any."""
-        if self._pool is not None:
-            self._pool.close()
-            self._pool.join()
-            self._pool = None
+        """Stop the executor's workers, if any."""
+        self.executor.close()

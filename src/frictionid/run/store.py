@@ -1,9 +1,11 @@
 """The run store: one SQLite file per run holding every evaluation, the iteration history and the result."""
 
 import difflib
+import functools
 import io
 import json
 import sqlite3
+import threading
 from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
@@ -25,6 +27,15 @@ CREATE TABLE outputs (evaluation INTEGER NOT NULL REFERENCES evaluations (id), n
 CREATE TABLE iterations (iteration INTEGER PRIMARY KEY, x BLOB NOT NULL, objective REAL NOT NULL,
                          extra TEXT NOT NULL, created TEXT NOT NULL);
 """
+
+
+def _locked(method):
+    """One caller at a time on the store's connection (a transaction or a read with its fetches)."""
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+    return locked
 
 
 def _field_or_index(row: tuple, key):
@@ -57,10 +68,12 @@ class RunStore:
 
     Every write is its own transaction, committed (WAL journal, ``synchronous=FULL``) before the method returns,
     so a process killed at any moment loses at most the evaluation it had not yet recorded. Open with :meth:`open`.
+    Threads may share a store (the starts of a multi-start run): one statement or transaction at a time.
     """
 
     def __init__(self, connection: sqlite3.Connection, path: Path, resumed: bool):
         self._conn, self.path, self.resumed = connection, path, resumed
+        self._lock = threading.RLock()
 
     @classmethod
     def open(cls, run_dir, config_text: str, fingerprint: str, resume: bool) -> "RunStore":
@@ -84,7 +97,7 @@ class RunStore:
         """
         path = Path(run_dir) / FILE_NAME
         path.parent.mkdir(parents=True, exist_ok=True)
-        conn = sqlite3.connect(path, timeout=10.0, isolation_level=None)
+        conn = sqlite3.connect(path, timeout=10.0, isolation_level=None, check_same_thread=False)
         try:
             meta = _read_meta(conn, path)
             if meta is None:
@@ -109,6 +122,7 @@ class RunStore:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    @_locked
     def record(self, x, kind: str, outputs: dict, status: str = "ok", wall_time: float = 0.0) -> None:
         """Store one evaluation at coefficients ``x`` with its named output arrays (kept exactly, as .npy)."""
         x = _as_x(x)
@@ -118,6 +132,7 @@ class RunStore:
             conn.executemany("INSERT INTO outputs (evaluation, name, npy) VALUES (?, ?, ?)",
                              [(row.lastrowid, name, _to_npy(value)) for name, value in outputs.items()])
 
+    @_locked
     def lookup(self, x, kind: str, status: str = "ok") -> dict | None:
         """Outputs of the latest evaluation of ``kind`` with ``status`` at bitwise the same ``x``, else None.
 
@@ -131,22 +146,26 @@ class RunStore:
                 return {name: np.load(io.BytesIO(blob), allow_pickle=False) for name, blob in outputs}
         return None
 
+    @_locked
     def n_evaluations(self, kind: str | None = None) -> int:
         """Number of recorded evaluations (any status), of exactly ``kind`` if given."""
         where, args = ("", ()) if kind is None else (" WHERE kind = ?", (kind,))
         return self._conn.execute("SELECT COUNT(*) FROM evaluations" + where, args).fetchone()[0]
 
+    @_locked
     def evaluations(self) -> list[Evaluation]:
         """All evaluations in recording order (without their outputs; see :meth:`lookup`)."""
         rows = self._conn.execute("SELECT id, x, kind, status, wall_time, created FROM evaluations ORDER BY id")
         return [Evaluation(index, np.frombuffer(x, dtype="<f8").copy(), *rest) for index, x, *rest in rows]
 
+    @_locked
     def record_iteration(self, iteration: int, x, objective: float, extra: dict | None = None) -> None:
         """Store an optimiser iteration; recording the same number again (a resumed replay) replaces it."""
         row = (int(iteration), _as_x(x).tobytes(), float(objective), json.dumps(extra or {}, default=_plain), _now())
         with _transaction(self._conn) as conn:
             conn.execute("INSERT OR REPLACE INTO iterations VALUES (?, ?, ?, ?, ?)", row)
 
+    @_locked
     def iterations(self) -> list[Iteration]:
         """All iterations, by iteration number."""
         rows = self._conn.execute("SELECT * FROM iterations ORDER BY iteration").fetchall()
@@ -169,10 +188,12 @@ class RunStore:
         """The stored result, or None before :meth:`put_result`."""
         return json.loads(self._get_meta("result") or "null")
 
+    @_locked
     def _put_meta(self, **values: str) -> None:
         with _transaction(self._conn) as conn:
             conn.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", values.items())
 
+    @_locked
     def _get_meta(self, key: str) -> str | None:
         return (self._conn.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone() or (None,))[0]
 
