@@ -151,13 +151,6 @@ def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
         read_data(config_data(file=[{"path": files[0]}, {"path": files[0], "stage": 1}]), Path)
 
 
-@pytest.mark.parametrize("data", [config_data(file="m.csv", transform={"rotation_deg": [0, 0, 90]}),
-                                  config_data(file=[{"path": "m.csv", "transform": {"translation": [1, 0, 0]}}])])
-def test_transform_is_refused_as_not_yet_available(data):
-    with pytest.raises(InputError, match="transform: mapping a DIC frame .* is not available yet"):
-        read_data(data, Path)
-
-
 def identified(folder: Path, name: str, **data) -> dict:
     """Coefficients of examples/first's identify.toml with [data] changed, run into runs/<name>."""
     config = tomllib.loads((folder / "identify.toml").read_text())

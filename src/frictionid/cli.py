@@ -106,17 +106,27 @@ def _run_simulate(args) -> int:
 
 
 def _add_check_data(sub):
-    parser = sub.add_parser("check-data", help="validate a measurement file and print a summary")
-    parser.add_argument("file", help="measurement CSV or DIC export")
+    parser = sub.add_parser("check-data", help="validate a measurement file (or a config's [data]) and print a "
+                                               "summary")
+    parser.add_argument("file", help="measurement CSV or DIC export, or a config (.toml): its [data] files as "
+                                     "identify reads them, frames and their residuals included")
     parser.add_argument("--format", help="force an export format (docs/data.md); default: recognised")
     parser.add_argument("--strain", help="strain measure where the export does not say it")
     parser.set_defaults(run=_run_check_data)
 
 
 def _run_check_data(args) -> int:
-    from .data.sources import check_data
+    from .data.sources import check_config_data, check_data, fits_surface
 
-    print(check_data(args.file, args.format, args.strain))
+    if not args.file.endswith(".toml"):
+        print(check_data(args.file, args.format, args.strain))
+        return 0
+    from .builders.registry import build_model
+    from .config import read_config
+
+    config = read_config(args.file, need=("data",))
+    model = build_model(config.model) if fits_surface(config.data) else None
+    print(check_config_data(config, model))
     return 0
 
 

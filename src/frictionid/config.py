@@ -18,7 +18,8 @@ SCHEMA = {
     "model": {"builder": REQUIRED},                  # builder options are checked against the builder
     "friction": {"zones": REQUIRED, "bounds": [0.0, 1.0], "fixed": {}},
     "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {},
-             "format": None, "columns": None, "strain": None, "forces": None, "transform": None},
+             "format": None, "columns": None, "strain": None, "forces": None, "transform": None,
+             "relative_to": None},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
                "load_scale": 1.0},
@@ -35,12 +36,16 @@ TYPES = {
     "friction.zones": (dict, "a table of zone = start value"),
     "friction.fixed": (dict, "a table of zone = value"),
     "friction.bounds": ((list, dict), "a pair [lower, upper] or a table zone = [lower, upper] (\"*\": the others)"),
-    "data.file": ((str, list, dict), 'a file name, a list of files (one per stage) or tables { path = "...", stage = 2 }'),
+    "data.file": ((str, list, dict), 'a file name, a list of files (one per stage or view) or tables '
+                                     '{ path = "...", stage = 2, view = "front", transform = {...} }'),
     "data.format": (str, 'an export format, e.g. "vic3d" (docs/data.md)'),
     "data.columns": (dict, 'a table of quantity = column name, e.g. { x = "X [mm]", ux = "U [mm]" }'),
     "data.strain": (str, '"engineering", "green-lagrange" or "log"'),
     "data.forces": (list, "a list of machine forces [N], one per stage"),
     "data.observables": (list, 'a list of quantity names, e.g. ["ux", "uy"]'),
+    "data.transform": (dict, 'a table { rotation_deg = [rx, ry, rz], translation = [tx, ty, tz] } or '
+                             '{ fit = "points", points = { ... } } (docs/data.md, "Frames")'),
+    "data.relative_to": (str, 'a point label of the data file, e.g. "12"'),
     "data.stages": (list, "a list of stage numbers, e.g. [2]"),
     "data.noise": (dict, "a table of standard deviations, e.g. { u = 0.0005 }"),
     "data.regions": (dict, 'a table of point = region, e.g. { "*" = "block" }'),

@@ -80,7 +80,7 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     observables = tuple(data.get("observables") or ())
     force = machine_force(model) if FORCE in observables else None
     quantities = tuple(q for q in observables if q != FORCE) or tuple(DEFAULT_QUANTITIES[model.dim])
-    source = read_data(data, config.resolve, f"{config.where}: [data]") if data.get("file") else None
+    source = read_data(data, config.resolve, f"{config.where}: [data]", model) if data.get("file") else None
     observations = None
     if source is not None and noise and all(q in source.values for q in quantities) and \
             (force is None or not np.all(np.isnan(source.force))):

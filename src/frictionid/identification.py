@@ -18,7 +18,7 @@ from .backends.embedded import EmbeddedBackend
 from .builders.registry import build_model
 from .config import Config, config_from_dict
 from .data.measurements import Measurements
-from .data.sources import data_digest, data_paths, read_data
+from .data.sources import data_digest, data_paths, read_sources
 from .errors import InputError, SolverError
 from .fem.locate import PointsOutside
 from .inverse.evaluator import JACOBIANS, Evaluator
@@ -54,6 +54,7 @@ class Setup:
     fingerprint: str
     model_options: dict
     data_file: Path | None = None
+    frames: tuple = ()
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -105,13 +106,16 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
     data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None
-    given = measurements
+    given, frames, relative = measurements, [], {}
     if measurements is None:
-        measurements = read_data(config.data, config.resolve, where)
+        sources = read_sources(config.data, config.resolve, where, model)
+        measurements, frames, relative = sources.measurements, sources.frames, sources.relative
+        for frame in frames:
+            echo(f"{frame['file']}: {frame['line']}")
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
-                                     config.data.get("noise"), config.data.get("regions"))
+                                     config.data.get("noise"), config.data.get("regions"), relative)
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
-                 data_file)
+                 data_file, tuple(frames))
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -428,6 +432,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
         "model": setup.model_options,
+        "data": data_section(setup.frames, obs),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
                             "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),
@@ -438,6 +443,15 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
         "history": {"objective": outcome.history_objective.tolist(),
                     "coefficients": [params.full(x).tolist() for x in outcome.history_x]},
     }
+
+
+def data_section(frames, obs) -> dict:
+    """result.json's ``data``: the frame of each file that has one (given or fitted, with its residual) and the
+    reference points displacements are fitted relative to ([data] relative_to)."""
+    minus = np.full(obs.n_obs, -1) if obs.minus_row is None else obs.minus_row
+    n_quantities = max(len(obs.quantities), 1)
+    return {"frames": [{k: v for k, v in f.items() if k != "line"} for f in frames],
+            "relative_to": sorted({obs.point_labels[m // n_quantities] for m in minus[minus >= 0]})}
 
 
 @dataclass(frozen=True)

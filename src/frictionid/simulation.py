@@ -10,6 +10,7 @@ from .backends import check_backend, make_backend, solver_options
 from .builders.registry import build_model
 from .config import Config
 from .data.measurements import Measurements, write_measurements
+from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
 from .fem.locate import PointsOutside
@@ -33,11 +34,11 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     model = build_model(config.model)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
-    source = read_data(config.data, config.resolve, f"{config.where}: [data]")
+    source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
     labels = list(dict.fromkeys(source.points))
     first = {p: i for i, p in reversed(list(enumerate(source.points)))}
     xyz = np.array([source.coordinates[first[p]] for p in labels])
-    if model.kind != "3d" and np.any(xyz[:, 2] != 0):
+    if model.kind != "3d" and np.any(np.abs(xyz[:, 2]) > PLANE_TOL * max(1.0, float(np.abs(xyz).max()))):
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
     quantities = tuple(q for q in config.data.get("observables") or DEFAULT_QUANTITIES[model.dim] if q != FORCE)
     region_of = region_of_points(config.data.get("regions"), labels, model.mesh.region_names)

@@ -1,22 +1,30 @@
 """The measurement files of a config's ``[data]`` table: one file or a list (one per stage, or tables with their
-stage and force), generic CSV or DIC exports, read into one Measurements table (docs/data.md)."""
+stage, force, camera view and frame), generic CSV or DIC exports, read into one Measurements table in the model's
+frame (docs/data.md)."""
 
 from __future__ import annotations
 
 import hashlib
+import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from .dic import is_generic, read_export, read_text
+from .frame_fit import fit_to_points, fit_to_surface
+from .frames import FrameSpec, frame_spec, in_model_frame
 from .measurements import read_measurements
 from .table import Measurements
 
+log = logging.getLogger(__name__)
+
 #: keys of a table entry of ``[data] file``
-ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "transform")
+ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "transform", "relative_to")
+#: joins a view's name and a point's label in the file: "front/12"
+VIEW_SEPARATOR = "/"
 
 
 @dataclass(frozen=True)
@@ -30,15 +38,23 @@ class Entry:
     force: float | None
     format: str | None
     columns: dict | None
+    view: str | None = None
+    transform: FrameSpec | None = None
+    relative_to: str | None = None
+
+    def label(self, label: str) -> str:
+        """A point's label in the data: the file's, after ``view/`` when the entry names a view."""
+        return label if self.view is None else f"{self.view}{VIEW_SEPARATOR}{label}"
 
 
 def entries(data: dict, resolve, where: str = "[data]") -> list[Entry]:
     """The files of ``data["file"]`` in order; ``resolve`` turns a config path into a Path.
 
     A string is one file (an export in it is stage 1); a list gives one file per stage in stage order, each a
-    string or a table ``{ path = "...", stage = 2, force = 1200.0, format = "...", columns = {...} }``.
+    string or a table ``{ path = "...", stage = 2, force = 1200.0, format = "...", columns = {...},
+    view = "front", transform = {...}, relative_to = "12" }``; ``[data] transform`` and ``relative_to`` hold for
+    the entries that give none.
     """
-    _refuse_transform(data.get("transform"), f"{where}: [data] transform")
     files = data["file"]
     items = files if isinstance(files, list) else [files]
     if not items:
@@ -56,7 +72,6 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
     if unknown:
         raise InputError(f"{where}: [data] file entry {position}: unknown key {', '.join(map(repr, unknown))}; "
                          f"known: {', '.join(ENTRY_KEYS)}")
-    _refuse_transform(item.get("transform"), f"{where}: [data] file entry {position} transform")
     stage = item.get("stage", position)
     if isinstance(stage, bool) or not isinstance(stage, int) or stage < 1:
         raise InputError(f"{where}: [data] file entry {position}: stage must be a positive whole number, "
@@ -65,9 +80,28 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
     if force is not None and (isinstance(force, bool) or not isinstance(force, (int, float))
                               or not math.isfinite(force)):
         raise InputError(f"{where}: [data] force of stage {stage} must be a finite number [N], got {force!r}")
+    transform, key = (item["transform"], f"{where}: [data] file entry {position} transform") \
+        if "transform" in item else (data.get("transform"), f"{where}: [data] transform")
     return Entry(resolve(item["path"]), stage,
                  None if force is None else float(force), item.get("format", data.get("format")),
-                 item.get("columns", data.get("columns")) or None)
+                 item.get("columns", data.get("columns")) or None, _name(item.get("view"), position, where),
+                 None if transform is None else frame_spec(transform, key),
+                 _relative_to(item.get("relative_to", data.get("relative_to")), position, where))
+
+
+def _name(view, position: int, where: str) -> str | None:
+    if view is not None and (not isinstance(view, str) or not view or VIEW_SEPARATOR in view
+                             or any(c in view for c in "*?[:@")):
+        raise InputError(f"{where}: [data] file entry {position}: view must be a name without {VIEW_SEPARATOR!r}, "
+                         f"':', '@' or pattern characters, e.g. view = \"front\", got {view!r}")
+    return view
+
+
+def _relative_to(label, position: int, where: str) -> str | None:
+    if label is not None and not isinstance(label, str):
+        raise InputError(f"{where}: [data] file entry {position}: relative_to must be a point label of the file "
+                         f"(a string, e.g. \"12\"), got {label!r}")
+    return label
 
 
 def _listed_force(forces, stage: int, where: str):
@@ -78,43 +112,130 @@ def _listed_force(forces, stage: int, where: str):
     return forces[stage - 1] if stage <= len(forces) else None
 
 
-def _refuse_transform(value, what: str) -> None:
-    if value is not None:
-        raise InputError(f"{what}: mapping a DIC frame onto the model's frame is not available yet; export the "
-                         "points in the model's frame (undeformed coordinates, mm) and leave transform out")
+@dataclass(frozen=True)
+class Sources:
+    """What ``[data] file`` gave: the measurements (model frame, labels with their views), what was recognised in
+    each file (report lines), the frame of each file that has one (result.json's ``data.frames``) and, per point
+    label, the label of the point whose displacement its displacements are taken relative to."""
+
+    measurements: Measurements
+    lines: list[str]
+    frames: list[dict] = field(default_factory=list)
+    relative: dict[str, str] = field(default_factory=dict)
 
 
-def read_data(data: dict, resolve, where: str = "[data]") -> Measurements:
-    """Every file of ``[data] file`` read into one table (see :func:`read_data_reported`)."""
-    return read_data_reported(data, resolve, where)[0]
+def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
+    """Every file of ``[data] file`` read into one table (see :func:`read_sources`)."""
+    return read_sources(data, resolve, where, model).measurements
 
 
-def read_data_reported(data: dict, resolve, where: str = "[data]") -> tuple[Measurements, list[str]]:
-    """Every file of ``[data] file`` read into one table, and what was recognised in each (report lines).
+def read_data_reported(data: dict, resolve, where: str = "[data]", model=None) -> tuple[Measurements, list[str]]:
+    """Every file of ``[data] file`` read into one table, and what was recognised in each (report lines)."""
+    sources = read_sources(data, resolve, where, model)
+    return sources.measurements, sources.lines
+
+
+def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sources:
+    """Every file of ``[data] file`` read into one table in the model's frame, with what was recognised.
+
+    ``model`` gives the surface a frame is fitted to (``fit = "surface"``); it is not needed otherwise.
 
     Raises
     ------
     InputError
-        A bad entry, a file no reader recognises, a (point, stage) given by two files, a force that
-        contradicts the file's.
+        A bad entry or transform, a file no reader recognises, a (point, stage) given by two files, a force that
+        contradicts the file's, a reference point the file does not have.
     """
-    parts, lines = [], []
+    parts, lines, frames, relative, fitted = [], [], [], {}, {}
     for entry in entries(data, resolve, where):
-        measurements, report, generic = _read(entry, data.get("strain"))
+        measurements, report, generic, flavour = _read(entry, data.get("strain"))
         forces = {s: _listed_force(data.get("forces"), s, where) for s in measurements.stages} if generic \
             else {entry.stage: entry.force}
-        parts.append(_with_forces(measurements, {s: f for s, f in forces.items() if f is not None}))
-        lines += report
-    return _joined(parts), lines
+        measurements = _with_forces(measurements, {s: f for s, f in forces.items() if f is not None})
+        if entry.transform is not None:
+            measurements, frame = _framed(entry, measurements, model, fitted)
+            frames.append(frame)
+            report = report + [f"  {frame['line']}"]
+            log.info("%s: %s", entry.path, frame["line"])
+        elif flavour == "matchid":
+            report = report + [f"  note: {MATCHID_NOTE}"]
+            log.warning("%s: %s", entry.path, MATCHID_NOTE)
+        relative.update(_relative_labels(entry, measurements, relative))
+        parts.append(_with_view(entry, measurements))
+        lines += report + ([f"  view {entry.view!r}: points labelled '{entry.label('<point>')}'"] if entry.view
+                           else [])
+    return Sources(_joined(parts), lines, frames, relative)
 
 
-def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool]:
+#: MatchID's frame (docs/data.md): read as written, turned by a transform
+MATCHID_NOTE = ("MatchID writes Y (and V) downwards, as in the image; read as written (no transform): a model "
+                "with y up needs transform = { rotation_deg = [180, 0, 0] } (y and z turned)")
+
+
+def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool, str]:
     text = read_text(entry.path)
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
         m = read_measurements(entry.path)
-        return m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"], True
+        return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],
+                True, "generic")
     m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain)
-    return m, report.lines(), False
+    return m, report.lines(), False, report.flavour
+
+
+def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measurements, dict]:
+    """``m`` in the model's frame by the entry's transform (fitted once per transform and set of points)."""
+    spec = entry.transform
+    labels = list(dict.fromkeys(m.points))
+    first = {p: i for i, p in reversed(list(enumerate(m.points)))}
+    xyz = m.coordinates[[first[p] for p in labels]]
+    if spec.fit is None:
+        frame, report = spec.frame, {"fit": None, **spec.frame.as_dict()}
+        line = (f"frame given: rotation_deg = [{', '.join(f'{a:.6g}' for a in frame.rotation_deg())}], "
+                f"translation = [{', '.join(f'{t:.6g}' for t in frame.translation)}] mm, scale {frame.scale:g}")
+    else:
+        key = (spec.key, xyz.tobytes(), tuple(labels))
+        if key not in fitted:
+            fitted[key] = fit_to_points(spec, labels, xyz, str(entry.path)) if spec.fit == "points" else \
+                fit_to_surface(spec, labels, xyz, _surface(spec, model), str(entry.path))
+        fit = fitted[key]
+        frame, report, line = fit.frame, fit.as_dict(), fit.line()
+    note = f"frame: {line}"
+    return (in_model_frame(m, frame, note),
+            {"file": str(entry.path), "stage": entry.stage, "view": entry.view, **report, "line": line})
+
+
+def _surface(spec: FrameSpec, model):
+    from ..fem.surface import mesh_surface
+    if model is None:
+        raise InputError(f"{spec.key}: fit = \"surface\" needs the model's surface; it is fitted by identify, "
+                         "simulate and check-data CONFIG.toml, not check-data FILE")
+    try:
+        return mesh_surface(model.mesh, spec.regions)
+    except InputError as exc:
+        raise InputError(f"{spec.key}.{exc}") from None
+
+
+def _relative_labels(entry: Entry, m: Measurements, known: dict) -> dict:
+    """label -> reference label for the entry's points (with their views), checked against the file."""
+    if entry.relative_to is None:
+        return {}
+    if entry.relative_to not in m.points:
+        shown = ", ".join(list(dict.fromkeys(m.points))[:8])
+        raise InputError(f"{entry.path}: relative_to = {entry.relative_to!r} is not a point of this file "
+                         f"(its points: {shown}, ...)")
+    out = {entry.label(p): entry.label(entry.relative_to) for p in dict.fromkeys(m.points)}
+    clash = [p for p, r in out.items() if known.get(p, r) != r]
+    if clash:
+        raise InputError(f"{entry.path}: point {clash[0]!r} is relative to {out[clash[0]]!r} here and to "
+                         f"{known[clash[0]]!r} in another file; give one relative_to per point")
+    return out
+
+
+def _with_view(entry: Entry, m: Measurements) -> Measurements:
+    if entry.view is None:
+        return m
+    return Measurements(tuple(entry.label(p) for p in m.points), m.coordinates, m.stage, m.force, m.values,
+                        m.sigma, m.comments + (f"view {entry.view!r}",), m.source)
 
 
 def _with_forces(m: Measurements, forces: dict[int, float]) -> Measurements:
@@ -138,7 +259,8 @@ def _joined(parts: list[Measurements]) -> Measurements:
         for key in zip(m.points, m.stage.tolist()):
             if key in first:
                 raise InputError(f"{m.source}: point {key[0]!r} at stage {key[1]} is also in {first[key]}; one "
-                                 "file per stage (several views of one stage need transforms, not yet available)")
+                                 "file per stage, or several views of one stage, each with view = \"name\" "
+                                 "(its points are then labelled name/point) and its own transform")
             first[key] = m.source
     names = [q for q in dict.fromkeys(q for m in parts for q in m.quantities)]
     nan = lambda m: np.full(m.n_rows, np.nan)  # noqa: E731
@@ -174,3 +296,20 @@ def check_data(path, format: str | None = None, strain: str | None = None) -> st
     valid and dropped points) and the summary of the measurements. An export is shown as stage 1."""
     m, lines = read_data_reported({"file": str(path), "format": format, "strain": strain}, Path)
     return "\n".join(lines + [m.summary()])
+
+
+def fits_surface(data: dict) -> bool:
+    """Whether a transform of ``[data]`` is fitted to the model's surface (so reading it needs the model)."""
+    files = data.get("file")
+    tables = [data.get("transform")] + [i.get("transform") for i in (files if isinstance(files, list) else [])
+                                        if isinstance(i, dict)]
+    return any(isinstance(t, dict) and t.get("fit") == "surface" for t in tables)
+
+
+def check_config_data(config, model=None) -> str:
+    """What ``frictionid check-data CONFIG.toml`` prints: every file of the config's ``[data]`` as identify reads
+    it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
+    sources = read_sources(config.data, config.resolve, f"{config.where}: [data]", model)
+    relative = sorted(set(sources.relative.values()))
+    return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
+                                       else []) + [sources.measurements.summary()])

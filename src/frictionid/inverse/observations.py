@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..data.table import DISPLACEMENTS
+from ..data.table import DISPLACEMENTS, PLANE_TOL
 from ..errors import InputError
 from ..model import Displacement, Model
 from ..model.model import component_index, reaction_label
@@ -59,6 +59,8 @@ class Observations:
     reactions : reaction sums the backend appends after the point rows (the machine force, if observed):
         row ``n_points * len(quantities) + k`` is ``reactions[k]``
     point_labels : the measurement file's label of each point; source : that file, for messages
+    minus_row : (n_obs,) backend row subtracted from ``row``'s value (-1: none): a displacement measured relative
+        to a reference point's ([data] relative_to) is predicted as the difference of the two points' values
     """
 
     points: np.ndarray
@@ -73,6 +75,7 @@ class Observations:
     reactions: tuple[str, ...] = ()
     point_labels: tuple[str, ...] = ()
     source: str = ""
+    minus_row: np.ndarray | None = None
 
     @property
     def n_obs(self) -> int:
@@ -84,11 +87,19 @@ class Observations:
 
     def predicted(self, values: np.ndarray) -> np.ndarray:
         """(n_obs,) model values from backend rows at stage ends (n_stages, n_rows)."""
-        return values[self.stage, self.row]
+        return self._relative(values[self.stage, self.row], values)
 
     def derivatives(self, derivatives: np.ndarray) -> np.ndarray:
         """(n_obs, n_zones) from (n_stages, n_rows, n_zones)."""
-        return derivatives[self.stage, self.row]
+        return self._relative(derivatives[self.stage, self.row], derivatives)
+
+    def _relative(self, at_rows: np.ndarray, values: np.ndarray) -> np.ndarray:
+        if self.minus_row is None or not np.any(self.minus_row >= 0):
+            return at_rows
+        relative = self.minus_row >= 0
+        out = at_rows.copy()
+        out[relative] -= values[self.stage[relative], self.minus_row[relative]]
+        return out
 
 
 def _coordinates(measurements, model: Model):
@@ -97,7 +108,9 @@ def _coordinates(measurements, model: Model):
         measurements = map_to_axisymmetric(measurements)
         return measurements, measurements.coordinates[:, :2]
     if model.kind == "plane_strain":
-        if np.any(np.abs(measurements.coordinates[:, 2]) > 0):
+        # a frame turned about z by a fitted or typed angle leaves round-off in z
+        size = max(1.0, float(np.abs(measurements.coordinates).max(initial=0.0)))
+        if np.any(np.abs(measurements.coordinates[:, 2]) > PLANE_TOL * size):
             raise InputError(f"{measurements.source}: a plane-strain model needs points with z = 0")
         return measurements, measurements.coordinates[:, :2]
     return measurements, measurements.coordinates
@@ -201,12 +214,14 @@ def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.nda
 
 
 def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
-                      regions: dict | None = None) -> Observations:
+                      regions: dict | None = None, relative: dict | None = None) -> Observations:
     """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model.
 
     ``regions`` is the ``[data] regions`` table, resolved by :func:`region_of_points` against every point of the
-    file (also those of stages not fitted)."""
-    noise, regions = dict(noise or {}), dict(regions or {})
+    file (also those of stages not fitted). ``relative`` (point label -> reference label, from ``[data]
+    relative_to``): that point's displacements are fitted as its displacement minus the reference's at the same
+    stage, in the data and in the model (the reference's own displacements are then not fitted)."""
+    noise, regions, relative = dict(noise or {}), dict(regions or {}), dict(relative or {})
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
             raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
@@ -226,19 +241,28 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     first = {p: i for i, p in reversed(list(enumerate(measurements.points)))}
     points = np.array([coordinates[first[p]] for p in labels_of]).reshape(-1, coordinates.shape[1])
     quantities = tuple(observables)
-    row, stage, y, sigma, labels = [], [], [], [], []
+    row, stage, y, sigma, labels, minus = [], [], [], [], [], []
+    at = {(p, int(s)): i for i, (p, s) in enumerate(zip(measurements.points, measurements.stage))}
     for q_index, quantity in enumerate(quantities):
         values = measurements.values[quantity]
         present = np.flatnonzero(~np.isnan(values))
         sig = _sigma(measurements, quantity, present, noise)
         for i, s in zip(present, sig):
-            p = point_index[measurements.points[i]]
+            label, reference = measurements.points[i], relative.get(measurements.points[i])
+            if quantity not in DISPLACEMENTS or reference is None:
+                reference = None
+            elif reference == label:
+                continue                            # its displacement relative to itself: zero, nothing to fit
+            p = point_index[label]
             row.append(p * len(quantities) + q_index)
             stage.append(int(measurements.stage[i]) - 1)
-            y.append(values[i])
+            y.append(values[i] - (0.0 if reference is None else
+                                  _reference_value(measurements, at, reference, quantity, i)))
+            minus.append(-1 if reference is None else point_index[reference] * len(quantities) + q_index)
             sigma.append(s)
-            labels.append(f"{measurements.points[i]}:{quantity}@{measurements.stage[i]}")
+            labels.append(f"{label}:{quantity}@{measurements.stage[i]}")
     for stage_number, value, sig in forces:
+        minus.append(-1)
         row.append(len(points) * len(quantities))
         stage.append(stage_number - 1)
         y.append(value)
@@ -256,7 +280,19 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     return Observations(points=points, point_regions=tuple(region_of[p] for p in labels_of),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
                         sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
-                        reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source))
+                        reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source),
+                        minus_row=np.array(minus, dtype=np.int64) if relative else None)
+
+
+def _reference_value(measurements, at: dict, reference: str, quantity: str, i: int) -> float:
+    """The reference point's measured ``quantity`` at row ``i``'s stage (relative_to)."""
+    stage = int(measurements.stage[i])
+    j = at.get((reference, stage))
+    value = np.nan if j is None else measurements.values[quantity][j]
+    if np.isnan(value):
+        raise InputError(f"{measurements.source}: data.relative_to: point {measurements.points[i]!r} is measured "
+                         f"relative to {reference!r}, which has no {quantity} at stage {stage}")
+    return float(value)
 
 
 def _forces(measurements, stages, noise: dict) -> list[tuple[int, float, float]]:
