@@ -190,8 +190,8 @@ def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measure
     xyz = m.coordinates[[first[p] for p in labels]]
     if spec.fit is None:
         frame, report = spec.frame, {"fit": None, **spec.frame.as_dict()}
-        line = (f"frame given: rotation_deg = [{', '.join(f'{a:.6g}' for a in frame.rotation_deg())}], "
-                f"translation = [{', '.join(f'{t:.6g}' for t in frame.translation)}] mm, scale {frame.scale:g}")
+        line = (f"frame given: rotation_deg = [{', '.join(f'{a + 0.0:.6g}' for a in frame.rotation_deg())}], "
+                f"translation = [{', '.join(f'{t + 0.0:.6g}' for t in frame.translation)}] mm, scale {frame.scale:g}")
     else:
         key = (spec.key, xyz.tobytes(), tuple(labels))
         if key not in fitted:

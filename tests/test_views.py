@@ -1,0 +1,132 @@
+"""Several camera views of one stage (issue 15, item 5), each an export in its own frame with its transform, identify
+like the generic CSV; relative_to removes a rigid motion the views see."""
+
+import json
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomli_w
+
+from frictionid.cli import main
+from frictionid.data import read_measurements
+from frictionid.data.frames import rotation_from_degrees
+from frictionid.data.sources import read_sources
+from frictionid.data.table import Measurements
+from frictionid.inverse.observations import Observations
+
+ROOT = Path(__file__).parents[1]
+sys.path.insert(0, str(ROOT / "tests" / "fixtures" / "dic"))
+import generate  # noqa: E402  (the fixtures' generator, tests/fixtures/dic/generate.py)
+
+#: view -> (points of examples/first it sees, writer, its frame: rotation_deg, translation [mm])
+VIEWS = {"left": ("L", generate.write_gom, 90.0, [-5.0, 2.0, 0.0]),
+         "right": ("R", generate.write_vic3d, -63.5, [5.0, 2.5, 0.0]),
+         "base": ("B", generate.write_matchid, [180.0, 0.0, 17.25], [0.5, -0.25, 0.0])}   # MatchID: y down
+
+
+def part(m: Measurements, prefix: str, offset=(0.0, 0.0)) -> Measurements:
+    """The rows of points labelled prefix*, displacements shifted by ``offset`` [mm] (a rigid motion)."""
+    rows = np.array([p.startswith(prefix) for p in m.points])
+    values = {"ux": m.values["ux"][rows] + offset[0], "uy": m.values["uy"][rows] + offset[1]}
+    return Measurements(tuple(np.array(m.points)[rows]), m.coordinates[rows], m.stage[rows], m.force[rows], values)
+
+
+def in_view_frame(m: Measurements, angles, shift) -> Measurements:
+    """``m`` as the view's DIC system gives it: p_file = R^T (p_model - t), u_file = R^T u_model."""
+    rotation = rotation_from_degrees(angles)
+    u = np.column_stack([m.values["ux"], m.values["uy"], np.zeros(m.n_rows)]) @ rotation
+    return Measurements(m.points, (m.coordinates - shift) @ rotation, m.stage, m.force,
+                        {"ux": u[:, 0], "uy": u[:, 1]})
+
+
+def write_views(folder: Path, offsets=None) -> tuple[list[dict], dict]:
+    """Stage 2 of the twin data as one export per view in its own frame; [data] file tables and regions."""
+    measured = read_measurements(folder / "measured.csv").select(stages=[2])
+    entries, regions = [], {}
+    for view, (prefix, writer, angles, shift) in VIEWS.items():
+        m = in_view_frame(part(measured, prefix, (offsets or {}).get(view, (0.0, 0.0))), angles, shift)
+        labels = writer(folder / f"{view}_2.csv", m)
+        entry = {"path": f"{view}_2.csv", "stage": 2, "view": view,
+                 "transform": {"rotation_deg": angles, "translation": shift}}
+        entries.append({**entry, "first_label": labels[0]})
+        regions[f"{view}/*"] = "base" if view == "base" else "block"
+    return entries, regions
+
+
+def identified(folder: Path, name: str, **data) -> dict:
+    """result.json of examples/first's identify.toml with [data] changed, on a 2 mm mesh, run into runs/<name>."""
+    config = tomllib.loads((folder / "identify.toml").read_text())
+    config["model"]["mesh_size"] = 2.0
+    config["data"].update(data)
+    config["run"] = {"dir": f"runs/{name}", "fields": False}
+    path = folder / f"{name}.toml"
+    path.write_text(tomli_w.dumps(config))
+    assert main(["identify", str(path)]) == 0
+    return json.loads((folder / "runs" / name / "result.json").read_text())
+
+
+def values(result: dict) -> dict:
+    return {zone: p["value"] for zone, p in result["parameters"].items()}
+
+
+def assert_same(a: dict, b: dict, rtol: float = 1e-8):
+    assert a.keys() == b.keys()
+    for zone in a:
+        assert abs(a[zone] - b[zone]) <= rtol * max(abs(b[zone]), 1.0), (zone, a[zone], b[zone])
+
+
+def test_views_with_transforms_identify_like_the_generic_csv(first):
+    entries, regions = write_views(first)
+    files = [{k: v for k, v in e.items() if k != "first_label"} for e in entries]
+    reference = identified(first, "views_generic", stages=[2])
+    by_views = identified(first, "views", file=files, regions=regions, stages=[2])
+    assert_same(values(by_views), values(reference))
+    frames = by_views["data"]["frames"]
+    assert [f["view"] for f in frames] == list(VIEWS) and all(f["fit"] is None for f in frames)
+    assert by_views["fit"]["n_obs"] == reference["fit"]["n_obs"] == 40
+
+
+def test_a_view_without_its_transform_is_not_the_same_data(first):
+    """The views' files really are in other frames: read without the transforms, they are off the model."""
+    entries, _ = write_views(first)
+    files = [{k: v for k, v in e.items() if k not in ("first_label", "transform")} for e in entries]
+    m = read_sources({"file": files, "observables": ["ux"], "stages": [2]}, lambda p: first / p).measurements
+    truth = read_measurements(first / "measured.csv").select(stages=[2])
+    assert np.abs(m.coordinates[:, :2] - truth.coordinates[:, :2]).max() > 1.0
+    assert m.points[0] == "left/L1" and m.points[-1].startswith("base/")
+
+
+def test_two_views_of_a_stage_without_view_names_are_refused(first, capsys):
+    entries, _ = write_views(first)
+    files = [{"path": entries[0]["path"], "stage": 2}, {"path": entries[0]["path"], "stage": 2}]
+    with pytest.raises(Exception, match="each with view = \"name\""):
+        read_sources({"file": files, "observables": ["ux"], "stages": [2]}, lambda p: first / p)
+
+
+def test_relative_to_removes_the_rigid_motion_each_view_sees(first):
+    """Each view's points carry a rigid displacement of their own (the machine's motion seen by that camera):
+    relative to a point of each view, the fit is the one without the motion; without relative_to it is not."""
+    offsets = {"left": (0.004, -0.003), "right": (-0.002, 0.005), "base": (0.003, 0.002)}
+    plain, regions = write_views(first)
+    files = [{k: v for k, v in e.items() if k != "first_label"} | {"relative_to": e["first_label"]} for e in plain]
+    still = identified(first, "relative_still", file=files, regions=regions, stages=[2])
+    write_views(first, offsets)
+    moved = identified(first, "relative_moved", file=files, regions=regions, stages=[2])
+    assert_same(values(moved), values(still))
+    assert moved["data"]["relative_to"] == sorted(f"{e['view']}/{e['first_label']}" for e in plain)
+    assert moved["fit"]["n_obs"] == 40 - 2 * len(VIEWS)              # the references' own motion is not fitted
+    absolute = identified(first, "relative_ignored", file=[{k: v for k, v in f.items() if k != "relative_to"}
+                                                           for f in files], regions=regions, stages=[2])
+    assert absolute["fit"]["reduced_chi2"] > 30 * moved["fit"]["reduced_chi2"]     # measured: 34.4 vs 0.277
+
+
+def test_relative_observations_predict_the_difference_of_two_rows():
+    obs = Observations(points=np.zeros((2, 2)), point_regions=(None, None), quantities=("ux",),
+                       row=np.array([0, 1]), stage=np.array([0, 0]), y=np.zeros(2), sigma=np.ones(2),
+                       labels=("P:ux@1", "Q:ux@1"), noise_known=True, minus_row=np.array([-1, 0]))
+    values = np.array([[3.0, 5.0]])
+    np.testing.assert_array_equal(obs.predicted(values), [3.0, 2.0])
+    np.testing.assert_array_equal(obs.derivatives(values[..., None] * [1.0, 10.0])[:, 1], [30.0, 20.0])
