@@ -17,7 +17,7 @@ from distributed import Client, LocalCluster, as_completed
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from ..errors import InputError, SolverError
-from .executor import CONNECT_TIMEOUT, LOCAL, solve
+from .executor import CONNECT_TIMEOUT, LOCAL, WorkerLost, solve
 
 log = logging.getLogger(__name__)
 _BACKENDS: dict[str, object] = {}   # on a worker: backends handed over by the plugin, by token
@@ -91,9 +91,12 @@ class DaskExecutor:
     def _lost(self, exc: Exception) -> Exception:
         if isinstance(exc, SolverError):
             return exc
-        return SolverError(f"run.scheduler = {self.scheduler!r}: a forward solve did not come back "
-                           f"({type(exc).__name__}: {exc}); run.retries = {self.retries} retries were allowed. "
-                           "Every finished solve is in the run store: continue with --resume")
+        allowed = (f"run.retries = {self.retries}" if self.scheduler == LOCAL else
+                   f"retries = {self.retries} for errors, the scheduler's distributed.scheduler.allowed-failures "
+                   "for lost workers")
+        return WorkerLost(f"run.scheduler = {self.scheduler!r}: a forward solve did not come back "
+                          f"({type(exc).__name__}: {exc}) after the retries allowed ({allowed}). Every finished "
+                          "solve is in the run store: continue with --resume")
 
     def close(self) -> None:
         """Leave a remote cluster as found (plugin removed); stop a local one."""

@@ -32,6 +32,11 @@ _ADDRESS = re.compile(r"^(tcp|tls)://[^\s:/]+:\d{1,5}$")
 _BACKEND = None   # the backend a forked worker process inherits (fork start method: nothing is pickled)
 
 
+class WorkerLost(SolverError):
+    """A solve that did not come back from its worker (after the allowed retries): the run stops, resumable;
+    unlike a solve that failed to converge, it says nothing about the coefficients."""
+
+
 def solve(backend, mu, sensitivities: bool):
     """One forward solve: (the backend's Prediction, or the message of its SolverError; wall time [s])."""
     start = time.perf_counter()

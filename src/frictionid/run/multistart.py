@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, SolverError
+from .executor import WorkerLost
 
 log = logging.getLogger(__name__)
 #: starts optimised side by side at most (threads of the client waiting for their solves)
@@ -79,10 +80,13 @@ class Start:
 
 def run_starts(points: np.ndarray, optimise_from, parallel: bool) -> list[Start]:
     """``optimise_from(k, x0) -> OptimiseResult`` for every start point; side by side in threads when the
-    executor behind it is ``parallel``, else one after the other. Results are independent of the order."""
+    executor behind it is ``parallel``, else one after the other. Results are independent of the order. A start
+    whose solver fails is listed as failed; a solve lost with its workers (:class:`WorkerLost`) stops the run."""
     def run(k: int) -> Start:
         try:
             return Start(k, points[k], optimise_from(k, points[k]))
+        except WorkerLost:
+            raise
         except SolverError as exc:
             log.warning("start %d from %s failed: %s", k + 1, points[k].tolist(), exc)
             return Start(k, points[k], None, str(exc))
