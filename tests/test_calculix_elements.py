@@ -2,7 +2,7 @@
 user's own mesh (needs ccx; skipped without it). Tolerances are those of tests/test_calculix_run.py: RMS of the
 difference over the range of the embedded values, displacements / strains 1 % / 2 % in plane strain, 1 % / 1 %
 axisymmetric, 2 % / 2 % in 3-D; reactions 2 % (2-D), the pull reaction 1 % (3-D); the press reaction as applied;
-in 3-D gross slip T = sum mu_i N_i in ccx within 0.5 %."""
+in 3-D gross slip T = sum mu_i N_i in ccx within 0.5 % (C3D10: 1.5 %, ccx measured -0.91 %)."""
 
 import importlib.util
 import shutil
@@ -16,7 +16,6 @@ from frictionid.backends.calculix.elements import element_type
 from frictionid.cli import main
 from frictionid.crosscheck import cross_check, default_points
 from frictionid.data.measurements import read_measurements
-from frictionid.errors import InputError
 from frictionid.simulation import DEFAULT_QUANTITIES
 
 from element_models import ELEMENTS, element_model
@@ -81,6 +80,7 @@ MEASURED = {
     "C3D8": "800 nodes; 0.15 / 0.04, 0.26 / 0.55; pull +0.41 %; 3.2 s",
     "C3D8I": "800 nodes; 0.14 / 0.04, 0.35 / 0.64; pull +0.83 %; 6.8 s",
     "C3D20 (hexahedron27)": "1,570 nodes; 0.28 / 0.32, 0.18 / 0.63; pull -2.22 %; 3.3 s",
+    "C3D10": "2,652 nodes; 0.39 / 0.10, 0.34 / 0.83; pull -0.55 %; 40 s with the embedded solve",
 }
 #: the pull reaction's tolerance where the test files' 1 % is out of reach on a coarse mesh
 PULL_TOLERANCE = {
@@ -89,9 +89,14 @@ PULL_TOLERANCE = {
     # quadratic meshes the two agree within 1.1 % (4 divisions) and 0.6 % (6), docs/calculix.md
     "C3D20 (hexahedron27)": 0.03,
 }
+#: ccx's own gross-slip check T = sum mu_i N_i where the 0.5 % is out of reach: on C3D10 ccx's pull reaction is
+#: -0.91 % of mu times its zone normal forces (measured before and after the embedded solver took quadratic
+#: tetrahedra; the embedded solve on the same mesh: -0.002 %, its pull reaction 0.55 % above ccx's)
+GROSS_SLIP_TOLERANCE = {"C3D10": 0.015}
 
 
-@pytest.mark.parametrize("element", [e for e in ELEMENTS if e != "C3D10"])
+@pytest.mark.parametrize("element", [pytest.param(e, marks=pytest.mark.slow) if e == "C3D10" else e
+                                     for e in ELEMENTS])
 def test_crosscheck_per_element_type(element, tmp_path):
     """The cross-check (the function behind `frictionid crosscheck`) of one coarse block per element type at
     the default points (cell centroids of both regions), all quantities, mu as in the reference test."""
@@ -124,25 +129,9 @@ def test_crosscheck_per_element_type(element, tmp_path):
         np.testing.assert_allclose(ccx[:, labels.index("plate_bottom.z")], 2000.0, rtol=1e-6)
         pull = labels.index("block_top.y")
         np.testing.assert_allclose(ccx[-1, pull], embedded[-1, pull], rtol=PULL_TOLERANCE.get(element, 0.01))
-        # gross slip at the end of the pull: T = sum mu_i N_i in ccx (measured within 0.37 %)
-        np.testing.assert_allclose(ccx[-1, pull], mu @ check.normal_calculix[-1], rtol=0.005)
-
-
-def test_quadratic_tetrahedra_run_in_calculix(tmp_path):
-    """C3D10 (tetra10): the deck runs in ccx (2,652 nodes, about 10 s): the press as applied and gross slip
-    T = sum mu_i N_i (measured -0.91 %: 6-node contact faces on a coarse mesh; hexahedra and linear tetrahedra
-    0.26-0.37 %). The embedded solver refuses quadratic tetrahedra in contact, so the cross-check says why."""
-    model, zones = element_model("C3D10", tmp_path)
-    mu = np.array([zones[z] for z in model.zone_names])
-    ccx = CalculixBackend(model, np.zeros((0, 3)), ("ux",), []).solve(mu)
-    labels = ccx.reaction_labels
-    np.testing.assert_allclose(ccx.reactions[:, labels.index("plate_bottom.z")], 2000.0, rtol=1e-6)
-    pull = ccx.reactions[-1, labels.index("block_top.y")]
-    assert 500.0 < pull < 800.0
-    np.testing.assert_allclose(pull, mu @ ccx.zone_normal_force[-1], rtol=0.015)
-    with pytest.raises(InputError, match="triangle6 facets give corner nodes zero or negative weights"):
-        points, regions = default_points(model)
-        cross_check(model, mu, points, ("ux",), regions, CalculixSettings())
+        # gross slip at the end of the pull: T = sum mu_i N_i in ccx (measured within 0.37 %, C3D10 -0.91 %)
+        np.testing.assert_allclose(ccx[-1, pull], mu @ check.normal_calculix[-1],
+                                   rtol=GROSS_SLIP_TOLERANCE.get(element, 0.005))
 
 
 # ------------------------------------------------------------------------------------ a user's own mesh

@@ -1,11 +1,9 @@
 """Problem: observations at points and the full field agree with the condensed operators; bad input."""
 
-import gmsh
 import numpy as np
 import pytest
 
 from frictionid.builders.block import block_model_2d
-from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
 from frictionid.errors import InputError, SolverError
 from frictionid.fem.points import point_operator
 from frictionid.fem.problem import Problem
@@ -112,28 +110,6 @@ def test_a_body_pulled_off_its_contact_reports_the_increment():
                    supports=(Support("base_bottom", (0, 1)),))
     with pytest.raises(SolverError, match=r"did not converge in stage 1 \(lift\), increment 1: residual"):
         Problem.build(model).solve([0.2, 0.2])
-
-
-def test_quadratic_tetrahedra_are_refused_for_node_to_node_contact():
-    """6-node triangle faces give their corner nodes zero tributary area: refused, never silently dropped."""
-    with gmsh_session():
-        lower, upper = gmsh.model.occ.addBox(0, 0, -1, 2, 2, 1), gmsh.model.occ.addBox(0, 0, 0, 2, 2, 1)
-        gmsh.model.occ.synchronize()
-        gmsh.model.addPhysicalGroup(3, [lower], name="lower")
-        gmsh.model.addPhysicalGroup(3, [upper], name="upper")
-        for body, name in ((lower, "lower_top"), (upper, "upper_bottom")):
-            faces = [f for _, f in gmsh.model.getBoundary([(3, body)], oriented=False)
-                     if abs(gmsh.model.occ.getCenterOfMass(2, f)[2]) < 1e-9]
-            gmsh.model.addPhysicalGroup(2, faces, name=name)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 1.0)
-        gmsh.model.mesh.generate(3)
-        gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh()
-    steel = Material(210000.0, 0.3)
-    model = Model(mesh, "3d", {"lower": steel, "upper": steel},
-                  interfaces=(ContactInterface("i", ("upper_bottom",), "lower_top"),))
-    with pytest.raises(InputError, match="triangle6 facets give corner nodes zero or negative weights"):
-        Problem.build(model)
 
 
 def test_a_model_without_contact_is_plain_elasticity():

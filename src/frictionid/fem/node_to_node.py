@@ -1,8 +1,14 @@
-"""Node-to-node contact pairs for conforming interfaces, weighted by tributary area (= dual mortar, diagonal D)."""
+"""Node-to-node contact pairs for conforming interfaces, weighted by tributary area (= dual mortar, diagonal D).
+
+Quadratic triangle facets (tetra10 cells) go through the basis transformation of dual quadratic mortar methods
+(:func:`surface_transform`): on 6-node triangles the consistent tributary area of a corner node is zero, so
+the constraints and contact forces act on transformed nodal values whose tributary areas are all positive.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 import skfem
 from scipy.spatial import cKDTree
 
@@ -24,6 +30,58 @@ def facet_integral(space: Space, boundary: str, vector: bool = False) -> np.ndar
         space.nodal(skfem.asm(skfem.LinearForm(lambda v, w, c=c: v * w.n[c] * space.ring(w.x)), basis))
         for c in range(space.dim)])
     return out
+
+
+#: the transformation parameter of 6-node triangles: tributary areas 2 alpha A / 3 (corner), (1 - 2 alpha) A / 3
+#: (mid-side) of a facet of area A; 1/5 as in Popp, Wohlmuth, Gee & Wall (2012), see :func:`surface_transform`
+TRI6_ALPHA = 0.2
+
+
+def surface_transform(mesh, facets: np.ndarray,
+                      alpha: float = TRI6_ALPHA) -> tuple[sp.csr_matrix, sp.csr_matrix] | None:
+    """(M, P = M^-T), both (n_nodes, n_nodes), of the basis transformation on 6-node triangle facets; None else.
+
+    The consistent tributary area int N_i dS of a 6-node triangle's corner is zero (mid-side nodes A / 3), so
+    a node-to-node constraint there carries no area: no pressure, no zone share, no normal. Dual quadratic mortar
+    methods transform the surface basis instead (Wohlmuth, Popp, Gee & Wall, Comput. Mech. 49 (2012) 735-747;
+    Popp, Wohlmuth, Gee & Wall, SIAM J. Sci. Comput. 34 (2012) B421-B446): element by element,
+
+        N^_c = N_c + alpha (N_m1 + N_m2)    (corner c, m1 and m2 the mid-side nodes of its two edges)
+        N^_m = (1 - 2 alpha) N_m            (mid-side node m),
+
+    i.e. ``N^ = M N``, still a partition of unity, with tributary areas int N^_c = 2 alpha A / 3 and
+    int N^_m = (1 - 2 alpha) A / 3 per facet (alpha = 1/5: 2A/15 and A/5), all positive. A field u = sum N_j u_j =
+    sum N^_j u^_j has the transformed nodal values ``u^ = P u`` with ``P = M^-T``: u^_c = u_c and
+    u^_m = (u_m - alpha (u_a + u_b)) / (1 - 2 alpha) on the edge (a, b). The contact constraints (gap, slip) act
+    on transformed values and the contact forces lam are their conjugates; the nodal forces are ``P^T lam``, whose
+    sum is the sum of lam (the rows of P sum to 1), so reactions and zone forces balance as before. A uniform
+    pressure p gives lam_j = p int N^_j at every node, so lam / tributary area reproduces it
+    (tests/test_tetra10_contact.py; with the same areas but the constraints on untransformed values the corners
+    carry no force and the mid-side nodes 5/3 of p).
+
+    ``facets``: (n_facets, n_facet_nodes) node indices in meshio order (triangle6: corners 0-2, then the
+    mid-side nodes of edges 0-1, 1-2, 2-0).
+    """
+    if mesh.facet_type != "triangle6" or not len(facets):
+        return None
+    mids = np.concatenate([facets[:, 3 + e] for e in range(3)])
+    ends = np.concatenate([facets[:, [e, (e + 1) % 3]] for e in range(3)])
+    mids, first = np.unique(mids, return_index=True)                       # an edge of two facets counts once
+    a, b = ends[first, 0], ends[first, 1]
+    n, others = mesh.n_nodes, np.setdiff1d(np.arange(mesh.n_nodes), mids)
+    ones, scale = np.ones(len(others)), 1.0 / (1 - 2 * alpha)
+    M = sp.csr_matrix((np.concatenate([ones, np.full(len(mids), 1 - 2 * alpha), np.full(2 * len(mids), alpha)]),
+                       (np.concatenate([others, mids, a, b]), np.concatenate([others, mids, mids, mids]))),
+                      shape=(n, n))
+    P = sp.csr_matrix((np.concatenate([ones, np.full(len(mids), scale), np.full(2 * len(mids), -alpha * scale)]),
+                       (np.concatenate([others, mids, mids, mids]), np.concatenate([others, mids, a, b]))),
+                      shape=(n, n))
+    return M, P
+
+
+def _transformed(transform, nodal: np.ndarray) -> np.ndarray:
+    """Integrals of the transformed basis N^ = M N from those of N (rows: nodes); unchanged without a transform."""
+    return nodal if transform is None else transform[0] @ nodal
 
 
 def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal: np.ndarray,
@@ -78,37 +136,64 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     The frame normal is the direction joining the two nodes where they are apart (see :func:`_pair_normals`),
     else the area-weighted outward normal of the target side at the target node; the initial gap is the
     distance between the nodes along it (negative for an interference).
+
+    On 6-node triangle facets (tetra10 cells) every quantity of a pair is that of the transformed basis of
+    :func:`surface_transform`, on both sides alike: tributary areas, zone shares and normals are integrals of
+    N^, and the relative displacement, the initial offset and hence the gap are the transformed values
+    ``P (u_contact - u_target)`` at the pair's node.
     """
     interface = model.interfaces[interface_index]
+    mesh = space.mesh
     zone_offset = model.zone_names.index(interface.zones[0])
-    contact = np.unique(np.concatenate([space.mesh.boundary_nodes(zone) for zone in interface.zones]))
-    area = np.column_stack([facet_integral(space, zone) for zone in interface.zones])
+    contact = np.unique(np.concatenate([mesh.boundary_nodes(zone) for zone in interface.zones]))
+    transform = surface_transform(mesh, np.vstack([mesh.boundary(zone) for zone in interface.zones]))
+    target_transform = surface_transform(mesh, mesh.boundary(interface.target))
+    area = _transformed(transform, np.column_stack([facet_integral(space, zone) for zone in interface.zones]))
     # shape functions of nodes off a facet evaluate to round-off (1e-36) there: not part of the zone
     area[np.abs(area) <= 1e-12 * np.abs(area).max(initial=0.0)] = 0.0
     weight = area[contact].sum(axis=1)
     if np.any(weight <= 0):
         raise InputError(f"interface {interface.name!r}: contact node {int(contact[np.argmin(weight)])} has a "
-                         f"tributary area of {weight.min():.3g} mm^2; {space.mesh.facet_type} facets give corner "
-                         "nodes zero or negative weights: use hexahedra or linear tetrahedra in 3-D")
-    target_all = space.mesh.boundary_nodes(interface.target)
+                         f"tributary area of {weight.min():.3g} mm^2 ({mesh.facet_type} facets): a facet of "
+                         "zero area or folded over; check the mesh there")
+    target_all = mesh.boundary_nodes(interface.target)
     if np.intersect1d(target_all, contact).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
-    normal_all = facet_integral(space, interface.target, vector=True)[target_all]
+    normal_all = _transformed(target_transform, facet_integral(space, interface.target, vector=True))[target_all]
     normal_all /= np.linalg.norm(normal_all, axis=1)[:, None]
-    contact_normal = sum(facet_integral(space, zone, vector=True) for zone in interface.zones)[contact]
+    contact_normal = _transformed(transform, sum(facet_integral(space, zone, vector=True)
+                                                 for zone in interface.zones))[contact]
     contact_normal /= np.linalg.norm(contact_normal, axis=1)[:, None]
-    facets = space.mesh.boundary(interface.target)
-    h = np.median(np.linalg.norm(space.mesh.points[facets[:, 1]] - space.mesh.points[facets[:, 0]], axis=1))
+    facets = mesh.boundary(interface.target)
+    h = np.median(np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1))
     index = _pair_targets(space, contact, target_all, normal_all, contact_normal, h, interface.target)
     target = target_all[index]
-    normal = _pair_normals(space.mesh.points[contact] - space.mesh.points[target], normal_all[index], h)
+    points = mesh.points
+    # pair j couples the contact nodes k with P[j, k] and their targets with -P[j, k] (identity if untransformed)
+    mix = None if transform is None else transform[1][contact][:, contact].tocsr()
+    offset = points[contact] - points[target]
+    if mix is not None:
+        offset = mix @ offset
+    normal = _pair_normals(offset, normal_all[index], h)
     frames = tangent_frames(normal)
-    points = space.mesh.points
     share = np.zeros((len(contact), model.n_zones))
     share[:, zone_offset:zone_offset + len(interface.zones)] = area[contact] / weight[:, None]
     return ContactPairs(
         nodes=contact, position=points[contact].copy(), frames=frames, weight=weight, zone_share=share,
-        gap=np.sum((points[contact] - points[target]) * normal, axis=1),
-        B=relative_operator(frames, contact, target[:, None], np.ones((len(contact), 1)), space.n_dofs),
+        gap=np.sum(offset * normal, axis=1), B=_pair_operator(frames, contact, target, mix, space.n_dofs),
         interface=np.full(len(contact), interface_index))
+
+
+def _pair_operator(frames: np.ndarray, contact: np.ndarray, target: np.ndarray, mix: sp.csr_matrix | None,
+                   n_dofs: int) -> sp.csr_matrix:
+    """B of the pairs: ``w_j = frames[j] . sum_k mix[j, k] (u[contact[k]] - u[target[k]])`` (mix: identity if
+    None, else the transformed values of :func:`surface_transform` restricted to the contact nodes)."""
+    ones = np.ones((len(contact), 1))
+    if mix is None:
+        return relative_operator(frames, contact, target[:, None], ones, n_dofs)
+    dim = frames.shape[1]
+    difference = relative_operator(np.broadcast_to(np.eye(dim), frames.shape), contact, target[:, None], ones,
+                                   n_dofs)
+    return (sp.block_diag(list(frames), format="csr") @ sp.kron(mix, sp.eye(dim), format="csr")
+            @ difference).tocsr()

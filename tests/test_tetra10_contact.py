@@ -1,0 +1,169 @@
+"""Quadratic tetrahedra (tetra10, 6-node triangle contact facets) in node-to-node contact: the transformed
+surface basis of fem/node_to_node.py (surface_transform) against a homogeneous solution (uniform pressure, exact
+in the element space), Coulomb's gross slip T = sum mu_i N_i, and sensitivities against central differences.
+
+The model: two 2 x 2 x 1 mm bodies stacked at z = 0, each made of two boxes split at x = 1 so that the contact
+side carries zones A (x < 1) and B (x > 1); every curve transfinite, so both sides of the interface carry the same
+triangles (coincident nodes), the volumes Delaunay-meshed by gmsh and raised to second order."""
+
+import gmsh
+import numpy as np
+import pytest
+
+from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
+from frictionid.fem.contact import SLIP, STICK
+from frictionid.fem.node_to_node import TRI6_ALPHA, surface_transform
+from frictionid.fem.problem import Problem
+from frictionid.model import ContactInterface, Displacement, Material, Model, Pressure, Stage, Support
+
+STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
+MU = np.array([0.2, 0.35])
+
+
+def _stack_mesh(divisions: int = 2):
+    """The two bodies' tetra10 mesh with named faces (``divisions`` per mm on every curve)."""
+    with gmsh_session("tet10_stack"):
+        occ = gmsh.model.occ
+        bodies = {}
+        for name, z0 in (("lower", -1.0), ("upper", 0.0)):
+            boxes = [(3, occ.addBox(x0, 0, z0, 1, 2, 1)) for x0 in (0.0, 1.0)]
+            pieces, _ = occ.fragment(boxes[:1], boxes[1:])
+            bodies[name] = [tag for dim, tag in pieces if dim == 3]
+        occ.synchronize()
+        for _, curve in gmsh.model.getEntities(1):
+            box = np.reshape(gmsh.model.getBoundingBox(1, curve), (2, 3))
+            gmsh.model.mesh.setTransfiniteCurve(curve, int(round(divisions * np.ptp(box, axis=0).max())) + 1)
+        for _, surface in gmsh.model.getEntities(2):
+            gmsh.model.mesh.setTransfiniteSurface(surface)
+
+        def faces(volumes, axis, value, x_side=None):
+            found = {abs(t) for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=False,
+                                                               oriented=False)}
+            out = []
+            for face in sorted(found):
+                box = np.reshape(gmsh.model.getBoundingBox(2, face), (2, 3))
+                if np.allclose(box[:, axis], value, atol=1e-6) and (
+                        x_side is None or (np.mean(box[:, 0]) < 1.0) == (x_side == "A")):
+                    out.append(face)
+            return out
+
+        add = gmsh.model.addPhysicalGroup
+        for name, volumes in bodies.items():
+            add(3, volumes, name=name)
+            add(2, faces(volumes, 0, 0.0), name=f"{name}_x0")
+            add(2, faces(volumes, 1, 0.0), name=f"{name}_y0")
+        add(2, faces(bodies["lower"], 2, -1.0), name="lower_bottom")
+        add(2, faces(bodies["lower"], 2, 0.0), name="lower_top")
+        add(2, faces(bodies["upper"], 2, 1.0), name="upper_top")
+        add(2, faces(bodies["upper"], 2, 0.0, "A"), name="A")
+        add(2, faces(bodies["upper"], 2, 0.0, "B"), name="B")
+        gmsh.model.mesh.generate(3)
+        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
+        gmsh.model.mesh.setOrder(2)
+        return mesh_from_gmsh()
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    out = _stack_mesh()
+    assert out.cell_type == "tetra10" and out.facet_type == "triangle6"
+    return out
+
+
+INTERFACE = (ContactInterface("stack", ("A", "B"), "lower_top", discretisation="node-to-node"),)
+
+
+@pytest.fixture(scope="module")
+def pressed(mesh):
+    """10 MPa on the upper top, bodies of different stiffness, held by symmetry planes (x = 0, y = 0) and the
+    lower bottom in z: uniaxial stress in both, exact in the element space; frictionless slip where their
+    lateral expansions differ."""
+    model = Model(mesh, "3d", {"lower": STEEL, "upper": ALUMINIUM},
+                  supports=(Support("lower_bottom", (2,)), Support("lower_x0", (0,)), Support("upper_x0", (0,)),
+                            Support("lower_y0", (1,)), Support("upper_y0", (1,))),
+                  loads=(Pressure("upper_top", (10.0,)),), stages=(Stage("press", 1),), interfaces=INTERFACE)
+    problem = Problem.build(model)
+    return problem, problem.solve([0.0, 0.0])
+
+
+def test_transformed_tributary_areas_are_positive_and_sum_to_each_facet(mesh):
+    """Per 6-node facet of area A: corners 2 alpha A / 3, mid-side nodes (1 - 2 alpha) A / 3 (alpha = 1/5)."""
+    facets = mesh.boundary("A")
+    M, P = surface_transform(mesh, facets)
+    np.testing.assert_allclose((P @ M.T).toarray(), np.eye(mesh.n_nodes), atol=1e-14)   # P = M^-T
+    one = facets[:1]
+    corners = mesh.points[one[0, :3]]
+    area = 0.5 * np.linalg.norm(np.cross(corners[1] - corners[0], corners[2] - corners[0]))
+    consistent = np.zeros(mesh.n_nodes)
+    consistent[one[0, 3:]] = area / 3                          # int N_i over one flat 6-node triangle
+    transformed = surface_transform(mesh, one)[0] @ consistent
+    np.testing.assert_allclose(transformed[one[0, :3]], 2 * TRI6_ALPHA * area / 3, rtol=1e-12)
+    np.testing.assert_allclose(transformed[one[0, 3:]], (1 - 2 * TRI6_ALPHA) * area / 3, rtol=1e-12)
+    assert transformed.sum() == pytest.approx(area, rel=1e-12)
+    assert np.array_equal(np.flatnonzero(transformed), np.sort(one[0]))
+
+
+def test_uniform_pressure_is_reproduced_at_every_node(pressed):
+    """Every contact node, corner or mid-side, carries 10 MPa; pressure x area sums to the applied 40 N; zone
+    forces A = B = 20 N; areas 4 mm^2 (2 + 2), all positive. With these areas but the constraints on untransformed
+    nodal values, measured: corners 0 MPa, mid-side nodes 16.7 MPa (the consistent A/3 over A/5)."""
+    problem, solution = pressed
+    pairs = problem.pairs
+    corners = ~np.isin(pairs.nodes, problem.model.mesh.boundary("A")[:, 3:]) & \
+        ~np.isin(pairs.nodes, problem.model.mesh.boundary("B")[:, 3:])
+    assert 0 < corners.sum() < pairs.n_pairs
+    assert np.all(pairs.weight > 0) and pairs.weight.sum() == pytest.approx(4.0, rel=1e-12)
+    np.testing.assert_allclose((pairs.zone_share * pairs.weight[:, None]).sum(axis=0), [2.0, 2.0], rtol=1e-12)
+    np.testing.assert_allclose(solution.pressure[-1], 10.0, rtol=1e-8)
+    assert solution.pressure[-1] @ pairs.weight == pytest.approx(40.0, rel=1e-10)
+    np.testing.assert_allclose(solution.zone_normal_force[-1], [20.0, 20.0], rtol=1e-8)
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert reactions["lower_bottom.z"] == pytest.approx(40.0, rel=1e-10)
+    np.testing.assert_allclose(pairs.frames[:, 0], [[0.0, 0.0, 1.0]] * pairs.n_pairs, atol=1e-12)
+    np.testing.assert_allclose(pairs.gap, 0.0, atol=1e-12)
+
+
+def _pulled(mesh) -> Model:
+    """Press 10 MPa, then the upper top driven in x (its y held) to 2e-4 mm (partial slip, measured: 55 of 81
+    pairs sticking; all stick at 2e-5 mm, all slip at 1e-3 mm) and on to 0.05 mm (gross slip); lower bottom held."""
+    return Model(mesh, "3d", {"lower": STEEL, "upper": ALUMINIUM},
+                 supports=(Support("lower_bottom", (0, 1, 2)),),
+                 loads=(Pressure("upper_top", (10.0, 10.0, 10.0)),
+                        Displacement("upper_top", "x", (0.0, 2e-4, 0.05)),
+                        Displacement("upper_top", "y", (0.0, 0.0, 0.0))),
+                 stages=(Stage("press", 1), Stage("partial", 2), Stage("gross", 2)), interfaces=INTERFACE)
+
+
+@pytest.fixture(scope="module")
+def pulled(mesh):
+    problem = Problem.build(_pulled(mesh))
+    return problem, problem.solve(MU, sensitivities=True)
+
+
+def test_gross_slip_tangential_force_is_sum_mu_n(pulled):
+    """Coulomb at gross slip: sum |lam_T| = sum mu_i N_i (the pull's reaction as well, within the slip
+    directions' small y part), every closed pair slipping on its cone, the press as applied."""
+    problem, solution = pulled
+    closed = solution.state[-1] != 0
+    assert np.all(solution.state[-1][closed] == SLIP) and closed.sum() > 0.5 * problem.pairs.n_pairs
+    normal = solution.zone_normal_force[-1]
+    assert normal.sum() == pytest.approx(40.0, rel=1e-10)
+    assert np.linalg.norm(solution.lam[-1, :, 1:], axis=1).sum() == pytest.approx(MU @ normal, rel=1e-8)
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert abs(reactions["upper_top.x"]) == pytest.approx(MU @ normal, rel=2e-3)
+    np.testing.assert_allclose(np.linalg.norm(solution.lam[-1, closed, 1:], axis=1),
+                               problem.pairs.mu(MU)[closed] * solution.lam[-1, closed, 0], rtol=1e-8)
+
+
+def test_tetra10_sensitivities_match_central_differences(pulled):
+    """d reactions / d mu at every increment, partial slip (end of stage 2) and gross slip (stage 3)."""
+    problem, solution = pulled
+    partial = np.bincount(solution.state[solution.stage_end(1)], minlength=3)
+    assert partial[SLIP] > 0 and partial[STICK] > 0                       # the regimes the test claims
+    h = 1e-6
+    for zone in range(len(MU)):
+        step = np.zeros_like(MU)
+        step[zone] = h
+        central = (problem.solve(MU + step).reactions - problem.solve(MU - step).reactions) / (2 * h)
+        np.testing.assert_allclose(solution.d_reactions[:, :, zone], central, rtol=1e-6,
+                                   atol=1e-6 * np.abs(central).max())
