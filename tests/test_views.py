@@ -78,6 +78,7 @@ def assert_same(a: dict, b: dict, rtol: float = 1e-8):
         assert abs(a[zone] - b[zone]) <= rtol * max(abs(b[zone]), 1.0), (zone, a[zone], b[zone])
 
 
+@pytest.mark.slow
 def test_views_with_transforms_identify_like_the_generic_csv(first):
     entries, regions = write_views(first)
     files = [{k: v for k, v in e.items() if k != "first_label"} for e in entries]
@@ -106,6 +107,7 @@ def test_two_views_of_a_stage_without_view_names_are_refused(first, capsys):
         read_sources({"file": files, "observables": ["ux"], "stages": [2]}, lambda p: first / p)
 
 
+@pytest.mark.slow
 def test_relative_to_removes_the_rigid_motion_each_view_sees(first):
     """Each view's points carry a rigid displacement of their own (the machine's motion seen by that camera):
     relative to a point of each view, the fit is the one without the motion; without relative_to it is not."""
@@ -130,3 +132,34 @@ def test_relative_observations_predict_the_difference_of_two_rows():
     values = np.array([[3.0, 5.0]])
     np.testing.assert_array_equal(obs.predicted(values), [3.0, 2.0])
     np.testing.assert_array_equal(obs.derivatives(values[..., None] * [1.0, 10.0])[:, 1], [30.0, 20.0])
+
+
+@pytest.mark.slow
+def test_two_specimens_with_their_own_frames_and_forces_share_the_coefficients(first):
+    """Specimen S1 (the generic CSV) and S2 (the same twin seen by three views in their frames, its force from the
+    config): one identification fits both with the same coefficients; the data twice give the same minimum, so the
+    coefficients equal those of S1 alone, and each specimen's machine force is an observation of its own."""
+    force = read_measurements(first / "measured.csv").stage_force(2)
+    views, regions = write_views(first)
+    s2 = [{k: v for k, v in e.items() if k != "first_label"} | {"specimen": "S2", "force": force} for e in views]
+    regions = {f"S2/{k}": v for k, v in regions.items()} | {"S1/L*": "block", "S1/R*": "block", "S1/*": "base"}
+    fit = {"observables": ["ux", "uy", "force"], "noise": {"u": 0.0005, "force": 1.0}, "stages": [2]}
+    alone = identified(first, "specimen_alone", **fit)
+    both = identified(first, "specimens", file=[{"path": "measured.csv", "specimen": "S1"}, *s2], regions=regions,
+                      **fit)
+    assert_same(values(both), values(alone))
+    assert both["fit"]["n_obs"] == 2 * alone["fit"]["n_obs"] == 2 * 41
+    labels = [o["label"] for o in both["fit"]["observations"]]
+    assert "S1/force@2" in labels and "S2/force@2" in labels
+
+
+def test_views_of_one_specimen_giving_two_forces_are_refused(first, capsys):
+    views, regions = write_views(first)
+    files = [{k: v for k, v in e.items() if k != "first_label"} | {"force": 100.0 + k} for k, e in enumerate(views)]
+    config = tomllib.loads((first / "identify.toml").read_text())
+    config["data"].update(file=files, regions=regions, observables=["ux", "force"], noise={"u": 5e-4, "force": 1.0})
+    path = first / "two_forces.toml"
+    path.write_text(tomli_w.dumps(config))
+    assert main(["identify", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "stage 2 has the machine forces 100, 101, 102 N from different files" in err and "Traceback" not in err

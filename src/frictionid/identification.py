@@ -106,14 +106,15 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
     data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None
-    given, frames, relative = measurements, [], {}
+    given, frames, relative, specimens = measurements, [], {}, {}
     if measurements is None:
         sources = read_sources(config.data, config.resolve, where, model)
         measurements, frames, relative = sources.measurements, sources.frames, sources.relative
+        specimens = sources.specimens
         for frame in frames:
             echo(f"{frame['file']}: {frame['line']}")
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
-                                     config.data.get("noise"), config.data.get("regions"), relative)
+                                     config.data.get("noise"), config.data.get("regions"), relative, specimens)
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
                  data_file, tuple(frames))
 

@@ -22,7 +22,7 @@ from .table import Measurements
 log = logging.getLogger(__name__)
 
 #: keys of a table entry of ``[data] file``
-ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "transform", "relative_to")
+ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "specimen", "transform", "relative_to")
 #: joins a view's name and a point's label in the file: "front/12"
 VIEW_SEPARATOR = "/"
 
@@ -41,10 +41,11 @@ class Entry:
     view: str | None = None
     transform: FrameSpec | None = None
     relative_to: str | None = None
+    specimen: str | None = None
 
     def label(self, label: str) -> str:
-        """A point's label in the data: the file's, after ``view/`` when the entry names a view."""
-        return label if self.view is None else f"{self.view}{VIEW_SEPARATOR}{label}"
+        """A point's label in the data: the file's, after ``specimen/`` and ``view/`` where the entry names them."""
+        return VIEW_SEPARATOR.join(p for p in (self.specimen, self.view, label) if p is not None)
 
 
 def entries(data: dict, resolve, where: str = "[data]") -> list[Entry]:
@@ -84,17 +85,19 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
         if "transform" in item else (data.get("transform"), f"{where}: [data] transform")
     return Entry(resolve(item["path"]), stage,
                  None if force is None else float(force), item.get("format", data.get("format")),
-                 item.get("columns", data.get("columns")) or None, _name(item.get("view"), position, where),
+                 item.get("columns", data.get("columns")) or None, _name(item, "view", position, where),
                  None if transform is None else frame_spec(transform, key),
-                 _relative_to(item.get("relative_to", data.get("relative_to")), position, where))
+                 _relative_to(item.get("relative_to", data.get("relative_to")), position, where),
+                 _name(item, "specimen", position, where))
 
 
-def _name(view, position: int, where: str) -> str | None:
-    if view is not None and (not isinstance(view, str) or not view or VIEW_SEPARATOR in view
-                             or any(c in view for c in "*?[:@")):
-        raise InputError(f"{where}: [data] file entry {position}: view must be a name without {VIEW_SEPARATOR!r}, "
-                         f"':', '@' or pattern characters, e.g. view = \"front\", got {view!r}")
-    return view
+def _name(item: dict, key: str, position: int, where: str) -> str | None:
+    name = item.get(key)
+    if name is not None and (not isinstance(name, str) or not name or VIEW_SEPARATOR in name
+                             or any(c in name for c in "*?[:@")):
+        raise InputError(f"{where}: [data] file entry {position}: {key} must be a name without "
+                         f"{VIEW_SEPARATOR!r}, ':', '@' or pattern characters, e.g. {key} = \"front\", got {name!r}")
+    return name
 
 
 def _relative_to(label, position: int, where: str) -> str | None:
@@ -115,13 +118,15 @@ def _listed_force(forces, stage: int, where: str):
 @dataclass(frozen=True)
 class Sources:
     """What ``[data] file`` gave: the measurements (model frame, labels with their views), what was recognised in
-    each file (report lines), the frame of each file that has one (result.json's ``data.frames``) and, per point
-    label, the label of the point whose displacement its displacements are taken relative to."""
+    each file (report lines), the frame of each file that has one (result.json's ``data.frames``), per point
+    label the label of the point whose displacement its displacements are taken relative to, and per point label
+    its specimen (where files name specimens)."""
 
     measurements: Measurements
     lines: list[str]
     frames: list[dict] = field(default_factory=list)
     relative: dict[str, str] = field(default_factory=dict)
+    specimens: dict[str, str] = field(default_factory=dict)
 
 
 def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
@@ -146,8 +151,12 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         A bad entry or transform, a file no reader recognises, a (point, stage) given by two files, a force that
         contradicts the file's, a reference point the file does not have.
     """
-    parts, lines, frames, relative, fitted = [], [], [], {}, {}
-    for entry in entries(data, resolve, where):
+    parts, lines, frames, relative, fitted, specimens = [], [], [], {}, {}, {}
+    listed = entries(data, resolve, where)
+    if any(e.specimen is not None for e in listed) and any(e.specimen is None for e in listed):
+        raise InputError(f"{where}: [data] file: some entries name a specimen and some do not; give every file its "
+                         "specimen")
+    for entry in listed:
         measurements, report, generic, flavour = _read(entry, data.get("strain"))
         forces = {s: _listed_force(data.get("forces"), s, where) for s in measurements.stages} if generic \
             else {entry.stage: entry.force}
@@ -161,10 +170,12 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
             report = report + [f"  note: {MATCHID_NOTE}"]
             log.warning("%s: %s", entry.path, MATCHID_NOTE)
         relative.update(_relative_labels(entry, measurements, relative))
+        if entry.specimen is not None:
+            specimens.update({entry.label(p): entry.specimen for p in measurements.points})
         parts.append(_with_view(entry, measurements))
-        lines += report + ([f"  view {entry.view!r}: points labelled '{entry.label('<point>')}'"] if entry.view
+        lines += report + ([f"  points labelled '{entry.label('<point>')}'"] if entry.view or entry.specimen
                            else [])
-    return Sources(_joined(parts), lines, frames, relative)
+    return Sources(_joined(parts), lines, frames, relative, specimens)
 
 
 #: MatchID's frame (docs/data.md): read as written, turned by a transform
@@ -232,10 +243,10 @@ def _relative_labels(entry: Entry, m: Measurements, known: dict) -> dict:
 
 
 def _with_view(entry: Entry, m: Measurements) -> Measurements:
-    if entry.view is None:
+    if entry.view is None and entry.specimen is None:
         return m
     return Measurements(tuple(entry.label(p) for p in m.points), m.coordinates, m.stage, m.force, m.values,
-                        m.sigma, m.comments + (f"view {entry.view!r}",), m.source)
+                        m.sigma, m.comments + (f"labelled {entry.label('<point>')!r}",), m.source)
 
 
 def _with_forces(m: Measurements, forces: dict[int, float]) -> Measurements:

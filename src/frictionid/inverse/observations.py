@@ -214,13 +214,16 @@ def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.nda
 
 
 def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
-                      regions: dict | None = None, relative: dict | None = None) -> Observations:
+                      regions: dict | None = None, relative: dict | None = None,
+                      specimens: dict | None = None) -> Observations:
     """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model.
 
     ``regions`` is the ``[data] regions`` table, resolved by :func:`region_of_points` against every point of the
     file (also those of stages not fitted). ``relative`` (point label -> reference label, from ``[data]
     relative_to``): that point's displacements are fitted as its displacement minus the reference's at the same
-    stage, in the data and in the model (the reference's own displacements are then not fitted)."""
+    stage, in the data and in the model (the reference's own displacements are then not fitted). ``specimens``
+    (point label -> specimen): each specimen's machine force is an observation of its own (of the same model
+    reaction: specimens share the model and its load path)."""
     noise, regions, relative = dict(noise or {}), dict(regions or {}), dict(relative or {})
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
@@ -233,7 +236,7 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
         wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
     all_labels = measurements.points
     measurements = measurements.select(quantities=wanted, stages=list(stages))
-    forces = _forces(measurements, stages, noise) if observe_force else []
+    forces = _forces(measurements, stages, noise, dict(specimens or {})) if observe_force else []
     measurements, coordinates = _coordinates(measurements, model)
     labels_of = list(dict.fromkeys(measurements.points))
     region_of = region_of_points(regions, all_labels, model.mesh.region_names)
@@ -261,13 +264,13 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
             minus.append(-1 if reference is None else point_index[reference] * len(quantities) + q_index)
             sigma.append(s)
             labels.append(f"{label}:{quantity}@{measurements.stage[i]}")
-    for stage_number, value, sig in forces:
+    for specimen, stage_number, value, sig in forces:
         minus.append(-1)
         row.append(len(points) * len(quantities))
         stage.append(stage_number - 1)
         y.append(value)
         sigma.append(sig)
-        labels.append(f"{FORCE}@{stage_number}")
+        labels.append(f"{'' if specimen is None else specimen + '/'}{FORCE}@{stage_number}")
     if not y:
         raise InputError(f"{measurements.source}: no measured values for {list(observables)} at stages {list(stages)}")
     sigma = np.array(sigma)
@@ -295,16 +298,25 @@ def _reference_value(measurements, at: dict, reference: str, quantity: str, i: i
     return float(value)
 
 
-def _forces(measurements, stages, noise: dict) -> list[tuple[int, float, float]]:
-    """(stage, machine force [N], sigma or nan) of each observed stage, from the file's `force` column."""
+def _forces(measurements, stages, noise: dict, specimens: dict) -> list[tuple[str | None, int, float, float]]:
+    """(specimen or None, stage, machine force [N], sigma or nan) of each specimen and observed stage, from the
+    files' `force` column; the views of one specimen must agree."""
     sigma = noise.get(FORCE, np.nan)
     if not (isinstance(sigma, (int, float)) and not isinstance(sigma, bool) and (np.isnan(sigma) or sigma > 0)):
         raise InputError(f"data.noise.{FORCE}: must be a positive number, got {sigma!r}")
+    of = np.array([specimens.get(p, "") for p in measurements.points])
     out = []
-    for stage in stages:
-        value = measurements.stage_force(stage)
-        if np.isnan(value):
-            raise InputError(f"{measurements.source}: data.observables has 'force' but no row of stage {stage} "
-                             "gives the machine force (column 'force')")
-        out.append((int(stage), float(value), float(sigma)))
+    for specimen in dict.fromkeys(of.tolist()):
+        for stage in stages:
+            rows = (of == specimen) & (measurements.stage == stage)
+            given = np.unique(measurements.force[rows & ~np.isnan(measurements.force)])
+            whose = f"specimen {specimen!r}: " if specimen else ""
+            if not len(given):
+                raise InputError(f"{measurements.source}: {whose}data.observables has 'force' but no row of stage "
+                                 f"{stage} gives the machine force (column 'force', or a file's force)")
+            if len(given) > 1:
+                raise InputError(f"{measurements.source}: {whose}stage {stage} has the machine forces "
+                                 f"{', '.join(f'{f:g}' for f in given)} N from different files; the views of one "
+                                 "stage share one force (several specimens: give each file its specimen)")
+            out.append((specimen or None, int(stage), float(given[0]), float(sigma)))
     return out
