@@ -202,3 +202,37 @@ def test_the_generic_fixture_is_unchanged_by_the_identity(tmp_path):
     assert np.array_equal(m.coordinates, plain.coordinates)
     for q in plain.quantities:
         assert np.array_equal(m.values[q], plain.values[q], equal_nan=True)
+
+
+def test_check_data_fits_a_frame_to_the_model_surface(tmp_path, capsys):
+    """check-data CONFIG.toml builds the model when a frame is fitted to its surface: points on three faces of the
+    3-D block and the plate, in a frame turned by (2, -1, 3) deg and shifted, come back onto the surface."""
+    rng = np.random.default_rng(5)
+    n = 8
+    xyz = np.concatenate([np.c_[np.full(n, 5.0), rng.uniform(-4, 4, n), rng.uniform(1, 9, n)],
+                          np.c_[rng.uniform(-4, 4, n), np.full(n, -5.0), rng.uniform(1, 9, n)],
+                          np.c_[rng.uniform(-4, 4, n), rng.uniform(-4, 4, n), np.full(n, 10.0)],
+                          np.c_[rng.uniform(8, 18, n), rng.uniform(-18, 18, n), np.zeros(n)]])
+    file_xyz = Frame.of([2.0, -1.0, 3.0], [0.3, 0.2, -0.1]).inverse().points(xyz)
+    m = Measurements(tuple(f"P{i}" for i in range(len(xyz))), file_xyz, np.ones(len(xyz)), np.full(len(xyz), np.nan),
+                     {"ux": np.zeros(len(xyz))})
+    write_measurements(tmp_path / "dic.csv", m)
+    status, out = check_data_config(tmp_path, capsys, {"file": str(tmp_path / "dic.csv"),
+                                                       "transform": {"fit": "surface"}})
+    assert status == 0, out
+    assert "frame fitted to the model surface (32 points): rotation_deg = [2.000000, -1.000000, 3.000000]" in out
+    assert "translation = [0.300000, 0.200000, -0.100000] mm" in out
+
+
+def test_the_run_fingerprint_sees_a_file_tables_transform(tmp_path):
+    from frictionid.data.sources import data_digest
+    path = str(FIXTURES / "generic.csv")
+    plain = data_digest({"file": path}, Path)
+    table = data_digest({"file": [{"path": path}]}, Path)
+    turned = data_digest({"file": [{"path": path, "transform": {"rotation_deg": 90}}]}, Path)
+    assert plain == read_digest(path) and len({plain, table, turned}) == 3
+
+
+def read_digest(path) -> str:
+    import hashlib
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()

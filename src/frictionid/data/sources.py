@@ -5,6 +5,7 @@ frame (docs/data.md)."""
 from __future__ import annotations
 
 import hashlib
+import json
 import logging
 import math
 from dataclasses import dataclass, field
@@ -292,13 +293,20 @@ def data_paths(data: dict, resolve) -> list[Path]:
 
 
 def data_digest(data: dict, resolve) -> str:
-    """SHA-256 of the bytes of every file of ``[data] file`` (one file: the hash of its bytes, as before)."""
+    """SHA-256 of the bytes of every file of ``[data] file`` and of what its table says besides the path (stage,
+    force, view, transform, ...), so that a run is not resumed with another frame; one file named by a string:
+    the hash of its bytes, as before."""
+    files = data["file"]
+    items = files if isinstance(files, list) else [files]
     paths = data_paths(data, resolve)
-    if len(paths) == 1:
+    if len(paths) == 1 and isinstance(items[0], str):
         return hashlib.sha256(paths[0].read_bytes()).hexdigest()
     h = hashlib.sha256()
-    for path in paths:
+    for item, path in zip(items, paths):
         h.update(hashlib.sha256(path.read_bytes()).digest())
+        if isinstance(item, dict):
+            h.update(json.dumps({k: v for k, v in item.items() if k != "path"}, sort_keys=True,
+                                default=str).encode())
     return h.hexdigest()
 
 
