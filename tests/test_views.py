@@ -12,7 +12,7 @@ import tomli_w
 
 from frictionid.cli import main
 from frictionid.data import read_measurements
-from frictionid.data.frames import rotation_from_degrees
+from frictionid.data.frames import Frame, rotation_from_degrees
 from frictionid.data.sources import read_sources
 from frictionid.data.table import Measurements
 from frictionid.inverse.observations import Observations
@@ -80,13 +80,23 @@ def assert_same(a: dict, b: dict, rtol: float = 1e-8):
 
 @pytest.mark.slow
 def test_views_with_transforms_identify_like_the_generic_csv(first):
+    """Left and base views with their frames given, the right view's fitted to one of its points and two markers
+    given in both frames (the view's points alone lie on one line)."""
     entries, regions = write_views(first)
     files = [{k: v for k, v in e.items() if k != "first_label"} for e in entries]
+    _, _, angles, shift = VIEWS["right"]
+    frame = Frame.of(angles, shift)
+    markers = {f"M{k}": {"file": frame.inverse().points([xyz])[0].tolist(), "model": xyz}
+               for k, xyz in enumerate([[8.0, 3.0, 0.0], [12.0, -2.0, 0.0]])}
+    r1 = read_measurements(first / "measured.csv").select(stages=[2])
+    files[1]["transform"] = {"fit": "points", "points": {entries[1]["first_label"]: r1.coordinates[
+        r1.points.index("R1")].tolist(), **markers}}
     reference = identified(first, "views_generic", stages=[2])
     by_views = identified(first, "views", file=files, regions=regions, stages=[2])
     assert_same(values(by_views), values(reference))
     frames = by_views["data"]["frames"]
-    assert [f["view"] for f in frames] == list(VIEWS) and all(f["fit"] is None for f in frames)
+    assert [f["view"] for f in frames] == list(VIEWS) and [f["fit"] for f in frames] == [None, "points", None]
+    assert frames[1]["residual_max_mm"] < 1e-9 and abs(frames[1]["rotation_deg"][2] - angles) < 1e-9
     assert by_views["fit"]["n_obs"] == reference["fit"]["n_obs"] == 40
 
 
