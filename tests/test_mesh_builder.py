@@ -5,6 +5,7 @@ Fixtures: tests/fixtures/user_block (generate.py writes block.msh, the same mesh
 """
 
 import json
+import os
 import shutil
 import signal
 import tomllib
@@ -17,7 +18,7 @@ import pytest
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.block import block_model
 from frictionid.builders.gmsh_mesh import gmsh_session
-from frictionid.builders.mesh import mesh_model
+from frictionid.builders.mesh import mesh_model, source_files
 from frictionid.builders.registry import build_model, refined
 from frictionid.cli import main
 from frictionid.config import read_config
@@ -290,3 +291,30 @@ def test_a_mesh_file_written_again_builds_a_new_model(tmp_path):
     second = build_model(table)
     assert second is not first and second.mesh.points[:, 1].max() == 1.5
 
+
+
+def test_an_included_file_written_again_builds_a_new_model(tmp_path):
+    """The deck untouched, only its *INCLUDE file rewritten (same size): a new model, not the kept one."""
+    (tmp_path / "nodes.inp").write_text(NODES)
+    path = tmp_path / "two.inp"
+    path.write_text(DECK.format(type="CPE4", nset="fixed"))
+    table = {"builder": "mesh", "file": str(path), "kind": "plane_strain",
+             "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
+             "supports": [{"boundary": "fixed"}]}
+    first = build_model(table)
+    assert source_files(path) == [path, tmp_path / "nodes.inp"]
+    (tmp_path / "nodes.inp").write_text(NODES.replace("6, 2, 1", "6, 2, 2"))
+    stat = (tmp_path / "nodes.inp").stat()
+    os.utime(tmp_path / "nodes.inp", ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))   # coarse clocks
+    second = build_model(table)
+    assert second is not first and second.mesh.points[:, 1].max() == 2.0
+
+
+def test_source_files_follow_geo_include_and_merge(tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "inner.geo").write_text('Merge "shape.step";\n')
+    (tmp_path / "sub" / "shape.step").write_text("ISO-10303-21;\n")
+    (tmp_path / "outer.geo").write_text('// Include "commented.geo";\nInclude "sub/inner.geo";\n'
+                                        'Merge "missing.msh";\n')
+    assert source_files(tmp_path / "outer.geo") == [tmp_path / "outer.geo", tmp_path / "sub" / "inner.geo",
+                                                    tmp_path / "sub" / "shape.step"]

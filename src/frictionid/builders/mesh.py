@@ -6,6 +6,7 @@ from __future__ import annotations
 import difflib
 import logging
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -73,6 +74,28 @@ class MeshFile:
 
 _WHAT = {"regions": "region", "boundaries": "boundary", "node_sets": "node set"}
 _NEEDS = {("boundaries",): " (a physical group of facets, in an .inp an element-face *SURFACE)"}
+
+
+_GEO_READS = re.compile(r'^\s*(?:Include|Merge)\s*"([^"]+)"', re.MULTILINE)
+_INP_INCLUDE = re.compile(r"^\s*\*INCLUDE\b[^\n]*?\bINPUT\s*=\s*([^,\n]+)", re.MULTILINE | re.IGNORECASE)
+
+
+def source_files(path: str | Path) -> list[Path]:
+    """The mesh file and every file it reads that exists: an .inp's *INCLUDE files and a .geo's Include / Merge
+    files, recursively (a quick scan of keyword lines; the reader reports missing or circular includes)."""
+    found, pending = [], [Path(path)]
+    while pending:
+        current = pending.pop()
+        if current in found or not current.is_file():
+            continue
+        found.append(current)
+        suffix = current.suffix.lower()
+        if suffix not in (".inp", ".geo"):
+            continue
+        text = current.read_text(errors="replace")
+        names = [n.strip().strip('"') for n in (_INP_INCLUDE if suffix == ".inp" else _GEO_READS).findall(text)]
+        pending += [name if name.is_absolute() else current.parent / name for name in map(Path, names)]
+    return found
 
 
 def read_mesh_file(path: Path) -> MeshFile:

@@ -10,7 +10,7 @@ from ..errors import InputError
 from ..model import Model
 from .block import block_model, block_model_2d
 from .bolt import bolt_model, default_sizes
-from .mesh import mesh_model
+from .mesh import mesh_model, source_files
 
 BUILDERS = {"block": block_model, "block2d": block_model_2d, "bolt": bolt_model, "mesh": mesh_model}
 #: the element-size options [mm] :func:`refined` divides, per builder; block2d's ``contact_size`` left out
@@ -30,13 +30,15 @@ def build_model(options: dict, where: str = "[model]") -> Model:
     """The model a [model] table describes: ``builder`` plus that builder's keyword options.
 
     The last :data:`N_BUILT` models are kept, so the runs of one session that describe the same model (a study's
-    identifications, a replay) mesh it once. A table naming a mesh ``file`` is keyed by the file's size and
-    modification time too, so a mesh file written again builds a new model.
+    identifications, a replay) mesh it once. A table naming a mesh ``file`` is keyed by the size and modification
+    time of the file and of every file it includes too (:func:`source_files`), so a mesh file or an included one
+    written again builds a new model.
     """
     key = repr(sorted(options.items()))
     if isinstance(options.get("file"), str) and os.path.isfile(options["file"]):
-        stat = os.stat(options["file"])
-        key += f" {stat.st_size} {stat.st_mtime_ns}"
+        for path in source_files(options["file"]):
+            stat = path.stat()
+            key += f" {path} {stat.st_size} {stat.st_mtime_ns}"
     if key in _BUILT:
         _BUILT[key] = _BUILT.pop(key)                          # most recently used last
         return _BUILT[key]
