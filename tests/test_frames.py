@@ -236,3 +236,12 @@ def test_the_run_fingerprint_sees_a_file_tables_transform(tmp_path):
 def read_digest(path) -> str:
     import hashlib
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def test_a_surface_frame_on_an_axisymmetric_model_is_refused(tmp_path):
+    from types import SimpleNamespace
+
+    from frictionid.errors import InputError
+    model = SimpleNamespace(kind="axisymmetric", mesh=None)
+    with pytest.raises(InputError, match=r"\[data\] transform: fit = \"surface\" is not available for an axisym"):
+        read({"file": str(FIXTURES / "generic.csv"), "transform": {"fit": "surface"}}, model=model)

@@ -221,6 +221,9 @@ def _surface(spec: FrameSpec, model):
     if model is None:
         raise InputError(f"{spec.key}: fit = \"surface\" needs the model's surface; it is fitted by identify, "
                          "simulate and check-data CONFIG.toml, not check-data FILE")
+    if model.kind == "axisymmetric":
+        raise InputError(f"{spec.key}: fit = \"surface\" is not available for an axisymmetric model (its surface "
+                         "turns about the axis, which leaves that turn free); use fit = \"points\"")
     try:
         return mesh_surface(model.mesh, spec.regions)
     except InputError as exc:
@@ -328,7 +331,7 @@ def fits_surface(data: dict) -> bool:
 def check_config_data(config, model=None) -> str:
     """What ``frictionid check-data CONFIG.toml`` prints: every file of the config's ``[data]`` as identify reads
     it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
-    sources = read_sources(config.data, config.resolve, f"{config.where}: [data]", model)
+    sources = read_sources(config.data, config.resolve, config.where, model)
     relative = sorted(set(sources.relative.values()))
     return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
                                        else []) + [sources.measurements.summary()])
