@@ -245,3 +245,26 @@ def test_a_surface_frame_on_an_axisymmetric_model_is_refused(tmp_path):
     model = SimpleNamespace(kind="axisymmetric", mesh=None)
     with pytest.raises(InputError, match=r"\[data\] transform: fit = \"surface\" is not available for an axisym"):
         read({"file": str(FIXTURES / "generic.csv"), "transform": {"fit": "surface"}}, model=model)
+
+
+def test_a_plane_frame_and_a_scale_fitted_to_the_surface(block2d, block3d):
+    """A plane model's frame is fitted in its plane (turn about z, shift in x, y); a 3-D one with a scale."""
+    rng = np.random.default_rng(7)
+    n = 10
+    plane = np.concatenate([np.c_[np.full(n, -5.0), rng.uniform(0.5, 9.5, n), np.zeros(n)],
+                            np.c_[rng.uniform(-4, 4, n), np.full(n, 10.0), np.zeros(n)],
+                            np.c_[rng.uniform(6, 18, n), np.zeros(n), np.zeros(n)]])
+    truth = Frame.of(5.0, [0.4, -0.3, 0.0])
+    file_xyz = truth.inverse().points(plane)
+    fit = fit_to_surface(frame_spec({"fit": "surface"}, "t"), list(map(str, range(3 * n))), file_xyz,
+                         mesh_surface(block2d.mesh), "f")
+    assert np.abs(fit.frame.points(file_xyz) - plane).max() < 1e-6 and fit.frame.points(file_xyz)[:, 2].max() == 0
+    solid = np.concatenate([np.c_[np.full(n, -5.0), rng.uniform(-4, 4, n), rng.uniform(1, 9, n)],
+                            np.c_[rng.uniform(-4, 4, n), np.full(n, 5.0), rng.uniform(1, 9, n)],
+                            np.c_[rng.uniform(-4, 4, n), rng.uniform(-4, 4, n), np.full(n, 10.0)],
+                            np.c_[rng.uniform(6, 18, n), rng.uniform(-18, 18, n), np.zeros(n)]])
+    truth = Frame(rotation_from_degrees([-2.0, 3.0, 1.0]), np.array([0.2, 0.1, -0.3]), 1.003)
+    file_xyz = truth.inverse().points(solid)
+    fit = fit_to_surface(frame_spec({"fit": "surface", "scale": True}, "t"), list(map(str, range(4 * n))),
+                         file_xyz, mesh_surface(block3d.mesh), "f")
+    assert np.abs(fit.frame.points(file_xyz) - solid).max() < 1e-6 and abs(fit.frame.scale - 1.003) < 1e-9

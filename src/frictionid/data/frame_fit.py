@@ -4,10 +4,10 @@ distances to its facets), reported with its residual."""
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
@@ -15,6 +15,10 @@ from .frames import Frame, FrameSpec
 
 #: a fit whose Jacobian has a singular value below this fraction of the largest leaves a motion undetermined
 UNDETERMINED = 1e-6
+#: Gauss-Newton steps of a surface fit at most; it stops when a step moves no point by more than STEP_TOL [mm]
+MAX_STEPS, STEP_TOL = 100, 1e-12
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -92,41 +96,73 @@ def fit_to_points(spec: FrameSpec, labels, xyz: np.ndarray, source: str) -> Fram
 
 def fit_to_surface(spec: FrameSpec, labels, xyz: np.ndarray, surface, source: str) -> FrameFit:
     """The frame of ``spec`` (fit = "surface") that brings the points ``xyz`` (n, 3) [mm, file frame] onto
-    ``surface`` (:class:`~frictionid.fem.surface.Surface`), by least squares on the vectors from each point to
-    its nearest surface point, starting from the spec's frame.
+    ``surface`` (:class:`~frictionid.fem.surface.Surface`): Gauss-Newton on the vectors from each point to its
+    nearest surface point (point-to-plane: a point's residual moves along its facet's normal), each step a turn
+    about the current frame and a shift (and a scale with ``spec.fit_scale``), halved while it does not lower the
+    sum of squares; it starts from the spec's frame.
 
     Raises
     ------
     InputError
-        Points that leave a motion free (all on one plane or a cylinder: the frame could slide along it).
+        Points that leave a motion free (all on one plane or a cylinder: the frame could slide along it), or no
+        convergence in MAX_STEPS steps.
     """
-    dim, start = surface.dim, spec.frame
-    n_turn = 3 if dim == 3 else 1                   # a plane's frame turns about z and moves in x, y only
+    dim, frame = surface.dim, spec.frame
     size = float(np.ptp(xyz, axis=0).max()) or 1.0
-
-    def frame_of(x):
-        turn = Rotation.from_rotvec(x[:3] if dim == 3 else [0.0, 0.0, x[0]]).as_matrix()
-        shift = np.r_[x[n_turn:n_turn + dim], start.translation[dim:]]
-        return Frame(turn @ start.rotation, shift, float(start.scale * np.exp(x[-1])) if spec.fit_scale
-                     else start.scale)
-
-    def residual(x):
-        p = frame_of(x).points(xyz)[:, :dim]
-        return (p - surface.nearest(p)).ravel()
-
-    x0 = np.r_[np.zeros(n_turn), start.translation[:dim], [0.0] * spec.fit_scale]
-    # columns in mm of point motion per unit: a turn moves points by about `size`, a scale step too
-    units = np.r_[np.full(n_turn, size), np.ones(dim), [size] * spec.fit_scale]
-    fitted = least_squares(residual, x0, x_scale=1.0 / units, xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                           max_nfev=100 * len(x0))
-    free = _free_motions(fitted.jac / units)
+    residual, jac = _linearised(frame, xyz, surface, spec.fit_scale)
+    for step in range(MAX_STEPS):
+        units = _units(dim, size, spec.fit_scale)
+        if _free_motions(jac / units):
+            break
+        delta = np.linalg.lstsq(jac / units, -residual.ravel(), rcond=None)[0] / units
+        cost = float(np.sum(residual ** 2))
+        for _ in range(40):
+            trial = _moved(frame, delta, dim, spec.fit_scale)
+            new_residual, new_jac = _linearised(trial, xyz, surface, spec.fit_scale)
+            if float(np.sum(new_residual ** 2)) <= cost:
+                break
+            delta = delta / 2
+        frame, residual, jac = trial, new_residual, new_jac
+        if np.max(np.abs(delta * units)) <= STEP_TOL * max(size, 1.0):
+            break
+    else:
+        raise InputError(f"{spec.key}: the frame fitted to the model's surface did not settle in {MAX_STEPS} steps; "
+                         "start nearer (rotation_deg, translation) or use fit = \"points\"")
+    log.info("surface fit: %d Gauss-Newton steps", step + 1)
+    free = _free_motions(jac / _units(dim, size, spec.fit_scale))
     if free:
         raise InputError(f"{spec.key}: the {len(xyz)} points of {source} do not fix the frame on the model's "
                          f"surface ({free} motion(s) left free: points on one plane can slide along it); use points "
                          "on several faces or fit = \"points\" with reference points")
-    frame = frame_of(fitted.x)
-    p = frame.points(xyz)[:, :dim]
-    return _fit(frame, "surface", np.linalg.norm(p - surface.nearest(p), axis=1), list(labels))
+    return _fit(frame, "surface", np.linalg.norm(residual, axis=1), list(labels))
+
+
+def _units(dim: int, size: float, with_scale: bool) -> np.ndarray:
+    """mm of point motion per unit of each step's component: turns (rad) and a scale step move points by ~size."""
+    return np.r_[np.full(3 if dim == 3 else 1, size), np.ones(dim), [size] * with_scale]
+
+
+def _linearised(frame: Frame, xyz: np.ndarray, surface, with_scale: bool):
+    """Residuals (n, dim) (point minus nearest surface point) and their derivative (n * dim, n_step) by a step
+    (turn about the model axes through the frame's origin, shift, log-scale), each point moving along its
+    facet's normal."""
+    dim = surface.dim
+    p = frame.points(xyz)
+    nearest, normal = surface.closest(p[:, :dim])
+    arm = p - frame.translation
+    turns = [np.cross(np.eye(3)[k], arm)[:, :dim] for k in (range(3) if dim == 3 else [2])]
+    motion = np.stack(turns + [np.broadcast_to(np.eye(dim)[k], (len(p), dim)) for k in range(dim)]
+                      + ([arm[:, :dim]] if with_scale else []), axis=2)                # (n, dim, n_step)
+    along = normal[:, :, None] * np.einsum("nd,ndk->nk", normal, motion)[:, None, :]
+    return p[:, :dim] - nearest, along.reshape(len(p) * dim, -1)
+
+
+def _moved(frame: Frame, delta: np.ndarray, dim: int, with_scale: bool) -> Frame:
+    n_turn = 3 if dim == 3 else 1
+    turn = Rotation.from_rotvec(delta[:3] if dim == 3 else [0.0, 0.0, delta[0]]).as_matrix()
+    shift = np.r_[delta[n_turn:n_turn + dim], np.zeros(3 - dim)]
+    scale = float(np.exp(delta[-1])) if with_scale else 1.0
+    return Frame(turn @ frame.rotation, frame.translation + shift, frame.scale * scale)
 
 
 def _free_motions(jac: np.ndarray) -> int:

@@ -29,6 +29,11 @@ class Surface:
     def nearest(self, points) -> np.ndarray:
         """(n, dim) [mm] the point of the surface nearest to each of ``points`` (n, dim), among the N_NEAREST
         facets with the nearest centres."""
+        return self.closest(points)[0]
+
+    def closest(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest surface points (n, dim) [mm] (see :meth:`nearest`) and the unit normals (n, dim) of the
+        facets they lie on."""
         points = np.asarray(points, float)
         k = min(N_NEAREST, len(self.corners))
         near = np.reshape(self._tree.query(points, k=k)[1], (len(points), k))
@@ -42,8 +47,20 @@ class Surface:
             distance = np.stack([np.linalg.norm(c - p, axis=2) for c in candidates])      # (4, n, k)
             choice = np.nan_to_num(distance, nan=np.inf).argmin(axis=0)
             best = np.choose(choice[..., None], candidates)
-        gap = np.linalg.norm(best - p, axis=2)
-        return best[np.arange(len(points)), gap.argmin(axis=1)]
+        which = np.linalg.norm(best - p, axis=2).argmin(axis=1)
+        rows = np.arange(len(points))
+        return best[rows, which], self._normals[near[rows, which]]
+
+    @property
+    def _normals(self) -> np.ndarray:
+        normals = self.__dict__.get("_unit_normals")
+        if normals is None:
+            c = self.corners
+            edge = c[:, 1] - c[:, 0]
+            normals = np.cross(edge, c[:, 2] - c[:, 0]) if self.dim == 3 else np.c_[-edge[:, 1], edge[:, 0]]
+            normals = normals / np.linalg.norm(normals, axis=1)[:, None]
+            object.__setattr__(self, "_unit_normals", normals)
+        return normals
 
     @property
     def _tree(self) -> cKDTree:
