@@ -16,7 +16,7 @@ REQUIRED = object()   # marks a key without a default
 #: allowed keys per table, with their defaults
 SCHEMA = {
     "model": {"builder": REQUIRED},                  # builder options are checked against the builder
-    "friction": {"zones": REQUIRED, "bounds": [0.0, 1.0], "fixed": {}},
+    "friction": {"zones": REQUIRED, "bounds": [0.0, 1.0], "fixed": {}, "merge": {}},
     "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {},
              "format": None, "columns": None, "strain": None, "forces": None, "transform": None,
              "relative_to": None},
@@ -28,6 +28,8 @@ SCHEMA = {
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
                  "model_error": "off", "refine_target": 0.0, "refine_budget": 2, "starts": 1, "seed": 0},
     "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "retries": 2, "fields": True},
+    "design": {"points": 10, "candidates": None, "n_candidates": 400, "regions": None, "criterion": "A",
+               "tolerance": None},
 }
 OPEN_TABLES = {"model"}
 
@@ -35,6 +37,7 @@ OPEN_TABLES = {"model"}
 TYPES = {
     "friction.zones": (dict, "a table of zone = start value"),
     "friction.fixed": (dict, "a table of zone = value"),
+    "friction.merge": (dict, 'a table of merged zone = [zones], e.g. { AD = ["A", "D"] }'),
     "friction.bounds": ((list, dict), "a pair [lower, upper] or a table zone = [lower, upper] (\"*\": the others)"),
     "data.file": ((str, list, dict), 'a file name, a list of files (one per stage or view) or tables '
                                      '{ path = "...", stage = 2, view = "front", transform = {...} }'),
@@ -84,6 +87,12 @@ TYPES = {
     "run.scheduler": (str, '"local" or the address of a Dask scheduler, "tcp://host:port"'),
     "run.retries": (int, "a whole number >= 0 (runs of a task lost with its worker, or failed, after the first)"),
     "run.fields": (bool, "true or false"),
+    "design.points": (int, "a whole number of points to choose"),
+    "design.candidates": (str, '"surface" or "section"'),
+    "design.n_candidates": (int, "a whole number of candidate points"),
+    "design.regions": (list, 'a list of region names, e.g. ["bolt", "nut"]'),
+    "design.criterion": (str, '"A" (sum of variances) or "D" (determinant)'),
+    "design.tolerance": ((int, float), "a positive number (largest predicted standard error of a resolved zone)"),
 }
 
 
@@ -115,7 +124,15 @@ class Config:
     solver: dict
     identify: dict
     run: dict
+    design: dict
     name: str | None = None
+
+    @property
+    def model_options(self) -> dict:
+        """The [model] table the model is built from: with ``[friction] merge`` given, carrying it as ``merge``
+        (so that a refined model merges alike, :func:`frictionid.builders.registry.build_model`)."""
+        merge = self.friction.get("merge")
+        return {**self.model, "merge": merge} if merge else dict(self.model)
 
     @property
     def where(self) -> str:
