@@ -318,3 +318,31 @@ def test_source_files_follow_geo_include_and_merge(tmp_path):
                                         'Merge "missing.msh";\n')
     assert source_files(tmp_path / "outer.geo") == [tmp_path / "outer.geo", tmp_path / "sub" / "inner.geo",
                                                     tmp_path / "sub" / "shape.step"]
+
+
+STRIP_GEO = """// a strip held at its bottom in y and at one corner point in x (a physical point group)
+SetFactory("OpenCASCADE");
+Rectangle(1) = {0, 0, 0, 4, 1};
+Physical Surface("strip") = {1};
+Physical Curve("bottom") = {1};
+Physical Curve("top") = {3};
+Physical Point("corner") = {1};
+Mesh.MeshSizeMax = 0.5;
+"""
+
+
+def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path):
+    """A point group holds the one node at (0, 0) in x; without it the strip slides in x (a mechanism, refused)."""
+    (tmp_path / "strip.geo").write_text(STRIP_GEO)
+    options = dict(kind="plane_strain", materials={"strip": {"E": 1000.0, "nu": 0.3}},
+                   loads=[{"type": "pressure", "boundary": "top", "values": [1.0]}])
+    model = mesh_model(tmp_path / "strip.geo", supports=[{"boundary": "bottom", "components": ["y"]},
+                                                         {"boundary": "corner", "components": ["x"]}], **options)
+    nodes = model.mesh.boundary_nodes("corner")
+    assert len(nodes) == 1 and np.allclose(model.mesh.points[nodes[0]], [0.0, 0.0])
+    with pytest.raises(InputError, match="translation in x"):
+        mesh_model(tmp_path / "strip.geo", supports=[{"boundary": "bottom", "components": ["y"]}], **options)
+    with pytest.raises(InputError, match="'corner'.*node set"):
+        mesh_model(tmp_path / "strip.geo", supports=[{"boundary": "bottom", "components": ["y"]},
+                                                     {"boundary": "corner", "components": ["x"]}],
+                   **{**options, "loads": [{"type": "pressure", "boundary": "corner", "values": [1.0]}]})

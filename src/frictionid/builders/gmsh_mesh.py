@@ -82,6 +82,12 @@ def mesh_from_gmsh(source: str = "gmsh model") -> Mesh:
     Regions are the physical groups of the top dimension, boundaries those one dimension lower.
     Nodes not used by any cell are dropped and the rest numbered 0..n-1.
     """
+    return mesh_and_node_sets_from_gmsh(source)[0]
+
+
+def mesh_and_node_sets_from_gmsh(source: str = "gmsh model") -> tuple[Mesh, dict[str, np.ndarray]]:
+    """:func:`mesh_from_gmsh` and the node sets: the nodes (0-based, as in the mesh) of each physical group of
+    points, and in 3-D of curves, i.e. of every group below the boundaries' dimension."""
     dim = gmsh.model.getDimension()
     if dim not in (2, 3):
         raise InputError(f"{source}: has no 2-D or 3-D mesh (dimension {dim})")
@@ -113,32 +119,48 @@ def mesh_from_gmsh(source: str = "gmsh model") -> Mesh:
         if np.any(index[stacked] < 0):
             raise InputError(f"{source}: boundary {name!r} has nodes that belong to no cell")
         boundaries[name] = index[stacked]
-    return Mesh(points=points, cell_type=cell_type, cells=index[cells], regions=regions, boundaries=boundaries)
+    mesh = Mesh(points=points, cell_type=cell_type, cells=index[cells], regions=regions, boundaries=boundaries)
+    return mesh, _node_sets(dim, index, source)
+
+
+def _node_sets(dim: int, index: np.ndarray, source: str) -> dict[str, np.ndarray]:
+    """Mesh nodes of the physical groups of dimension below dim - 1, by name (``index``: gmsh tag -> node)."""
+    sets: dict[str, np.ndarray] = {}
+    for d in range(dim - 1):
+        for _, tag in gmsh.model.getPhysicalGroups(d):
+            name = gmsh.model.getPhysicalName(d, tag) or f"{d}:{tag}"
+            tags = np.asarray(gmsh.model.mesh.getNodesForPhysicalGroup(d, tag)[0], dtype=np.int64)
+            nodes = np.where(tags < len(index), index[np.minimum(tags, len(index) - 1)], -1)
+            if not len(nodes) or np.any(nodes < 0):
+                raise InputError(f"{source}: physical group {name!r} ({'points' if d == 0 else 'curves'}) has "
+                                 "nodes that belong to no cell")
+            sets[name] = np.union1d(sets.get(name, np.zeros(0, np.int64)), nodes)
+    return sets
 
 
 def read_msh(path: str | Path) -> Mesh:
     """Read a gmsh .msh file; physical groups become regions and boundaries."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: mesh file not found")
-    with gmsh_session():
-        try:
-            gmsh.open(str(path))
-        except Exception as exc:  # gmsh raises a bare Exception with its own message
-            raise InputError(f"{path}: gmsh could not read it ({exc})") from None
-        return mesh_from_gmsh(str(path))
+    return read_gmsh_file(path)[0]
 
 
 def read_geo(path: str | Path) -> Mesh:
     """Mesh a gmsh .geo file with the installed gmsh (its own options, e.g. ``Mesh.ElementOrder``, apply) in the
     dimension of its geometry; physical groups become regions and boundaries."""
+    return read_gmsh_file(path)[0]
+
+
+def read_gmsh_file(path: str | Path) -> tuple[Mesh, dict[str, np.ndarray]]:
+    """A .msh read or a .geo meshed (see :func:`read_msh`, :func:`read_geo`): the mesh and its node sets
+    (:func:`mesh_and_node_sets_from_gmsh`)."""
     path = Path(path)
+    geo = path.suffix.lower() == ".geo"
     if not path.is_file():
-        raise InputError(f"{path}: geometry file not found")
+        raise InputError(f"{path}: {'geometry' if geo else 'mesh'} file not found")
     with gmsh_session():
         try:
             gmsh.open(str(path))
-            gmsh.model.mesh.generate(gmsh.model.getDimension())
+            if geo:
+                gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:  # gmsh raises a bare Exception with its own message
-            raise InputError(f"{path}: gmsh could not mesh it ({exc})") from None
-        return mesh_from_gmsh(str(path))
+            raise InputError(f"{path}: gmsh could not {'mesh' if geo else 'read'} it ({exc})") from None
+        return mesh_and_node_sets_from_gmsh(str(path))

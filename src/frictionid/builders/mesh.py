@@ -17,7 +17,7 @@ from ..model import ContactInterface, Displacement, Material, Mesh, Model, Press
 from ..model.mesh import FACET_NODES, FACET_TYPE
 from ..model.model import KINDS
 from .arguments import checked_table
-from .gmsh_mesh import read_geo, read_msh
+from .gmsh_mesh import read_gmsh_file
 from .mesh_checks import check_contact_sides, check_held
 from .mesh_inp import read_inp
 from .zone_rules import split_facets, zone_rules
@@ -36,7 +36,8 @@ class MeshFile:
     path : the file; points : (n_nodes, dim) [mm]; cell_type : meshio name; cells : (n_cells, n_cell_nodes)
     regions : name -> cell indices (physical groups of the top dimension / *ELSET)
     boundaries : name -> facets (physical groups one dimension lower / element-face *SURFACE)
-    node_sets : name -> node indices (*NSET; supports and displacements only)
+    node_sets : name -> node indices (*NSET, gmsh groups of points or, in 3-D, curves; supports and
+        displacements only)
     case_insensitive : names match whatever their case (.inp)
     """
 
@@ -107,8 +108,9 @@ def read_mesh_file(path: Path) -> MeshFile:
     if suffix not in (".msh", ".geo"):
         raise InputError(f"[model] file = {str(path)!r}: a mesh file must be a gmsh .msh or .geo or an "
                          "Abaqus / CalculiX .inp")
-    mesh = read_msh(path) if suffix == ".msh" else read_geo(path)
-    return MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries), {})
+    mesh, node_sets = read_gmsh_file(path)
+    return MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries),
+                    node_sets)
 
 
 def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials=None, supports=(), loads=(),
