@@ -6,6 +6,7 @@ import argparse
 import logging
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -105,6 +106,25 @@ def _run_simulate(args) -> int:
     return 0
 
 
+def _add_design(sub):
+    parser = sub.add_parser("design", help="plan the measurement: predicted standard errors of the planned "
+                                           "points, a chosen point set and the zone partition the data resolve")
+    parser.add_argument("config", help="TOML config file ([friction] zones: the expected coefficients)")
+    parser.add_argument("--points", type=int, help="number of points to choose (default design.points)")
+    parser.add_argument("--out", help="folder for design.json, chosen_points.csv, sensitivity.png "
+                                      "(default <run.dir>/design)")
+    parser.set_defaults(run=_run_design)
+
+
+def _run_design(args) -> int:
+    from .config import read_config
+    from .planning import design_config
+
+    config = read_config(args.config, need=("model", "friction", "data", "run"))
+    design_config(config, args.points, Path(args.out) if args.out else None, echo=_echo)
+    return 0
+
+
 def _add_check_data(sub):
     parser = sub.add_parser("check-data", help="validate a measurement file (or a config's [data]) and print a "
                                                "summary")
@@ -125,7 +145,7 @@ def _run_check_data(args) -> int:
     from .config import read_config
 
     config = read_config(args.file, need=("data",))
-    model = build_model(config.model) if fits_surface(config.data) else None
+    model = build_model(config.model_options) if fits_surface(config.data) else None
     print(check_config_data(config, model))
     return 0
 
@@ -139,8 +159,6 @@ def _add_crosscheck(sub):
 
 
 def _run_crosscheck(args) -> int:
-    from pathlib import Path
-
     from .config import read_config
     from .crosscheck import cross_check_config
     from .report.crosscheck import cross_check_table
@@ -162,6 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     _add_check_data(sub)
     _add_demo(sub)
     _add_crosscheck(sub)
+    _add_design(sub)
     args = parser.parse_args(argv)
     # -v shows frictionid's own log; the libraries' (scikit-fem, matplotlib, ...) stay at warnings
     logging.basicConfig(level=logging.WARNING, format="%(message)s")

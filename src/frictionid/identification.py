@@ -87,10 +87,10 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     check_scheduler(config.run.get("scheduler"), f"{where}:")
     if int(config.run["retries"]) < 0:
         raise InputError(f"{where}: run.retries must be 0 or more, got {config.run['retries']}")
-    given_model, model_options = model, dict(config.model) if model is None else {}
+    given_model, model_options = model, config.model_options if model is None else {}
     if model is None:
         start = time.perf_counter()
-        model = build_model(config.model)
+        model = build_model(model_options)
         echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
              f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
     if parameters is None:

@@ -31,7 +31,7 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     gets a line about them.
     """
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
-    model = build_model(config.model)
+    model = build_model(config.model_options)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)

@@ -8,6 +8,7 @@ import os
 
 from ..errors import InputError
 from ..model import Model
+from ..model.merge import merge_zones
 from .block import block_model, block_model_2d
 from .bolt import bolt_model, default_sizes
 from .mesh import mesh_model, source_files
@@ -27,7 +28,9 @@ N_BUILT = 4
 
 
 def build_model(options: dict, where: str = "[model]") -> Model:
-    """The model a [model] table describes: ``builder`` plus that builder's keyword options.
+    """The model a [model] table describes: ``builder`` plus that builder's keyword options, and ``merge`` (zones
+    made one, :func:`frictionid.model.merge.merge_zones`; an identification puts ``[friction] merge`` there, so
+    that a refined model merges alike).
 
     The last :data:`N_BUILT` models are kept, so the runs of one session that describe the same model (a study's
     identifications, a replay) mesh it once. A table naming a mesh ``file`` is keyed by the size and modification
@@ -50,6 +53,12 @@ def build_model(options: dict, where: str = "[model]") -> Model:
 
 
 def _build(options: dict, where: str) -> Model:
+    merge = options.pop("merge", None)
+    model = _built(options, where)
+    return merge_zones(model, merge, "friction.merge") if merge else model
+
+
+def _built(options: dict, where: str) -> Model:
     name = options.pop("builder", None)
     if name not in BUILDERS:
         raise InputError(f"{where} builder = {name!r} is not one of {sorted(BUILDERS)}")

@@ -1,0 +1,219 @@
+"""`frictionid design`: plan the measurement before building the rig.
+
+From a config (the model, the expected coefficients as [friction] zones, the observed quantities, stages and
+noise of [data], the planned points as [data] file, and the [design] table) it computes, at the expected
+coefficients:
+
+- the predicted standard error per zone of the planned points;
+- a set of ``design.points`` points chosen from candidates spread over the model (greedy A- or D-optimal,
+  :func:`frictionid.inverse.design.select_points`) and its predicted standard errors;
+- the finest zone partition each point set supports (:func:`frictionid.inverse.design.finest_partition`), as
+  the ``[friction] merge`` table an identification can run with;
+- a plot of each zone's weighted sensitivity over the candidates.
+
+Candidates (``design.candidates``): "surface", nodes spread over the surfaces a camera can see (not the
+contact surfaces), or "section", nodes spread over the whole model: for a plane-strain or axisymmetric model
+the plane DIC sees on a specimen's face or cut-out. ``design.regions`` limits them to some regions.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .backends.embedded import EmbeddedBackend
+from .config import Config
+from .errors import InputError
+from .identification import prepare
+from .inverse.design import CRITERIA, finest_partition, information_of, select_points
+from .inverse.observations import noise_of
+from .inverse.resolution import predicted_stderr, resolution
+from .model import Model
+from .prefit import candidate_points, spread_points
+
+KINDS = ("surface", "section")
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """Candidate points, their regions, and their weighted sensitivities (n, n_rows, n_free): the quantities
+    at the observed stages of each point, each divided by its noise."""
+
+    points: np.ndarray
+    regions: tuple[str, ...]
+    rows: np.ndarray
+
+
+def candidate_locations(model: Model, kind: str, n_max: int, regions=None) -> tuple[np.ndarray, list[str]]:
+    """(n, dim) points and their regions: spread over the visible surfaces ("surface") or the nodes ("section")."""
+    names = list(regions) if regions else list(model.mesh.regions)
+    unknown = [r for r in names if r not in model.mesh.regions]
+    if unknown:
+        raise InputError(f"design.regions: unknown region(s) {unknown}; the model's regions are "
+                         f"{list(model.mesh.regions)}")
+    if kind == "surface":
+        points, owner = candidate_points(model, np.zeros((0, model.dim)), n_max * len(model.mesh.regions))
+        keep = np.isin(owner, names)
+        return points[keep], [o for o, k in zip(owner, keep) if k]
+    points, owner = [], []
+    for name in names:
+        cells = model.mesh.cells[model.mesh.regions[name]]
+        xyz = model.mesh.points[np.unique(cells)]
+        if model.kind == "axisymmetric":          # on the axis a point has no radial direction to measure
+            xyz = xyz[xyz[:, 0] > 1e-9 * np.ptp(model.mesh.points[:, 1])]
+        chosen = spread_points(xyz, max(n_max // len(names), 1))
+        points.append(xyz[chosen])
+        owner += [name] * len(chosen)
+    return np.concatenate(points), owner
+
+
+def weighted_rows(model: Model, points, regions, quantities, stages, sigma, mu, free) -> np.ndarray:
+    """(n_points, n_stages * n_q, n_free) sensitivities of ``quantities`` at the 1-based ``stages`` / sigma."""
+    derivatives = EmbeddedBackend(model, np.asarray(points), tuple(quantities), list(regions),
+                                  keep=False).predict(mu, True).derivatives
+    n_q = len(quantities)
+    per_stage = derivatives[[s - 1 for s in stages]][:, :len(points) * n_q][..., free]
+    per_stage = per_stage / np.tile(np.asarray(sigma, dtype=float), len(points))[None, :, None]
+    return per_stage.reshape(len(stages), len(points), n_q, -1).transpose(1, 0, 2, 3).reshape(
+        len(points), len(stages) * n_q, -1)
+
+
+def _zone_relations(model: Model, names) -> tuple[set, list]:
+    """Pairs of the named zones that share a node, and each zone's interface."""
+    nodes = {z: set(model.mesh.boundary_nodes(z).tolist()) for z in names}
+    interface = {z: i.name for i in model.interfaces for z in i.zones}
+    neighbours = {frozenset((a, b)) for a in range(len(names)) for b in range(a + 1, len(names))
+                  if nodes[names[a]] & nodes[names[b]]}
+    return neighbours, [interface[z] for z in names]
+
+
+def _summary(name: str, stderr, names, tolerance: float) -> str:
+    cells = [f"{z} {s:.3g}" if np.isfinite(s) else f"{z} unseen" for z, s in zip(names, stderr)]
+    resolved = [z for z, s in zip(names, stderr) if s <= tolerance]
+    return (f"{name}: predicted standard errors {', '.join(cells)}; resolved (<= {tolerance:g}): "
+            f"{', '.join(resolved) or 'none'}")
+
+
+def _write_points(path: Path, points: np.ndarray, labels, stages, quantities) -> None:
+    """The chosen points as a measurement-file template (values are placeholders; `simulate` fills them)."""
+    rows = ["# points chosen by frictionid design (undeformed, mm); the values are placeholders",
+            ",".join(["point", "x", "y", "z", "stage", *quantities])]
+    xyz = np.column_stack([points, np.zeros((len(points), 3 - points.shape[1]))])
+    for stage in stages:
+        rows += [",".join([label, *(repr(float(v)) for v in p), str(stage), *("0.0" for _ in quantities)])
+                 for label, p in zip(labels, xyz)]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def _plot(path: Path, candidates: Candidates, names, chosen, planned: np.ndarray) -> None:
+    from matplotlib.figure import Figure
+
+    seen = np.sqrt(np.einsum("pkz,pkz->pz", candidates.rows, candidates.rows))
+    dim = candidates.points.shape[1]
+    n = len(names)
+    fig = Figure(figsize=(3.2 * min(n, 4), 3.0 * -(-n // 4)), layout="constrained")
+    for k, name in enumerate(names):
+        if dim == 3:
+            ax = fig.add_subplot(-(-n // 4), min(n, 4), k + 1, projection="3d")
+            xyz = candidates.points.T
+        else:
+            ax = fig.add_subplot(-(-n // 4), min(n, 4), k + 1)
+            ax.set_aspect("equal")
+            xyz = candidates.points.T[:2]
+        dots = ax.scatter(*xyz, c=np.log10(np.maximum(seen[:, k], 1e-12)), s=6, cmap="viridis")
+        ax.scatter(*candidates.points[chosen].T[:dim], s=30, facecolors="none", edgecolors="r", linewidths=1.0)
+        if len(planned):
+            ax.scatter(*planned.T[:dim], marker="x", s=20, c="k")
+        ax.set_title(f"zone {name}", fontsize=9)
+        fig.colorbar(dots, ax=ax, shrink=0.8, label="log10 |d(obs)/d mu| / noise")
+    fig.savefig(path, dpi=110)
+
+
+def design_config(config: Config, n_points: int | None = None, out: Path | None = None,
+                  echo=lambda text: None) -> dict:
+    """Run the design a config describes (module docstring); writes design.json, chosen_points.csv and
+    sensitivity.png to ``out`` (default <run.dir>/design) and returns design.json's content."""
+    where, table = config.where, config.design
+    setup = prepare(config, echo=echo)
+    model, params, obs = setup.model, setup.parameters, setup.observations
+    n_points = int(table["points"] if n_points is None else n_points)
+    kind = table["candidates"] or ("surface" if model.dim == 3 else "section")
+    if kind not in KINDS:
+        raise InputError(f"{where}: design.candidates = {kind!r} is not one of {list(KINDS)}")
+    if table["criterion"] not in CRITERIA:
+        raise InputError(f"{where}: design.criterion = {table['criterion']!r} is not one of {list(CRITERIA)}")
+    if int(table["n_candidates"]) < n_points:
+        raise InputError(f"{where}: design.n_candidates = {table['n_candidates']} is fewer than the "
+                         f"{n_points} points to choose")
+    quantities = tuple(q for q in config.data["observables"] if q != "force")
+    noise = config.data.get("noise") or {}
+    sigma = [noise_of(q, noise) for q in quantities]
+    missing = [q for q, s in zip(quantities, sigma) if s is None]
+    if missing:
+        raise InputError(f"{where}: design needs the noise of every observed quantity; data.noise gives none for "
+                         f"{missing} (e.g. noise = {{ u = 0.0005, e = 2e-5 }})")
+    stages = [int(s) for s in config.data["stages"]]
+    names, free, mu = params.free_names, params.free, params.full(params.x0)
+    tolerance = float(table["tolerance"] or config.identify["resolution"])
+
+    backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=False)
+    planned_jac = obs.derivatives(backend.predict(mu, True).derivatives)[:, free] / obs.sigma[:, None]
+    planned = resolution(planned_jac, names, tolerance)
+    echo(_summary(f"planned ({len(obs.points)} points)", planned.stderr, names, tolerance))
+
+    points, regions = candidate_locations(model, kind, int(table["n_candidates"]), table["regions"])
+    rows = weighted_rows(model, points, regions, quantities, stages, sigma, mu, free)
+    candidates = Candidates(points, tuple(regions), rows)
+    chosen = select_points(rows, n_points, table["criterion"])
+    chosen_info = information_of(rows, chosen)
+    chosen_se = predicted_stderr(chosen_info)
+    echo(_summary(f"chosen ({n_points} of {len(points)} {kind} candidates, {table['criterion']}-optimal)",
+                  chosen_se, names, tolerance))
+    neighbours, interface_of = _zone_relations(model, names)
+    partitions = {}
+    for label, info in (("planned", planned_jac.T @ planned_jac), ("chosen", chosen_info)):
+        partitions[label] = finest_partition(info, names, tolerance, neighbours, interface_of)
+        echo(_partition_line(label, partitions[label]))
+
+    folder = out or config.resolve(config.run["dir"]) / "design"
+    folder.mkdir(parents=True, exist_ok=True)
+    labels = [f"{regions[k]}-{i + 1}" for i, k in enumerate(chosen)]
+    region_table = {f"{r}-*": r for r in dict.fromkeys(regions[k] for k in chosen)}
+    _write_points(folder / "chosen_points.csv", points[chosen], labels, stages, quantities)
+    _plot(folder / "sensitivity.png", candidates, names, chosen, obs.points)
+
+    def clean(values):
+        return {z: float(v) if np.isfinite(v) else None for z, v in zip(names, values)}
+
+    result = {"coefficients": dict(zip(params.names, mu.tolist())), "quantities": list(quantities),
+              "stages": stages, "noise": dict(zip(quantities, sigma)), "tolerance": tolerance,
+              "planned": {"n_points": len(obs.points), "stderr": clean(planned.stderr),
+                          "partition": partitions["planned"].as_dict()},
+              "chosen": {"n_points": n_points, "candidates": kind, "n_candidates": len(points),
+                         "criterion": table["criterion"], "stderr": clean(chosen_se),
+                         "points": {label: {"xyz": points[k].tolist(), "region": regions[k]}
+                                    for label, k in zip(labels, chosen)},
+                         "partition": partitions["chosen"].as_dict(), "regions": region_table},
+              "files": ["chosen_points.csv", "sensitivity.png"]}
+    (folder / "design.json").write_text(json.dumps(result, indent=2) + "\n")
+    echo(f"written: {folder / 'design.json'}, chosen_points.csv (a points file for `frictionid simulate`, with "
+         f"[data] regions = {_toml(region_table)}), sensitivity.png")
+    return result
+
+
+def _partition_line(label: str, p) -> str:
+    groups = ", ".join(f"{p.name(g)} {s:.3g}" + ("" if ok else " (not resolved)")
+                       for g, s, ok in zip(p.groups, p.stderr, p.resolved))
+    if not p.resolved.all():
+        return f"the {label} points resolve no partition of these zones; the coarsest tried: {groups}"
+    if not p.merge_table():
+        return f"the {label} points resolve every zone on its own: {groups}"
+    return (f"finest partition the {label} points resolve: {groups}; identify it with "
+            f"[friction] merge = {_toml(p.merge_table())}")
+
+
+def _toml(table: dict) -> str:
+    return "{ " + ", ".join(f"{json.dumps(k)} = {json.dumps(v)}" for k, v in table.items()) + " }"
