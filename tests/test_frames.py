@@ -268,3 +268,12 @@ def test_a_plane_frame_and_a_scale_fitted_to_the_surface(block2d, block3d):
     fit = fit_to_surface(frame_spec({"fit": "surface", "scale": True}, "t"), list(map(str, range(4 * n))),
                          file_xyz, mesh_surface(block3d.mesh), "f")
     assert np.abs(fit.frame.points(file_xyz) - solid).max() < 1e-6 and abs(fit.frame.scale - 1.003) < 1e-9
+
+
+def test_standard_deviations_are_turned_as_independent_errors():
+    m = Measurements(("P",), [[1.0, 2.0, 0.0]], [1], [np.nan], {"ux": [0.1], "uy": [0.2]},
+                     sigma={"ux": [0.001], "uy": [0.002]})
+    quarter = in_model_frame(m, Frame.of(90), "")
+    assert quarter.sigma["ux"][0] == 0.002 and quarter.sigma["uy"][0] == 0.001
+    eighth = in_model_frame(m, Frame.of(45), "")
+    np.testing.assert_allclose([eighth.sigma["ux"][0], eighth.sigma["uy"][0]], np.sqrt(2.5e-6), rtol=1e-12)
