@@ -97,6 +97,20 @@ def test_front_and_rear_is_the_quadrant_model_with_equal_neighbours(by_groups):
     assert np.abs(other - got).max() > 1e-3 * np.abs(got).max()         # the two zones do act
 
 
+def test_supports_and_loads_may_name_zones_made_by_rules(by_groups):
+    """A displacement on a rule-made zone acts on that zone's nodes: the same model as naming the file's group."""
+    groups, _ = by_groups
+    held = {"type": "displacement", "boundary": "SW", "component": "z", "values": [0.0, 0.0]}
+    table = options({"contact": ["A", "B", "C", "D"], "zone_rules": QUADRANT_BOXES})
+    model = build_model({**table, "loads": [*table["loads"], held],
+                         "supports": [*table["supports"], {"boundary": "NE", "components": ["z"]}]})
+    assert model.loads[-1].boundary == "SW" and model.supports[-1].boundary == "NE"
+    np.testing.assert_array_equal(model.mesh.boundary_nodes("SW"), groups.mesh.boundary_nodes("A"))
+    np.testing.assert_array_equal(model.mesh.boundary_nodes("NE"), groups.mesh.boundary_nodes("D"))
+    with pytest.raises(InputError, match="no boundary or node set of that name"):
+        build_model({**table, "supports": [{"boundary": "SWW", "components": ["z"]}]})
+
+
 # ------------------------------------------------------------------------------------ each rule kind
 
 def _members(table: dict, x) -> list[bool]:

@@ -171,12 +171,14 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
         raise InputError(f"[model] kind = 'axisymmetric': {path.name} has nodes at x < 0 (x is the radius)")
     regions, material_of = _materials(source, materials)
     used: dict[str, tuple[str, str]] = {}            # configured name -> (kind of set, file's name)
-    model_supports = tuple(_support(source, entry, i, dim, used)
-                           for i, entry in enumerate(_list(supports, "supports"), 1))
-    model_loads = tuple(_load(source, entry, i, len(stages), used) for i, entry in enumerate(_list(loads, "loads"), 1))
     ruled: dict[str, np.ndarray] = {}                # zone by rule -> its facets
     model_interfaces = tuple(_interface(source, entry, i, used, ruled)
                              for i, entry in enumerate(_list(interfaces, "interfaces"), 1))
+    # supports and loads may name the zones rules made (boundaries of the model, not of the file)
+    model_supports = tuple(_support(source, entry, i, dim, used, ruled)
+                           for i, entry in enumerate(_list(supports, "supports"), 1))
+    model_loads = tuple(_load(source, entry, i, len(stages), used, ruled)
+                        for i, entry in enumerate(_list(loads, "loads"), 1))
     mesh = Mesh(points=source.points, cell_type=source.cell_type, cells=source.cells, regions=regions,
                 boundaries={**{name: _facets(source, kind_, known) for name, (kind_, known) in used.items()},
                             **ruled})
@@ -240,17 +242,17 @@ def _materials(source: MeshFile, materials) -> tuple[dict, dict]:
     return regions, material_of
 
 
-def _support(source: MeshFile, entry, index: int, dim: int, used: dict) -> Support:
+def _support(source: MeshFile, entry, index: int, dim: int, used: dict, ruled: dict) -> Support:
     where = f"[[model.supports]] {index}"
     entry = checked_table(entry, {"boundary": ..., "components": list("xyz"[:dim])}, where)
     components = entry["components"]
     if isinstance(components, str) or not isinstance(components, (list, tuple)) or not components:
         raise InputError(f"{where} components: must be a list such as [\"x\", \"y\"], got {components!r}")
-    return Support(_name(source, entry["boundary"], ("boundaries", "node_sets"), f"{where} boundary", used),
+    return Support(_name(source, entry["boundary"], ("boundaries", "node_sets"), f"{where} boundary", used, ruled),
                    tuple(components))
 
 
-def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict):
+def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict, ruled: dict):
     where = f"[[model.loads]] {index}"
     entry = checked_table(entry, {"type": ..., "boundary": ..., "component": None, "values": ...}, where)
     kind = entry["type"]
@@ -261,7 +263,7 @@ def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict):
         raise InputError(f"{where} values: must give one value per stage ({n_stages}), got {values!r}")
     values = tuple(_number(v, f"{where} values") for v in values)
     sets = ("boundaries", "node_sets") if kind == "displacement" else ("boundaries",)
-    boundary = _name(source, entry["boundary"], sets, f"{where} boundary", used)
+    boundary = _name(source, entry["boundary"], sets, f"{where} boundary", used, ruled)
     if kind == "pressure":
         if entry["component"] is not None:
             raise InputError(f"{where}: a pressure acts along the normal; it takes no component")
@@ -337,8 +339,11 @@ def _new_name(source: MeshFile, name: str, where: str, taken: set) -> None:
                              "made by zone_rules is a new boundary, so give it a name of its own")
 
 
-def _name(source: MeshFile, name, kinds: tuple[str, ...], where: str, used: dict) -> str:
-    """The configured name, recorded with the set of the file it stands for."""
+def _name(source: MeshFile, name, kinds: tuple[str, ...], where: str, used: dict, ruled: dict | None = None) -> str:
+    """The configured name, recorded with the set of the file it stands for; a zone made by rules (a key of
+    ``ruled``, spelled as configured) stands for itself."""
+    if ruled and "boundaries" in kinds and name in ruled:
+        return name
     used[name] = source.find(name, kinds, where)
     return name
 
