@@ -173,3 +173,96 @@ def test_views_of_one_specimen_giving_two_forces_are_refused(first, capsys):
     assert main(["identify", str(path)]) == 2
     err = capsys.readouterr().err
     assert "stage 2 has the machine forces 100, 101, 102 N from different files" in err and "Traceback" not in err
+
+
+#: views of the 3-D block's faces: (points on the face, its DIC frame: rotation R, translation [mm]); a view's file
+#: x, y lie in the face (turned in it by an angle of its own), so that its in-plane strains are the face's
+def _face_frame(place, turn_deg):
+    return (rotation_from_degrees(place) @ rotation_from_degrees(turn_deg)).tolist()
+
+
+FACES = {"front": (lambda u, v: [u, -5.0, v], _face_frame([90, 0, 0], 7.0), [0.0, -5.0, 5.0]),
+         "side": (lambda u, v: [5.0, u, v], _face_frame([90, 0, 90], 37.0), [5.0, 0.0, 5.0]),
+         "top": (lambda u, v: [u, v, 10.0], _face_frame([0, 0, 0], -31.0), [0.0, 0.0, 10.0])}
+STRAINS = ("exx", "eyy", "ezz", "exy", "eyz", "exz")
+
+
+def strain_tensor(values: dict, i: int) -> np.ndarray:
+    e = {q: values[q][i] for q in STRAINS}
+    return np.array([[e["exx"], e["exy"], e["exz"]], [e["exy"], e["eyy"], e["eyz"]], [e["exz"], e["eyz"], e["ezz"]]])
+
+
+def as_seen(m: Measurements, rotation, shift) -> tuple[Measurements, Measurements]:
+    """What a view's DIC system gives (its frame; displacements and in-plane strains exx, eyy, exy only) and the
+    same information in the model's frame (the strain components of the face's plane; the others empty)."""
+    rotation = np.array(rotation)
+    u = np.column_stack([m.values[q] for q in ("ux", "uy", "uz")])
+    seen, known = {q: (u @ rotation)[:, k] for k, q in enumerate(("ux", "uy", "uz"))}, dict(m.values)
+    tensors = [rotation.T @ strain_tensor(m.values, i) @ rotation for i in range(m.n_rows)]
+    for q, (a, b) in zip(("exx", "eyy", "exy"), ((0, 0), (1, 1), (0, 1))):
+        seen[q] = np.array([t[a, b] for t in tensors])
+    in_face = {a for a in range(3) if np.hypot(rotation[a, 0], rotation[a, 1]) > 1 - 1e-12}   # model axes
+    for q, (a, b) in zip(STRAINS, ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))):
+        known[q] = m.values[q] if {a, b} <= in_face else np.full(m.n_rows, np.nan)
+    return (Measurements(m.points, (m.coordinates - shift) @ rotation, m.stage, m.force, seen),
+            Measurements(m.points, m.coordinates, m.stage, m.force, known))
+
+
+@pytest.mark.slow
+def test_per_face_views_of_the_3d_block_identify_like_the_generic_csv(tmp_path):
+    """Twin data on three faces of the 3-D block (displacements and surface strains at 0.2 mm pull), seen by one
+    DIC view per face in its own frame (GOM exports: in-plane strains exx, eyy, exy of the view), identify like the
+    generic CSV that holds the same values in the model frame: the vectors and the strain tensors turned right."""
+    rng = np.random.default_rng(11)
+    labels, xyz = [], []
+    for face, (place, _, _) in FACES.items():
+        for k, (u, v) in enumerate(zip(rng.uniform(-4, 4, 6), rng.uniform(1, 9, 6) if face != "top"
+                                       else rng.uniform(-4, 4, 6))):
+            labels.append(f"{face[0].upper()}{k + 1}")
+            xyz.append(place(u, v))
+    points = Measurements(tuple(labels), xyz, np.full(len(xyz), 2), np.full(len(xyz), np.nan), {})
+    from frictionid.data import write_measurements
+    write_measurements(tmp_path / "points.csv", points)
+    model = {"builder": "block", "mesh_size": 5.0}
+    observables = ["ux", "uy", "uz", *STRAINS]
+    truth = {"model": model, "friction": {"zones": {"A": 0.3, "B": 0.15, "C": 0.25, "D": 0.2}},
+             "data": {"file": "points.csv", "observables": observables, "stages": [2], "regions": {"*": "block"}},
+             "run": {"dir": "runs/truth", "fields": False}}
+    (tmp_path / "truth.toml").write_text(tomli_w.dumps(truth))
+    assert main(["simulate", str(tmp_path / "truth.toml"), "--out", str(tmp_path / "measured.csv")]) == 0
+    measured = read_measurements(tmp_path / "measured.csv").select(stages=[2])
+    files, known = [], []
+    for face, (_, rotation, shift) in FACES.items():
+        seen, in_model = as_seen(part_of(measured, face[0].upper()), rotation, shift)
+        generate.write_gom(tmp_path / f"{face}.csv", seen)
+        files.append({"path": f"{face}.csv", "stage": 2, "view": face,
+                      "transform": {"rotation": rotation, "translation": shift}})
+        known.append(in_model)
+    write_measurements(tmp_path / "generic.csv", joined(known))
+    data = {"observables": observables, "stages": [2], "noise": {"u": 5e-4, "e": 1e-5}}
+    start = {"zones": {"A": 0.1, "B": 0.1, "C": 0.1, "D": 0.1}}
+
+    def run(name, **more):
+        config = {"model": model, "friction": start, "data": {**data, **more}, "run": {"dir": f"runs/{name}",
+                                                                                       "fields": False}}
+        (tmp_path / f"{name}.toml").write_text(tomli_w.dumps(config))
+        assert main(["identify", str(tmp_path / f"{name}.toml")]) == 0
+        return json.loads((tmp_path / "runs" / name / "result.json").read_text())
+
+    reference = run("generic", file="generic.csv", regions={"*": "block"})
+    by_views = run("views", file=files, regions={"*": "block"})
+    assert_same(values(by_views), values(reference))
+    assert by_views["fit"]["n_obs"] == reference["fit"]["n_obs"] == 18 * 3 + 18 * 3   # u, and 3 surface strains
+    assert abs(values(reference)["C"] - 0.25) < 1e-3                               # the twin's truth is found
+
+
+def part_of(m: Measurements, prefix: str) -> Measurements:
+    rows = np.array([p.startswith(prefix) for p in m.points])
+    return Measurements(tuple(np.array(m.points)[rows]), m.coordinates[rows], m.stage[rows], m.force[rows],
+                        {q: v[rows] for q, v in m.values.items()})
+
+
+def joined(parts) -> Measurements:
+    return Measurements(sum((p.points for p in parts), ()), np.vstack([p.coordinates for p in parts]),
+                        np.concatenate([p.stage for p in parts]), np.concatenate([p.force for p in parts]),
+                        {q: np.concatenate([p.values[q] for p in parts]) for q in parts[0].values})
