@@ -14,7 +14,7 @@ from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
 from frictionid.fem.contact import SLIP, STICK
 from frictionid.fem.node_to_node import TRI6_ALPHA, surface_transform
 from frictionid.fem.problem import Problem
-from frictionid.model import ContactInterface, Displacement, Material, Model, Pressure, Stage, Support
+from frictionid.model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 
 STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
 MU = np.array([0.2, 0.35])
@@ -167,3 +167,26 @@ def test_tetra10_sensitivities_match_central_differences(pulled):
         central = (problem.solve(MU + step).reactions - problem.solve(MU - step).reactions) / (2 * h)
         np.testing.assert_allclose(solution.d_reactions[:, :, zone], central, rtol=1e-6,
                                    atol=1e-6 * np.abs(central).max())
+
+
+def test_a_uniform_interference_gives_the_uniaxial_pressure(mesh):
+    """The upper body moved down by 1 um into the lower one (the meshes overlap: gaps -1 um at corners and
+    mid-side nodes alike), both held at their far faces in z and on the symmetry planes, frictionless: uniaxial
+    stress in series, p = delta / (h_upper / E_upper + h_lower / E_lower) = 52.5 MPa at every node (exact in the
+    space). (With friction the pairs on the symmetry planes, whose tangential relative motion both supports hold,
+    make the stick system singular and the solver stops: not a case of the element.)"""
+    delta = 1e-3
+    upper = np.unique(mesh.cells[mesh.regions["upper"]])
+    points = np.array(mesh.points)
+    points[upper, 2] -= delta
+    moved = Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries))
+    model = Model(moved, "3d", {"lower": STEEL, "upper": ALUMINIUM},
+                  supports=(Support("lower_bottom", (2,)), Support("upper_top", (2,)), Support("lower_x0", (0,)),
+                            Support("upper_x0", (0,)), Support("lower_y0", (1,)), Support("upper_y0", (1,))),
+                  stages=(Stage("fit", 1),), interfaces=INTERFACE)
+    problem = Problem.build(model)
+    np.testing.assert_allclose(problem.pairs.gap, -delta, rtol=1e-9)
+    solution = problem.solve([0.0, 0.0])
+    expected = delta / (1.0 / ALUMINIUM.E + 1.0 / STEEL.E)
+    np.testing.assert_allclose(solution.pressure[-1], expected, rtol=1e-8)
+    assert solution.pressure[-1] @ problem.pairs.weight == pytest.approx(4.0 * expected, rel=1e-10)
