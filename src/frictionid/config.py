@@ -19,7 +19,7 @@ SCHEMA = {
     "friction": {"zones": REQUIRED, "bounds": [0.0, 1.0], "fixed": {}, "merge": {}},
     "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {},
              "format": None, "columns": None, "strain": None, "forces": None, "transform": None,
-             "relative_to": None},
+             "relative_to": None, "strain_window": None},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
                "load_scale": 1.0},
@@ -49,6 +49,7 @@ TYPES = {
     "data.transform": (dict, 'a table { rotation_deg = [rx, ry, rz], translation = [tx, ty, tz] } or '
                              '{ fit = "points", points = { ... } } (docs/data.md, "Frames")'),
     "data.relative_to": (str, 'a point label of the data file, e.g. "12"'),
+    "data.strain_window": ((int, float), "a positive length [mm]: the DIC strain window, e.g. 0.8"),
     "data.stages": (list, "a list of stage numbers, e.g. [2]"),
     "data.noise": (dict, "a table of standard deviations, e.g. { u = 0.0005 }"),
     "data.regions": (dict, 'a table of point = region, e.g. { "*" = "block" }'),

@@ -248,7 +248,8 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
-                               solver_options(config), f"{config.where}: [solver]", obs.reactions)
+                               solver_options(config), f"{config.where}: [solver]", obs.reactions,
+                               config.data.get("strain_window"))
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
     echo(f"{config.solver['backend']} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "

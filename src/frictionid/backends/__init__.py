@@ -17,7 +17,7 @@ CALCULIX_MIN_STEP = 1e-3
 
 
 def make_backend(name: str, model, points, quantities, regions=None, options: dict | None = None,
-                 where: str = "[solver]", reactions: tuple[str, ...] = ()):
+                 where: str = "[solver]", reactions: tuple[str, ...] = (), window: float | None = None):
     """The backend called ``name`` for a model and its observation points.
 
     Parameters
@@ -31,6 +31,7 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
         the embedded backend has none and ignores them.
     where : how messages name the options' origin
     reactions : labels of reaction sums ("boundary.axis") appended as rows after the point rows
+    window : DIC strain window [mm] of the strains ([data] strain_window), embedded backend only
 
     Raises
     ------
@@ -40,8 +41,11 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
     if name == "embedded":
         from .embedded import EmbeddedBackend
 
-        return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions))
+        return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions), window=window)
     if name == "calculix":
+        if window is not None:
+            raise InputError("data.strain_window needs the embedded backend: the calculix backend reads strains "
+                             "at the points only")
         from .calculix.backend import CalculixBackend, CalculixSettings
 
         return CalculixBackend(model, points, quantities, regions, CalculixSettings.from_options(options or {}, where),

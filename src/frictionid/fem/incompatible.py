@@ -140,7 +140,8 @@ def stiffness(mesh, lame: np.ndarray) -> sp.csr_matrix:
                          shape=(n_dofs, n_dofs))
 
 
-def internal_fields(xyz: np.ndarray, lame: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def internal_fields(xyz: np.ndarray, lame: np.ndarray, xi: np.ndarray,
+                    cell: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Displacement and displacement gradient of the condensed internal modes per unit nodal dof of the cell.
 
     Parameters
@@ -151,6 +152,10 @@ def internal_fields(xyz: np.ndarray, lame: np.ndarray, xi: np.ndarray) -> tuple[
         (lambda, mu) of that cell.
     xi : (n, 3)
         Natural coordinates of each point in its cell.
+    cell : (n,) int, optional
+        An id of the cell holding each point (e.g. its index in the mesh): the recovery ``alpha = -R u_e``,
+        which depends on the cell only, is then computed once per distinct cell (a full field puts hundreds of
+        points in one cell). Without it, once per point.
 
     Returns
     -------
@@ -159,7 +164,9 @@ def internal_fields(xyz: np.ndarray, lame: np.ndarray, xi: np.ndarray) -> tuple[
     D : (n, 3, 3, 24) [1/mm]
         ``du_c/dx_j(point) += D[:, c, j] @ u_e``.
     """
-    _, R = condensed(element_matrices(xyz, lame))
-    alpha = -R.reshape(len(xyz), N_MODES, DIM, N_U)                          # (n, mode, component, dof)
+    first, which = (np.arange(len(xyz)), np.arange(len(xyz))) if cell is None else \
+        np.unique(np.asarray(cell), return_index=True, return_inverse=True)[1:]
+    _, R = condensed(element_matrices(xyz[first], lame[first]))
+    alpha = -R.reshape(len(first), N_MODES, DIM, N_U)[np.ravel(which)]      # (n, mode, component, dof)
     _, _, P, grad_P, _ = gradients(xyz, xi)
     return np.einsum("ni,nicu->ncu", P, alpha), np.einsum("nij,nicu->ncju", grad_P, alpha)

@@ -67,18 +67,8 @@ def locate(space: Space, points, regions: Sequence[str | None] | None = None):
     points = checked_points(space, points)
     point_region = _point_regions(space.mesh, regions, len(points))
     nodes_xyz = cell_nodes(space)
-    pair_point, pair_cell = _candidate_pairs(space, nodes_xyz, points)
-    allowed = (point_region[pair_point] < 0) | (space.mesh.cell_region[pair_cell] == point_region[pair_point])
-    pair_point, pair_cell = pair_point[allowed], pair_cell[allowed]
-    reference, converged = _inverse_map(space, nodes_xyz[pair_cell], points[pair_point])
-    margin = np.where(converged, _inside_margin(space, reference), -np.inf)
-    hit = margin >= -REFERENCE_TOL
-    order = np.lexsort((pair_cell[hit], -margin[hit], pair_point[hit]))
-    best_point, first = np.unique(pair_point[hit][order], return_index=True)
-    chosen = np.flatnonzero(hit)[order[first]]
-    cells, located = np.empty(len(points), dtype=np.int64), np.empty((space.dim, len(points)))
-    cells[best_point], located[:, best_point] = pair_cell[chosen], reference[:, chosen]
-    missing = np.setdiff1d(np.arange(len(points)), best_point)
+    cells, located, found = _inside(space, nodes_xyz, points, point_region)
+    missing = np.flatnonzero(~found)
     if missing.size:
         near, near_reference, distance, size = _nearest(space, nodes_xyz, points[missing], point_region[missing])
         far = ~(distance <= SURFACE_TOL * size)
@@ -89,6 +79,48 @@ def locate(space: Space, points, regions: Sequence[str | None] | None = None):
         logger.info("%d point(s) outside their region by at most %.3g mm (allowed: %g of the cell size) are read "
                     "at its nearest point", missing.size, distance.max(), SURFACE_TOL)
     return cells, located
+
+
+def _inside(space: Space, nodes_xyz: np.ndarray, points: np.ndarray, point_region: np.ndarray):
+    """Cell (n,), reference coordinates (dim, n) and whether found (n,) of each point in a cell of its region
+    (-1: any) up to REFERENCE_TOL; cells are found through a k-d tree of cell boxes (:func:`_candidate_pairs`)."""
+    pair_point, pair_cell = _candidate_pairs(space, nodes_xyz, points)
+    allowed = (point_region[pair_point] < 0) | (space.mesh.cell_region[pair_cell] == point_region[pair_point])
+    pair_point, pair_cell = pair_point[allowed], pair_cell[allowed]
+    reference, converged = _inverse_map(space, nodes_xyz[pair_cell], points[pair_point])
+    margin = np.where(converged, _inside_margin(space, reference), -np.inf)
+    hit = margin >= -REFERENCE_TOL
+    order = np.lexsort((pair_cell[hit], -margin[hit], pair_point[hit]))
+    best_point, first = np.unique(pair_point[hit][order], return_index=True)
+    chosen = np.flatnonzero(hit)[order[first]]
+    cells, located = np.full(len(points), -1, dtype=np.int64), np.empty((space.dim, len(points)))
+    cells[best_point], located[:, best_point] = pair_cell[chosen], reference[:, chosen]
+    return cells, located, cells >= 0
+
+
+def region_at(space: Space, points, depth: float = 0.0) -> np.ndarray:
+    """(n,) index into ``space.mesh.region_names`` of the region holding each point, -1 outside the mesh.
+
+    ``depth`` [mm] > 0: also -1 for a point that is not inside its region by at least that much (the point
+    moved by ``depth`` along either axis direction leaves the region or enters another one): used to choose
+    points that lie in the same region of several meshes of one geometry (e.g. a finer mesh that made data).
+
+    >>> region_at(space, [[0.0, 5.0], [0.0, -2.0], [99.0, 0.0]])   # doctest: +SKIP
+    array([ 1,  0, -1])
+    """
+    points = checked_points(space, points)
+    nodes_xyz = cell_nodes(space)
+    anywhere = np.full(len(points), -1, dtype=np.int64)
+    cells, _, found = _inside(space, nodes_xyz, points, anywhere)
+    region = np.where(found, space.mesh.cell_region[np.maximum(cells, 0)], -1)
+    if depth > 0:
+        for axis in range(space.dim):
+            for sign in (-1.0, 1.0):
+                moved = points.copy()
+                moved[:, axis] += sign * depth
+                other, _, there = _inside(space, nodes_xyz, moved, anywhere)
+                region = np.where(there & (space.mesh.cell_region[np.maximum(other, 0)] == region), region, -1)
+    return region
 
 
 def checked_points(space: Space, points) -> np.ndarray:

@@ -17,7 +17,7 @@ from .interface import contact_pairs
 from .loadpath import LoadPathSolver
 from .pairs import ContactPairs
 from .rigid import free_rigid_modes
-from .solution import Solution
+from .solution import ExpandedRows, Solution
 from .space import Space
 
 log = logging.getLogger(__name__)
@@ -39,6 +39,24 @@ def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix,
     return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(labels), len(prescribed))), labels
 
 
+def compressed(observe: sp.spmatrix | None) -> tuple[sp.csr_matrix | None, sp.csr_matrix | None]:
+    """Observation rows as (rows to condense, expansion): the dofs the rows touch and the rows on those dofs,
+    when there are fewer such dofs than rows, else (the rows, None).
+
+    A full field of 1e5 points observes a few hundred cells: the condensation then carries their few thousand
+    dofs instead of the 1e5 rows (its dense operators are rows x contact unknowns), and each solve expands the
+    dofs' values to the rows with one sparse product: the same values up to round-off.
+    """
+    if observe is None:
+        return None, None
+    observe = sp.csr_matrix(observe)
+    kept = np.unique(observe.indices)
+    if len(kept) >= observe.shape[0]:
+        return observe, None
+    select = sp.csr_matrix((np.ones(len(kept)), (np.arange(len(kept)), kept)), shape=(len(kept), observe.shape[1]))
+    return select, observe[:, kept].tocsr()
+
+
 @dataclass(frozen=True)
 class Problem:
     """A model's condensed operators; :meth:`solve` runs the load path for given zone coefficients."""
@@ -50,6 +68,9 @@ class Problem:
     condensed: Condensed
     observation_labels: tuple[str, ...]
     reaction_labels: tuple[str, ...]
+    #: (n_obs, n_kept) observation rows on the kept dofs when the condensation observes those dofs instead of the
+    #: rows (see :func:`compressed`); None: it observes the rows themselves
+    expand: sp.csr_matrix | None = None
 
     def __repr__(self) -> str:
         return (f"Problem({self.model!r}, {self.pairs.n_pairs} contact pairs, "
@@ -57,7 +78,8 @@ class Problem:
 
     @classmethod
     def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
-              points=None, quantities=("ux", "uy"), regions=None) -> "Problem":
+              points=None, quantities=("ux", "uy"), regions=None, compress: bool = True,
+              window: float | None = None) -> "Problem":
         """Assemble, discretise the interfaces and condense.
 
         Parameters
@@ -67,14 +89,20 @@ class Problem:
             Observation points instead of ``observe``: ``quantities`` (e.g. "ux", "eyy") at each point,
             labelled "P<i>.<quantity>", point-major; ``regions`` optionally names the region of each point
             (see :func:`frictionid.fem.points.point_operator`).
+        window : float [mm], optional
+            DIC strain window of the points' strains (:func:`frictionid.fem.points.point_operator`).
+        compress : bool
+            Condense the dofs the observation rows touch instead of the rows when they are fewer (see
+            :func:`compressed`; a full field); False: always the rows.
         """
         space = Space.build(model.mesh, model.kind, model.element)
         if points is not None and observe is not None:
             raise InputError("observation: give either observe rows or points, not both")
         if points is not None:
             from .points import point_operator
-            observe = point_operator(space, points, quantities, regions, model.materials)
+            observe = point_operator(space, points, quantities, regions, model.materials, window)
             observation_labels = tuple(f"P{i}.{q}" for i in range(len(points)) for q in quantities)
+        observe, expand = compressed(observe) if compress else (observe, None)
         pairs = contact_pairs(space, model)
         channels = load_channels(space, model)
         modes = free_rigid_modes(model.mesh, model.kind, channels.prescribed)
@@ -82,9 +110,10 @@ class Problem:
         observe = sp.csr_matrix((0, space.n_dofs)) if observe is None else sp.csr_matrix(observe)
         if observe.shape[1] != space.n_dofs:
             raise InputError(f"observation rows have {observe.shape[1]} columns, the model {space.n_dofs} dofs")
-        labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(observe.shape[0]))
+        n_rows = observe.shape[0] if expand is None else expand.shape[0]
+        labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(n_rows))
         condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.dim)
-        return cls(model, space, pairs, channels, condensed, labels_obs, labels)
+        return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
         """(n_nodes, dim) [mm] nodal displacements at an increment of a solution of this problem."""
@@ -171,6 +200,9 @@ class Problem:
             S = np.array([r[2] for r in records])                               # (n_inc, n_x, n_z)
             d_obs = np.einsum("ox,ixz->ioz", c.obs_ops.full, S)
             d_reac = np.einsum("ox,ixz->ioz", c.reac_ops.full, S)
+        if self.expand is not None:
+            outputs["obs"] = ExpandedRows(outputs["obs"], self.expand)
+            d_obs = None if d_obs is None else ExpandedRows(d_obs, self.expand)
         return Solution(
             mu=mu, zone_names=self.model.zone_names, observation_labels=self.observation_labels,
             reaction_labels=self.reaction_labels, stage=stages, amplitude=amps,

@@ -11,6 +11,42 @@ from .pairs import ContactPairs
 STATE_NAMES = ("open", "stick", "slip")
 
 
+class ExpandedRows:
+    """Observation rows (n_inc, n_obs[, n_zones]) kept as values on fewer dofs (n_inc, n_kept[, n_zones]) and an
+    expansion (n_obs, n_kept), expanded when indexed: a full field's rows at every increment and their
+    sensitivities would take hundreds of MB, and only the stage ends are read. ``rows[ends]`` and
+    ``np.asarray(rows)`` give plain arrays."""
+
+    def __init__(self, kept: np.ndarray, expand):
+        self.kept, self.expand = kept, expand
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (self.kept.shape[0], self.expand.shape[0]) + self.kept.shape[2:]
+
+    @property
+    def ndim(self) -> int:
+        return self.kept.ndim
+
+    def __len__(self) -> int:
+        return self.kept.shape[0]
+
+    def _expanded(self, kept: np.ndarray) -> np.ndarray:
+        """(..., n_kept[, n_zones]) with the increment axis first -> (..., n_obs[, n_zones])."""
+        if kept.ndim == self.kept.ndim - 1:
+            return self._expanded(kept[None])[0]
+        return np.stack([self.expand @ k for k in kept]) if len(kept) else np.zeros((0,) + self.shape[1:])
+
+    def __getitem__(self, index):
+        first, rest = (index[0], index[1:]) if isinstance(index, tuple) else (index, ())
+        out = self._expanded(self.kept[first])
+        return out[(slice(None),) * (out.ndim - self.kept.ndim + 1) + rest] if rest else out
+
+    def __array__(self, dtype=None, copy=None):
+        out = self._expanded(self.kept)
+        return out if dtype is None else out.astype(dtype)
+
+
 @dataclass(frozen=True)
 class Solution:
     """Forward solve results; index 0 of every per-increment array is the first increment.
@@ -26,6 +62,8 @@ class Solution:
     state : (n_inc, n_pairs) 0 open, 1 stick, 2 slip
     observations : (n_inc, n_obs); reactions : (n_inc, n_reac) [N]
     d_observations : (n_inc, n_obs, n_zones) or None; d_reactions : (n_inc, n_reac, n_zones) or None
+        (observations and d_observations are :class:`ExpandedRows` for a problem that condensed the observed
+        dofs instead of the rows: index them, e.g. ``[ends]``, or take ``np.asarray``)
     n_newton : (n_inc,) Newton iterations; n_cuts : (n_inc,) increment cuts
     pairs : the contact pairs (positions, frames, weights, zone shares)
     """
