@@ -277,3 +277,20 @@ def test_standard_deviations_are_turned_as_independent_errors():
     assert quarter.sigma["ux"][0] == 0.002 and quarter.sigma["uy"][0] == 0.001
     eighth = in_model_frame(m, Frame.of(45), "")
     np.testing.assert_allclose([eighth.sigma["ux"][0], eighth.sigma["uy"][0]], np.sqrt(2.5e-6), rtol=1e-12)
+
+
+def test_a_surface_frame_is_fitted_to_a_sample_and_reported_over_all_points(block3d, monkeypatch):
+    import frictionid.data.frame_fit as frame_fit
+    monkeypatch.setattr(frame_fit, "FIT_POINTS", 16)          # 40 points: every 3rd is fitted
+    rng = np.random.default_rng(9)
+    n = 10
+    xyz = np.concatenate([np.c_[np.full(n, -5.0), rng.uniform(-4, 4, n), rng.uniform(1, 9, n)],
+                          np.c_[rng.uniform(-4, 4, n), np.full(n, 5.0), rng.uniform(1, 9, n)],
+                          np.c_[rng.uniform(-4, 4, n), rng.uniform(-4, 4, n), np.full(n, 10.0)],
+                          np.c_[rng.uniform(6, 18, n), rng.uniform(-18, 18, n), np.zeros(n)]])
+    shifted = xyz + [0.0, 0.0, 0.02]
+    shifted[5, 0] -= 0.3                                      # a point the sample leaves out, 0.3 mm off its face
+    fit = fit_to_surface(frame_spec({"fit": "surface"}, "t"), list(map(str, range(4 * n))), shifted,
+                         mesh_surface(block3d.mesh), "f")
+    assert fit.n_points == 4 * n and fit.worst == "5" and abs(fit.largest - 0.3) < 1e-9
+    assert np.abs(fit.frame.translation - [0.0, 0.0, -0.02]).max() < 1e-9

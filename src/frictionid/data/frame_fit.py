@@ -17,6 +17,9 @@ from .frames import Frame, FrameSpec
 UNDETERMINED = 1e-6
 #: Gauss-Newton steps of a surface fit at most; it stops when a step moves no point by more than STEP_TOL [mm]
 MAX_STEPS, STEP_TOL = 100, 1e-12
+#: a surface frame is fitted to every k-th point, at most this many (6 or 7 unknowns); its residual is reported
+#: over all points
+FIT_POINTS = 5000
 
 log = logging.getLogger(__name__)
 
@@ -107,9 +110,10 @@ def fit_to_surface(spec: FrameSpec, labels, xyz: np.ndarray, surface, source: st
         Points that leave a motion free (all on one plane or a cylinder: the frame could slide along it), or no
         convergence in MAX_STEPS steps.
     """
-    dim, frame = surface.dim, spec.frame
+    dim, frame, every = surface.dim, spec.frame, -(-len(xyz) // FIT_POINTS)
     size = float(np.ptp(xyz, axis=0).max()) or 1.0
-    residual, jac = _linearised(frame, xyz, surface, spec.fit_scale)
+    sample = xyz[::every]
+    residual, jac = _linearised(frame, sample, surface, spec.fit_scale)
     for step in range(MAX_STEPS):
         units = _units(dim, size, spec.fit_scale)
         if _free_motions(jac / units):
@@ -118,7 +122,7 @@ def fit_to_surface(spec: FrameSpec, labels, xyz: np.ndarray, surface, source: st
         cost = float(np.sum(residual ** 2))
         for _ in range(40):
             trial = _moved(frame, delta, dim, spec.fit_scale)
-            new_residual, new_jac = _linearised(trial, xyz, surface, spec.fit_scale)
+            new_residual, new_jac = _linearised(trial, sample, surface, spec.fit_scale)
             if float(np.sum(new_residual ** 2)) <= cost:
                 break
             delta = delta / 2
@@ -128,12 +132,14 @@ def fit_to_surface(spec: FrameSpec, labels, xyz: np.ndarray, surface, source: st
     else:
         raise InputError(f"{spec.key}: the frame fitted to the model's surface did not settle in {MAX_STEPS} steps; "
                          "start nearer (rotation_deg, translation) or use fit = \"points\"")
-    log.info("surface fit: %d Gauss-Newton steps", step + 1)
+    log.info("surface fit: %d Gauss-Newton steps on %d of %d points", step + 1, len(sample), len(xyz))
     free = _free_motions(jac / _units(dim, size, spec.fit_scale))
     if free:
         raise InputError(f"{spec.key}: the {len(xyz)} points of {source} do not fix the frame on the model's "
                          f"surface ({free} motion(s) left free: points on one plane can slide along it); use points "
                          "on several faces or fit = \"points\" with reference points")
+    if every > 1:
+        residual = _linearised(frame, xyz, surface, spec.fit_scale)[0]
     return _fit(frame, "surface", np.linalg.norm(residual, axis=1), list(labels))
 
 

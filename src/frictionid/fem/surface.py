@@ -13,6 +13,8 @@ from ..model.mesh import CELL_FACETS
 
 #: facets (by nearest centre) searched for the one nearest to a point
 N_NEAREST = 16
+#: points handled at once (about 100 MB of candidates)
+CHUNK = 20_000
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,9 @@ class Surface:
         """The nearest surface points (n, dim) [mm] (see :meth:`nearest`) and the unit normals (n, dim) of the
         facets they lie on."""
         points = np.asarray(points, float)
+        if len(points) > CHUNK:                 # bounded memory: (CHUNK, N_NEAREST, 4, dim) candidates at a time
+            parts = [self.closest(points[i:i + CHUNK]) for i in range(0, len(points), CHUNK)]
+            return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
         k = min(N_NEAREST, len(self.corners))
         near = np.reshape(self._tree.query(points, k=k)[1], (len(points), k))
         corners = self.corners[near]                                      # (n, k, m, dim)
