@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import fnmatch
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -163,32 +164,48 @@ def region_of_points(regions: dict | None, labels, region_names, where: str = "d
     {'B1': 'block', 'B7': 'base', 'P1': 'base'}
     """
     regions, labels = dict(regions or {}), list(dict.fromkeys(labels))
+    matches = {key: [] for key in regions if _is_pattern(key)}        # labels of each pattern, one match per pattern
+    for key in matches:
+        match = re.compile(fnmatch.translate(key)).match
+        matches[key] = [label for label in labels if match(label)]
+    known = set(labels)
     for key, value in regions.items():
         if not isinstance(value, str) or value not in region_names:
             close = difflib.get_close_matches(str(value), list(region_names), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise InputError(f"{where}.{key}: {value!r} is not a region of the model{hint}; the model has "
                              f"{list(region_names)}")
-        if key not in labels and not (_is_pattern(key) and fnmatch.filter(labels, key)):
+        if key not in known and not matches.get(key):
             shown = ", ".join(labels[:5]) + (f", ... ({len(labels)} points)" if len(labels) > 5 else "")
             raise InputError(f"{where}: key {key!r} matches no point of the data (points: {shown}); a key is a "
                              "point label or a pattern such as \"B*\"")
-    return {label: _region_of(label, regions, where) for label in labels}
+    return _regions_of(labels, regions, matches, where)
 
 
-def _region_of(label: str, regions: dict, where: str) -> str | None:
-    if label in regions:
-        return regions[label]
-    matching = [k for k in regions if _is_pattern(k) and fnmatch.fnmatchcase(label, k)]
-    if not matching:
-        return None
-    best = max(map(_specificity, matching))
-    claims = {regions[k] for k in matching if _specificity(k) == best}
-    if len(claims) > 1:
-        tied = [k for k in matching if _specificity(k) == best]
-        raise InputError(f"{where}: point {label!r} matches the patterns {tied}, equally specific, with different "
-                         "regions; name the point itself or make one pattern longer")
-    return claims.pop()
+def _regions_of(labels: list, regions: dict, matches: dict, where: str) -> dict:
+    """Each label's region: its exact key, else its most specific matching pattern (ties with different regions
+    are an error naming the first such label), else None."""
+    found = {label: regions[label] for label in labels if label in regions}
+    best: dict = {}                                  # label -> (specificity, [matching keys of that specificity])
+    for key, matched in matches.items():
+        specificity = _specificity(key)
+        for label in matched:
+            if label in found:
+                continue
+            level, keys = best.get(label, (-1, []))
+            if specificity > level:
+                best[label] = (specificity, [key])
+            elif specificity == level:
+                keys.append(key)
+    for label in labels:
+        if label in found or label not in best:
+            continue
+        tied = best[label][1]
+        if len({regions[k] for k in tied}) > 1:
+            raise InputError(f"{where}: point {label!r} matches the patterns {tied}, equally specific, with "
+                             "different regions; name the point itself or make one pattern longer")
+        found[label] = regions[tied[0]]
+    return {label: found.get(label) for label in labels}
 
 
 def noise_of(quantity: str, noise: dict) -> float | None:
@@ -242,18 +259,28 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     region_of = region_of_points(regions, all_labels, model.mesh.region_names)
     point_index = {p: i for i, p in enumerate(labels_of)}
     first = {p: i for i, p in reversed(list(enumerate(measurements.points)))}
-    points = np.array([coordinates[first[p]] for p in labels_of]).reshape(-1, coordinates.shape[1])
+    points = coordinates[[first[p] for p in labels_of]].reshape(-1, coordinates.shape[1])
     quantities = tuple(observables)
     row, stage, y, sigma, labels, minus = [], [], [], [], [], []
     at = {(p, int(s)): i for i, (p, s) in enumerate(zip(measurements.points, measurements.stage))}
+    point_of = np.array([point_index[p] for p in measurements.points], dtype=np.int64)
     for q_index, quantity in enumerate(quantities):
         values = measurements.values[quantity]
         present = np.flatnonzero(~np.isnan(values))
         sig = _sigma(measurements, quantity, present, noise)
+        if not (relative and quantity in DISPLACEMENTS):      # whole columns at once (a full field: 1e5 values)
+            row.extend((point_of[present] * len(quantities) + q_index).tolist())
+            stage.extend((measurements.stage[present].astype(np.int64) - 1).tolist())
+            y.extend(values[present].tolist())
+            minus.extend([-1] * len(present))
+            sigma.extend(sig.tolist())
+            names, stages_of = measurements.points, measurements.stage.tolist()
+            labels.extend(f"{names[i]}:{quantity}@{stages_of[i]}" for i in present.tolist())
+            continue
         for i, s in zip(present, sig):
             label, reference = measurements.points[i], relative.get(measurements.points[i])
-            if quantity not in DISPLACEMENTS or reference is None:
-                reference = None
+            if reference is None:
+                pass
             elif reference == label:
                 continue                            # its displacement relative to itself: zero, nothing to fit
             p = point_index[label]
