@@ -10,8 +10,9 @@ halved per level by ``builders.registry.refined``). Both are the largest magnitu
   actual error exceeds a tenth of the noise;
 
 for the library's default orders (p = 1 for displacements and the force, capped by the contact edges'
-singularity; 1.77 for strains, see frictionid.inverse.model_error) and for two alternatives: the a priori orders of a smooth solution (k + 1 for u and force, k for strains), and per kind the order observed on
-the meshes h, h / 2, h / 4 (RMS of the differences; with only three levels the reference is h / 4 itself).
+singularity; 1.77 for strains, see frictionid.inverse.model_error) and for two alternatives: the a priori
+orders of a smooth solution (k + 1 for u and force, k for strains), and per kind the order observed on the
+meshes h, h / 2, h / 4 (RMS of the differences; with only three levels the reference is h / 4 itself).
 Timings: the coarse model's build and condensation, a forward and a forward + sensitivity solve, and the
 estimate's extra cost (refined build, condensation and two forward solves).
 
@@ -25,6 +26,8 @@ Run (times with both cores shared with other jobs):
      .venv/bin/python benchmarks/model_error.py block --size 1.0 --levels 2      (the estimate only: 7 min, 3 GB)
      .venv/bin/python benchmarks/model_error.py bolt --size 0.2 --levels 4       (13 min, 5.4 GB; --levels 3: 2 min)
      .venv/bin/python benchmarks/model_error.py block2d --size 4 --levels 6      (2-4 min, 2.6 GB)
+``--identify`` also times an identification on the coarse model with ``identify.model_error = "estimate"`` (data:
+the refined model's values at the true coefficients, start as above) and the estimate's share of it.
 ``--cache DIR`` keeps each level's predictions (.npy) so that a re-run only analyses.
 """
 
@@ -40,10 +43,13 @@ from _measure import best_of, peak_memory_mb, timed
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.bolt import bolt_layout, fixed_friction, measurement_points
 from frictionid.builders.registry import build_model, refined
+from frictionid.data.measurements import Measurements
 from frictionid.data.table import STRAINS
+from frictionid.identification import identify
 from frictionid.inverse.model_error import (ELEMENT_ORDER, convergence_orders, estimate_model_error,
                                             observation_kinds, richardson)
-from frictionid.inverse.observations import Observations
+from frictionid.inverse.observations import FORCE, Observations
+from frictionid.inverse.parameters import Parameters
 from frictionid.studies import block as twin
 from frictionid.studies.bolt import FORCES, TRUE_MU
 
@@ -126,6 +132,45 @@ def coarse_run(options: dict, obs: Observations, mus) -> tuple[dict, np.ndarray,
     return figures, values, model
 
 
+def measurements_of(obs: Observations, values: np.ndarray, forces) -> Measurements:
+    """The observations' ``values`` (n_obs,) as a measurement table: one row per point and stage, the reaction
+    (if observed) in the force column, else the stage's machine force from ``forces``."""
+    n_q, n_p, stages = len(obs.quantities), len(obs.points), sorted(set(obs.stage.tolist()))
+    per_stage = n_p * n_q + len(obs.reactions)
+    rows = [values[k * per_stage:(k + 1) * per_stage] for k in range(len(stages))]
+    labels = [f"P{p}" for p in range(n_p)] * len(stages)
+    xyz = np.column_stack([obs.points, np.zeros((n_p, 3 - obs.points.shape[1]))])
+    force = [r[n_p * n_q] if obs.reactions else forces[s] for r, s in zip(rows, stages)]
+    return Measurements(points=tuple(labels), coordinates=np.tile(xyz, (len(stages), 1)),
+                        stage=np.repeat(np.array(stages) + 1, n_p), force=np.repeat(force, n_p),
+                        values={q: np.concatenate([r[k:n_p * n_q:n_q] for r in rows])
+                                for k, q in enumerate(obs.quantities)},
+                        sigma={}, comments=("benchmarks/model_error.py: the refined model's values",))
+
+
+def identification_cost(options: dict, obs: Observations, mus, fine_values: np.ndarray, forces) -> None:
+    """Wall time of an identification on the coarse model with identify.model_error = "estimate" (data: the
+    refined model's values at the true coefficients), and the share of it the estimate took."""
+    zones = build_model(options).zone_names
+    params = Parameters.from_dict({z: float(mus[0][k]) for k, z in enumerate(zones)})
+    if "bolt" in options["builder"]:                                   # the head and nut-plate zones are held
+        fixed = fixed_friction()
+        params = Parameters.from_dict({z: float(mus[0][k]) for k, z in enumerate(zones) if z not in fixed},
+                                      fixed=fixed)
+    kinds = dict.fromkeys(observation_kinds(obs).tolist())
+    noise = {"u": SIGMA["u"], "e": SIGMA["e"], **({"force": SIGMA["force"]} if FORCE in kinds else {})}
+    observables = list(obs.quantities) + (["force"] if obs.reactions else [])
+    start = time.perf_counter()
+    result = identify(options, measurements_of(obs, fine_values, forces), params, observables=observables,
+                      stages=sorted({int(s) + 1 for s in obs.stage}), noise=noise,
+                      regions={f"P{p}": r for p, r in enumerate(obs.point_regions)}, model_error="estimate")
+    seconds = time.perf_counter() - start
+    error = result["fit"]["model_error"]
+    print(f"  identification (model_error = \"estimate\", {result['n_iterations']} iterations, {result['status']}): "
+          f"{seconds:.1f} s, of which the estimate {error['seconds']:.1f} s ({100 * error['seconds'] / seconds:.0f} %)",
+          flush=True)
+
+
 def observed_orders(levels: list[np.ndarray], kinds: np.ndarray) -> dict:
     """Per kind: log2 of the RMS difference ratio of the first three levels (max over mu of |difference|)."""
     d1 = np.abs(levels[0] - levels[1]).max(axis=0)
@@ -157,6 +202,8 @@ def main(argv=None) -> None:
     parser.add_argument("--size", type=float, help="coarse element size (block, block2d: mesh_size; bolt: flank_size)")
     parser.add_argument("--levels", type=int, default=3, help="meshes h, h/2, ...; 2: the estimate only")
     parser.add_argument("--cache", type=Path, help="folder for each level's predictions")
+    parser.add_argument("--identify", action="store_true",
+                        help="also time an identification with the estimate (data: the refined model's values)")
     args = parser.parse_args(argv)
     default = {"block": 2.5, "bolt": 0.2, "block2d": 4.0}[args.case]
     options, obs, mus = CASES[args.case](args.size or default)
@@ -176,11 +223,14 @@ def main(argv=None) -> None:
           f"{error.seconds / figures['sensitivities']:.0f} x a forward + sensitivity solve", flush=True)
     print("  estimate in noise: " + ", ".join(f"{name} RMS {v['rms']:.3g} max {v['max']:.3g}"
                                            for name, v in error.summary.items()), flush=True)
+    sequence = [options]
+    for _ in range(max(args.levels, 2) - 1):
+        sequence.append(refined(sequence[-1]))
+    if args.identify:
+        fine = predictions(sequence[1], obs, mus, args.cache, args.case)
+        identification_cost(options, obs, mus, fine[-1], {0: FORCES[0], 1: FORCES[1]})
     if args.levels < 3:
         return
-    sequence = [options]
-    for _ in range(args.levels - 1):
-        sequence.append(refined(sequence[-1]))
     levels = [coarse] + [predictions(o, obs, mus, args.cache, args.case) for o in sequence[1:]]
     kinds = observation_kinds(obs)
     actual = np.abs(levels[0] - levels[-1]).max(axis=0)
