@@ -10,8 +10,8 @@ import skfem
 from skfem.helpers import ddot, sym_grad, trace
 
 from ..errors import InputError
-from ..model import Displacement, Model, Pressure
-from ..model.model import component_index
+from ..model import Displacement, Model, Pressure, Rotation
+from ..model.model import AXISYMMETRIC_KINDS, component_index
 from . import incompatible
 from .space import Space
 
@@ -31,6 +31,32 @@ def _axisymmetric(u, v, w):
     return 2.0 * np.pi * r * (w.lam * (trace(eu) + hu) * (trace(ev) + hv) + 2.0 * w.mu * (ddot(eu, ev) + hu * hv))
 
 
+@skfem.BilinearForm
+def _axisymmetric_twist(u, v, w):
+    # u = (u_r, u_y, u_t) independent of theta: the in-plane terms of _axisymmetric plus the torsion shears
+    # e_rt = (du_t/dr - u_t/r) / 2, e_yt = du_t/dy / 2 (tensor shears; isotropy decouples them from the rest)
+    r = w.x[0]
+    eu, ev = in_plane_strain(u), in_plane_strain(v)
+    hu, hv = u[0] / r, v[0] / r
+    tu, tv = torsion_shears(u, r), torsion_shears(v, r)
+    return 2.0 * np.pi * r * (w.lam * (trace(eu) + hu) * (trace(ev) + hv)
+                              + 2.0 * w.mu * (ddot(eu, ev) + hu * hv + 2.0 * (tu[0] * tv[0] + tu[1] * tv[1])))
+
+
+def in_plane_strain(u) -> np.ndarray:
+    """(2, 2, ...) symmetric gradient of the (r, y) components of a 3-component field on a 2-D mesh."""
+    g = u.grad
+    return np.array([[g[0][0], 0.5 * (g[0][1] + g[1][0])], [0.5 * (g[0][1] + g[1][0]), g[1][1]]])
+
+
+def torsion_shears(u, r) -> tuple:
+    """(e_rt, e_yt): tensor shears of the circumferential displacement u_t (component 2) at radius r."""
+    return 0.5 * (u.grad[2][0] - u[2] / r), 0.5 * u.grad[2][1]
+
+
+FORMS = {"axisymmetric": _axisymmetric, "axisymmetric_twist": _axisymmetric_twist}
+
+
 def stiffness(space: Space, model: Model) -> sp.csr_matrix:
     """Global stiffness (n_dofs, n_dofs) [N/mm] in frictionid dof numbering, of the space's element technology
     (incompatible modes condensed per cell, :mod:`frictionid.fem.incompatible`)."""
@@ -40,7 +66,7 @@ def stiffness(space: Space, model: Model) -> sp.csr_matrix:
     n_qp = space.basis.X.shape[1]
     lam = np.repeat(per_cell[:, :1], n_qp, axis=1)
     mu = np.repeat(per_cell[:, 1:], n_qp, axis=1)
-    form = _axisymmetric if model.kind == "axisymmetric" else _elasticity
+    form = FORMS.get(model.kind, _elasticity)
     return space.to_dofs(skfem.asm(form, space.basis, lam=lam, mu=mu))
 
 
@@ -70,24 +96,25 @@ class LoadChannels:
 
 def _prescribed_dofs(space: Space, model: Model) -> dict[int, object]:
     """Prescribed dof -> owner (None for a zero support, the Displacement load for a driven one)."""
-    dim, owner = space.dim, {}
+    dim, owner = space.n_components, {}
     for support in model.supports:
         nodes = model.mesh.boundary_nodes(support.boundary)
         for c in support.components:
             for dof in dim * nodes + component_index(c, dim, f"support on {support.boundary!r}"):
                 owner[int(dof)] = None
-    if model.kind == "axisymmetric":
+    if model.kind in AXISYMMETRIC_KINDS:
         points = model.mesh.points
         scale = np.ptp(points[:, 1]) or 1.0
         for node in np.flatnonzero(np.abs(points[:, 0]) <= 1e-9 * scale):
             owner[int(dim * node)] = None
     for load in model.loads:
-        if not isinstance(load, Displacement):
+        if not isinstance(load, (Displacement, Rotation)):
             continue
-        c = component_index(load.component, dim, f"Displacement on {load.boundary!r}")
+        c = component_index(load.component, dim, f"{type(load).__name__} on {load.boundary!r}")
         for dof in dim * model.mesh.boundary_nodes(load.boundary) + c:
             previous = owner.get(int(dof), load)
-            if previous is not load and (previous is None or previous.values != load.values):
+            if previous is not load and (previous is None or type(previous) is not type(load)
+                                           or previous.values != load.values):
                 raise InputError(f"model: dof {int(dof)} (node {int(dof) // dim}, component {c}) on boundary "
                                  f"{load.boundary!r} is also held by another support or displacement with "
                                  "different values")
@@ -100,8 +127,9 @@ def _surface_force(space: Space, load) -> np.ndarray:
     ring = space.ring
     if isinstance(load, Pressure):
         # pressure pushes into the body: traction = -p n (outward n)
-        return space.to_dofs(skfem.asm(skfem.LinearForm(lambda v, w: -ring(w.x) * skfem.helpers.dot(v, w.n)), basis))
-    c = component_index(load.component, space.dim, f"SurfaceForce on {load.boundary!r}")
+        return space.to_dofs(skfem.asm(skfem.LinearForm(
+            lambda v, w: -ring(w.x) * sum(v[c] * w.n[c] for c in range(space.dim))), basis))
+    c = component_index(load.component, space.n_components, f"SurfaceForce on {load.boundary!r}")
     area = skfem.asm(skfem.Functional(lambda w: ring(w.x)), basis)
     return space.to_dofs(skfem.asm(skfem.LinearForm(lambda v, w: ring(w.x) * v[c] / area), basis))
 
@@ -117,6 +145,9 @@ def load_channels(space: Space, model: Model) -> LoadChannels:
         up = np.zeros(len(prescribed))
         if isinstance(load, Displacement):
             up[[position[d] for d, o in owner.items() if o is load]] = 1.0
+        elif isinstance(load, Rotation):
+            dofs = [d for d, o in owner.items() if o is load]
+            up[[position[d] for d in dofs]] = model.mesh.points[np.array(dofs) // space.n_components, 0]
         else:
             f = _surface_force(space, load)
         forces.append(f)

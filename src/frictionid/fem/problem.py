@@ -25,18 +25,22 @@ log = logging.getLogger(__name__)
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
     """Rows summing the reactions of each of :attr:`Model.reaction_entries`, labelled as
-    :attr:`Model.reaction_labels` ('boundary.x')."""
+    :attr:`Model.reaction_labels` ('boundary.x'); the circumferential reactions of "axisymmetric_twist" are summed
+    as moments about the axis, r F_t ('boundary.torque' [N mm])."""
     position = {int(d): i for i, d in enumerate(prescribed)}
-    rows, cols = [], []
+    rows, cols, values = [], [], []
     for k, (boundary, c) in enumerate(model.reaction_entries):
-        dofs = model.dim * model.mesh.boundary_nodes(boundary) + c
+        nodes = model.mesh.boundary_nodes(boundary)
+        dofs = model.n_components * nodes + c
         cols.append([position[int(d)] for d in dofs])
         rows.append(np.full(len(dofs), k))
+        torque = model.kind == "axisymmetric_twist" and c == 2
+        values.append(model.mesh.points[nodes, 0] if torque else np.ones(len(dofs)))
     labels = model.reaction_labels
     if not labels:
         return sp.csr_matrix((0, len(prescribed))), ()
     rows, cols = np.concatenate(rows), np.concatenate(cols)
-    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(labels), len(prescribed))), labels
+    return sp.csr_matrix((np.concatenate(values), (rows, cols)), shape=(len(labels), len(prescribed))), labels
 
 
 def compressed(observe: sp.spmatrix | None) -> tuple[sp.csr_matrix | None, sp.csr_matrix | None]:
@@ -112,15 +116,15 @@ class Problem:
             raise InputError(f"observation rows have {observe.shape[1]} columns, the model {space.n_dofs} dofs")
         n_rows = observe.shape[0] if expand is None else expand.shape[0]
         labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(n_rows))
-        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.dim)
+        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.n_components)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
-        """(n_nodes, dim) [mm] nodal displacements at an increment of a solution of this problem."""
+        """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem."""
         x = np.concatenate([solution.lam[increment].ravel(), solution.alpha[increment]])
         u = self.condensed.displacement(self.pairs.B, self.channels.displacements,
                                         solution.amplitude[increment], x)
-        return u.reshape(-1, self.space.dim)
+        return u.reshape(-1, self.space.n_components)
 
     def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
         """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""

@@ -8,6 +8,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..model import Mesh
+from ..model.model import n_components
 
 
 def bodies(mesh: Mesh) -> np.ndarray:
@@ -20,12 +21,15 @@ def bodies(mesh: Mesh) -> np.ndarray:
 
 
 def _candidate_modes(points: np.ndarray, kind: str) -> np.ndarray:
-    """(n, dim, k) rigid displacement modes of a point cloud: translations, then rotations about its centre."""
+    """(n, n_components, k) rigid displacement modes of a point cloud: translations, then rotations about its
+    centre; of revolution: the axial translation (and the turn about the axis, u_t = r, with twist)."""
     n, dim = points.shape
     x = points - points.mean(axis=0)
-    if kind == "axisymmetric":
-        modes = np.zeros((n, 2, 1))
+    if kind in ("axisymmetric", "axisymmetric_twist"):
+        modes = np.zeros((n, n_components(kind, dim), 1 + (kind == "axisymmetric_twist")))
         modes[:, 1, 0] = 1.0
+        if kind == "axisymmetric_twist":
+            modes[:, 2, 1] = points[:, 0]
         return modes
     translations = np.broadcast_to(np.eye(dim), (n, dim, dim))
     if dim == 2:
@@ -40,7 +44,7 @@ def free_rigid_modes(mesh: Mesh, kind: str, prescribed: np.ndarray) -> np.ndarra
 
     Each column is supported on one body and scaled to unit length.
     """
-    dim = mesh.dim
+    dim = n_components(kind, mesh.dim)
     label = bodies(mesh)
     is_prescribed = np.zeros(dim * mesh.n_nodes, dtype=bool)
     is_prescribed[prescribed] = True

@@ -15,7 +15,7 @@ from skfem.io.meshio import from_meshio
 
 from ..errors import InputError
 from ..model import Mesh
-from ..model.model import check_element
+from ..model.model import AXISYMMETRIC_KINDS, check_element, n_components
 
 ELEMENTS = {
     "triangle": skfem.ElementTriP1,
@@ -71,7 +71,8 @@ class Space:
     basis : vector basis, scalar : scalar basis of the same element
     dof_of : (basis.N,) frictionid dof of each scikit-fem vector dof
     node_of : (scalar.N,) frictionid node of each scikit-fem scalar dof
-    kind : "3d" | "plane_strain" | "axisymmetric"
+    kind : "3d" | "plane_strain" | "axisymmetric" | "axisymmetric_twist" (three components per node on the 2-D
+        mesh: u_r, u_y, u_t)
     element : "standard" | "incompatible" (linear hexahedra with incompatible modes, see
         :mod:`frictionid.fem.incompatible`; ``basis`` still spans the nodal dofs)
     """
@@ -97,13 +98,13 @@ class Space:
         lagrange = ELEMENTS[mesh.cell_type]()
         skmesh = from_meshio(meshio.Mesh(np.asarray(mesh.points), [(mesh.cell_type, np.asarray(mesh.cells))]))
         kind = kind or ("3d" if mesh.dim == 3 else "plane_strain")
-        intorder = INTORDER[mesh.cell_type] + (kind == "axisymmetric")
+        intorder = INTORDER[mesh.cell_type] + (kind in AXISYMMETRIC_KINDS)
+        dim = n_components(kind, mesh.dim)
         scalar = skfem.Basis(skmesh, lagrange, intorder=intorder)
-        basis = skfem.Basis(skmesh, skfem.ElementVector(lagrange), intorder=intorder)
+        basis = skfem.Basis(skmesh, skfem.ElementVector(lagrange, dim=dim), intorder=intorder)
         perm = _local_permutation(mesh, scalar)
         node_of = np.empty(scalar.N, dtype=np.int64)
         node_of[scalar.element_dofs] = np.take_along_axis(mesh.cells, perm, axis=1).T
-        dim = mesh.dim
         dof_of = np.empty(basis.N, dtype=np.int64)
         for c in range(dim):
             dof_of[basis.element_dofs[c::dim]] = dim * node_of[scalar.element_dofs] + c
@@ -111,18 +112,24 @@ class Space:
 
     @property
     def dim(self) -> int:
+        """Dimension of the mesh (of points and normals)."""
         return self.mesh.dim
+
+    @property
+    def n_components(self) -> int:
+        """Displacement components per node, the stride of frictionid's node-major dofs."""
+        return n_components(self.kind, self.mesh.dim)
 
     def ring(self, x: np.ndarray) -> np.ndarray:
         """Measure factor at quadrature points x (dim, ...): 2 pi r for axisymmetric models, else 1.
 
         Multiplying integrands by it makes every axisymmetric force and area a whole-ring (360 deg) quantity.
         """
-        return 2 * np.pi * x[0] if self.kind == "axisymmetric" else np.ones_like(x[0])
+        return 2 * np.pi * x[0] if self.kind in AXISYMMETRIC_KINDS else np.ones_like(x[0])
 
     @property
     def n_dofs(self) -> int:
-        return self.dim * self.mesh.n_nodes
+        return self.n_components * self.mesh.n_nodes
 
     def to_dofs(self, matrix):
         """A scikit-fem assembled sparse matrix or vector renumbered to frictionid dofs."""

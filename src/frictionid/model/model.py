@@ -12,27 +12,43 @@ import numpy as np
 from ..errors import InputError
 from .mesh import Mesh, init_arguments, rebuild
 
-KINDS = ("3d", "plane_strain", "axisymmetric")
+KINDS = ("3d", "plane_strain", "axisymmetric", "axisymmetric_twist")
+#: kinds of revolution about the y axis (x = r): whole-ring (2 pi r) integrals, u_r = 0 on the axis
+AXISYMMETRIC_KINDS = ("axisymmetric", "axisymmetric_twist")
 #: element technologies: "standard" (the mesh's Lagrange elements), "incompatible" (linear hexahedra with
 #: Wilson-Taylor incompatible modes, CalculiX/Abaqus C3D8I)
 ELEMENTS = ("standard", "incompatible")
-_COMPONENTS = {"x": 0, "y": 1, "z": 2, "r": 0}
+_COMPONENTS = {"x": 0, "y": 1, "z": 2, "r": 0, "t": 2}
+
+
+def n_components(kind: str, dim: int) -> int:
+    """Displacement components per node: the mesh's dimension, 3 for "axisymmetric_twist" (u_r, u_y, u_t).
+
+    >>> n_components("axisymmetric_twist", 2), n_components("axisymmetric", 2)
+    (3, 2)
+    """
+    return 3 if kind == "axisymmetric_twist" else dim
 
 
 def component_index(component, dim: int, where: str) -> int:
-    """Index of a displacement component given as 0..dim-1 or 'x', 'y', 'z' ('r' = 'x' in axisymmetry)."""
+    """Index of a displacement component given as 0..dim-1 or 'x', 'y', 'z' ('r' = 'x' in axisymmetry; 't' = 2,
+    the circumferential component u_t of "axisymmetric_twist", along +z on the x-y plane); ``dim`` is the number
+    of components per node (:func:`n_components`)."""
     index = _COMPONENTS.get(component, component) if isinstance(component, str) else component
     if not isinstance(index, (int, np.integer)) or not 0 <= index < dim:
         raise InputError(f"{where}: component {component!r} is not one of x, y{', z' if dim == 3 else ''}")
     return int(index)
 
 
-def reaction_label(boundary: str, component: int) -> str:
-    """Label of the reaction sum of one boundary component (index 0..2): "boundary.axis".
+def reaction_label(boundary: str, component: int, kind: str = "") -> str:
+    """Label of the reaction sum of one boundary component (index 0..2): "boundary.axis"; the circumferential
+    component of an "axisymmetric_twist" model sums moments about the axis: "boundary.torque" [N mm].
 
-    >>> reaction_label("block_top", 1)
-    'block_top.y'
+    >>> reaction_label("block_top", 1), reaction_label("nut_top", 2, "axisymmetric_twist")
+    ('block_top.y', 'nut_top.torque')
     """
+    if kind == "axisymmetric_twist" and component == 2:
+        return f"{boundary}.torque"
     return f"{boundary}.{'xyz'[component]}"
 
 
@@ -103,6 +119,18 @@ class SurfaceForce:
 
 
 @dataclass(frozen=True)
+class Rotation:
+    """Prescribed rotation [rad] of a boundary about the axis of an "axisymmetric_twist" model: u_t = r * values[s]
+    at each of its nodes at the end of stage s (u_r, u_y free); its reaction is the torque [N mm] about the axis,
+    positive in the +t sense (t = r x y: +z on the x-y plane at x > 0)."""
+
+    boundary: str
+    values: tuple[float, ...]
+
+    component = 2
+
+
+@dataclass(frozen=True)
 class Stage:
     """One stage of the load path: loads ramp linearly from the previous stage's end values in n_increments."""
 
@@ -135,7 +163,7 @@ class ContactInterface:
                              "'auto', 'node-to-node', 'mortar'")
 
 
-Load = Displacement | Pressure | SurfaceForce
+Load = Displacement | Pressure | SurfaceForce | Rotation
 
 
 @dataclass(frozen=True)
@@ -145,8 +173,10 @@ class Model:
     Parameters
     ----------
     mesh : Mesh
-    kind : "3d" | "plane_strain" | "axisymmetric"
-        Plane strain counts forces per mm of thickness; axisymmetric uses x = r, y = axis, whole-ring forces.
+    kind : "3d" | "plane_strain" | "axisymmetric" | "axisymmetric_twist"
+        Plane strain counts forces per mm of thickness; axisymmetric uses x = r, y = axis, whole-ring forces;
+        "axisymmetric_twist" adds the circumferential displacement u_t (three components per node, as Abaqus
+        CGAX; torsion without a theta dependence, see :mod:`frictionid.fem.twist`).
     materials : mapping region name -> Material
     supports : Supports (zero displacement) on named boundaries.
     loads : Displacement, Pressure and SurfaceForce entries, each with one value per stage.
@@ -182,6 +212,11 @@ class Model:
     @property
     def dim(self) -> int:
         return self.mesh.dim
+
+    @property
+    def n_components(self) -> int:
+        """Displacement components per node (:func:`n_components`)."""
+        return n_components(self.kind, self.mesh.dim)
 
     def with_element(self, element: str) -> "Model":
         """The same model with another element technology (see :data:`ELEMENTS`)."""
@@ -241,16 +276,16 @@ class Model:
     def reaction_entries(self) -> tuple[tuple[str, int], ...]:
         """(boundary, component index) of each reaction sum, each once: the supports' components, then those
         driven by a prescribed displacement."""
-        entries = [(s.boundary, component_index(c, self.dim, s.boundary))
+        entries = [(s.boundary, component_index(c, self.n_components, s.boundary))
                    for s in self.supports for c in s.components]
-        entries += [(l.boundary, component_index(l.component, self.dim, l.boundary))
-                    for l in self.loads if isinstance(l, Displacement)]
+        entries += [(l.boundary, component_index(l.component, self.n_components, l.boundary))
+                    for l in self.loads if isinstance(l, (Displacement, Rotation))]
         return tuple(dict.fromkeys(entries))
 
     @property
     def reaction_labels(self) -> tuple[str, ...]:
         """:func:`reaction_label` of each of :attr:`reaction_entries`, e.g. "block_top.y"."""
-        return tuple(reaction_label(boundary, c) for boundary, c in self.reaction_entries)
+        return tuple(reaction_label(boundary, c, self.kind) for boundary, c in self.reaction_entries)
 
     def _validate(self):
         mesh = self.mesh
@@ -272,14 +307,17 @@ class Model:
         for support in self.supports:
             mesh.boundary(support.boundary)
             for c in support.components:
-                component_index(c, self.dim, f"support on {support.boundary!r}")
+                component_index(c, self.n_components, f"support on {support.boundary!r}")
         for load in self.loads:
             mesh.boundary(load.boundary)
             if len(load.values) != self.n_stages:
                 raise InputError(f"model: {type(load).__name__} on {load.boundary!r} has {len(load.values)} "
                                  f"value(s), expected one per stage ({self.n_stages})")
+            if isinstance(load, Rotation) and self.kind != "axisymmetric_twist":
+                raise InputError(f"model: a Rotation on {load.boundary!r} needs kind 'axisymmetric_twist', "
+                                 f"the model is {self.kind!r}")
             if hasattr(load, "component"):
-                component_index(load.component, self.dim, f"{type(load).__name__} on {load.boundary!r}")
+                component_index(load.component, self.n_components, f"{type(load).__name__} on {load.boundary!r}")
         self._validate_zones()
 
     def _validate_zones(self):

@@ -1,0 +1,148 @@
+"""Axisymmetry with twist ("axisymmetric_twist"): torsion against St-Venant, the axisymmetric kind without twist,
+circumferential friction of a ring turned on a ring, sensitivities against central differences."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from test_verification import _check_sensitivities
+
+from frictionid.builders import benchmarks as bm
+from frictionid.builders.torsion import effective_radius, shaft_model, turned_rings_model
+from frictionid.errors import InputError
+from frictionid.fem.assembly import stiffness
+from frictionid.fem.contact import OPEN, SLIP, STICK
+from frictionid.fem.problem import Problem
+from frictionid.fem.space import Space
+from frictionid.model import Model, Rotation, Support
+
+E, NU = 200000.0, 0.3
+G = E / (2 * (1 + NU))
+
+
+def _polar_moment(radius, bore):
+    return np.pi / 2 * (radius ** 4 - bore ** 4)
+
+
+def _shear_stress(problem, u):
+    """(tau_yt, r) at the quadrature points: tau_yt = 2 G e_yt = G du_t/dy."""
+    space = problem.space
+    field = space.basis.interpolate(u.ravel()[space.dof_of])
+    return G * field.grad[2][1], space.basis.global_coordinates()[0]
+
+
+@pytest.mark.parametrize("bore", [0.0, 3.0], ids=["solid", "hollow"])
+def test_turned_shaft_is_exact_st_venant_torsion_on_quadratic_triangles(bore):
+    """u_t = r phi y / L (St-Venant) lies in the P2 space: torque G J phi / L, tau = T r / J to round-off."""
+    radius, length, twist = 5.0, 20.0, 1e-3
+    problem = Problem.build(shaft_model(radius, length, bore=bore, twist=twist, size=1.0, order=2))
+    solution = problem.solve([])
+    torque = solution.reactions[-1][solution.reaction_labels.index("shaft_top.torque")]
+    J = _polar_moment(radius, bore)
+    assert torque == pytest.approx(G * J * twist / length, rel=1e-10)
+    assert solution.reactions[-1][solution.reaction_labels.index("shaft_bottom.torque")] == pytest.approx(-torque,
+                                                                                                         rel=1e-10)
+    u, points = problem.displacement(solution), problem.model.mesh.points
+    np.testing.assert_allclose(u[:, 2], points[:, 0] * twist * points[:, 1] / length, rtol=0, atol=1e-13)
+    assert np.abs(u[:, :2]).max() < 1e-15                       # isotropy: torsion moves nothing in (r, y)
+    tau, r = _shear_stress(problem, u)
+    np.testing.assert_allclose(tau, torque * r / J, rtol=1e-9)
+
+
+def test_linear_triangles_converge_to_st_venant_at_rate_two():
+    """P1 cannot hold r y: the torque error falls as h^2 (measured 2.67 %, 0.667 %, 0.167 % at h = 1, 0.5, 0.25)."""
+    J = _polar_moment(5.0, 0.0)
+    errors = []
+    for size in (1.0, 0.5):
+        solution = Problem.build(shaft_model(size=size, order=1)).solve([])
+        errors.append(solution.reactions[-1][solution.reaction_labels.index("shaft_top.torque")]
+                      / (G * J * 1e-3 / 20.0) - 1)
+    assert np.log2(errors[0] / errors[1]) == pytest.approx(2.0, abs=0.05)
+    assert 0 < errors[1] < 0.007
+
+
+def test_torque_on_a_hollow_shaft_gives_the_st_venant_twist_rate_away_from_its_ends():
+    """A uniform circumferential traction totalling F on the top: T = F 2/3 (R^3 - r^3) / (R^2 - r^2); between
+    y = 10 and 30 of a 40 mm shaft the twist rate is T / (G J) (measured to 1.4e-10) and tau = T r / J."""
+    radius, bore, length, force = 5.0, 3.0, 40.0, 1000.0
+    problem = Problem.build(shaft_model(radius, length, bore=bore, twist=None, force=force, size=0.5))
+    solution = problem.solve([])
+    torque, J = force * effective_radius(bore, radius), _polar_moment(radius, bore)
+    assert solution.reactions[-1][solution.reaction_labels.index("shaft_bottom.torque")] == pytest.approx(
+        -torque, rel=1e-10)
+    u, points = problem.displacement(solution), problem.model.mesh.points
+    angle = u[:, 2] / points[:, 0]
+    at = [np.isclose(points[:, 1], y) for y in (10.0, 30.0)]
+    assert all(np.ptp(angle[a]) < 1e-9 * np.abs(angle).max() for a in at)          # sections stay plane
+    rate = (angle[at[1]].mean() - angle[at[0]].mean()) / 20.0
+    assert rate == pytest.approx(torque / (G * J), rel=1e-8)
+    tau, r = _shear_stress(problem, u)
+    y = problem.space.basis.global_coordinates()[1]
+    middle = (y > 10.0) & (y < 30.0)
+    np.testing.assert_allclose(tau[middle], torque * r[middle] / J, rtol=1e-6)
+
+
+def test_without_twist_it_is_the_axisymmetric_kind():
+    """The (r, y) block of the stiffness is the axisymmetric one to round-off, and a contact load path with the
+    circumferential displacement held nowhere but on the shaft gives the same contact forces and reactions."""
+    model = bm.sleeve_model(size=1.0, n_push=3)
+    twisted = dataclasses.replace(model, kind="axisymmetric_twist", supports=(Support("shaft_bottom", (1, 2)),))
+    K2 = stiffness(Space.build(model.mesh, model.kind), model)
+    K3 = stiffness(Space.build(model.mesh, twisted.kind), twisted)
+    n = model.mesh.n_nodes
+    in_plane = (3 * np.arange(n)[:, None] + np.arange(2)).ravel()
+    assert abs(K3[in_plane][:, in_plane] - K2).max() <= 1e-13 * abs(K2).max()
+    twist = 3 * np.arange(n) + 2
+    assert abs(K3[twist][:, in_plane]).max() == 0.0                                 # isotropy: decoupled
+    mu = np.array([0.12, 0.3])
+    plain, turned = Problem.build(model).solve(mu), Problem.build(twisted).solve(mu)
+    assert turned.reaction_labels == ("shaft_bottom.y", "shaft_bottom.torque", "sleeve_top.y")
+    np.testing.assert_allclose(turned.lam[:, :, :2], plain.lam, rtol=0, atol=1e-11 * np.abs(plain.lam).max())
+    assert np.abs(turned.lam[:, :, 2]).max() == 0.0
+    np.testing.assert_allclose(turned.reactions[:, [0, 2]], plain.reactions, rtol=1e-11)
+    np.testing.assert_array_equal(turned.state, plain.state)
+
+
+@pytest.fixture(scope="module")
+def turned():
+    return {angle: Problem.build(turned_rings_model(angle=angle, size=0.5)) for angle in (8e-5, 2e-3)}
+
+
+def test_ring_turned_on_a_ring_slips_at_mu_n_r_eff(turned):
+    """One material under uniform axial stress: uniform contact pressure, no radial shear, and in gross slip
+    T = mu N r_eff per zone (exact for the discrete problem too: r is interpolated exactly; measured 7e-13)."""
+    problem = turned[2e-3]
+    pressure, (inner, middle, outer) = 50.0, (6.0, 8.0, 10.0)
+    for mu in (np.array([0.15, 0.15]), np.array([0.1, 0.2])):
+        solution = problem.solve(mu)
+        closed = solution.state[-1] != OPEN
+        assert closed.all() and np.all(solution.state[-1] == SLIP)
+        torque = solution.reactions[-1][solution.reaction_labels.index("upper_top.torque")]
+        rings = [(inner, middle), (middle, outer)]
+        expected = sum(m * pressure * np.pi * (b ** 2 - a ** 2) * effective_radius(a, b)
+                       for m, (a, b) in zip(mu, rings))
+        assert torque == pytest.approx(expected, rel=1e-9)
+        if mu[0] == mu[1]:
+            N = pressure * np.pi * (outer ** 2 - inner ** 2)
+            assert torque == pytest.approx(mu[0] * N * effective_radius(inner, outer), rel=1e-9)
+        lam = solution.lam[-1]
+        np.testing.assert_allclose(np.abs(lam[:, 2]), problem.pairs.mu(mu) * lam[:, 0], rtol=1e-9)
+        assert np.abs(lam[:, 1]).max() < 1e-9 * np.abs(lam[:, 2]).max()           # all the friction is around
+
+
+def test_turned_ring_sensitivities_match_central_differences(turned):
+    for angle, solution in ((angle, _check_sensitivities(problem, np.array([0.1, 0.2])))
+                            for angle, problem in turned.items()):
+        states = np.bincount(solution.state[-1], minlength=3)
+        assert states[SLIP] > 0 and (angle > 1e-3 or states[STICK] > 0)
+
+
+def test_rotation_needs_the_twist_kind():
+    model = shaft_model(size=2.0)
+    with pytest.raises(InputError, match="Rotation on 'shaft_top' needs kind 'axisymmetric_twist'"):
+        dataclasses.replace(model, kind="axisymmetric", supports=(Support("shaft_bottom", ("y",)),))
+    with pytest.raises(InputError, match="component 't'"):
+        Model(model.mesh, "axisymmetric", model.materials, supports=(Support("shaft_bottom", ("y", "t")),))
+    twisted = Model(model.mesh, "axisymmetric_twist", model.materials, supports=(Support("shaft_bottom", ("y", "t")),),
+                    loads=(Rotation("shaft_top", (0.01,)),))
+    assert twisted.reaction_labels == ("shaft_bottom.y", "shaft_bottom.torque", "shaft_top.torque")
