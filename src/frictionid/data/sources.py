@@ -185,7 +185,7 @@ MATCHID_NOTE = ("MatchID writes Y (and V) downwards, as in the image; read as wr
 
 
 def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool, str]:
-    text = read_text(entry.path)
+    text = read_text(entry.path, n_rows=50)         # the header tells the generic CSV from an export
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
         m = read_measurements(entry.path)
         return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],

@@ -50,8 +50,11 @@ class ExportText:
         return self.names.index(name)
 
 
-def read_text(path) -> ExportText:
+def read_text(path, n_rows: int | None = None) -> ExportText:
     """Split an export into preamble, header, optional unit row and data rows.
+
+    ``n_rows``: split only the first that many lines after the header (enough to recognise the format without
+    splitting a full field of 1e5 rows); all by default.
 
     UTF-8 (with or without byte-order mark) is tried first, then Latin-1, the encoding of exports written by
     Windows programs (``µm``, ``°`` in headers). The separator is the first of ``;``, tab, ``,`` found in the
@@ -74,7 +77,8 @@ def read_text(path) -> ExportText:
     else:
         raise InputError(f"{source}: no header and no data rows")
     separator = next((s for s in SEPARATORS if s in lines[number - 1]), ",")
-    fields = [_split(line, separator) for line in lines[number - 1:]]
+    end = None if n_rows is None else number + n_rows
+    fields = [_split(line, separator) for line in lines[number - 1:end]]
     names, units = zip(*(name_unit(f) for f in fields[0]))
     data = [(number + k, f) for k, f in enumerate(fields[1:], start=1) if any(fields[k])]
     if data and _is_unit_row(data[0][1]):
