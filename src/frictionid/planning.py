@@ -5,8 +5,8 @@ noise of [data], the planned points as [data] file, and the [design] table) it c
 coefficients:
 
 - the predicted standard error per zone of the planned points;
-- a set of ``design.points`` points chosen from candidates spread over the model (greedy A- or D-optimal,
-  :func:`frictionid.inverse.design.select_points`) and its predicted standard errors;
+- a set of ``design.points`` points chosen from the planned points and candidates spread over the model
+  (greedy A- or D-optimal, :func:`frictionid.inverse.design.select_points`) and its predicted standard errors;
 - the finest zone partition each point set supports (:func:`frictionid.inverse.design.finest_partition`), as
   the ``[friction] merge`` table an identification can run with;
 - a plot of each zone's weighted sensitivity over the candidates.
@@ -165,6 +165,7 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
     echo(_summary(f"planned ({len(obs.points)} points)", planned.stderr, names, tolerance))
 
     points, regions = candidate_locations(model, kind, int(table["n_candidates"]), table["regions"])
+    points, regions = np.concatenate([obs.points, points]), list(obs.point_regions) + list(regions)
     rows = weighted_rows(model, points, regions, quantities, stages, sigma, mu, free)
     candidates = Candidates(points, tuple(regions), rows)
     chosen = select_points(rows, n_points, table["criterion"])
