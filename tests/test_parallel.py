@@ -95,6 +95,19 @@ def test_the_reference_run_is_a_multi_start_finite_difference_fit(reference):
         assert reference["parameters"][zone]["value"] == pytest.approx(value, abs=1e-4)
 
 
+
+@pytest.mark.slow
+def test_every_start_is_in_the_text_and_html_report(measured, reference):
+    from frictionid.report.tables import result_summary
+    text = result_summary(reference)
+    best = next(s for s in reference["starts"] if s["best"])
+    assert "[[Starts]]" in text and f" *   {best['start']}  from " in text
+    assert reference["objective"]["final"] == best["objective"]
+    page = (measured / "runs/serial/report.html").read_text()
+    section = page[page.index("<h2>Starts</h2>"):].split("</section>")[0]
+    assert section.count("<tr><td>") == 2 and section.count("<td>yes</td>") == 1
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("run", ["workers = 2\n", 'workers = 2\nscheduler = "local"\n', "cluster"])
 def test_the_same_result_with_1_worker_2_processes_and_a_2_worker_dask_cluster(measured, reference, cluster, run):

@@ -44,7 +44,7 @@ def write_html(run_dir: Path, result: dict, figures: dict[str, bytes] | None = N
 def report_html(result: dict, figures: dict[str, bytes], config_text: str | None = None,
                 data_file: Path | None = None, title: str = "") -> str:
     """The page as a string; every section says so when the run did not get far enough to fill it."""
-    sections = [_summary(result), _coefficients(result), _adequacy(result.get("fit")),
+    sections = [_summary(result), _coefficients(result), *_starts(result.get("starts")), _adequacy(result.get("fit")),
                 _figure("Convergence", figures.get("convergence"), "objective and free coefficients per iteration"),
                 _fit(result.get("fit"), figures.get("fit")),
                 _figure("Residual map", figures.get("residuals"),
@@ -133,6 +133,21 @@ def _coefficients(result: dict) -> str:
                      "&ndash;" if p["fixed"] else _bound_flag(p), _verdict(p), _e(p.get("why", ""))])
     text = [header.index(h) for h in ("zone", "at bound", "verdict", "why")]
     return _section("Coefficients", _table(header, rows, text_columns=text))
+
+
+def _starts(starts: list[dict] | None) -> list[str]:
+    """The starts of a multi-start run (none for a single start)."""
+    if not starts:
+        return []
+    zones = list(starts[0]["initial"])
+    header = ["start", *(f"{z} from" for z in zones), *(f"{z} to" for z in zones), "objective", "status",
+              "iterations", "reported"]
+    rows = [[str(s["start"]), *(f"{v:.4f}" for v in s["initial"].values()),
+             *((f"{v:.4f}" for v in s["value"].values()) if "value" in s else ["&ndash;"] * len(zones)),
+             _num(s.get("objective"), ".6e"), _e(s["status"] + (f": {s['message']}" if s.get("message") else "")),
+             _num(s.get("n_iterations"), "d"), "yes" if s["best"] else ""] for s in starts]
+    return [_section("Starts", "<p>The fit from each start point (identify.starts); the one with the lowest "
+                               "objective is reported above.</p>\n" + _table(header, rows, (len(header) - 3,)))]
 
 
 def _group_table(title: str, table: dict) -> str:

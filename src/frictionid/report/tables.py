@@ -74,7 +74,25 @@ def result_summary(result: dict) -> str:
     if pairs:
         lines.append("[[Correlations]] (|C| > 0.1)")
         lines += [f"    C({a}, {b}) = {c:+.3f}" for a, b, c in sorted(pairs, key=lambda t: -abs(t[2]))]
+    lines += starts_lines(result.get("starts"))
     return "\n".join(lines)
+
+
+def starts_lines(starts: list[dict] | None) -> list[str]:
+    """[[Starts]] of a multi-start run (identify.starts): per start its start and end point, objective and
+    status; the reported one marked *. No lines for a single start."""
+    if not starts:
+        return []
+    lines = ["[[Starts]] (* reported: the lowest objective)"]
+    for s in starts:
+        initial = ", ".join(f"{k}={v:.4f}" for k, v in s["initial"].items())
+        if s["status"] == "failed":
+            lines.append(f"   {s['start']:3d}  from {initial}: failed: {s['message']}")
+            continue
+        final = ", ".join(f"{k}={v:.4f}" for k, v in s["value"].items())
+        lines.append(f" {'*' if s['best'] else ' '} {s['start']:3d}  from {initial} -> {final}  "
+                     f"J={s['objective']:.6e}  {s['status']}, {s['n_iterations']} iterations")
+    return lines
 
 
 def _adequacy_lines(fit: dict) -> list[str]:
