@@ -109,26 +109,28 @@ def _write_points(path: Path, points: np.ndarray, labels, stages, quantities) ->
 
 
 def _plot(path: Path, candidates: Candidates, names, chosen, planned: np.ndarray) -> None:
+    """Each zone's weighted sensitivity at the candidates (log10, four decades below the largest), the chosen
+    points circled red, the planned ones as black crosses."""
     from matplotlib.figure import Figure
 
-    seen = np.sqrt(np.einsum("pkz,pkz->pz", candidates.rows, candidates.rows))
-    dim = candidates.points.shape[1]
-    n = len(names)
-    fig = Figure(figsize=(3.2 * min(n, 4), 3.0 * -(-n // 4)), layout="constrained")
+    seen = np.log10(np.maximum(np.sqrt(np.einsum("pkz,pkz->pz", candidates.rows, candidates.rows)), 1e-300))
+    top = float(np.max(seen))
+    dim, n = candidates.points.shape[1], len(names)
+    extent = np.ptp(candidates.points, axis=0)
+    tall = float(extent[1] / max(extent[0], 1e-9)) if dim == 2 else 1.0
+    width = float(np.clip(5.0 / tall, 1.6, 4.0)) if dim == 2 else 3.6
+    fig = Figure(figsize=(width * n + 1.0, 5.5 if dim == 2 else 3.6), layout="constrained")
     for k, name in enumerate(names):
-        if dim == 3:
-            ax = fig.add_subplot(-(-n // 4), min(n, 4), k + 1, projection="3d")
-            xyz = candidates.points.T
-        else:
-            ax = fig.add_subplot(-(-n // 4), min(n, 4), k + 1)
+        ax = fig.add_subplot(1, n, k + 1, **({"projection": "3d"} if dim == 3 else {}))
+        if dim == 2:
             ax.set_aspect("equal")
-            xyz = candidates.points.T[:2]
-        dots = ax.scatter(*xyz, c=np.log10(np.maximum(seen[:, k], 1e-12)), s=6, cmap="viridis")
-        ax.scatter(*candidates.points[chosen].T[:dim], s=30, facecolors="none", edgecolors="r", linewidths=1.0)
+        dots = ax.scatter(*candidates.points.T, c=seen[:, k], s=5, cmap="viridis", vmin=top - 4.0, vmax=top)
+        ax.scatter(*candidates.points[chosen].T, s=14, facecolors="none", edgecolors="r", linewidths=0.6)
         if len(planned):
-            ax.scatter(*planned.T[:dim], marker="x", s=20, c="k")
+            ax.scatter(*planned.T[:dim], marker="x", s=14, c="k", linewidths=0.8)
         ax.set_title(f"zone {name}", fontsize=9)
-        fig.colorbar(dots, ax=ax, shrink=0.8, label="log10 |d(obs)/d mu| / noise")
+        ax.tick_params(labelsize=7)
+    fig.colorbar(dots, ax=fig.axes, shrink=0.6, label="log10 |d(observation)/d mu| / noise")
     fig.savefig(path, dpi=110)
 
 
