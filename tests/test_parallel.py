@@ -261,3 +261,36 @@ def test_start_points_are_the_configured_start_then_seeded_draws_within_the_boun
     assert not np.array_equal(points, start_points(5, x0, lower, upper, seed=4))
     given = start_points([[0.2, 0.1], {"B": 0.15}], x0, lower, upper, names=("A", "B"))
     np.testing.assert_array_equal(given, [[0.2, 0.1], [0.1, 0.15]])
+
+
+@pytest.mark.ccx
+@pytest.mark.slow
+def test_a_calculix_finite_difference_jacobian_is_the_same_on_a_dask_cluster(tmp_path):
+    """The columns of a ccx forward-difference Jacobian as Dask tasks (scheduler = "local", 2 workers): the same
+    Jacobian as in this process, every perturbed run stored as it arrives."""
+    from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
+    from frictionid.builders.block import block_model_2d
+    from frictionid.inverse.evaluator import Evaluator
+    from frictionid.inverse.observations import Observations
+    from frictionid.inverse.parameters import Parameters
+    from frictionid.run.executor import make_executor
+    from frictionid.run.store import RunStore
+    model = block_model_2d(mesh_size=2.0, pull=0.05)
+    points = np.array([[-5.0, 0.5], [5.0, 0.5], [-7.0, 0.0], [7.0, 0.0]])
+    regions = ["block", "block", "base", "base"]
+    backend = CalculixBackend(model, points, ("ux", "uy"), regions, CalculixSettings(work_dir=str(tmp_path)))
+    obs = Observations(points, tuple(regions), ("ux", "uy"), np.arange(8), np.ones(8, int), np.zeros(8),
+                       np.full(8, 1e-3), tuple(map(str, range(8))), True)
+    params = Parameters.from_config(model.zone_names, {"A": 0.3, "B": 0.2}, bounds=(0.0, 1.0))
+    jacobians = []
+    for name, scheduler in (("serial", None), ("dask", "local")):
+        store = RunStore.open(tmp_path / name, "", "f", resume=False)
+        evaluator = Evaluator(backend, obs, params, store, jacobian="forward", step=1e-2,
+                              executor=make_executor(backend, 2 if scheduler else 1, scheduler))
+        try:
+            jacobians.append(evaluator.jacobian(params.x0))
+        finally:
+            evaluator.close()
+        assert store.n_evaluations("forward") == 3 and evaluator.n_failed == 0
+    np.testing.assert_array_equal(jacobians[0], jacobians[1])
+    assert np.all(np.abs(jacobians[0]) > 0)
