@@ -79,7 +79,7 @@ def shaft_model(radius: float = 5.0, length: float = 20.0, bore: float = 0.0, E:
 
 def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 4.0, E: float = 200000.0,
                        nu: float = 0.3, pressure: float = 50.0, angle: float = 2e-3, size: float = 0.5,
-                       order: int = 2, n_turn: int = 4) -> Model:
+                       order: int = 2, n_turn: int = 4, lead: float = 0.0) -> Model:
     """A ring pressed axially on a ring of the same section and turned about the axis (x = r, y = axis).
 
     Rings inner <= r <= outer: "lower" at -height <= y <= 0, "upper" at 0 <= y <= height, with coincident
@@ -90,6 +90,9 @@ def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 
 
     One material and a uniform axial stress: both rings expand radially alike, so the contact pressure is
     uniform and the gross-slip torque is mu N r_eff, r_eff = 2/3 (R^3 - r^3) / (R^2 - r^2).
+
+    ``lead`` [mm per turn]: the face is a helicoid of that lead (a square thread; the interface's
+    :attr:`~frictionid.model.ContactInterface.lead`): turning the upper ring screws it along the axis.
     """
     inner, outer, height = positive("inner", inner), positive("outer", outer), positive("height", height)
     if not inner < outer:
@@ -108,7 +111,7 @@ def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 
                  supports=(Support("lower_bottom", (1, 2)),),
                  loads=(Pressure("upper_top", (pressure, pressure)), Rotation("upper_top", (0.0, angle))),
                  stages=(Stage("press", 1), Stage("turn", count("n_turn", n_turn))),
-                 interfaces=(ContactInterface("face", ("inside", "outside"), "lower_top", "node-to-node"),))
+                 interfaces=(ContactInterface("face", ("inside", "outside"), "lower_top", "node-to-node", lead),))
 
 
 def effective_radius(inner: float, outer: float) -> float:

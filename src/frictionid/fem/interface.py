@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import InputError
 from ..model import Model
 from .node_to_node import node_to_node_pairs
@@ -19,13 +21,15 @@ def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
 def contact_pairs(space: Space, model: Model) -> ContactPairs:
     """Pairs of every interface in model order; "auto" tries node-to-node and falls back to mortar in 2-D.
 
-    "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added
-    (:func:`frictionid.fem.twist.with_circumferential_tangent`).
+    "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added, normals of
+    helical interfaces tilted by their lead (:func:`frictionid.fem.twist.with_circumferential_tangent`).
     """
     if space.n_components != space.dim:
         from .twist import with_circumferential_tangent
         section = Space.build(model.mesh, "axisymmetric", model.element)
-        return with_circumferential_tangent(contact_pairs(section, model), model.mesh.n_nodes)
+        pairs = contact_pairs(section, model)
+        lead = np.array([model.interfaces[i].lead for i in pairs.interface], dtype=float)
+        return with_circumferential_tangent(pairs, model.mesh.n_nodes, lead)
     parts = []
     for index, interface in enumerate(model.interfaces):
         if interface.discretisation == "mortar":

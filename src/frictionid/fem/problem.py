@@ -151,9 +151,11 @@ class Problem:
         """Raise :class:`SolverError` where the accumulated slip exceeds ``limit`` local element lengths.
 
         The pairing is fixed in the undeformed configuration, so a larger slip would give a wrong answer.
-        Pairs that stay open along the whole path are not checked: their pairing never acts.
+        Pairs that stay open along the whole path are not checked: their pairing never acts. With twist only the
+        slip along t1, in the (r, y) section, counts: sliding around the axis keeps a ring pair's partners.
         """
-        slip = np.linalg.norm(solution.slip, axis=2)                      # (n_inc, n_pairs)
+        slip = solution.slip[:, :, :1] if self.model.kind == "axisymmetric_twist" else solution.slip
+        slip = np.linalg.norm(slip, axis=2)                               # (n_inc, n_pairs)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         ratio = slip / self.pair_length()
         if ratio.size and ratio.max() > limit:

@@ -149,15 +149,22 @@ class ContactInterface:
     Each zone carries its own Coulomb coefficient. ``target`` is the named boundary on the other body.
     ``discretisation``: "node-to-node" (conforming meshes: every contact node has a target node at the same
     place, up to an initial gap), "mortar" (non-matching 2-D meshes) or "auto" (node-to-node when conforming).
+    ``lead`` [mm]: axial advance per turn of a helical interface (a thread: the pitch times the number of starts),
+    positive for a right-hand helix; "axisymmetric_twist" models only. Its rings stand for the helix: each pair's
+    normal is tilted by the local lead angle (:func:`frictionid.fem.twist.helical_normals`), so that turning one
+    side advances it along the axis and the normal force carries torque.
     """
 
     name: str
     zones: tuple[str, ...]
     target: str
     discretisation: str = "auto"
+    lead: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "zones", tuple(self.zones))
+        if isinstance(self.lead, bool) or not isinstance(self.lead, (int, float)) or not np.isfinite(self.lead):
+            raise InputError(f"interface {self.name!r}: lead must be a number of mm, got {self.lead!r}")
         if self.discretisation not in ("auto", "node-to-node", "mortar"):
             raise InputError(f"interface {self.name!r}: discretisation {self.discretisation!r} is not one of "
                              "'auto', 'node-to-node', 'mortar'")
@@ -326,6 +333,9 @@ class Model:
             raise InputError(f"model: a zone name is used twice in {self.zone_names}")
         for interface in self.interfaces:
             self.mesh.boundary(interface.target)
+            if interface.lead and self.kind != "axisymmetric_twist":
+                raise InputError(f"model: interface {interface.name!r} has a lead ({interface.lead:g} mm), which "
+                                 f"needs kind 'axisymmetric_twist', the model is {self.kind!r}")
             for zone in interface.zones:
                 for facet in self.mesh.boundary(zone):
                     key = frozenset(facet.tolist())
