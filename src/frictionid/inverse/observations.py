@@ -186,25 +186,28 @@ def _regions_of(labels: list, regions: dict, matches: dict, where: str) -> dict:
     """Each label's region: its exact key, else its most specific matching pattern (ties with different regions
     are an error naming the first such label), else None."""
     found = {label: regions[label] for label in labels if label in regions}
-    best: dict = {}                                  # label -> (specificity, [matching keys of that specificity])
-    for key, matched in matches.items():
-        specificity = _specificity(key)
-        for label in matched:
-            if label in found:
-                continue
-            level, keys = best.get(label, (-1, []))
-            if specificity > level:
-                best[label] = (specificity, [key])
-            elif specificity == level:
-                keys.append(key)
-    for label in labels:
-        if label in found or label not in best:
+    levels: dict = {}                                          # specificity -> patterns, in the table's order
+    for key in matches:
+        levels.setdefault(_specificity(key), []).append(key)
+    tied: dict = {}                                            # label -> the equally specific patterns claiming it
+    for level in sorted(levels, reverse=True):
+        if len(levels[level]) == 1:                            # one pattern (e.g. "*"): no tie possible
+            key = levels[level][0]
+            found.update(dict.fromkeys([label for label in matches[key] if label not in found], regions[key]))
             continue
-        tied = best[label][1]
-        if len({regions[k] for k in tied}) > 1:
-            raise InputError(f"{where}: point {label!r} matches the patterns {tied}, equally specific, with "
-                             "different regions; name the point itself or make one pattern longer")
-        found[label] = regions[tied[0]]
+        claims: dict = {}
+        for key in levels[level]:
+            for label in matches[key]:
+                if label not in found:
+                    claims.setdefault(label, []).append(key)
+        for label, keys in claims.items():
+            if len({regions[k] for k in keys}) > 1:
+                tied[label] = keys
+            found[label] = regions[keys[0]]
+    if tied:
+        label = next(label for label in labels if label in tied)
+        raise InputError(f"{where}: point {label!r} matches the patterns {tied[label]}, equally specific, with "
+                         "different regions; name the point itself or make one pattern longer")
     return {label: found.get(label) for label in labels}
 
 
