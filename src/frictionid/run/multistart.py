@@ -93,8 +93,12 @@ def run_starts(points: np.ndarray, optimise_from, parallel: bool) -> list[Start]
 
     if not parallel or len(points) == 1:
         return [run(k) for k in range(len(points))]
-    with concurrent.futures.ThreadPoolExecutor(min(len(points), MAX_CONCURRENT), "frictionid-start") as pool:
+    pool = concurrent.futures.ThreadPoolExecutor(min(len(points), MAX_CONCURRENT), "frictionid-start")
+    try:
         return list(pool.map(run, range(len(points))))
+    finally:
+        # not waiting: on Ctrl-C or a lost solve the caller stops the executor, which ends the other starts
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def best(starts: list[Start]) -> Start:
