@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..model import ContactInterface, Material, Model, Stage, Support, SurfaceForce
+from ..model import ContactInterface, Material, Model, Rotation, Stage, Support, SurfaceForce
 from .arguments import count, positive
 from .bolt_layout import BoltLayout, bolt_layout
 from .bolt_mesh import bolt_mesh
@@ -52,7 +52,8 @@ def default_sizes(size: str = "M20") -> dict[str, float]:
 def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int = 3, flank_size: float = 0.1,
                contact_size: float | None = None, mesh_size: float | None = None, n_radial: int = 2,
                n_axial: int = 3, length: float | None = None, engaged_length: float | None = None,
-               clearance: float | None = None, bearing_diameter: float | str | None = None) -> Model:
+               clearance: float | None = None, bearing_diameter: float | str | None = None,
+               load: str = "tension", angles=(2.0, 4.0)) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -84,6 +85,15 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     bearing_diameter : "dw" or float [mm], optional
         Outer diameter of the nut's bearing face on plate 1; "dw" takes ISO 4032 dw (27.7 for M20). The ring
         beyond it is chamfered at 30 deg (both nut faces). Default: the whole ring face (docs/models.md).
+    load : "tension" | "tightening"
+        "tension": the tensile test (``forces``). "tightening": the nut turned against the held head (ISO 16047
+        like), kind "axisymmetric_twist": both plates' rims held (r, y, t; their reactions are the load cell:
+        clamp force "plate1_rim.y"), the head held against turning ("head_side" in t), the nut's hexagon ring
+        "nut_outer" turned by ``angles``; the thread is a right-hand helix of lead P (rings with the helicoid's
+        normals, :attr:`ContactInterface.lead`). Wrench torque: reaction "nut_outer.torque" [N mm].
+    angles : sequence of float [deg]
+        Nut rotation from the snug position at the end of each stage (``load`` = "tightening"; ``forces`` is
+        then not used).
 
     Returns
     -------
@@ -102,17 +112,42 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
-    forces = _forces(forces)
+    if load not in ("tension", "tightening"):
+        raise InputError(f"`load` must be \"tension\" or \"tightening\", got {load!r}")
+    values = _angles(angles) if load == "tightening" else _forces(forces)
     n_increments = count("n_increments", n_increments, 1, 1000)
     mesh = bolt_mesh(layout, flank_size, contact_size, max(mesh_size, flank_size))
-    interfaces = (ContactInterface("thread", layout.thread_zones, "nut_contact", "node-to-node"),
+    lead = layout.size.P if load == "tightening" else 0.0
+    interfaces = (ContactInterface("thread", layout.thread_zones, "nut_contact", "node-to-node", lead),
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
                   ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
+    if load == "tightening":
+        return _tightening(mesh, interfaces, values, n_increments)
+    forces = values
     return Model(mesh=mesh, kind="axisymmetric",
                  materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
                  supports=(Support("plate2_rim", (0, 1)),),
                  loads=(SurfaceForce("plate1_rim", 1, forces),),
                  stages=tuple(Stage(f"F{i + 1}", n_increments) for i in range(len(forces))),
+                 interfaces=interfaces)
+
+
+def _angles(angles) -> tuple[float, ...]:
+    if isinstance(angles, (int, float)) and not isinstance(angles, bool):
+        angles = (angles,)
+    if not isinstance(angles, (list, tuple)) or not angles:
+        raise InputError(f"`angles` must be a list of nut rotations [deg], one per stage, got {angles!r}")
+    return tuple(positive(f"angles[{i}]", a) for i, a in enumerate(angles))
+
+
+def _tightening(mesh, interfaces, angles: tuple[float, ...], n_increments: int) -> Model:
+    """The tightening test: the nut turned by ``angles`` [deg] against the held head, plates held at their rims."""
+    return Model(mesh=mesh, kind="axisymmetric_twist",
+                 materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
+                 supports=(Support("plate2_rim", (0, 1, 2)), Support("plate1_rim", (0, 1, 2)),
+                           Support("head_side", (2,))),
+                 loads=(Rotation("nut_outer", tuple(np.radians(angles).tolist())),),
+                 stages=tuple(Stage(f"{a:g}deg", n_increments) for a in angles),
                  interfaces=interfaces)
 
 
