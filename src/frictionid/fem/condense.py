@@ -6,11 +6,18 @@ With free dofs f, prescribed dofs p, rigid modes R of floating bodies and a gene
 
 so every output is affine in (lam, alpha):  w = w0 + W lam + W_a alpha,  obs = obs0 + G lam + G_a alpha,
 reactions = reac0 + C lam + C_a alpha. The operators do not depend on mu nor on the load level: they are
-computed once per geometry (one sparse factorisation and d * n_pairs solves).
+computed once per geometry, W and G as T K^g B_f^T with sparse rows T = [B_f; O_f], C as (B_f K^g K_fp S_r^T)^T
+(n_reac solves):
+
+- "cholmod" (the default where kvxopt is installed): one sparse Cholesky factorisation with the dofs that T
+  touches ordered last; T K^g B_f^T then comes from the Schur complement onto those dofs, which is the factor's
+  trailing block (fem/cholesky.py), by dense triangular solves;
+- "superlu" (the fallback): one sparse LU factorisation and n_w = d * n_pairs solves, in blocks of columns.
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,9 +27,25 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..progress import bar
+from . import cholesky
 from .assembly import LoadChannels
 
+log = logging.getLogger(__name__)
+
 _BLOCK = 256  # right-hand sides per block solve
+#: ways to factorise K_ff; "auto" takes "cholmod" where kvxopt is installed, else "superlu"
+FACTORISATIONS = ("auto", "cholmod", "superlu")
+
+
+def factorisation_name(name: str) -> str:
+    """The factorisation ``name`` stands for ("auto" resolved); InputError for an unknown or unavailable one."""
+    if name not in FACTORISATIONS:
+        raise InputError(f"`factorisation` must be one of {', '.join(map(repr, FACTORISATIONS))}, got {name!r}")
+    if name == "superlu" or (name == "auto" and not cholesky.available()):
+        return "superlu"
+    if not cholesky.available():
+        raise InputError("`factorisation` 'cholmod' needs the kvxopt package (pip install kvxopt)")
+    return "cholmod"
 
 
 @dataclass(frozen=True)
@@ -46,33 +69,91 @@ class Affine:
 class GeneralisedInverse:
     """Solves K_ff u = b for self-equilibrated b, with the floating bodies pinned at a few dofs.
 
-    Pickled without its factor (SuperLU objects cannot be), which is computed again at the first solve after
-    unpickling."""
+    With ``last`` (free dofs) and ``nodes`` (the node of each free dof) K_ff is factorised by CHOLMOD with
+    ``last`` ordered last, so that :meth:`coupled` takes the Schur complement onto them from the factor; without
+    them by SuperLU. Pickled without its factor (SuperLU objects cannot be), which is computed again at the first
+    solve after unpickling."""
 
-    def __init__(self, K_ff: sp.csr_matrix, modes: np.ndarray, ordering: str = "MMD_AT_PLUS_A"):
+    def __init__(self, K_ff: sp.csr_matrix, modes: np.ndarray, ordering: str = "MMD_AT_PLUS_A",
+                 last: np.ndarray | None = None, nodes: np.ndarray | None = None):
         n = K_ff.shape[0]
         pinned = la.qr(modes.T, pivoting=True, mode="r")[1][:modes.shape[1]] if modes.size else np.zeros(0, int)
         self.keep = np.setdiff1d(np.arange(n), pinned)
         self.n = n
         self.matrix, self.ordering = K_ff[self.keep][:, self.keep].tocsc(), ordering
-        self.lu = self._factor()
+        self.lu = self.cholesky = None
+        if last is None:
+            self.lu = self._factor()
+        else:
+            last = np.searchsorted(self.keep, np.intersect1d(last, self.keep))
+            try:
+                self.cholesky = cholesky.Cholesky(self.matrix, last, nodes[self.keep])
+            except ArithmeticError:
+                raise InputError(_SINGULAR) from None
 
     def _factor(self):
         try:
             return spla.splu(self.matrix, permc_spec=self.ordering)
         except RuntimeError:
-            raise InputError("model: the stiffness matrix is singular: a body is not held by supports or "
-                             "contact in some direction (a mechanism)") from None
+            raise InputError(_SINGULAR) from None
 
     def __getstate__(self):
         return {**self.__dict__, "lu": None}
 
     def solve(self, b: np.ndarray) -> np.ndarray:
+        out = np.zeros((self.n,) + b.shape[1:])
+        if self.cholesky is not None:
+            out[self.keep] = self.cholesky.solve(b[self.keep])
+            return out
         if self.lu is None:
             self.lu = self._factor()
-        out = np.zeros((self.n,) + b.shape[1:])
         out[self.keep] = self.lu.solve(np.ascontiguousarray(b[self.keep]))
         return out
+
+    def coupled(self, rows: sp.csr_matrix, n_w: int) -> np.ndarray:
+        """rows K^g rows[:n_w]^T (n_rows, n_w) for sparse rows (n_rows, n): from the Schur complement where the
+        factor has the dofs the rows touch ordered last, else by solves in blocks of columns."""
+        rows = rows[:, self.keep].tocsr()
+        if self.cholesky is not None and np.isin(rows.indices, self.cholesky.last).all():
+            out = self._from_schur(rows, n_w)
+            if out is not None:
+                return out
+        out = np.zeros((rows.shape[0], n_w))
+        for start in bar(range(0, n_w, _BLOCK), -(-n_w // _BLOCK), f"condensation ({n_w} columns)"):
+            cols = slice(start, min(start + _BLOCK, n_w))
+            out[:, cols] = rows @ self._solve_kept(rows[cols].T.toarray())
+        return out
+
+    def _solve_kept(self, b: np.ndarray) -> np.ndarray:
+        if self.cholesky is not None:
+            return self.cholesky.solve(b)
+        if self.lu is None:
+            self.lu = self._factor()
+        return self.lu.solve(np.ascontiguousarray(b))
+
+    def _from_schur(self, rows: sp.csr_matrix, n_w: int) -> np.ndarray | None:
+        """(L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T), checked on one column against a solve with the factor (None if
+        it disagrees: the factor's order was not the one asked for)."""
+        last = self.cholesky.last
+        if len(last) == 0:
+            return np.zeros((rows.shape[0], n_w))
+        probe = np.zeros(len(self.keep))
+        probe[last[-1]] = 1.0
+        expected = self.cholesky.solve(probe)[last]
+        L_ss = self.cholesky.trailing()
+        Z = la.solve_triangular(L_ss, rows[:, last].T.toarray(), lower=True, check_finite=False)
+        out = Z.T @ Z[:, :n_w]
+        e = np.zeros(len(last))
+        e[-1] = 1.0
+        got = la.solve_triangular(L_ss, la.solve_triangular(L_ss, e, lower=True), lower=True, trans="T")
+        if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max()):
+            log.warning("CHOLMOD's factor is not in the requested order: condensing by solves instead")
+            return None
+        return out
+
+
+_SINGULAR = ("model: the stiffness matrix is singular: a body is not held by supports or contact in some "
+             "direction (a mechanism)")
 
 
 @dataclass(frozen=True)
@@ -116,7 +197,8 @@ class Condensed:
 
 
 def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: np.ndarray,
-             observe: sp.csr_matrix, reaction_sums: sp.csr_matrix, dim: int = 2) -> Condensed:
+             observe: sp.csr_matrix, reaction_sums: sp.csr_matrix, dim: int = 2,
+             factorisation: str = "auto") -> Condensed:
     """Condense the model onto the contact pairs.
 
     Parameters
@@ -124,6 +206,7 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     K : (n_dofs, n_dofs) stiffness; B : (n_w, n_dofs) relative displacement operator
     modes : (n_dofs, m) rigid modes vanishing on prescribed dofs
     observe : (n_obs, n_dofs) observation rows; reaction_sums : (n_reac, n_prescribed) sums of reactions
+    factorisation : one of :data:`FACTORISATIONS` (see the module docstring)
     """
     n = K.shape[0]
     p = channels.prescribed
@@ -131,29 +214,32 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     K = K.tocsr()
     K_ff, K_fp, K_pf, K_pp = K[f][:, f], K[f][:, p], K[p][:, f], K[p][:, p]
     R = modes[f]
-    # SuperLU orderings measured here: 2-D 52k dofs COLAMD factors in 0.45 s vs 1.8 s (MMD), same solves;
-    # 3-D 17k dofs MMD_AT_PLUS_A solves 363 right-hand sides in 2.1 s vs 13 s (COLAMD)
-    inverse = GeneralisedInverse(K_ff, R, "COLAMD" if dim == 2 else "MMD_AT_PLUS_A")
     B_f, B_p = B[:, f].tocsr(), B[:, p].tocsr()
     O_f, O_p = observe[:, f].tocsr(), observe[:, p].tocsr()
-    n_w = B.shape[0]
-    W, G, KX = np.zeros((n_w, n_w)), np.zeros((observe.shape[0], n_w)), np.zeros((len(p), n_w))
-    for start in bar(range(0, n_w, _BLOCK), -(-n_w // _BLOCK), f"condensation ({n_w} columns)"):
-        cols = slice(start, min(start + _BLOCK, n_w))
-        X = inverse.solve(B_f[cols].T.toarray())
-        W[:, cols] = B_f @ X
-        G[:, cols] = O_f @ X
-        KX[:, cols] = K_pf @ X
-    W = 0.5 * (W + W.T)
+    rows = sp.vstack([B_f, O_f]).tocsr()
+    if factorisation_name(factorisation) == "cholmod":
+        inverse = GeneralisedInverse(K_ff, R, last=np.unique(rows.indices), nodes=f // dim)
+    else:
+        # SuperLU orderings measured here: 2-D 52k dofs COLAMD factors in 0.45 s vs 1.8 s (MMD), same solves;
+        # 3-D 17k dofs MMD_AT_PLUS_A solves 363 right-hand sides in 2.1 s vs 13 s (COLAMD)
+        inverse = GeneralisedInverse(K_ff, R, "COLAMD" if dim == 2 else "MMD_AT_PLUS_A")
     b = channels.forces[:, f].T - K_fp @ channels.displacements.T          # (n_f, n_channels)
-    Y = inverse.solve(b)
+    # the reaction sums' rows S_r K_pf touch every dof next to a supported face: solved for (n_reac columns),
+    # not ordered last; before `coupled`, which may drop the Cholesky factor
+    sums_K = (reaction_sums @ K_pf).tocsr()
+    solved = inverse.solve(np.hstack([b, sums_K.T.toarray()]))
+    Y, X_sums = solved[:, :b.shape[1]], solved[:, b.shape[1]:]
+    n_w = B.shape[0]
+    coupled = inverse.coupled(rows, n_w)
+    W, G = coupled[:n_w], coupled[n_w:]
+    W = 0.5 * (W + W.T)
     up = channels.displacements.T
     reac_channels = K_pf @ Y + K_pp @ up - channels.forces[:, p].T
     return Condensed(
         free=f, prescribed=p, modes=R, inverse=inverse, particular=Y.T,
         gap_ops=Affine((B_f @ Y + B_p @ up).T, W, B_f @ R),
         obs_ops=Affine((O_f @ Y + O_p @ up).T, G, O_f @ R),
-        reac_ops=Affine((reaction_sums @ reac_channels).T, reaction_sums @ (KX - B_p.T.toarray()),
+        reac_ops=Affine((reaction_sums @ reac_channels).T, (B_f @ X_sums).T - (reaction_sums @ B_p.T).toarray(),
                         reaction_sums @ (K_pf @ R)),
         equilibrium=Affine((R.T @ b).T, (B_f @ R).T, np.zeros((R.shape[1], R.shape[1]))),
     )

@@ -1,0 +1,140 @@
+"""Sparse Cholesky factorisation with chosen dofs ordered last (CHOLMOD from the kvxopt wheel, METIS ordering from
+pymetis): the factor's trailing block is the Cholesky factor of the Schur complement onto those dofs.
+
+With the dofs s ordered last, P K P^T = L L^T and L = [[L_ii, 0], [L_si, L_ss]] give
+
+    S = K_ss - K_si K_ii^-1 K_is = L_ss L_ss^T,        (K^-1)_ss = S^-1 = L_ss^-T L_ss^-1,
+
+so every operator T K^-1 B^T whose rows T and B live on s is (L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T): dense triangular
+solves of size |s| instead of one sparse solve per column. The supernodal factorisation runs in BLAS.
+"""
+
+from __future__ import annotations
+
+import logging
+from contextlib import contextmanager
+
+import numpy as np
+import scipy.sparse as sp
+
+log = logging.getLogger(__name__)
+
+
+def available() -> bool:
+    """Whether CHOLMOD (kvxopt) can be imported."""
+    try:
+        from kvxopt import cholmod  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@contextmanager
+def _options(**values):
+    """CHOLMOD's options for the block (kvxopt keeps them in a module-wide dict)."""
+    from kvxopt import cholmod
+    saved = dict(cholmod.options)
+    cholmod.options.update(values)
+    try:
+        yield cholmod
+    finally:
+        cholmod.options.clear()
+        cholmod.options.update(saved)
+
+
+def _kvxopt_lower(K: sp.spmatrix):
+    """The lower triangle of K as a kvxopt spmatrix (what CHOLMOD reads of a symmetric matrix)."""
+    from kvxopt import matrix, spmatrix
+    lower = sp.tril(K).tocoo()
+    return spmatrix(matrix(lower.data.astype(float)), matrix(lower.row.astype(np.int64)),
+                    matrix(lower.col.astype(np.int64)), lower.shape)
+
+
+def fill_reducing_order(K: sp.spmatrix, nodes: np.ndarray) -> np.ndarray:
+    """Fill-reducing order of the rows of K: METIS nested dissection of the graph of ``nodes`` (the node of each
+    row; the rows of one node stay together), or AMD on the rows where pymetis is not installed."""
+    n = K.shape[0]
+    if n == 0:
+        return np.zeros(0, int)
+    try:
+        import pymetis
+    except ImportError:
+        from kvxopt import amd
+        log.info("pymetis is not installed: AMD ordering (more fill in 3-D than nested dissection)")
+        return np.asarray(amd.order(_kvxopt_lower(K)), dtype=int).ravel()
+    numbers, node_of_row = np.unique(nodes, return_inverse=True)
+    to_node = sp.csr_matrix((np.ones(n), (node_of_row, np.arange(n))), shape=(len(numbers), n))
+    coo = sp.coo_matrix(K)
+    pattern = sp.csr_matrix((np.ones(coo.nnz), (coo.row, coo.col)), shape=K.shape)
+    graph = (to_node @ pattern @ to_node.T).tocsr()
+    graph.setdiag(0)
+    graph.eliminate_zeros()
+    node_order = np.asarray(pymetis.nested_dissection(
+        pymetis.CSRAdjacency(graph.indptr.astype(np.int64), graph.indices.astype(np.int64)))[0], dtype=int)
+    rank = np.empty(len(numbers), int)
+    rank[node_order] = np.arange(len(numbers))
+    return np.lexsort((np.arange(n), rank[node_of_row]))
+
+
+class Cholesky:
+    """P K P^T = L L^T of a symmetric positive definite K with the rows ``last`` ordered last, the others in a
+    fill-reducing order (:func:`fill_reducing_order`).
+
+    Raises ``ArithmeticError`` if K is not positive definite. Pickled without its factor, which is computed
+    again at the first solve after unpickling.
+    """
+
+    def __init__(self, K: sp.spmatrix, last: np.ndarray, nodes: np.ndarray):
+        n = K.shape[0]
+        self.matrix = sp.csc_matrix(K)
+        self.last = np.asarray(last, dtype=int)
+        first = np.setdiff1d(np.arange(n), self.last)
+        order = fill_reducing_order(self.matrix[first][:, first], nodes[first])
+        self.perm = np.concatenate([first[order], self.last])
+        self.factor = self._factor()
+
+    def _factor(self):
+        from kvxopt import matrix
+        # nmethods 1: CHOLMOD takes the given order (by default it also tries AMD and keeps the better one);
+        # postorder off: the etree postorder would move rows of `last` among the others
+        with _options(nmethods=1, postorder=False, supernodal=2) as cholmod:
+            A = _kvxopt_lower(self.matrix)
+            factor = cholmod.symbolic(A, p=matrix(self.perm.astype(np.int64)))
+            cholmod.numeric(A, factor)
+        try:
+            cholmod.diag(factor)       # numeric leaves a factor that is not positive definite unfinished, silently
+        except ValueError:
+            raise ArithmeticError("the matrix is not positive definite") from None
+        return factor
+
+    def __getstate__(self):
+        return {**self.__dict__, "factor": None}
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """K^-1 b for b (n,) or (n, k)."""
+        from kvxopt import cholmod, matrix
+        if self.factor is None:
+            self.factor = self._factor()
+        x = matrix(np.asfortranarray(np.reshape(b, (b.shape[0], -1)), dtype=float))
+        cholmod.solve(self.factor, x)
+        return np.array(x).reshape(b.shape)
+
+    def trailing(self) -> np.ndarray:
+        """L_ss (|last|, |last|), lower triangular: L_ss L_ss^T is the Schur complement of K onto ``last``
+        (in the order of ``last``).
+
+        kvxopt's getfactor turns the factor into a simplicial one in place, which its solve refuses: the factor
+        is dropped here and computed again at the next :meth:`solve`."""
+        from kvxopt import cholmod
+        n, m = self.matrix.shape[0], len(self.last)
+        if self.factor is None:
+            self.factor = self._factor()
+        L = cholmod.getfactor(self.factor)
+        self.factor = None
+        colptr, rows, values = (np.frombuffer(a, dtype=t) for a, t in zip(L.CCS, (np.int64, np.int64, float)))
+        start = colptr[n - m]
+        log.info("Cholesky factor: %d rows, %d entries (%d in the trailing block of %d rows)", n, len(values),
+                 len(values) - start, m)
+        block = np.zeros((m, m))
+        block[rows[start:] - (n - m), np.repeat(np.arange(m), np.diff(colptr[n - m:]))] = values[start:]
+        return block

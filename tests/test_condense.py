@@ -1,0 +1,130 @@
+"""Condensation: the CHOLMOD path (Schur complement from the factor's trailing block) gives SuperLU's operators."""
+
+import pickle
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from frictionid.builders.block import block_model, block_model_2d
+from frictionid.errors import InputError
+from frictionid.fem import cholesky, condense as condense_module, problem as problem_module
+from frictionid.fem.condense import GeneralisedInverse, condense
+from frictionid.fem.problem import Problem
+
+pytestmark = pytest.mark.skipif(not cholesky.available(), reason="kvxopt (CHOLMOD) is not installed")
+
+OPERATORS = ("gap_ops", "obs_ops", "reac_ops", "equilibrium")
+
+
+def _inputs(model, n_obs=7, seed=0):
+    """What Problem.build passes to condense for ``model`` with ``n_obs`` random sparse observation rows."""
+    n_dofs = model.mesh.n_nodes * model.dim
+    observe = sp.random(n_obs, n_dofs, density=4.0 / n_dofs, random_state=seed, format="csr")
+    captured = {}
+
+    def capture(*args, **kwargs):
+        captured["args"] = args
+        return condense(*args, **kwargs)
+
+    original, problem_module.condense = problem_module.condense, capture
+    try:
+        problem = Problem.build(model, observe=observe)
+    finally:
+        problem_module.condense = original
+    return problem, captured["args"]
+
+
+def _relative_difference(a, b, channels) -> float:
+    """Largest difference between the operators of ``a`` and ``b``, relative to each operator's largest entry;
+    the reactions' channels relative to the applied forces at least (they vanish where a channel is a
+    self-equilibrated load: round-off differences of large nodal reactions)."""
+    worst = 0.0
+    for name in OPERATORS:
+        for part in ("channels", "on_lam", "on_alpha"):
+            x, y = getattr(getattr(a, name), part), getattr(getattr(b, name), part)
+            assert x.shape == y.shape
+            floor = np.abs(channels.forces).sum() if (name, part) == ("reac_ops", "channels") else 0.0
+            if x.size and max(np.abs(x).max(), floor) > 0:
+                worst = max(worst, np.abs(x - y).max() / max(np.abs(x).max(), floor))
+    return max(worst, np.abs(a.particular - b.particular).max() / np.abs(a.particular).max())
+
+
+MODELS = {
+    # graded hexahedra with incompatible modes (statically condensed per cell), a floating block: rigid modes
+    "3-D incompatible": lambda: block_model(mesh_size=2.5),
+    "3-D standard": lambda: block_model(mesh_size=5.0, element="standard"),
+    "plane strain": lambda: block_model_2d(mesh_size=2.0),
+}
+
+
+@pytest.fixture(scope="module", params=sorted(MODELS))
+def both(request):
+    problem, args = _inputs(MODELS[request.param]())
+    return problem, args, condense(*args, factorisation="superlu"), condense(*args, factorisation="cholmod")
+
+
+def test_cholmod_gives_superlus_operators(both):
+    """The acceptance: the same condensed operators as the SuperLU path to 1e-10 (relative to each operator's
+    largest entry); measured 3e-11 at worst (the reactions' channels, a difference of large terms)."""
+    _, args, lu, chol = both
+    assert chol.inverse.cholesky is not None and lu.inverse.cholesky is None
+    assert chol.obs_ops.on_lam.shape == (7, args[1].shape[0])
+    assert _relative_difference(lu, chol, args[2]) < 1e-10
+
+
+def test_cholmod_solves_no_column_of_the_operators(monkeypatch):
+    """The Schur path is taken: the per-column solves (with their progress bar) are never started."""
+    _, args = _inputs(block_model(mesh_size=5.0))
+
+    def refuse(*_args, **_kwargs):
+        raise AssertionError("condensed by solves")
+
+    monkeypatch.setattr(condense_module, "bar", refuse)
+    assert condense(*args, factorisation="cholmod").gap_ops.on_lam.shape == (args[1].shape[0],) * 2
+    with pytest.raises(AssertionError, match="condensed by solves"):
+        condense(*args, factorisation="superlu")
+
+
+def test_the_displacement_field_after_the_factor_was_dropped(both):
+    """Condensing drops the CHOLMOD factor (kvxopt's getfactor spoils it); the field needs it again."""
+    problem, args, lu, chol = both
+    assert chol.inverse.cholesky.factor is None
+    rng = np.random.default_rng(1)
+    n_w, m = args[1].shape[0], chol.n_modes
+    x, amplitude = rng.normal(size=n_w + m), rng.normal(size=args[2].amplitudes.shape[1])
+    expected = lu.displacement(args[1], args[2].displacements, amplitude, x)
+    got = chol.displacement(args[1], args[2].displacements, amplitude, x)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    again = pickle.loads(pickle.dumps(chol)).displacement(args[1], args[2].displacements, amplitude, x)
+    np.testing.assert_allclose(again, got, rtol=0, atol=1e-12 * np.abs(got).max())
+
+
+def test_a_factor_in_another_order_is_caught_and_solved_for(monkeypatch):
+    """If CHOLMOD did not keep the requested order, the trailing block is not the Schur complement's factor: the
+    one-column check notices and the operators come from solves."""
+    _, args = _inputs(block_model(mesh_size=5.0))
+    reference = condense(*args, factorisation="superlu")
+    real = cholesky.Cholesky.trailing
+    monkeypatch.setattr(cholesky.Cholesky, "trailing", lambda self: np.flip(real(self)))
+    assert _relative_difference(reference, condense(*args, factorisation="cholmod"), args[2]) < 1e-10
+
+
+def test_auto_takes_cholmod_and_superlu_where_kvxopt_is_missing(monkeypatch):
+    assert condense_module.factorisation_name("auto") == "cholmod"
+    monkeypatch.setattr(cholesky, "available", lambda: False)
+    assert condense_module.factorisation_name("auto") == "superlu"
+    with pytest.raises(InputError, match="`factorisation` 'cholmod' needs the kvxopt package"):
+        condense_module.factorisation_name("cholmod")
+
+
+def test_an_unknown_factorisation_is_named():
+    with pytest.raises(InputError, match=r"`factorisation` must be one of 'auto', 'cholmod', 'superlu', got 'lu'"):
+        condense_module.factorisation_name("lu")
+
+
+def test_a_singular_stiffness_is_a_mechanism_with_either_factorisation():
+    K = sp.diags([2.0, 1.0, 0.0, 3.0]).tocsr()
+    for last in (None, np.array([3])):
+        with pytest.raises(InputError, match="mechanism"):
+            GeneralisedInverse(K, np.zeros((4, 0)), last=last, nodes=np.arange(4))
