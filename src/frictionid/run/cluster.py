@@ -53,7 +53,8 @@ class DaskExecutor:
             if scheduler == LOCAL:
                 _quiet()
                 self._cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                                             dashboard_address=None, silence_logs=logging.ERROR)
+                                             dashboard_address=":0", scheduler_kwargs={"dashboard": False},
+                                             silence_logs=logging.ERROR)   # no dashboard, its port free
                 self.client = Client(self._cluster)
             else:
                 self.client = _connect(scheduler, where)
