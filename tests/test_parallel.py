@@ -294,3 +294,17 @@ def test_a_calculix_finite_difference_jacobian_is_the_same_on_a_dask_cluster(tmp
         assert store.n_evaluations("forward") == 3 and evaluator.n_failed == 0
     np.testing.assert_array_equal(jacobians[0], jacobians[1])
     assert np.all(np.abs(jacobians[0]) > 0)
+
+
+@pytest.mark.slow
+def test_the_python_interface_takes_scheduler_and_starts(measured, reference):
+    from frictionid import identify
+    result = identify({"builder": "block2d", "mesh_size": 1.0, "height": 4.0, "n_zones": 3},
+                      measured / "measured.csv", {"A": 0.1, "B": 0.1, "C": 0.1}, observables=["ux", "uy"],
+                      stages=[2], noise={"u": 0.0005}, regions={"P1": "block", "P2": "block", "P3": "block",
+                                                                  "P4": "block", "P5": "base", "P6": "base"},
+                      workers=2, scheduler="local", jacobian="forward", step=1e-3, starts=2, seed=3)
+    data = result.to_dict()
+    assert data["starts"] == reference["starts"]
+    assert {k: p["value"] for k, p in data["parameters"].items()} == \
+        {k: p["value"] for k, p in reference["parameters"].items()}
