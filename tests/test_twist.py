@@ -176,3 +176,9 @@ def test_a_lead_needs_the_twist_kind():
     model = turned_rings_model(size=2.0, lead=2.0)
     with pytest.raises(InputError, match="interface 'face' has a lead"):
         dataclasses.replace(model, kind="axisymmetric", supports=(), loads=())
+
+
+def test_calculix_refuses_the_twist_kind_by_name():
+    from frictionid.backends.calculix.elements import element_type
+    with pytest.raises(InputError, match="cannot write a model of kind 'axisymmetric_twist'"):
+        element_type("axisymmetric_twist", "triangle6")

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import InputError
+
 #: CalculiX element type per model kind and meshio cell type
 ELEMENT_TYPE = {
     "3d": {"hexahedron": "C3D8", "hexahedron27": "C3D20", "tetra": "C3D4", "tetra10": "C3D10"},
@@ -47,6 +49,9 @@ def element_type(kind: str, cell_type: str, element: str = "standard") -> str:
     """
     if element == "incompatible":
         return INCOMPATIBLE_TYPE[cell_type]
+    if kind not in ELEMENT_TYPE:
+        raise InputError(f"the CalculiX backend cannot write a model of kind {kind!r}: CalculiX has no "
+                         "axisymmetric element with twist (Abaqus CGAX); use backend 'embedded'")
     return ELEMENT_TYPE[kind][cell_type]
 
 
