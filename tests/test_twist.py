@@ -182,3 +182,26 @@ def test_calculix_refuses_the_twist_kind_by_name():
     from frictionid.backends.calculix.elements import element_type
     with pytest.raises(InputError, match="cannot write a model of kind 'axisymmetric_twist'"):
         element_type("axisymmetric_twist", "triangle6")
+
+
+def test_points_observe_the_circumferential_displacement_and_the_twist_shears():
+    """On the x-y plane u_t is uz, e_yt is eyz and e_rt is exz: exact on P2 for u_t = r^2 (e_rt = r / 2, not
+    du_t/dr / 2 = r) and for the St-Venant field u_t = r phi y / L (eyz = r phi / (2 L), exz = 0)."""
+    from frictionid.fem.points import point_operator
+    model = shaft_model(bore=2.0, size=1.0)
+    problem = Problem.build(model, points=[[2.5, 5.0], [4.2, 13.7]], quantities=("uz", "eyz", "exz", "ezz"))
+    points = np.array([[2.5, 5.0], [4.2, 13.7], [3.3, 0.4]])
+    H = point_operator(problem.space, points, ["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"])
+    nodes = model.mesh.points
+    u = np.zeros((model.mesh.n_nodes, 3))
+    u[:, 2] = nodes[:, 0] ** 2
+    values = (H @ u.ravel()).reshape(len(points), 9)
+    np.testing.assert_allclose(values[:, 2], points[:, 0] ** 2, rtol=1e-12)
+    np.testing.assert_allclose(values[:, 8], points[:, 0] / 2, rtol=1e-12)
+    np.testing.assert_allclose(values[:, [0, 1, 3, 4, 5, 6, 7]], 0.0, atol=1e-12)
+    solution = problem.solve([])
+    observed = solution.observations[-1].reshape(2, 4)
+    r, y = points[:2, 0], points[:2, 1]
+    np.testing.assert_allclose(observed[:, 0], r * 1e-3 * y / 20.0, rtol=1e-10)
+    np.testing.assert_allclose(observed[:, 1], r * 1e-3 / 40.0, rtol=1e-10)
+    np.testing.assert_allclose(observed[:, 2:], 0.0, atol=1e-14)

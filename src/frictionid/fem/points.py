@@ -18,6 +18,8 @@ QUANTITIES = {
     "3d": ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"),
     "plane_strain": ("ux", "uy", "exx", "eyy", "ezz", "exy"),
     "axisymmetric": ("ux", "uy", "exx", "eyy", "ezz", "exy"),
+    # on the x-y plane (x = r > 0, z = 0) the circumferential direction is +z: uz = u_t, eyz = e_yt, exz = e_rt
+    "axisymmetric_twist": ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"),
 }
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -38,7 +40,9 @@ def point_operator(space: Space, points, quantities: Sequence[str],
         "eyz", "exz" (tensor shear, exy = gamma_xy / 2). Plane strain: "ezz" is a zero row; "uz", "eyz",
         "exz" are errors. Axisymmetric (x = r, y = axis): "ux" = u_r, "exx" = du_r/dr, "ezz" = u_r / r
         (hoop strain; on the axis, r <= 1e-9 of the mesh extent, its limit du_r/dr, which assumes
-        u_r = 0 there as symmetry requires), "exy" = e_ry = (du_r/dy + du_y/dr) / 2.
+        u_r = 0 there as symmetry requires), "exy" = e_ry = (du_r/dy + du_y/dr) / 2. Axisymmetric with twist
+        adds, as seen on the x-y plane: "uz" = u_t, "eyz" = e_yt = du_t/dy / 2, "exz" = e_rt =
+        (du_t/dr - u_t/r) / 2 (0 on the axis).
     regions : sequence of (str or None), optional
         ``regions[i]`` restricts point i to the cells of that mesh region (needed where two bodies touch
         and a point lies on both surfaces); None allows any cell.
@@ -76,6 +80,9 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     strains = [q for q in quantities if q[0] == "e" and not (q == "ezz" and space.kind == "plane_strain")]
     if window is None or not strains:
         return pointwise
+    if space.kind == "axisymmetric_twist":
+        raise InputError("data.strain_window: not available for an axisymmetric model with twist yet; observe "
+                         "pointwise strains")
     if "ezz" in strains and space.kind == "axisymmetric":
         raise InputError("data.strain_window: the hoop strain 'ezz' of an axisymmetric model is not a gradient in "
                          "the measured plane and no DIC strain window applies to it; observe exx, eyy, exy")
@@ -199,14 +206,15 @@ def _located_operator(space: Space, quantities: tuple[str, ...], points: np.ndar
     phi, grad = _shape_functions(space, cells, reference)
     nodes = space.node_of[space.scalar.element_dofs[:, cells]].T              # (n, n_local)
     n_points, n_local = nodes.shape
-    block = np.zeros((n_points, len(quantities), n_local, space.dim))
+    dim = space.n_components
+    block = np.zeros((n_points, len(quantities), n_local, dim))
     for q, name in enumerate(quantities):
         for component, coefficient in _terms(space, name, points, phi, grad):
             block[:, q, :, component] += coefficient
     if space.element == "incompatible":
         block += _internal_modes(space, materials, quantities, cells, phi, nodes)
-    row_length = n_local * space.dim
-    columns = np.broadcast_to((space.dim * nodes[:, None, :, None] + np.arange(space.dim)).reshape(
+    row_length = n_local * dim
+    columns = np.broadcast_to((dim * nodes[:, None, :, None] + np.arange(dim)).reshape(
         n_points, 1, row_length), (n_points, len(quantities), row_length))
     shape = (n_points * len(quantities), space.n_dofs)
     operator = sp.csr_matrix((block.ravel(), columns.ravel(), np.arange(0, block.size + 1, row_length)),
@@ -246,8 +254,10 @@ def _terms(space: Space, name: str, points: np.ndarray, phi: np.ndarray, grad: n
     a, b = _AXIS[name[1]], _AXIS[name[2]]
     if a == b == 2 and space.kind == "plane_strain":
         return []
-    if a == b == 2 and space.kind == "axisymmetric":
+    if a == b == 2 and space.kind in ("axisymmetric", "axisymmetric_twist"):
         return [(0, _hoop(space, points, phi, grad))]
+    if b == 2 and space.kind == "axisymmetric_twist":
+        return [(2, 0.5 * (grad[:, :, a] - (_hoop(space, points, phi, grad) if a == 0 else 0.0)))]
     if a == b:
         return [(a, grad[:, :, a])]
     return [(a, 0.5 * grad[:, :, b]), (b, 0.5 * grad[:, :, a])]
