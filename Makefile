@@ -31,6 +31,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/blas_threads.py
 	$(PY) benchmarks/user_mesh.py
 	$(PY) benchmarks/full_field.py
+	$(PY) benchmarks/tightening.py
 	$(PY) benchmarks/dask_overhead.py
 
 clean:
