@@ -346,3 +346,35 @@ def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path):
         mesh_model(tmp_path / "strip.geo", supports=[{"boundary": "bottom", "components": ["y"]},
                                                      {"boundary": "corner", "components": ["x"]}],
                    **{**options, "loads": [{"type": "pressure", "boundary": "corner", "values": [1.0]}]})
+
+
+def _fixture_generator():
+    """tests/fixtures/user_block/generate.py as a module (its mesh writer with adjustable divisions)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("user_block_generate", FIXTURES / "generate.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", ["hex", "tet10"])
+def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(family, tmp_path):
+    """Issue 14's "within 2 % of the block builder at a similar mesh size" where it holds on a mesh of another
+    layout: the machine force at the end of the pull (gross slip). 2.5 mm: the builder's default (graded,
+    incompatible modes, 800 nodes) against gmsh's uniform standard hexahedra (generate.py's layout, 632 nodes)
+    and gmsh's quadratic tetrahedra (2,772 nodes). Measured -0.12 % and -0.77 % (benchmarks/user_mesh_convergence.py,
+    which also has the displacements and strains: those differ by more than 2 % of range on every affordable
+    mesh, as the builder's own results do between 1.25 and 1 mm)."""
+    if family == "tet10":
+        from element_models import write_tet_block
+        path = write_tet_block(tmp_path / "tet10.msh", order=2, quarter=2, outer=3, block_z=4, plate_z=2)
+    else:
+        generate = _fixture_generator()
+        generate.N_QUARTER, generate.N_OUTER, generate.N_BLOCK_Z, generate.N_PLATE_Z = 2, 4, 4, 2
+        path = tmp_path / "hex.msh"
+        generate.write_block_msh(path)
+    user = predict(build_model({**options(), "file": str(path)}))
+    builder = predict(block_model(mesh_size=2.5))
+    assert abs(user[-1, -1] - builder[-1, -1]) <= BUILDER_RANGE_TOL * abs(builder[-1, -1])
+    assert abs(builder[-1, -1]) > 500.0                                     # the pull slides: sum mu_i N_i
