@@ -205,3 +205,12 @@ def test_points_observe_the_circumferential_displacement_and_the_twist_shears():
     np.testing.assert_allclose(observed[:, 0], r * 1e-3 * y / 20.0, rtol=1e-10)
     np.testing.assert_allclose(observed[:, 1], r * 1e-3 / 40.0, rtol=1e-10)
     np.testing.assert_allclose(observed[:, 2:], 0.0, atol=1e-14)
+
+
+def test_a_user_mesh_refuses_the_twist_kind_by_name():
+    from pathlib import Path
+
+    from frictionid.builders.mesh import mesh_model
+    geo = Path(__file__).parents[1] / "examples" / "hub" / "hub.geo"
+    with pytest.raises(InputError, match="kind = 'axisymmetric_twist': not available for a user's mesh yet"):
+        mesh_model(geo, kind="axisymmetric_twist")

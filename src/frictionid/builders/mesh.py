@@ -161,6 +161,9 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
         raise InputError(f"[model] file = {str(file)!r}: no such file ({path.resolve()})")
     if kind not in KINDS:
         raise InputError(f"[model] kind = {kind!r}: must be one of {list(KINDS)}")
+    if kind == "axisymmetric_twist":
+        raise InputError("[model] kind = 'axisymmetric_twist': not available for a user's mesh yet (no rotation "
+                         "load, no checks of its rigid modes); builder 'bolt' with load = \"tightening\" has it")
     stages = _stages(stages, increments)
     source = read_mesh_file(path)
     dim = source.points.shape[1]
