@@ -26,7 +26,8 @@ SCHEMA = {
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
-                 "model_error": "off", "refine_target": 0.0, "refine_budget": 2, "starts": 1, "seed": 0},
+                 "model_error": "off", "refine_target": 0.0, "refine_budget": 2, "starts": 1, "seed": 0,
+                 "profile": False, "profile_points": 11},
     "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "retries": 2, "fields": True},
     "design": {"points": 10, "candidates": None, "n_candidates": 400, "regions": None, "criterion": "A",
                "tolerance": None},
@@ -83,6 +84,8 @@ TYPES = {
     "identify.starts": ((int, list), "a number of starts or a list of start points (each a list of values or "
                                      "a table zone = value)"),
     "identify.seed": (int, "a whole number (seed of the drawn start points)"),
+    "identify.profile": ((bool, list), 'true (every free zone) or a list of zones, e.g. ["A", "B"]'),
+    "identify.profile_points": (int, "a whole number >= 3 (held values per profile)"),
     "run.dir": (str, "a folder name"),
     "run.workers": (int, "a whole number"),
     "run.scheduler": (str, '"local" or the address of a Dask scheduler, "tcp://host:port"'),
@@ -103,8 +106,9 @@ def _check_types(tables: dict, path: Path) -> None:
         value = tables[table].get(key)
         if value is None:
             continue
-        # a bool is an int to Python: only a key typed bool takes one
-        if isinstance(value, bool) and types is not bool or not isinstance(value, types):
+        # a bool is an int to Python: only a key typed bool (alone or among others) takes one
+        takes_bool = bool in (types if isinstance(types, tuple) else (types,))
+        if isinstance(value, bool) and not takes_bool or not isinstance(value, types):
             raise InputError(f"{path}: {dotted} must be {what}, got {value!r}")
     for dotted, kind in (("data.observables", str), ("data.stages", int)):
         table, key = dotted.split(".")

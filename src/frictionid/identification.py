@@ -35,7 +35,7 @@ from .report.outputs import write_outputs
 from .report.vtu import export_fields
 from .report.tables import prefit_summary
 from .result import IdentificationResult
-from .run import multistart
+from .run import multistart, profile
 from .run.executor import check_scheduler, make_executor
 from .run.store import RunStore
 
@@ -101,6 +101,10 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     _check_identify(config, ident, len(parameters.free_names), list(parameters.free_names))
     multistart.start_points(ident["starts"], parameters.x0, parameters.lower, parameters.upper, int(ident["seed"]),
                             parameters.free_names, f"{where}:")
+    profile.profiled_zones(ident["profile"], parameters.free_names, f"{where}:")
+    if isinstance(ident["profile_points"], bool) or int(ident["profile_points"]) < 3:
+        raise InputError(f"{where}: identify.profile_points must be a whole number >= 3, got "
+                         f"{ident['profile_points']!r}")
     check_options(ident, model_options, f"{where}:")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
@@ -324,6 +328,10 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
     if starts:
         result["starts"] = starts
+    zones = profile.profiled_zones(config.identify["profile"], setup.parameters.free_names, f"{config.where}:")
+    if zones:
+        echo(f"profiles of {', '.join(zones)}: {int(config.identify['profile_points'])} refits each ...")
+        result["profiles"] = _profiles(config, setup, evaluator, store, result, zones)
     store.put_result(result)
     store.set_status(result["status"])
     if write_files:
@@ -365,6 +373,33 @@ def _optimise_starts(problem: LeastSquares, config: Config, setup, evaluator: Ev
         store.record_iteration(i, x, objective)
     echo(f"best: start {chosen.index + 1} of {len(points)}, J={chosen.outcome.objective:.6e}")
     return chosen.outcome, multistart.summary(runs, chosen, params.full, params.names)
+
+
+def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict, zones) -> dict:
+    """identify.profile: each zone held on a grid and the others refitted (:mod:`frictionid.run.profile`), on
+    the identification's store and executor; the refits' iterations are not the run's history."""
+    ident, params, obs = config.identify, setup.parameters, evaluator.obs
+    names = list(params.free_names)
+    fitted = np.array([result["parameters"][z]["value"] for z in names])
+    stderr = [result["parameters"][z]["stderr"] for z in names]
+
+    def refit(zone, value, x0):
+        k = names.index(zone)
+        held = profile.held(params, zone, value, x0)
+        sub = Evaluator(evaluator.backend, obs, held, profile.HeldStore(store, held), ident["jacobian"],
+                        float(ident["step"]), float(ident["tikhonov"]), np.delete(evaluator.prior, k),
+                        float(ident["penalty"]), executor=evaluator.executor)
+        problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
+                               float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
+                               float(ident["loss_scale"]))
+        return _optimise(problem, config).x
+
+    def chi2_of(x):
+        r = evaluator.residuals(x)[:obs.n_obs]
+        return float(r @ r)
+
+    return profile.profiles(zones, names, params, fitted, stderr, chi2_of, refit, evaluator.executor.parallel,
+                            int(ident["profile_points"]), float(result["fit"]["error_scale"]) ** 2)
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):

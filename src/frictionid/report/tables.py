@@ -75,6 +75,20 @@ def result_summary(result: dict) -> str:
         lines.append("[[Correlations]] (|C| > 0.1)")
         lines += [f"    C({a}, {b}) = {c:+.3f}" for a, b, c in sorted(pairs, key=lambda t: -abs(t[2]))]
     lines += starts_lines(result.get("starts"))
+    if result.get("profiles"):
+        lines += [profile_summary(result["profiles"])]
+    return "\n".join(lines)
+
+
+def profile_summary(profiles: dict) -> str:
+    """[[Profiles]] (identify.profile): per zone the profile-likelihood 95 % interval and its grid."""
+    lines = ["[[Profiles]] (the zone held, the others refitted; 95 %: chi2 within the threshold of its minimum)"]
+    for zone, p in profiles.items():
+        low, high = p["interval"]
+        ends = [f"{'<' if p['open'][0] else ''}{low:.4f}", f"{high:.4f}{'>' if p['open'][1] else ''}"]
+        lines.append(f"    {zone}: [{ends[0]}, {ends[1]}] from {len(p['values'])} values in "
+                     f"[{min(p['values']):.4f}, {max(p['values']):.4f}] (threshold {p['threshold']:.3g}"
+                     f"{'; < or >: the interval goes beyond the grid' if any(p['open']) else ''})")
     return "\n".join(lines)
 
 

@@ -1,0 +1,107 @@
+"""identify.profile: profile-likelihood intervals by refits with one zone held, through the command line."""
+
+import json
+
+import numpy as np
+import pytest
+
+from frictionid.cli import main
+from frictionid.run.profile import CHI2_95, grid, interval
+
+POINTS = """point,x,y,z,stage,ux,uy
+P1,-5.0,0.5,0.0,2,0.0,0.0
+P2,-5.0,1.5,0.0,2,0.0,0.0
+P3,5.0,0.5,0.0,2,0.0,0.0
+P4,5.0,1.5,0.0,2,0.0,0.0
+P5,-7.0,0.0,0.0,2,0.0,0.0
+P6,7.0,0.0,0.0,2,0.0,0.0
+"""
+REGIONS = 'regions = { "P[1-4]" = "block", "P[56]" = "base" }\n'
+
+
+def _config(folder, name, zones: str, data: str, identify: str = "") -> str:
+    path = folder / f"{name}.toml"
+    path.write_text(f'[model]\nbuilder = "block2d"\nmesh_size = 2.0\norder = 1\n[friction]\nzones = {{ {zones} }}\n'
+                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy", "force"]\nstages = [2]\n'
+                    f"noise = {{ u = 0.0005, force = 0.5 }}\n{REGIONS}[identify]\n{identify}"
+                    f'[run]\ndir = "runs/{name}"\n')
+    return str(path)
+
+
+def _measured(folder, name: str, truth: str, seed: int) -> str:
+    """Data simulated at ``truth`` with 0.5 um and 0.5 N/mm of seeded noise."""
+    assert main(["simulate", _config(folder, f"{name}_truth", truth, "points.csv"),
+                 "--out", str(folder / f"{name}_exact.csv")]) == 0
+    lines = (folder / f"{name}_exact.csv").read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("point,"))
+    names = lines[header].split(",")
+    rng = np.random.default_rng(seed)
+    force_noise = rng.normal(0.0, 0.5)                        # one machine force per stage (all in stage 2)
+    out = lines[:header + 1]
+    for line in lines[header + 1:]:
+        cells = line.split(",")
+        for q in ("ux", "uy"):
+            cells[names.index(q)] = repr(float(cells[names.index(q)]) + rng.normal(0.0, 0.0005))
+        cells[names.index("force")] = repr(float(cells[names.index("force")]) + force_noise)
+        out.append(",".join(cells))
+    (folder / f"{name}.csv").write_text("\n".join(out) + "\n")
+    return f"{name}.csv"
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("profile")
+    (folder / "points.csv").write_text(POINTS)
+    return folder
+
+
+def _profiled(folder, data: str, name: str) -> dict:
+    assert main(["identify", _config(folder, name, "A = 0.2, B = 0.2", data,
+                                     "profile = true\nprofile_points = 9\n")]) == 0
+    return json.loads((folder / f"runs/{name}/result.json").read_text())
+
+
+@pytest.mark.slow                                               # two identifications with 20 refits: 10 s
+def test_inside_the_bounds_the_profile_interval_is_close_to_the_linear_one(folder, capsys):
+    result = _profiled(folder, _measured(folder, "inside", "A = 0.3, B = 0.15", seed=5), "inside")
+    assert "[[Profiles]]" in capsys.readouterr().out and set(result["profiles"]) == {"A", "B"}
+    for zone in "AB":
+        p, prof = result["parameters"][zone], result["profiles"][zone]
+        low, high = prof["interval"]
+        assert low < p["value"] < high and prof["open"] == [False, False]
+        assert (high - low) / 2 == pytest.approx(np.sqrt(CHI2_95) * p["stderr"], rel=0.25)
+        # the held fitted value refits to the fit itself: the profile's minimum is the fit's chi-square
+        assert min(c for c in prof["chi2"] if c is not None) == pytest.approx(result["fit"]["chi2"], rel=1e-6)
+        # the held zone really is held: the other zone is refitted along the profile
+        other = next(iter(prof["others"].values()))
+        assert max(other) - min(other) > 0.01
+
+
+@pytest.mark.slow
+def test_a_zone_on_its_bound_gets_a_one_sided_profile_and_bends_its_partners(folder):
+    result = _profiled(folder, _measured(folder, "bound", "A = 0.3, B = 0.0", seed=5), "bound")
+    a, prof = result["parameters"]["A"], result["profiles"]
+    # B (true 0) ends on its bound: its interval starts there
+    assert prof["B"]["interval"][0] == 0.0 and prof["B"]["open"][0] is False
+    assert prof["B"]["interval"][1] > result["parameters"]["B"]["value"]
+    # above its fit A cannot be offset by B < 0, so its profile rises faster there than below: the interval
+    # is asymmetric, shorter above the fitted value, unlike the symmetric linear one
+    low, high = prof["A"]["interval"]
+    assert low < a["value"] < high and high - a["value"] < 0.5 * (a["value"] - low)
+
+
+def test_grid_and_interval_helpers():
+    assert grid(0.5, None, 0.0, 1.0, 3).tolist() == [0.0, 0.5, 1.0]
+    values = np.linspace(0.0, 1.0, 21)
+    one_sided = interval(values, (values / 0.1) ** 2, CHI2_95, 0.0, 1.0)   # minimum on the lower bound
+    assert one_sided["interval"][0] == 0.0 and one_sided["interval"][1] == pytest.approx(0.196, abs=0.01)
+    flat = interval(values, np.zeros(21), CHI2_95, 0.0, 2.0)           # the data do not see it: open above
+    assert flat["open"] == [False, True]
+
+
+@pytest.mark.parametrize("identify, message", [('profile = ["C"]\n', "identify.profile: ['C'] are not free"),
+                                               ("profile = true\nprofile_points = 2\n", "profile_points"),
+                                               ('profile = "A"\n', "identify.profile must be")])
+def test_bad_profile_keys_exit_2(folder, capsys, identify, message):
+    assert main(["identify", _config(folder, "bad", "A = 0.2, B = 0.2", "points.csv", identify)]) == 2
+    assert message in capsys.readouterr().err
