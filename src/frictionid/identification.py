@@ -392,7 +392,11 @@ def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict
         problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
                                float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
                                float(ident["loss_scale"]))
-        return _optimise(problem, config).x
+        x = _optimise(problem, config).x
+        with evaluator._lock:                                  # the refits' solves count as the run's work
+            for counter in ("n_forward", "n_sensitivity", "n_replayed", "n_failed"):
+                setattr(evaluator, counter, getattr(evaluator, counter) + getattr(sub, counter))
+        return x
 
     def chi2_of(x):
         r = evaluator.residuals(x)[:obs.n_obs]
