@@ -393,9 +393,7 @@ def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict
                                float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
                                float(ident["loss_scale"]))
         x = _optimise(problem, config).x
-        with evaluator._lock:                                  # the refits' solves count as the run's work
-            for counter in ("n_forward", "n_sensitivity", "n_replayed", "n_failed"):
-                setattr(evaluator, counter, getattr(evaluator, counter) + getattr(sub, counter))
+        evaluator.count(sub)                                   # the refits' solves count as the run's work
         return x
 
     def chi2_of(x):

@@ -179,6 +179,12 @@ class Evaluator:
         for k, (prediction, wall) in bar(done, len(missing), f"{len(missing)} solves on {self.workers} workers"):
             self._keep(missing[k], False, prediction, wall)
 
+    def count(self, other: "Evaluator") -> None:
+        """Add the solves of ``other`` (e.g. a refit sharing this evaluator's executor) to this one's counts."""
+        with self._lock:
+            for counter in ("n_forward", "n_sensitivity", "n_replayed", "n_failed"):
+                setattr(self, counter, getattr(self, counter) + getattr(other, counter))
+
     def close(self) -> None:
         """Stop the executor's workers, if any."""
         self.executor.close()
