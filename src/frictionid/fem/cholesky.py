@@ -125,16 +125,12 @@ class Cholesky:
 
         kvxopt's getfactor turns the factor into a simplicial one in place, which its solve refuses: the factor
         is dropped here and computed again at the next :meth:`solve`."""
-        from kvxopt import cholmod
+        from kvxopt import cholmod, matrix
         n, m = self.matrix.shape[0], len(self.last)
         if self.factor is None:
             self.factor = self._factor()
         L = cholmod.getfactor(self.factor)
         self.factor = None
-        colptr, rows, values = (np.frombuffer(a, dtype=t) for a, t in zip(L.CCS, (np.int64, np.int64, float)))
-        start = colptr[n - m]
-        log.info("Cholesky factor: %d rows, %d entries (%d in the trailing block of %d rows)", n, len(values),
-                 len(values) - start, m)
-        block = np.zeros((m, m))
-        block[rows[start:] - (n - m), np.repeat(np.arange(m), np.diff(colptr[n - m:]))] = values[start:]
+        log.info("Cholesky factor: %d rows, %d entries; the Schur complement onto %d of them", n, len(L), m)
+        block = np.array(matrix(L[n - m:, n - m:]))         # a slice: L.CCS would copy the whole factor again
         return block
