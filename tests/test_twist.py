@@ -214,3 +214,23 @@ def test_a_user_mesh_refuses_the_twist_kind_by_name():
     geo = Path(__file__).parents[1] / "examples" / "hub" / "hub.geo"
     with pytest.raises(InputError, match="kind = 'axisymmetric_twist': not available for a user's mesh yet"):
         mesh_model(geo, kind="axisymmetric_twist")
+
+
+def test_lifting_keeps_segment_weights_of_mortar_like_pairs():
+    """Pairs coupled to two target nodes with weights 0.3 / 0.7 (as mortar's): the lifted in-plane rows are the
+    section's rows on three components per node, the circumferential row couples u_t with the same weights."""
+    from frictionid.fem.pairs import ContactPairs, relative_operator, tangent_frames
+    from frictionid.fem.twist import with_circumferential_tangent
+    normals = np.array([[0.6, 0.8], [0.0, 1.0]])
+    frames = tangent_frames(normals)
+    contact, targets, weights = np.array([0, 1]), np.array([[2, 3], [3, 4]]), np.array([[0.3, 0.7], [0.7, 0.3]])
+    B = relative_operator(frames, contact, targets, weights, 2 * 5)
+    pairs = ContactPairs(contact, np.array([[1.0, 0.0], [2.0, 0.0]]), frames, np.ones(2), np.ones((2, 1)),
+                         np.zeros(2), B, np.zeros(2, int))
+    lifted = with_circumferential_tangent(pairs, 5)
+    u = np.random.default_rng(3).normal(size=(5, 3))
+    w = (lifted.B @ u.ravel()).reshape(2, 3)
+    np.testing.assert_allclose(w[:, :2], (B @ u[:, :2].ravel()).reshape(2, 2), rtol=1e-13)
+    expected = u[contact, 2] - np.sum(weights * u[targets, 2], axis=1)
+    np.testing.assert_allclose(w[:, 2], expected, rtol=1e-13)
+    np.testing.assert_allclose(lifted.frames[:, 2], [[0.0, 0.0, 1.0]] * 2, atol=1e-15)
