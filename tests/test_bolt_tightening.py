@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from test_verification import _check_sensitivities
 
-from frictionid.builders.bolt import bolt_model
+from frictionid.builders.bolt import bolt_layout, bolt_model, measurement_points
 from frictionid.errors import InputError
 from frictionid.fem.contact import SLIP
 from frictionid.fem.problem import Problem
@@ -71,3 +71,46 @@ def test_tightening_sensitivities_match_central_differences(tightening):
     solution = _check_sensitivities(tightening, mu)
     torque = solution.reaction_labels.index("nut_outer.torque")
     assert np.all(solution.d_reactions[-1, torque, [0, 1, 2, 3, 4, 5, 7]] > 0)     # thread and bearing raise it
+
+
+@pytest.mark.slow
+def test_twin_identification_of_thread_and_bearing_from_a_tightening_test():
+    """Merged partition (one thread coefficient for A-F, the nut bearing; head 0.15 known) from torque, clamp
+    force and ux, uy, uz at the ten default flank points, both stages; data from the 0.2 mm flank mesh at
+    thread 0.14, bearing 0.12, fitted by Gauss-Newton with the analytic sensitivities on the 0.25 mm mesh.
+    Measured: noise-free 0.14000 / 0.11999; with noise of the stated size (0.5 um, 400 N mm, 50 N; seed 7)
+    0.1397 / 0.1204, standard errors 0.0005 / 0.0011 (examples/bolt-m20/tightening_resolution.py)."""
+    points = measurement_points(bolt_layout("M20"))
+
+    def build(flank):
+        model = bolt_model(load="tightening", flank_size=flank, angles=(4.0, 12.0), n_increments=2)
+        return Problem.build(model, points=points, quantities=("ux", "uy", "uz"), regions=["bolt"] * len(points))
+
+    def mu(x):
+        return np.array([x[0]] * 6 + [0.15, x[1]])
+
+    def observe(problem, x, sensitivities=False):
+        solution = problem.solve(mu(x), sensitivities=sensitivities)
+        ends, label = [solution.stage_end(s) for s in (0, 1)], solution.reaction_labels.index
+        reactions = [label("nut_outer.torque"), label("plate1_rim.y")]
+        scale = np.array([400.0, 50.0])                                  # torque [N mm], clamp force [N]
+        values = np.concatenate([np.asarray(solution.observations)[ends].ravel() / 0.5e-3,
+                                 (solution.reactions[ends][:, reactions] / scale).ravel()])
+        if not sensitivities:
+            return values
+        J = np.vstack([np.asarray(solution.d_observations)[ends].reshape(-1, 8) / 0.5e-3,
+                       (solution.d_reactions[ends][:, reactions] / scale[:, None]).reshape(-1, 8)])
+        return values, np.column_stack([J[:, :6].sum(axis=1), J[:, 7]])
+
+    truth = np.array([0.14, 0.12])
+    exact = observe(build(0.2), truth)
+    noisy = exact + np.random.default_rng(7).normal(size=exact.shape)
+    coarse = build(0.25)
+    for data, tolerance in ((exact, 1e-3), (noisy, 0.02)):
+        x = np.array([0.1, 0.1])
+        for _ in range(6):
+            values, J = observe(coarse, x, True)
+            x = x + np.linalg.lstsq(J, data - values, rcond=None)[0]
+        stderr = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
+        assert np.all(np.abs(x - truth) < tolerance) and np.all(stderr < 0.002)
+        assert np.all(np.abs(x - truth) < 3 * stderr + (1e-3 if data is exact else 0.0))
