@@ -53,7 +53,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                contact_size: float | None = None, mesh_size: float | None = None, n_radial: int = 2,
                n_axial: int = 3, length: float | None = None, engaged_length: float | None = None,
                clearance: float | None = None, bearing_diameter: float | str | None = None,
-               load: str = "tension", angles=(2.0, 4.0)) -> Model:
+               load: str = "tension", angles=(2.0, 4.0), torques=None) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -94,6 +94,10 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     angles : sequence of float [deg]
         Nut rotation from the snug position at the end of each stage (``load`` = "tightening"; ``forces`` is
         then not used).
+    torques : sequence of float [N m], optional
+        Wrench torque at the end of each stage instead of ``angles``: a uniform circumferential traction on
+        "nut_outer" (the hexagon ring, one radius) whose moment about the axis is the torque; the nut's rotation
+        is then a result (u_t / r on "nut_outer").
 
     Returns
     -------
@@ -114,7 +118,10 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
     if load not in ("tension", "tightening"):
         raise InputError(f"`load` must be \"tension\" or \"tightening\", got {load!r}")
-    values = _angles(angles) if load == "tightening" else _forces(forces)
+    if torques is not None and load != "tightening":
+        raise InputError("`torques` needs load = \"tightening\"")
+    values = (_forces(forces) if load == "tension" else _angles(angles, "angles") if torques is None
+              else _angles(torques, "torques"))
     n_increments = count("n_increments", n_increments, 1, 1000)
     mesh = bolt_mesh(layout, flank_size, contact_size, max(mesh_size, flank_size))
     lead = layout.size.P if load == "tightening" else 0.0
@@ -122,7 +129,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
                   ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
     if load == "tightening":
-        return _tightening(mesh, interfaces, values, n_increments)
+        return _tightening(mesh, interfaces, values, n_increments, torques is not None, layout.size.hex_radius)
     forces = values
     return Model(mesh=mesh, kind="axisymmetric",
                  materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
@@ -132,22 +139,31 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                  interfaces=interfaces)
 
 
-def _angles(angles) -> tuple[float, ...]:
-    if isinstance(angles, (int, float)) and not isinstance(angles, bool):
-        angles = (angles,)
-    if not isinstance(angles, (list, tuple)) or not angles:
-        raise InputError(f"`angles` must be a list of nut rotations [deg], one per stage, got {angles!r}")
-    return tuple(positive(f"angles[{i}]", a) for i, a in enumerate(angles))
+def _angles(values, name: str) -> tuple[float, ...]:
+    """Positive stage values of ``angles`` [deg] or ``torques`` [N m]."""
+    if isinstance(values, (int, float)) and not isinstance(values, bool):
+        values = (values,)
+    unit = "nut rotations [deg]" if name == "angles" else "wrench torques [N m]"
+    if not isinstance(values, (list, tuple)) or not values:
+        raise InputError(f"`{name}` must be a list of {unit}, one per stage, got {values!r}")
+    return tuple(positive(f"{name}[{i}]", a) for i, a in enumerate(values))
 
 
-def _tightening(mesh, interfaces, angles: tuple[float, ...], n_increments: int) -> Model:
-    """The tightening test: the nut turned by ``angles`` [deg] against the held head, plates held at their rims."""
+def _tightening(mesh, interfaces, values: tuple[float, ...], n_increments: int, by_torque: bool,
+                radius: float) -> Model:
+    """The tightening test: the nut turned by ``values`` [deg] (or with torques [N m], on its hexagon ring at
+    ``radius`` [mm]) against the held head, plates held at their rims."""
+    if by_torque:
+        load = SurfaceForce("nut_outer", "t", tuple(1000.0 * t / radius for t in values))
+        names = [f"{t:g}Nm" for t in values]
+    else:
+        load = Rotation("nut_outer", tuple(np.radians(values).tolist()))
+        names = [f"{a:g}deg" for a in values]
     return Model(mesh=mesh, kind="axisymmetric_twist",
                  materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
                  supports=(Support("plate2_rim", (0, 1, 2)), Support("plate1_rim", (0, 1, 2)),
                            Support("head_side", (2,))),
-                 loads=(Rotation("nut_outer", tuple(np.radians(angles).tolist())),),
-                 stages=tuple(Stage(f"{a:g}deg", n_increments) for a in angles),
+                 loads=(load,), stages=tuple(Stage(name, n_increments) for name in names),
                  interfaces=interfaces)
 
 
