@@ -234,3 +234,16 @@ def test_lifting_keeps_segment_weights_of_mortar_like_pairs():
     expected = u[contact, 2] - np.sum(weights * u[targets, 2], axis=1)
     np.testing.assert_allclose(w[:, 2], expected, rtol=1e-13)
     np.testing.assert_allclose(lifted.frames[:, 2], [[0.0, 0.0, 1.0]] * 2, atol=1e-15)
+
+
+def test_measured_points_of_a_twist_model_must_lie_on_the_x_y_plane():
+    from types import SimpleNamespace
+
+    from frictionid.inverse.observations import _coordinates
+    model = shaft_model(size=2.0)
+    on_plane = SimpleNamespace(coordinates=np.array([[2.0, 5.0, 0.0], [4.0, 9.0, 0.0]]), source="m.csv")
+    np.testing.assert_array_equal(_coordinates(on_plane, model)[1], [[2.0, 5.0], [4.0, 9.0]])
+    for bad in ([2.0, 5.0, 0.5], [-2.0, 5.0, 0.0]):
+        off = SimpleNamespace(coordinates=np.array([[4.0, 9.0, 0.0], bad]), source="m.csv")
+        with pytest.raises(InputError, match="m.csv: an axisymmetric model with twist needs points on the x-y plane"):
+            _coordinates(off, model)

@@ -108,6 +108,15 @@ def _coordinates(measurements, model: Model):
         from ..data.measurements import map_to_axisymmetric
         measurements = map_to_axisymmetric(measurements)
         return measurements, measurements.coordinates[:, :2]
+    if model.kind == "axisymmetric_twist":
+        # no mapping of points off the x-y plane yet: there uz is u_t only at z = 0, x >= 0
+        size = max(1.0, float(np.abs(measurements.coordinates).max(initial=0.0)))
+        off = (np.abs(measurements.coordinates[:, 2]) > PLANE_TOL * size) | (measurements.coordinates[:, 0] < 0)
+        if np.any(off):
+            raise InputError(f"{measurements.source}: an axisymmetric model with twist needs points on the x-y plane "
+                             f"at x >= 0 (z = 0), where uz is the circumferential displacement; {int(off.sum())} "
+                             "point(s) are not")
+        return measurements, measurements.coordinates[:, :2]
     if model.kind == "plane_strain":
         # a frame turned about z by a fitted or typed angle leaves round-off in z
         size = max(1.0, float(np.abs(measurements.coordinates).max(initial=0.0)))
