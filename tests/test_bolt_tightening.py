@@ -136,3 +136,21 @@ def test_tightening_by_torque_reaches_the_angle_controlled_ratio(tightening):
         assert held == pytest.approx(-80000.0, rel=1e-9)
         assert 80000.0 / reactions["plate1_rim.y"] == pytest.approx(
             by_angle["nut_outer.torque"] / by_angle["plate1_rim.y"], rel=1e-3)
+
+
+@pytest.mark.slow
+def test_identify_a_thread_coefficient_from_a_tightening_test_through_the_cli(tmp_path):
+    """examples/bolt-m20/tightening: simulate on the 0.2 mm flank mesh (thread 0.14), identify one thread
+    coefficient on the 0.25 mm mesh from ux, uy, uz at the ten flank points: measured 0.140000 +/- 0.00054."""
+    import json
+    import shutil
+    from pathlib import Path
+
+    from frictionid.cli import main
+    folder = tmp_path / "tightening"
+    shutil.copytree(Path(__file__).parents[1] / "examples" / "bolt-m20" / "tightening", folder)
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
+    assert main(["identify", str(folder / "identify.toml")]) == 0
+    thread = json.loads((folder / "runs" / "tightening" / "result.json").read_text())["parameters"]["thread"]
+    assert thread["value"] == pytest.approx(0.14, abs=2e-3) and thread["stderr"] < 2e-3
+    assert thread["identifiable"] is True
