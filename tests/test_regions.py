@@ -32,6 +32,12 @@ def _simulated(folder: Path, name: str, regions: str, points: dict = POINTS) -> 
     return {r["point"]: (float(r["ux"]), float(r["uy"])) for r in rows}
 
 
+def _same(values: dict) -> dict:
+    """The values up to the solver's round-off (another point set condenses onto other dofs); a point read
+    from the wrong body is off by 0.1 mm or more."""
+    return {label: pytest.approx(v, rel=1e-9, abs=1e-12) for label, v in values.items()}
+
+
 @pytest.fixture(scope="module")
 def bodies(tmp_path_factory):
     """The values with every point read from the block, and from the base: they differ where the block slides."""
@@ -45,13 +51,13 @@ def bodies(tmp_path_factory):
 
 def test_a_pattern_names_the_points_it_matches(bodies):
     folder, block, _ = bodies
-    assert _simulated(folder, "pattern", '"B*" = "block", "*" = "base"') == block
+    assert _simulated(folder, "pattern", '"B*" = "block", "*" = "base"') == _same(block)
 
 
 def test_an_exact_name_wins_over_a_pattern_and_the_longer_pattern_over_the_shorter(bodies):
     folder, block, base = bodies
     got = _simulated(folder, "exact", '"*" = "block", "B*" = "block", B2 = "base", "Q?" = "base"')
-    assert got == {"B1": block["B1"], "B2": base["B2"], "Q1": base["Q1"]}
+    assert got == _same({"B1": block["B1"], "B2": base["B2"], "Q1": base["Q1"]})
 
 
 @pytest.mark.parametrize("command", ["identify", "simulate"])
