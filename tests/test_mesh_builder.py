@@ -327,12 +327,15 @@ Physical Surface("strip") = {1};
 Physical Curve("bottom") = {1};
 Physical Curve("top") = {3};
 Physical Point("corner") = {1};
+Point(10) = {9, 9, 0};
+Physical Point("far") = {10};                  // construction geometry: a node of no cell
 Mesh.MeshSizeMax = 0.5;
 """
 
 
-def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path):
-    """A point group holds the one node at (0, 0) in x; without it the strip slides in x (a mechanism, refused)."""
+def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path, caplog):
+    """A point group holds the one node at (0, 0) in x; without it the strip slides in x (a mechanism, refused).
+    A point group outside the mesh is no node set, with a warning."""
     (tmp_path / "strip.geo").write_text(STRIP_GEO)
     options = dict(kind="plane_strain", materials={"strip": {"E": 1000.0, "nu": 0.3}},
                    loads=[{"type": "pressure", "boundary": "top", "values": [1.0]}])
@@ -340,6 +343,7 @@ def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path):
                                                          {"boundary": "corner", "components": ["x"]}], **options)
     nodes = model.mesh.boundary_nodes("corner")
     assert len(nodes) == 1 and np.allclose(model.mesh.points[nodes[0]], [0.0, 0.0])
+    assert "physical group 'far' (points) has no node of a cell" in caplog.text
     with pytest.raises(InputError, match="translation in x"):
         mesh_model(tmp_path / "strip.geo", supports=[{"boundary": "bottom", "components": ["y"]}], **options)
     with pytest.raises(InputError, match="'corner'.*node set"):

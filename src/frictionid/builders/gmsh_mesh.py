@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 from pathlib import Path
 
 import gmsh
@@ -11,6 +12,8 @@ from meshio.gmsh.common import _gmsh_to_meshio_order, _gmsh_to_meshio_type
 
 from ..errors import InputError
 from ..model.mesh import CELL_DIM, FACET_NODES, FACET_TYPE, Mesh
+
+log = logging.getLogger(__name__)
 
 
 @contextlib.contextmanager
@@ -124,17 +127,21 @@ def mesh_and_node_sets_from_gmsh(source: str = "gmsh model") -> tuple[Mesh, dict
 
 
 def _node_sets(dim: int, index: np.ndarray, source: str) -> dict[str, np.ndarray]:
-    """Mesh nodes of the physical groups of dimension below dim - 1, by name (``index``: gmsh tag -> node)."""
+    """Mesh nodes of the physical groups of dimension below dim - 1, by name (``index``: gmsh tag -> node).
+
+    Nodes of no cell (construction geometry outside the mesh) are left out; a group with none left is not a
+    node set (a warning names it), so a file with such groups still reads as before."""
     sets: dict[str, np.ndarray] = {}
     for d in range(dim - 1):
         for _, tag in gmsh.model.getPhysicalGroups(d):
             name = gmsh.model.getPhysicalName(d, tag) or f"{d}:{tag}"
             tags = np.asarray(gmsh.model.mesh.getNodesForPhysicalGroup(d, tag)[0], dtype=np.int64)
-            nodes = np.where(tags < len(index), index[np.minimum(tags, len(index) - 1)], -1)
-            if not len(nodes) or np.any(nodes < 0):
-                raise InputError(f"{source}: physical group {name!r} ({'points' if d == 0 else 'curves'}) has "
-                                 "nodes that belong to no cell")
-            sets[name] = np.union1d(sets.get(name, np.zeros(0, np.int64)), nodes)
+            nodes = index[tags[tags < len(index)]]
+            if not np.any(nodes >= 0):
+                log.warning("%s: physical group %r (%s) has no node of a cell; it is no node set", source, name,
+                            "points" if d == 0 else "curves")
+                continue
+            sets[name] = np.union1d(sets.get(name, np.zeros(0, np.int64)), nodes[nodes >= 0])
     return sets
 
 
