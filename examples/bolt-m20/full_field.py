@@ -125,15 +125,17 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="coarse meshes (0.25 / 0.15 mm), 100 and 1000 points")
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "out" / "full_field")
     parser.add_argument("--merge", action="store_true", help="one coefficient per axial section (A+D, B+E, C+F)")
+    parser.add_argument("--sets", type=int, nargs="+", help="identify only these sets (their target sizes, 10 for "
+                        "the default points); the data files of a previous run in --out are read, not made again")
     args = parser.parse_args(argv)
     flank, data_flank, sizes = (0.25, 0.15, SIZES[:2]) if args.quick else (0.1, 0.05, SIZES)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     with cache_in(out / "cache"):             # a second run reads the condensations and solves stored there
-        return _run(out, flank, data_flank, sizes, args.merge)
+        return _run(out, flank, data_flank, sizes, args.merge, args.sets)
 
 
-def _run(out: Path, flank: float, data_flank: float, sizes, merge: bool = False) -> int:
+def _run(out: Path, flank: float, data_flank: float, sizes, merge: bool = False, only=None) -> int:
     start = time.perf_counter()
     layout = bolt_layout("M20")
     options = {"builder": "bolt", "size": "M20", "forces": list(FORCES)}
@@ -141,30 +143,20 @@ def _run(out: Path, flank: float, data_flank: float, sizes, merge: bool = False)
     data_model = build_model({**options, "flank_size": data_flank})
     spaces = [Space.build(m.mesh, m.kind, m.element) for m in (model, data_model)]
     sets = {"10 default": (measurement_points(layout), ["bolt"] * 10)}
+    targets = {"10 default": 10}
     for n in sizes:
         points, names = section_grid(spaces, n, layout)
         sets[f"{len(points)}"] = (points, names)
+        targets[f"{len(points)}"] = n
         print(f"grid for about {n} points: {len(points)} ({names.count('bolt')} bolt, {names.count('nut')} nut)")
-    # the data: one condensation of the finer mesh for every set's points
-    every = np.vstack([p for p, _ in sets.values()])
-    every_regions = [r for _, names in sets.values() for r in names]
-    truth = {**TRUE_MU, **fixed_friction()}
-    mu_true = np.array([truth[z] for z in data_model.zone_names])
-    t = time.perf_counter()
-    exact = EmbeddedBackend(data_model, every, QUANTITIES, every_regions, keep=False).predict(mu_true).values
-    print(f"data on the {data_flank:g} mm mesh ({data_model.mesh.n_nodes} nodes) at {len(every)} points: "
-          f"{time.perf_counter() - t:.1f} s")
-    noisy = exact + np.random.default_rng(SEED).normal(0.0, NOISE, exact.shape)
-    rows, offset = [], 0
+    tags = {name: "points_10" if name.startswith("10 ") else f"points_{len(p)}" for name, (p, _) in sets.items()}
+    if only is None or not all((out / f"{tag}.csv").exists() for tag in tags.values()):
+        _make_data(out, sets, tags, data_model, data_flank)
+    rows = []
     for name, (points, names) in sets.items():
-        n = len(points)
-        values = noisy[:, 2 * offset:2 * (offset + n)]
-        offset += n
-        tag = "points_10" if name.startswith("10 ") else f"points_{n}"
-        labels = [f"B{k + 1}" for k in range(n)] if tag == "points_10" else labels_of(names)
-        write_data(out / f"{tag}.csv", points, labels, values,
-                   f"bolt-m20 full field: {n} points, ux, uy from the {data_flank:g} mm mesh at "
-                   + ", ".join(f"{z}={v}" for z, v in TRUE_MU.items()) + f", noise {NOISE} mm (seed {SEED})")
+        n, tag = len(points), tags[name]
+        if only is not None and targets[name] not in only:
+            continue
         regions = '"B*" = "bolt"' + (', "N*" = "nut"' if "nut" in names else "")
         config = read_config(write_config(out, tag + ("_merged" if merge else ""), flank, regions, merge),
                              need=("model", "friction", "data", "run"))
@@ -179,7 +171,8 @@ def _run(out: Path, flank: float, data_flank: float, sizes, merge: bool = False)
                      "reduced_chi2": result["fit"].get("reduced_chi2"), "seconds": seconds})
         print(_line(rows[-1]))
     table = _table(rows, flank, data_flank, merge)
-    suffix = "_merged" if merge else ""
+    partial = only is not None and set(targets.values()) - set(only)
+    suffix = ("_merged" if merge else "") + ("_" + "-".join(map(str, only)) if partial else "")
     (out / f"table{suffix}.md").write_text(table + "\n")
     (out / f"summary{suffix}.json").write_text(json.dumps({"true": TRUE_MU, "noise_mm": NOISE, "flank": flank,
                                                   "data_flank": data_flank, "rows": rows,
@@ -196,6 +189,29 @@ def _resolved(row) -> list[str]:
 def _line(row) -> str:
     return (f"{row['set']:>12}: resolved {', '.join(_resolved(row)) or 'none'}; "
             + " ".join(f"{z}={p['value']:.3f}" for z, p in row["parameters"].items()) + f" ({row['seconds']:.0f} s)")
+
+
+def _make_data(out: Path, sets: dict, tags: dict, data_model, data_flank: float) -> None:
+    """ux, uy of every set at both stages from the finer mesh (one condensation for all points), noise added,
+    written as <out>/<tag>.csv."""
+    every = np.vstack([p for p, _ in sets.values()])
+    every_regions = [r for _, names in sets.values() for r in names]
+    truth = {**TRUE_MU, **fixed_friction()}
+    mu_true = np.array([truth[z] for z in data_model.zone_names])
+    t = time.perf_counter()
+    exact = EmbeddedBackend(data_model, every, QUANTITIES, every_regions, keep=False).predict(mu_true).values
+    print(f"data on the {data_flank:g} mm mesh ({data_model.mesh.n_nodes} nodes) at {len(every)} points: "
+          f"{time.perf_counter() - t:.1f} s")
+    noisy = exact + np.random.default_rng(SEED).normal(0.0, NOISE, exact.shape)
+    offset = 0
+    for name, (points, names) in sets.items():
+        n = len(points)
+        values = noisy[:, 2 * offset:2 * (offset + n)]
+        offset += n
+        labels = [f"B{k + 1}" for k in range(n)] if tags[name] == "points_10" else labels_of(names)
+        write_data(out / f"{tags[name]}.csv", points, labels, values,
+                   f"bolt-m20 full field: {n} points, ux, uy from the {data_flank:g} mm mesh at "
+                   + ", ".join(f"{z}={v}" for z, v in TRUE_MU.items()) + f", noise {NOISE} mm (seed {SEED})")
 
 
 def _cell(p: dict) -> str:

@@ -529,14 +529,13 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:
     """Per measurement point: its label, model coordinates [mm] and RMS weighted residual (noise units)."""
-    point_of = [label.rpartition(":")[0] for label in obs.labels]
-    out = []
-    for label, xyz in zip(obs.point_labels, obs.points):
-        rows = np.array([p == label for p in point_of])
-        if rows.any():
-            out.append({"point": label, "xyz": [float(v) for v in xyz],
-                        "rms": float(np.sqrt(np.mean(r[rows] ** 2)))})
-    return out
+    index = {label: i for i, label in enumerate(obs.point_labels)}
+    point = np.array([index.get(label.rpartition(":")[0], -1) for label in obs.labels], dtype=np.int64)
+    seen = point >= 0                                   # the machine force ("force@2") belongs to no point
+    count = np.bincount(point[seen], minlength=len(index))
+    total = np.bincount(point[seen], weights=np.asarray(r, dtype=float)[seen] ** 2, minlength=len(index))
+    return [{"point": label, "xyz": [float(v) for v in xyz], "rms": float(np.sqrt(total[i] / count[i]))}
+            for i, (label, xyz) in enumerate(zip(obs.point_labels, obs.points)) if count[i]]
 
 
 #: area fraction below which a zone counts as carrying no load (lifted off) or not slipping (stuck)
