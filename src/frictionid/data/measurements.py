@@ -22,6 +22,7 @@ KNOWN = REQUIRED + ("force",) + QUANTITIES + SIGMAS
 FORCE_RTOL = 1e-9
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _INTEGER = re.compile(r"\+?\d+")
+_SPACE = re.compile(r"\s")
 
 __all__ = ["Measurements", "QUANTITIES", "REQUIRED", "UNITS_COMMENT", "map_to_axisymmetric", "read_measurements",
            "write_measurements"]
@@ -90,8 +91,10 @@ def _split(source: str, lines: list[str]):
         if text.lstrip().startswith("#"):
             comments.append(comment_text(text))
         elif text.strip():
-            # a line without quotes splits at its commas, as the csv module would split it (and 20x faster)
-            fields = [f.strip() for f in (next(csv.reader([text])) if '"' in text else text.split(","))]
+            # a line without quotes splits at its commas, as the csv module would split it (and 20x faster);
+            # without white space there is nothing to strip
+            fields = [f.strip() for f in next(csv.reader([text]))] if '"' in text else \
+                [f.strip() for f in text.split(",")] if _SPACE.search(text) else text.split(",")
             if header is None:
                 header = (number, fields)
             else:
@@ -142,6 +145,11 @@ def _check_width(source: str, line: int, fields: list[str], header) -> None:
 def _column(source: str, rows, name: str, texts: list[str]):
     """The values of one column, checked as :func:`_cell` checks each cell; a column of finite numbers only (no
     empty cell) is converted at once (1e5 rows in a few ms), anything else cell by cell."""
+    if name == "point" and all(texts):
+        return list(texts)
+    digits = "".join(texts) if name == "stage" else ""
+    if digits.isascii() and digits.isdigit() and all(texts) and all(map(int, texts)):
+        return [int(text) for text in texts]                  # digits only, none of them 0: positive integers
     joined = "\n".join(texts) if name not in ("point", "stage") else ""
     # float() reads every cell _NUMBER matches the same way; it also reads nan, inf (not finite), 1_000 and
     # non-ASCII digits, which the checks here leave to the cell-by-cell path and its messages

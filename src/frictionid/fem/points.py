@@ -274,13 +274,30 @@ def _internal_modes(space: Space, materials, quantities, cells, phi, nodes) -> n
     # symmetry of the cube (an affine map), so interpolating the corners' natural coordinates is exact
     position = np.argmax(corners[:, None, :] == nodes[:, :, None], axis=2)     # meshio corner of each local node
     xi = np.einsum("nj,njd->nd", phi, incompatible.CORNERS[position])
-    lame = incompatible.cell_lame(space.mesh, materials)[cells]
-    U, D = incompatible.internal_fields(space.mesh.points[corners], lame, xi, cells)
-    axes = [[_AXIS[c] for c in q[1:]] for q in quantities]
-    values = np.stack([U[:, a[0]] if q[0] == "u" else 0.5 * (D[:, a[0], a[1]] + D[:, a[1], a[0]])
-                       for q, a in zip(quantities, axes)], axis=1)          # (n, n_quantities, 24) meshio dofs
-    values = values.reshape(len(cells), len(quantities), incompatible.N_NODES, incompatible.DIM)
-    return np.take_along_axis(values, position[:, None, :, None], axis=2)
+    _, _, P, grad_P, _ = incompatible.gradients(space.mesh.points[corners], xi)   # (n, mode), (n, mode, x_j)
+    # the recovery alpha = -R u_e belongs to the cell: once per distinct cell (a full field has hundreds of
+    # points in one), its dofs put in the cell's local node order
+    first, which = np.unique(cells, return_index=True, return_inverse=True)[1:]
+    which = np.ravel(which)
+    lame = incompatible.cell_lame(space.mesh, materials)[cells[first]]
+    _, R = incompatible.condensed(incompatible.element_matrices(space.mesh.points[corners[first]], lame))
+    alpha = -R.reshape(len(first), incompatible.N_MODES, space.dim, incompatible.N_NODES, space.dim)
+    alpha = np.take_along_axis(alpha, position[first][:, None, None, :, None], axis=3).reshape(
+        len(first), incompatible.N_MODES, space.dim, incompatible.N_U)        # (cell, mode, component, dof)
+    out = np.empty((len(cells), len(quantities), incompatible.N_U))
+    order = np.argsort(which, kind="stable")
+    bounds = np.searchsorted(which[order], np.arange(len(first) + 1))
+    for k in range(len(first)):                      # per cell: a matrix product per quantity for all its points
+        rows = order[bounds[k]:bounds[k + 1]]
+        modes, values, gradients = alpha[k], P[rows], grad_P[rows]
+        for q, name in enumerate(quantities):
+            a = _AXIS[name[1]]
+            if name[0] == "u":
+                out[rows, q] = values @ modes[:, a]
+            else:
+                b = _AXIS[name[2]]
+                out[rows, q] = 0.5 * (gradients[:, :, b] @ modes[:, a] + gradients[:, :, a] @ modes[:, b])
+    return out.reshape(len(cells), len(quantities), incompatible.N_NODES, space.dim)
 
 
 def _hoop(space: Space, points: np.ndarray, phi: np.ndarray, grad: np.ndarray) -> np.ndarray:
