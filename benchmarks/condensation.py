@@ -5,7 +5,7 @@ its peak memory is its own. Printed per run: dofs, contact unknowns n_w, condens
 fem.condense.condense, wall clock, and the CPU time of all the process's threads: less than the wall time when
 other work shares the cores), the process's resident memory before condensing and its peak while
 condensing (sampled every 10 ms), and where both factorisations ran the largest difference of their operators
-(relative, as in tests/test_condense.py).
+(as tests/test_condense.py measures it).
 
 Run: .venv/bin/python benchmarks/condensation.py [--sizes 1.0 0.7 0.5 0.4 0.34] [--superlu-max-dofs 60000]
 SuperLU is skipped above --superlu-max-dofs (default 60,000: it took 220 s at 89k dofs on an idle machine).
@@ -21,6 +21,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 HERE = Path(__file__).resolve().parent
 PAGE = os.sysconf("SC_PAGE_SIZE")
@@ -80,27 +81,22 @@ def one(mesh_size: float, factorisation: str, keep: str | None) -> dict:
         condensed = condense(*args, factorisation=factorisation)
         seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     if keep:
+        from test_condense import reaction_terms
+        operators = SimpleNamespace(**{name: getattr(condensed, name) for name in (
+            "gap_ops", "obs_ops", "reac_ops", "equilibrium", "particular")})
         with open(keep, "wb") as file:
-            pickle.dump((condensed.gap_ops, condensed.obs_ops, condensed.reac_ops, condensed.equilibrium,
-                         condensed.particular, args[2].forces), file)
+            pickle.dump((operators, reaction_terms(condensed, args)), file)
     return {"dofs": args[0].shape[0], "n_w": args[1].shape[0], "seconds": seconds, "cpu": cpu, "before_mb": before,
             "peak_mb": memory.peak}
 
 
 def difference(first: str, second: str) -> float:
-    """Largest difference of two runs' operators, relative to each operator's largest entry (the reactions'
-    channels relative to the applied forces at least), as tests/test_condense.py measures it."""
-    import numpy as np
+    """Largest difference of two runs' operators, as tests/test_condense.py measures it: relative to each
+    operator's largest entry, the reactions' channels relative to the nodal reactions they add up at least."""
+    from test_condense import relative_difference
     with open(first, "rb") as a, open(second, "rb") as b:
-        a, b = pickle.load(a), pickle.load(b)
-    worst = np.abs(a[4] - b[4]).max() / np.abs(a[4]).max()
-    for k, (x_ops, y_ops) in enumerate(zip(a[:4], b[:4])):
-        for part in ("channels", "on_lam", "on_alpha"):
-            x, y = getattr(x_ops, part), getattr(y_ops, part)
-            floor = np.abs(a[5]).sum() if (k, part) == (2, "channels") else 0.0
-            if x.size and max(np.abs(x).max(), floor) > 0:
-                worst = max(worst, np.abs(x - y).max() / max(np.abs(x).max(), floor))
-    return float(worst)
+        (a, floor), (b, _) = pickle.load(a), pickle.load(b)
+    return relative_difference(a, b, floor)
 
 
 def run(mesh_size: float, factorisation: str, keep: str) -> dict:
@@ -135,5 +131,5 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(HERE))
+    sys.path[:0] = [str(HERE), str(HERE.parent / "tests")]
     main()
