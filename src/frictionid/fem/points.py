@@ -138,7 +138,7 @@ def window_gradients(points, window: float, groups: Sequence | None = None):
 
     >>> C, spanned = window_gradients([[0.0], [1.0], [2.0]], 2.0)
     >>> (C[0] @ np.array([1.0, 3.0, 5.0])).tolist(), spanned.ravel().tolist()
-    [2.0, 2.0, 2.0], [True, True, True]
+    ([2.0, 2.0, 2.0], [True, True, True])
     """
     points = np.asarray(points, dtype=float)
     n, dim = points.shape
