@@ -167,27 +167,64 @@ def test_tetra10_sensitivities_match_central_differences(pulled):
     assert np.all(solution.state[-1][solution.state[-1] != 0] == SLIP)
 
 
-def test_a_uniform_interference_gives_the_uniaxial_pressure(mesh):
+def _interference(mesh, upper: Material) -> Problem:
     """The upper body moved down by 1 um into the lower one (the meshes overlap: gaps -1 um at corners and
-    mid-side nodes alike), both held at their far faces in z and on the symmetry planes, frictionless: uniaxial
-    stress in series, p = delta / (h_upper / E_upper + h_lower / E_lower) = 52.5 MPa at every node (exact in the
-    space). (With friction the pairs on the symmetry planes, whose tangential relative motion both supports hold,
-    make the stick system singular and the solver stops: not a case of the element.)"""
+    mid-side nodes alike), both held at their far faces in z and on the symmetry planes x = 0, y = 0."""
     delta = 1e-3
-    upper = np.unique(mesh.cells[mesh.regions["upper"]])
+    nodes = np.unique(mesh.cells[mesh.regions["upper"]])
     points = np.array(mesh.points)
-    points[upper, 2] -= delta
+    points[nodes, 2] -= delta
     moved = Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries))
-    model = Model(moved, "3d", {"lower": STEEL, "upper": ALUMINIUM},
+    model = Model(moved, "3d", {"lower": STEEL, "upper": upper},
                   supports=(Support("lower_bottom", (2,)), Support("upper_top", (2,)), Support("lower_x0", (0,)),
                             Support("upper_x0", (0,)), Support("lower_y0", (1,)), Support("upper_y0", (1,))),
                   stages=(Stage("fit", 1),), interfaces=INTERFACE)
     problem = Problem.build(model)
     np.testing.assert_allclose(problem.pairs.gap, -delta, rtol=1e-9)
-    solution = problem.solve([0.0, 0.0])
-    expected = delta / (1.0 / ALUMINIUM.E + 1.0 / STEEL.E)
+    return problem
+
+
+def _on_symmetry_planes(problem) -> np.ndarray:
+    """(n_pairs, 2) pairs on x = 0, y = 0: the tangential directions t1 = x, t2 = y that both supports hold."""
+    np.testing.assert_allclose(problem.pairs.frames[:, 1:, :2], [np.eye(2)] * problem.pairs.n_pairs, atol=1e-12)
+    return np.abs(problem.pairs.position[:, :2]) < 1e-12
+
+
+@pytest.mark.parametrize("upper, mu", [(ALUMINIUM, 0.0), (STEEL, 0.3)], ids=["frictionless", "friction"])
+def test_a_uniform_interference_gives_the_uniaxial_pressure(mesh, upper, mu):
+    """Uniaxial stress in series, p = delta / (h_upper / E_upper + h_lower / E_lower) at every node (exact in the
+    space): 52.5 MPa frictionless with aluminium on steel. With friction, both bodies of steel: they expand alike
+    laterally, so friction has nothing to resist and the answer is the frictionless one (105 MPa), every pair
+    stuck with no tangential force. The 17 of 81 pairs on the symmetry planes, whose tangential motion the
+    supports hold (in x, y or both), take part in the stick system with no friction force in those directions
+    (without that the stick system is singular and the solver stops)."""
+    problem = _interference(mesh, upper)
+    solution = problem.solve([mu, mu])
+    expected = 1e-3 / (1.0 / upper.E + 1.0 / STEEL.E)
     np.testing.assert_allclose(solution.pressure[-1], expected, rtol=1e-8)
     assert solution.pressure[-1] @ problem.pairs.weight == pytest.approx(4.0 * expected, rel=1e-10)
+    assert np.any(_on_symmetry_planes(problem), axis=1).sum() == 17
+    if mu:
+        assert np.all(solution.state[-1] == STICK)
+        assert np.abs(solution.lam[-1, :, 1:]).max() <= 1e-10 * solution.lam[-1, :, 0].max()
+        frictionless = problem.solve([0.0, 0.0])
+        np.testing.assert_allclose(solution.pressure[-1], frictionless.pressure[-1], rtol=1e-10)
+
+
+def test_an_interference_of_unlike_bodies_with_friction_and_its_sensitivities(mesh):
+    """Aluminium on steel with friction: the lateral mismatch of their expansions is resisted by friction, the
+    pairs stick but for a far corner. No friction force where the supports hold the tangential motion, Coulomb's
+    cone elsewhere, the contact force balancing the supports, and d reactions / d mu against central differences
+    (the held pairs treated alike in the sensitivities)."""
+    problem = _interference(mesh, ALUMINIUM)
+    solution = _check_sensitivities(problem, MU)
+    lam = solution.lam[-1]
+    assert np.bincount(solution.state[-1], minlength=3)[STICK] > 0.9 * problem.pairs.n_pairs
+    assert np.abs(lam[:, 1:][_on_symmetry_planes(problem)]).max() <= 1e-12 * lam[:, 0].max()
+    assert np.all(np.linalg.norm(lam[:, 1:], axis=1) <= problem.pairs.mu(MU) * lam[:, 0] * (1 + 1e-10))
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert reactions["lower_bottom.z"] == pytest.approx(lam[:, 0].sum(), rel=1e-10)
+    assert np.abs(solution.d_reactions[-1]).max() > 1e-3 * lam[:, 0].sum()      # friction matters here
 
 
 def _split(mesh, body: str, interface: str, copy: str):

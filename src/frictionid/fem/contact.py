@@ -10,6 +10,15 @@ Per pair, with g = gap + w_N, ds = w_T - w_T_prev, lam_hat = max(0, lam_N - r g)
 
 plus equilibrium of the floating bodies h = R^T (b + B^T lam) = 0. The generalised Jacobian of each pair's rows
 is ``P dlam_i + Q dw_i`` with d×d blocks P, Q; dw = [W | W_a] dx (Alart & Curnier 1991, docs/design.md, contact formulation).
+
+Tangential directions held by the supports (:func:`free_tangents`): where the supports hold both sides of a pair
+in a tangential direction (symmetry planes), its relative motion there is fixed, its compliance zero and its stick
+equation empty. The support carries that force: with E the projector onto the pair's free tangential directions
+and H = I - E, the friction force lies in range(E) and the rows read
+
+    tau = E (lam_T - r ds);   stick: F_T = r E ds + H lam_T;   slip: F_T = lam_T - mu lam_hat tau / |tau|
+
+(E = I where nothing is held: the equations above; E = 0: lam_T = 0).
 """
 
 from __future__ import annotations
@@ -19,8 +28,50 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as la
+import scipy.sparse as sp
 
 OPEN, STICK, SLIP = 0, 1, 2
+
+#: a tangential direction of a pair is held when the part of its relative-displacement row on the free dofs is
+#: at most this fraction of the whole row (see :func:`free_tangents`)
+HELD_RTOL = 1e-6
+
+
+def free_tangents(B: sp.spmatrix, free: np.ndarray, dim: int) -> np.ndarray | None:
+    """(n_pairs, dim - 1, dim - 1) orthogonal projectors E onto the tangential directions in which a pair's
+    relative motion is free; None when the supports hold no pair tangentially.
+
+    A direction v of pair i is held when its relative displacement v . w_T = v . B_T,i u involves prescribed dofs
+    only: then it depends on no contact force nor rigid mode (its rows of W = B_f K^g B_f^T and W_a = B_f R are
+    zero), it is fixed by the supports, and the support carries the force in it. The criterion is on the
+    operator, not on the computed compliance, so it does not depend on round-off in W nor on how stiff the
+    bodies are: v is held when |B_f,T,i^T v| <= HELD_RTOL |B_T,i| (B_f: B on the free dofs), i.e. the free part
+    of the pair's tangential rows, a (dim-1)^2 Gram matrix per pair, has an eigenvalue at most HELD_RTOL^2 times
+    the whole rows' squared norm. On symmetry planes the free part is exactly zero; a direction within 1e-6 rad of
+    a held one has a compliance 1e-12 of the others, which round-off in W cannot tell from zero.
+    """
+    B = sp.csr_matrix(B)
+    n_pairs = B.shape[0] // dim
+    if dim == 1 or n_pairs == 0:
+        return None
+    on_free = np.zeros(B.shape[1])
+    on_free[free] = 1.0
+    B_f = (B @ sp.diags(on_free)).tocsr()
+    rows = [dim * np.arange(n_pairs) + k for k in range(1, dim)]
+    gram = np.zeros((n_pairs, dim - 1, dim - 1))
+    for a in range(dim - 1):
+        for b in range(a, dim - 1):
+            dot = np.asarray(B_f[rows[a]].multiply(B_f[rows[b]]).sum(axis=1)).ravel()
+            gram[:, a, b] = gram[:, b, a] = dot
+    scale = sum(np.asarray(B[r].multiply(B[r]).sum(axis=1)).ravel() for r in rows)
+    values, vectors = np.linalg.eigh(gram)
+    keep = values > HELD_RTOL ** 2 * scale[:, None]
+    if keep.all():
+        return None
+    E = np.einsum("nik,nk,njk->nij", vectors, keep.astype(float), vectors)
+    E[keep.all(axis=1)] = np.eye(dim - 1)              # exactly: the free pairs' equations as without projectors
+    E[~keep.any(axis=1)] = 0.0
+    return E
 
 
 @dataclass(frozen=True)
@@ -44,8 +95,9 @@ class Increment:
     h0: np.ndarray         # (m,) equilibrium residual at lam = 0 [N]
 
 
-def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r) -> Linearisation:
-    """Residual F(x) and generalised Jacobian of the increment (vectorised over pairs)."""
+def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r, free_T=None) -> Linearisation:
+    """Residual F(x) and generalised Jacobian of the increment (vectorised over pairs); ``free_T`` the projectors
+    of :func:`free_tangents` (None: every tangential direction free)."""
     n_pairs, dim = len(gap), inc.w_prev_T.shape[1] + 1
     n_w = n_pairs * dim
     lam = x[:n_w].reshape(n_pairs, dim)
@@ -54,6 +106,8 @@ def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r) -> Linearisation:
     closed = lam[:, 0] - r * g > 0
     lam_hat = np.where(closed, lam[:, 0] - r * g, 0.0)
     tau = lam[:, 1:] - r * ds
+    if free_T is not None:
+        tau = np.einsum("nij,nj->ni", free_T, tau)
     norm = np.linalg.norm(tau, axis=1)
     stick = closed & (norm < mu * lam_hat)
     slip = closed & ~stick
@@ -62,17 +116,22 @@ def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r) -> Linearisation:
 
     F = lam.copy()
     F[closed, 0] = r * g[closed]
+    eye_T = np.eye(dim - 1)
+    E = np.broadcast_to(eye_T, (n_pairs, dim - 1, dim - 1)) if free_T is None else free_T
     F[stick, 1:] = r * ds[stick]
+    if free_T is not None:
+        F[stick, 1:] = np.einsum("nij,nj->ni", E[stick], F[stick, 1:]) \
+            + np.einsum("nij,nj->ni", eye_T - E[stick], lam[stick, 1:])
     F[slip, 1:] = lam[slip, 1:] - (mu * lam_hat)[slip, None] * t[slip]
 
-    eye_T = np.eye(dim - 1)
-    proj = eye_T - t[:, :, None] * t[:, None, :]                       # I - t t^T
+    proj = E - t[:, :, None] * t[:, None, :]                            # E - t t^T
     P = np.broadcast_to(np.eye(dim), (n_pairs, dim, dim)).copy()
     Q = np.zeros((n_pairs, dim, dim))
     P[closed, 0, :] = 0.0
     Q[closed, 0, 0] = r
     P[stick, 1:, :] = 0.0
-    Q[stick, 1:, 1:] = r * eye_T
+    P[stick, 1:, 1:] = eye_T - E[stick]
+    Q[stick, 1:, 1:] = r * E[stick]
     P[slip, 1:, 1:] = eye_T - kappa[slip, None, None] * proj[slip]
     P[slip, 1:, 0] = -mu[slip, None] * t[slip]
     Q[slip, 1:, 0] = r * mu[slip, None] * t[slip]
@@ -100,10 +159,10 @@ class NewtonResult:
     cycling: bool
 
 
-def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50) -> NewtonResult:
+def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50, free_T=None) -> NewtonResult:
     """Semi-smooth Newton with Armijo backtracking on 0.5 |F|^2 from x0."""
     x = x0.copy()
-    lin = linearise(x, inc, Wfull, Wa_T, gap, mu, r)
+    lin = linearise(x, inc, Wfull, Wa_T, gap, mu, r, free_T)
     seen: list[bytes] = []
     cycling = False
     for iteration in range(max_iterations + 1):
@@ -124,7 +183,7 @@ def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50)
         merit = 0.5 * lin.F @ lin.F
         step = 1.0
         while True:
-            trial = linearise(x + step * dx, inc, Wfull, Wa_T, gap, mu, r)
+            trial = linearise(x + step * dx, inc, Wfull, Wa_T, gap, mu, r, free_T)
             if 0.5 * trial.F @ trial.F <= (1 - 1e-4 * step) * merit or step < 1e-3:
                 break
             step *= 0.5
@@ -132,8 +191,9 @@ def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50)
     return NewtonResult(x, lin, False, iteration, float(np.max(np.abs(lin.F), initial=0.0)), cycling)
 
 
-def stick_predictor(inc: Increment, Wfull, Wa_T, gap, r, held: np.ndarray) -> np.ndarray | None:
-    """Elastic predictor: the ``held`` pairs closed and stuck (no slip increment), the others open.
+def stick_predictor(inc: Increment, Wfull, Wa_T, gap, r, held: np.ndarray, free_T=None) -> np.ndarray | None:
+    """Elastic predictor: the ``held`` pairs closed and stuck (no slip increment), the others open; tangential
+    directions the supports hold (``free_T``, :func:`free_tangents`) carry no friction force.
 
     It starts every increment: with floating bodies under force control the previous solution is a poor
     start (a new load moves the pinned particular solution), while holding the previously closed pairs
@@ -147,6 +207,17 @@ def stick_predictor(inc: Increment, Wfull, Wa_T, gap, r, held: np.ndarray) -> np
     A[:n_w][rows] = Wfull[rows]
     target = np.column_stack([-gap, inc.w_prev_T]).ravel() - inc.w0         # g = 0 and ds = 0
     rhs[:n_w][rows] = target[rows]
+    if free_T is not None:
+        # stuck rows of a pair with a held direction: E (w_T - target_T) + (I - E) lam_T = 0
+        E = free_T[held]
+        tangential = A[:n_w].reshape(n_pairs, dim, -1)[held, 1:, :]
+        tangential = np.einsum("nij,njk->nik", E, tangential)
+        lam_cols = (dim * np.flatnonzero(held))[:, None] + np.arange(1, dim)          # (n_held, dim - 1)
+        tangential[np.arange(len(E))[:, None, None], np.arange(dim - 1)[None, :, None],
+                   lam_cols[:, None, :]] += np.eye(dim - 1) - E
+        A[:n_w].reshape(n_pairs, dim, -1)[held, 1:, :] = tangential
+        rhs_T = rhs[:n_w].reshape(n_pairs, dim)
+        rhs_T[held, 1:] = np.einsum("nij,nj->ni", E, rhs_T[held, 1:])
     free = np.flatnonzero(~rows)
     A[free, free] = 1.0
     A[n_w:, :n_w] = Wa_T

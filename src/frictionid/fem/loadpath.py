@@ -5,6 +5,9 @@ Direct differentiation of the converged increment n (docs/design.md, sensitiviti
     J_n S_n = -(dF/dmu + dF/dw_prev W_full S_{n-1}),   S = dx/dmu,   S_0 = 0,
 
 with dF_T/dmu_z = -lam_hat t share_z on slipping pairs and dF_T/dw_prev_T = -Q_TT (stick and slip rows).
+Tangential directions held by the supports enter J and Q through the projectors of
+:func:`frictionid.fem.contact.free_tangents`, so the sensitivities treat them as the increments do: no friction
+force in them, its derivative zero.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import scipy.linalg as la
 
 from ..errors import SolverError
 from .condense import Condensed
-from .contact import OPEN, SLIP, Increment, Linearisation, NewtonResult, newton, stick_predictor
+from .contact import OPEN, SLIP, Increment, Linearisation, NewtonResult, free_tangents, newton, stick_predictor
 from .pairs import ContactPairs
 
 log = logging.getLogger(__name__)
@@ -54,6 +57,8 @@ class LoadPathSolver:
         diag = np.diag(ops.on_lam)
         self.r = 1.0 / np.mean(diag) if diag.size else 1.0
         self.rtol = rtol
+        #: projectors onto the tangential directions the supports leave free (None: all free)
+        self.free_T = free_tangents(pairs.B, condensed.free, pairs.dim)
 
     def start(self) -> _Path:
         """The unloaded state the load path starts from."""
@@ -78,10 +83,11 @@ class LoadPathSolver:
             held = self.pairs.gap <= 1e-9 * (extent or 1.0)
         else:
             held = path.state != OPEN
-        starts = [x for x in (stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held), path.x)
+        starts = [x for x in (stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held, self.free_T), path.x)
                   if x is not None]
         for x0 in starts:
-            result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0))
+            result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0),
+                            free_T=self.free_T)
             if not result.converged and result.residual <= self._atol(inc, result.x):
                 # the tolerance scales with the solution, which may have grown during the iterations
                 result = NewtonResult(result.x, result.lin, True, result.n_iterations, result.residual, False)
