@@ -13,19 +13,11 @@ import numpy as np
 import pytest
 from matplotlib.lines import Line2D
 
+from block2d_case import POINTS, TRUE
 from frictionid.cli import main
 from frictionid.report.outputs import convergence_figure, error_bar, write_outputs
 from frictionid.run.store import RunStore
 
-POINTS = """# observation points on the block's sides and the base top (plane strain, z = 0)
-point,x,y,z,stage,uy
-P1,-5.0,0.5,0.0,1,0.0
-P2,-5.0,1.5,0.0,1,0.0
-P3,5.0,0.5,0.0,1,0.0
-P4,5.0,1.5,0.0,1,0.0
-P5,-7.0,0.0,0.0,1,0.0
-P6,7.0,0.0,0.0,1,0.0
-"""
 CONFIG = """[model]
 builder = "block2d"
 mesh_size = 1.0
@@ -43,7 +35,6 @@ regions = {{ P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base"
 [run]
 dir = "runs/report"
 """
-TRUE = {"A": 0.32, "B": 0.18, "C": 0.41}
 
 
 def _chromium() -> str | None:

@@ -11,20 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from block2d_case import MODEL, POINTS, REGIONS, TRUE
 from frictionid.cli import main
-
-TRUE = {"A": 0.32, "B": 0.18, "C": 0.41}
-POINTS = """# observation points on the block's sides and the base top (plane strain, z = 0)
-point,x,y,z,stage,uy
-P1,-5.0,0.5,0.0,1,0.0
-P2,-5.0,1.5,0.0,1,0.0
-P3,5.0,0.5,0.0,1,0.0
-P4,5.0,1.5,0.0,1,0.0
-P5,-7.0,0.0,0.0,1,0.0
-P6,7.0,0.0,0.0,1,0.0
-"""
-MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
 
 
 def _config(folder: Path, name: str, zones: str, data: str, extra: str = "", run: str = "runs/r") -> Path:

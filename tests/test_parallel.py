@@ -14,20 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from block2d_case import MODEL, POINTS, REGIONS, TRUE
 from frictionid.cli import main
 
-TRUE = {"A": 0.32, "B": 0.18, "C": 0.41}
-POINTS = """# observation points on the block's sides and the base top (plane strain, z = 0)
-point,x,y,z,stage,uy
-P1,-5.0,0.5,0.0,1,0.0
-P2,-5.0,1.5,0.0,1,0.0
-P3,5.0,0.5,0.0,1,0.0
-P4,5.0,1.5,0.0,1,0.0
-P5,-7.0,0.0,0.0,1,0.0
-P6,7.0,0.0,0.0,1,0.0
-"""
-MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
 # finite differences (each Jacobian's columns solved at once) and two starts (side by side)
 IDENTIFY = '[identify]\njacobian = "forward"\nstep = 1e-3\nstarts = 2\nseed = 3\n'
 
@@ -93,7 +82,6 @@ def test_the_reference_run_is_a_multi_start_finite_difference_fit(reference):
     assert reference["starts"][1]["initial"] != reference["starts"][0]["initial"]      # a drawn start
     for zone, value in TRUE.items():
         assert reference["parameters"][zone]["value"] == pytest.approx(value, abs=1e-4)
-
 
 
 @pytest.mark.slow
