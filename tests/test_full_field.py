@@ -75,6 +75,38 @@ def test_fast_column_reading_equals_cell_by_cell(tmp_path):
     np.testing.assert_array_equal(m.sigma["uy"], [0.5 + k % 3 for k in range(200)])
 
 
+def test_plain_table_reads_like_row_by_row(tmp_path):
+    """A plain table (no comment, blank line, quote or white space after the header) is split in one pass; the
+    same file with a blank line (row by row) reads equal, and the whole-table path names a bad line as the row
+    by row one does (width, a cell that is no number, a duplicated point, two forces at one stage)."""
+    from frictionid.data import measurements as reader
+    from frictionid.errors import InputError
+
+    rng = np.random.default_rng(7)
+    header = "point,stage,x,y,z,force,ux,uy,sigma_uy"
+    rows = [f"P{k % 40},{1 + k // 40},{x!r},-5.0,{z!r},{100.0 * (1 + k // 40)!r},{u!r},{v!r},{s!r}"
+            for k, (x, z, u, v, s) in enumerate(rng.uniform(0.1, 1.0, (120, 5)).tolist())]
+    plain, spaced = tmp_path / "plain.csv", tmp_path / "spaced.csv"
+    plain.write_text("# units\n" + header + "\n" + "\n".join(rows) + "\n")
+    spaced.write_text("# units\n" + header + "\n" + "\n".join(rows[:50] + [""] + rows[50:]) + "\n")
+    a, b = reader.read_measurements(plain), reader.read_measurements(spaced)
+    assert a == b and a.n_rows == 120 and a.stages == (1, 2, 3)
+    assert reader._plain_columns(plain.read_text().splitlines()[2:], 9) is not None      # the one-pass path ran
+    assert reader._plain_columns(spaced.read_text().splitlines()[2:], 9) is None
+    np.testing.assert_array_equal(a.values["uy"], [float(r.split(",")[7]) for r in rows])
+    np.testing.assert_array_equal(a.stage, [1 + k // 40 for k in range(120)])
+    for k, (old, bad, message) in enumerate([
+            (rows[10], rows[10] + ",1.0", r"plain\d?.csv:13: 10 fields, but the header \(line 2\) has 9"),
+            (rows[10], rows[10].replace(",-5.0,", ",-5.0.1,"), r":13: column 'y': '-5.0.1' is not a number"),
+            (rows[11], rows[10], r":14: column 'point': point 'P10' at stage 1 is already on line 13"),
+            (rows[45], rows[45].replace(",200.0,", ",201.0,"), r":48: column 'force': 201.0 N differs from 200.0 N "
+                                                               r"of stage 2 on line 43")]):
+        path = tmp_path / f"plain{k}.csv"
+        path.write_text("# units\n" + header + "\n" + "\n".join(rows).replace(old, bad, 1) + "\n")
+        with pytest.raises(InputError, match=message):
+            reader.read_measurements(path)
+
+
 def _grid(spacing: float, n: int) -> np.ndarray:
     x, y = np.meshgrid(np.arange(n) * spacing, np.arange(n) * spacing)
     return np.column_stack([x.ravel(), y.ravel()])

@@ -54,11 +54,16 @@ def compressed(observe: sp.spmatrix | None) -> tuple[sp.csr_matrix | None, sp.cs
     if observe is None:
         return None, None
     observe = sp.csr_matrix(observe)
-    kept = np.unique(observe.indices)
+    kept = np.flatnonzero(np.bincount(observe.indices, minlength=observe.shape[1]))
     if len(kept) >= observe.shape[0]:
         return observe, None
     select = sp.csr_matrix((np.ones(len(kept)), (np.arange(len(kept)), kept)), shape=(len(kept), observe.shape[1]))
-    return select, observe[:, kept].tocsr()
+    # observe[:, kept] by renumbering the columns (the entries keep their order): 1e5 points' 14 million entries
+    # in tens of ms instead of scipy's column indexing's half second
+    column = np.zeros(observe.shape[1], dtype=observe.indices.dtype)
+    column[kept] = np.arange(len(kept), dtype=observe.indices.dtype)
+    return select, sp.csr_matrix((observe.data, column[observe.indices], observe.indptr),
+                                 shape=(observe.shape[0], len(kept)))
 
 
 @dataclass(frozen=True)
