@@ -118,7 +118,8 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         for frame in frames:
             echo(f"{frame['file']}: {frame['line']}")
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
-                                     config.data.get("noise"), config.data.get("regions"), relative, specimens)
+                                     config.data.get("noise"), config.data.get("regions"), relative, specimens,
+                                     config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
                  data_file, tuple(frames))
 

@@ -14,7 +14,8 @@ from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
 from .fem.locate import PointsOutside
-from .inverse.observations import FORCE, machine_force, region_of_points
+from .data.table import CHANNELS
+from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, region_of_points
 from .inverse.parameters import Parameters
 from .report.vtu import export_fields
 
@@ -26,7 +27,9 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     """Solve at the configured coefficients; one row per point of the data file and model stage.
 
     The `force` column is the machine force (see :func:`~frictionid.inverse.observations.machine_force`) where
-    the model is driven by a prescribed displacement, empty otherwise. With ``[run] fields`` (default true) the
+    the model is driven by a prescribed displacement, empty otherwise; the `torque` [N m] and `clamp` [N] columns
+    are written where :func:`~frictionid.inverse.observations.channel_reaction` finds their reaction (the torque
+    of a turned boundary, ``[data] reactions``). With ``[run] fields`` (default true) the
     fields of the solve go to :func:`fields_folder` of ``out`` for ParaView (docs/results.md); ``echo(text)``
     gets a line about them.
     """
@@ -40,12 +43,18 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     xyz = np.array([source.coordinates[first[p]] for p in labels])
     if model.kind != "3d" and np.any(np.abs(xyz[:, 2]) > PLANE_TOL * max(1.0, float(np.abs(xyz).max()))):
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
-    quantities = tuple(q for q in config.data.get("observables") or DEFAULT_QUANTITIES[model.dim] if q != FORCE)
+    quantities = tuple(q for q in config.data.get("observables") or DEFAULT_QUANTITIES[model.dim]
+                       if q not in STAGE_OBSERVABLES)
     region_of = region_of_points(config.data.get("regions"), labels, model.mesh.region_names)
-    try:
-        reactions = (machine_force(model),)
-    except InputError:      # loaded by a prescribed force: no machine force to report
-        reactions = ()
+    channels = {}
+    for channel in STAGE_OBSERVABLES:
+        try:
+            channels[channel] = channel_reaction(model, channel, config.data.get("reactions"),
+                                                 f"{config.where}: [data] reactions")
+        except InputError:      # e.g. loaded by a prescribed force: no machine force to report
+            if channel in (config.data.get("reactions") or {}):
+                raise
+    reactions = tuple(channels.values())
     try:
         backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
                                [region_of[p] for p in labels], solver_options(config),
@@ -56,15 +65,18 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     n_points, n_stages = len(labels), model.n_stages
     n_rows = n_points * len(quantities)
     values = prediction.values[:, :n_rows].reshape(n_stages, n_points, len(quantities))
-    force = prediction.values[:, n_rows] if reactions else np.full(n_stages, np.nan)
+    sums = dict(zip(channels, prediction.values[:, n_rows:].T))
+    force = sums.get(FORCE, np.full(n_stages, np.nan))
     measurements = Measurements(
         points=tuple(labels) * n_stages, coordinates=np.tile(xyz, (n_stages, 1)),
         stage=np.repeat(np.arange(1, n_stages + 1), n_points), force=np.repeat(force, n_points),
         values={q: values[:, :, k].ravel() for k, q in enumerate(quantities)}, sigma={},
         comments=(f"frictionid simulate {config.path.name}: {model.kind} model, builder "
                   f"{config.model.get('builder')!r}", "units: mm, N; strains dimensionless (tensor shear)",
-                  "coefficients: " + ", ".join(f"{n}={v:g}" for n, v in zip(mu.names, mu.full(mu.x0)))),
-        source=str(out))
+                  "coefficients: " + ", ".join(f"{n}={v:g}" for n, v in zip(mu.names, mu.full(mu.x0))),
+                  *(f"{c}: {CHANNELS[c][0]} [{CHANNELS[c][1]}], reaction {channels[c]}" for c in CHANNELS
+                    if c in channels)),
+        source=str(out), channels={c: np.repeat(sums[c] / CHANNELS[c][2], n_points) for c in CHANNELS if c in sums})
     write_measurements(out, measurements)
     if config.run["fields"]:
         export_fields(backend, mu.full(mu.x0), fields_folder(out), echo)

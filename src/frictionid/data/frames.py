@@ -251,4 +251,4 @@ def in_model_frame(m: Measurements, frame: Frame, note: str) -> Measurements:
     values = {q: values[q] for q in DISPLACEMENTS + STRAINS if q in values}
     sigma = {q: np.where(np.isnan(values[q]), np.nan, sigma[q]) for q in values if q in sigma}
     return Measurements(m.points, frame.points(m.coordinates), m.stage, m.force, values, sigma,
-                        m.comments + (note,), m.source)
+                        m.comments + (note,), m.source, m.channels)

@@ -15,17 +15,20 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .table import QUANTITIES, REQUIRED, UNITS_COMMENT, Measurements, comment_text, map_to_axisymmetric
+from .table import CHANNELS, QUANTITIES, REQUIRED, UNITS_COMMENT, Measurements, comment_text, map_to_axisymmetric
 
 SIGMAS = tuple(f"sigma_{q}" for q in QUANTITIES)
-KNOWN = REQUIRED + ("force",) + QUANTITIES + SIGMAS
+#: per-stage columns: the machine force and the channels of a tightening test (wrench torque, clamp force)
+STAGE_COLUMNS = ("force",) + tuple(CHANNELS)
+KNOWN = REQUIRED + STAGE_COLUMNS + QUANTITIES + SIGMAS
 #: rows of one stage must give the same machine force up to this relative difference
 FORCE_RTOL = 1e-9
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _INTEGER = re.compile(r"\+?\d+")
 _SPACE = re.compile(r"\s")
 
-__all__ = ["Measurements", "QUANTITIES", "REQUIRED", "UNITS_COMMENT", "map_to_axisymmetric", "read_measurements",
+__all__ = ["CHANNELS", "Measurements", "QUANTITIES", "REQUIRED", "UNITS_COMMENT", "map_to_axisymmetric",
+           "read_measurements",
            "write_measurements"]
 
 
@@ -37,7 +40,8 @@ def _at(source: str, line: int, column: str | None = None) -> str:
 def read_measurements(path) -> Measurements:
     """Read a measurement CSV (docs/data.md, "The generic CSV").
 
-    ``#`` comment lines (kept), a header ``point,x,y,z,stage[,force][,ux,...,exz][,sigma_<quantity>...]``
+    ``#`` comment lines (kept), a header ``point,x,y,z,stage[,force][,torque][,clamp][,ux,...,exz]
+    [,sigma_<quantity>...]``
     in any column order, then one row per (point, stage). Empty cells of optional columns are missing values.
 
     Raises
@@ -47,7 +51,7 @@ def read_measurements(path) -> Measurements:
         or no data rows, missing / unknown / duplicate columns, a sigma column without its value column,
         a row with the wrong number of fields, a cell that is not a finite number (``nan``, ``inf`` written
         out), a stage that is not a positive integer, a sigma <= 0, a (point, stage) given twice, a quantity
-        column with no value, and rows of one stage with different forces.
+        column with no value, and rows of one stage with different forces (torques, clamp forces).
 
     Examples
     --------
@@ -67,7 +71,7 @@ def read_measurements(path) -> Measurements:
         stage=np.array(cells["stage"], dtype=int), force=np.array(cells.get("force", [np.nan] * len(lines))),
         values={q: np.array(cells[q]) for q in QUANTITIES if q in cells},
         sigma={q: np.array(cells[f"sigma_{q}"]) for q in QUANTITIES if f"sigma_{q}" in cells},
-        comments=tuple(comments), source=source)
+        comments=tuple(comments), source=source, channels={c: np.array(cells[c]) for c in CHANNELS if c in cells})
 
 
 def _read_lines(path) -> list[str]:
@@ -154,7 +158,7 @@ def _check_header(source: str, line: int, names: list[str]) -> dict[str, int]:
     unknown = [_unknown(name, index) for index, name in enumerate(names) if name not in KNOWN]
     if unknown:
         raise InputError(f"{at}unknown column{'s' if len(unknown) > 1 else ''} {'; '.join(unknown)}. Known: "
-                         f"{', '.join(REQUIRED + ('force',) + QUANTITIES)} and sigma_<quantity>")
+                         f"{', '.join(REQUIRED + STAGE_COLUMNS + QUANTITIES)} and sigma_<quantity>")
     missing = [name for name in REQUIRED if name not in seen]
     if missing:
         raise InputError(f"{at}missing required column{'s' if len(missing) > 1 else ''} "
@@ -244,19 +248,20 @@ def _check_rows(source: str, header_line: int, lines: list[int], cells: dict) ->
                 raise InputError(f"{_at(source, line, 'point')}point {key[0]!r} at stage {key[1]} is already on "
                                  f"line {first[key]}")
             first[key] = line
-    if "force" in cells:
-        _check_stage_values(source, lines, np.asarray(cells["stage"]), np.asarray(cells["force"], dtype=float),
-                            "force")
+    stage = np.asarray(cells["stage"])
+    for name in STAGE_COLUMNS:
+        if name in cells:
+            _check_stage_values(source, lines, stage, np.asarray(cells[name], dtype=float), name)
     for q in QUANTITIES:
         if q in cells and np.all(np.isnan(cells[q])):
             raise InputError(f"{_at(source, header_line, q)}no row has a value; leave the column out")
 
 
 def _check_stage_values(source: str, lines: list[int], stage: np.ndarray, value: np.ndarray, name: str) -> None:
-    """Every value of a per-stage column (the machine force) given at a stage equals the first one given at that
-    stage (up to FORCE_RTOL)."""
+    """Every value of a per-stage column (force, torque, clamp) given at a stage equals the first one given at
+    that stage (up to FORCE_RTOL)."""
     given = ~np.isnan(value)
-    unit, what = "N", "machine force"
+    unit, what = ("N", "machine force") if name == "force" else (CHANNELS[name][1], CHANNELS[name][0])
     for s in np.unique(stage[given]):
         rows = np.flatnonzero(given & (stage == s))
         reference = value[rows[0]]
@@ -270,9 +275,10 @@ def _check_stage_values(source: str, lines: list[int], stage: np.ndarray, value:
 def write_measurements(path, measurements: Measurements) -> None:
     """Write ``measurements`` as a measurement CSV that :func:`read_measurements` reads back equal.
 
-    Comment lines first (``# `` + text), then the header (required columns, ``force`` if any row has one,
-    each quantity followed by its sigma column), then one row per point and stage; missing values are
-    empty cells and floats are written with ``repr`` (shortest text that reads back to the same float).
+    Comment lines first (``# `` + text), then the header (required columns, ``force`` if any row has one, the
+    channels ``torque``, ``clamp`` of the table, each quantity followed by its sigma column), then one row per
+    point and stage; missing values are empty cells and floats are written with ``repr`` (shortest text that
+    reads back to the same float).
 
     Raises
     ------
@@ -282,7 +288,7 @@ def write_measurements(path, measurements: Measurements) -> None:
     """
     m = measurements
     _check_writable(m)
-    columns = list(REQUIRED) + (["force"] if np.any(~np.isnan(m.force)) else [])
+    columns = list(REQUIRED) + (["force"] if np.any(~np.isnan(m.force)) else []) + list(m.channels)
     for q in m.quantities:
         columns += [q] + ([f"sigma_{q}"] if q in m.sigma else [])
     with open(path, "w", newline="", encoding="utf-8") as stream:
@@ -301,6 +307,8 @@ def _text(m: Measurements, i: int, name: str) -> str:
         value = m.coordinates[i, "xyz".index(name)]
     elif name == "force":
         value = m.force[i]
+    elif name in m.channels:
+        value = m.channels[name][i]
     else:
         value = m.sigma[name[6:]][i] if name.startswith("sigma_") else m.values[name][i]
     return "" if np.isnan(value) else repr(float(value))
@@ -316,7 +324,7 @@ def _check_writable(m: Measurements) -> None:
         raise InputError(f"{where}: a comment must be a single line")
     if np.any(m.stage < 1):
         raise InputError(f"{where}: stages must be positive integers")
-    for name, column in [("coordinates", m.coordinates), ("force", m.force), *m.values.items()]:
+    for name, column in [("coordinates", m.coordinates), ("force", m.force), *m.channels.items(), *m.values.items()]:
         if np.any(np.isinf(column)) or (name == "coordinates" and np.any(np.isnan(column))):
             raise InputError(f"{where}: {name} must be finite numbers (nan only for missing optional values)")
     for q, column in m.sigma.items():

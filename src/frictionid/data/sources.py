@@ -250,7 +250,7 @@ def _with_view(entry: Entry, m: Measurements) -> Measurements:
     if entry.view is None and entry.specimen is None:
         return m
     return Measurements(tuple(entry.label(p) for p in m.points), m.coordinates, m.stage, m.force, m.values,
-                        m.sigma, m.comments + (f"labelled {entry.label('<point>')!r}",), m.source)
+                        m.sigma, m.comments + (f"labelled {entry.label('<point>')!r}",), m.source, m.channels)
 
 
 def _with_forces(m: Measurements, forces: dict[int, float]) -> Measurements:
@@ -263,7 +263,7 @@ def _with_forces(m: Measurements, forces: dict[int, float]) -> Measurements:
             raise InputError(f"{m.source}: stage {stage}: the file gives the force {m.force[given][0]!r} N, the "
                              f"config {value!r} N; give one of them")
         force[rows] = value
-    return Measurements(m.points, m.coordinates, m.stage, force, m.values, m.sigma, m.comments, m.source)
+    return Measurements(m.points, m.coordinates, m.stage, force, m.values, m.sigma, m.comments, m.source, m.channels)
 
 
 def _joined(parts: list[Measurements]) -> Measurements:
@@ -285,7 +285,9 @@ def _joined(parts: list[Measurements]) -> Measurements:
         values={q: np.concatenate([m.values.get(q, nan(m)) for m in parts]) for q in names},
         sigma={q: np.concatenate([m.sigma.get(q, nan(m)) for m in parts])
                for q in names if any(q in m.sigma for m in parts)},
-        comments=sum((m.comments for m in parts), ()), source=", ".join(m.source for m in parts))
+        comments=sum((m.comments for m in parts), ()), source=", ".join(m.source for m in parts),
+        channels={c: np.concatenate([m.channels.get(c, nan(m)) for m in parts])
+                  for c in dict.fromkeys(c for m in parts for c in m.channels)})
 
 
 def data_paths(data: dict, resolve) -> list[Path]:

@@ -16,6 +16,9 @@ QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 DISPLACEMENTS = QUANTITIES[:3]
 STRAINS = QUANTITIES[3:]
 UNITS = {**{q: "mm" for q in DISPLACEMENTS}, **{q: "-" for q in STRAINS}}
+#: per-stage channels of a tightening test besides the machine force: name -> (what, unit in the file, factor
+#: from the file's unit to the model's N mm / N); like ``force``, every row of a stage gives the same value
+CHANNELS = {"torque": ("wrench torque", "N m", 1000.0), "clamp": ("clamp force (load cell)", "N", 1.0)}
 #: a comment line a writer can put first so that the file states its units (docs/design.md, conventions)
 UNITS_COMMENT = "units: x, y, z, ux, uy, uz [mm] (undeformed coordinates); strains [-], tensor shear; force [N]"
 #: |z| / r below this counts as "in the x-y plane" when mapping onto an axisymmetric model
@@ -62,6 +65,8 @@ class Measurements:
     sigma : quantity -> (n,) standard deviations of ``values[quantity]``, nan where not given
     comments : the file's comment lines (units, provenance), kept without their leading ``#`` marks
     source : where the measurements came from (file path), for messages
+    channels : name of :data:`CHANNELS` -> (n,) value of the row's stage in the file's unit (torque N m, clamp
+        force N), nan where not given; only the columns of the file
 
     Examples
     --------
@@ -79,6 +84,7 @@ class Measurements:
     sigma: dict[str, np.ndarray] = field(default_factory=dict)
     comments: tuple[str, ...] = ()
     source: str = ""
+    channels: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self):
         n = len(self.points)
@@ -91,6 +97,10 @@ class Measurements:
         set_(self, "values", _columns(self.values, n, "values"))
         set_(self, "sigma", _columns(self.sigma, n, "sigma"))
         set_(self, "comments", tuple(comment_text(c) for c in self.comments))
+        if set(self.channels) - set(CHANNELS):
+            raise ValueError(f"channels: {sorted(set(self.channels) - set(CHANNELS))} are not among {list(CHANNELS)}")
+        set_(self, "channels", {c: np.asarray(self.channels[c], dtype=float).reshape(n)
+                                for c in CHANNELS if c in self.channels})
         if not set(self.sigma) <= set(self.values):
             raise ValueError(f"sigma of {sorted(set(self.sigma) - set(self.values))} without values")
 
@@ -100,7 +110,7 @@ class Measurements:
         return (self.points == other.points and self.comments == other.comments
                 and _same(self.coordinates, other.coordinates) and _same(self.stage, other.stage)
                 and _same(self.force, other.force) and _same_columns(self.values, other.values)
-                and _same_columns(self.sigma, other.sigma))
+                and _same_columns(self.sigma, other.sigma) and _same_columns(self.channels, other.channels))
 
     @property
     def n_rows(self) -> int:
@@ -111,7 +121,7 @@ class Measurements:
         h = hashlib.sha256("\n".join(self.points).encode())
         for array in (self.coordinates, self.stage.astype(np.int64), self.force):
             h.update(np.ascontiguousarray(array).tobytes())
-        for kind, columns in (("v", self.values), ("s", self.sigma)):
+        for kind, columns in (("v", self.values), ("s", self.sigma), ("c", self.channels)):
             for name in sorted(columns):
                 h.update(f"{kind}:{name}".encode())
                 h.update(np.ascontiguousarray(columns[name], dtype=float).tobytes())
@@ -152,7 +162,7 @@ class Measurements:
             stage=self.stage[rows], force=self.force[rows],
             values={q: self.values[q][rows] for q in names},
             sigma={q: self.sigma[q][rows] for q in names if q in self.sigma},
-            comments=self.comments, source=self.source)
+            comments=self.comments, source=self.source, channels={c: v[rows] for c, v in self.channels.items()})
 
     def _known_quantities(self, quantities) -> list[str]:
         quantities = [quantities] if isinstance(quantities, str) else list(quantities)
@@ -189,12 +199,15 @@ class Measurements:
                            for s in self.stages)
         n_missing = sum(int(np.isnan(v).sum()) for v in self.values.values())
         sigmas = [f"sigma_{q} ({np.count_nonzero(~np.isnan(s))} given)" for q, s in self.sigma.items()]
+        channels = [f"{c} [{CHANNELS[c][1]}] " + ", ".join(f"{s}: {_stage_value(v, self.stage == s)}"
+                                                           for s in self.stages) for c, v in self.channels.items()]
         lines = [f"file: {self.source or '(not from a file)'}",
                  f"comments: {len(self.comments)} lines",
                  f"points: {self.n_points}, rows: {self.n_rows}",
                  f"stages: {stages or 'none'}",
                  f"{'quantity':<9}{'unit':<5}{'count':>6}{'missing':>8}{'min':>13}{'max':>13}{'mean':>13}",
                  *(_quantity_line(q, v) for q, v in self.values.items()),
+                 *channels,
                  f"sigma columns: {', '.join(sigmas) or 'none'}",
                  f"missing cells: {n_missing} of {self.n_rows * len(self.values)}"]
         return "\n".join(lines)
@@ -202,6 +215,11 @@ class Measurements:
 
 def _force(value: float) -> str:
     return "no force given" if np.isnan(value) else f"force {value:.6g} N"
+
+
+def _stage_value(column: np.ndarray, rows: np.ndarray) -> str:
+    given = column[rows & ~np.isnan(column)]
+    return f"{given[0]:.6g}" if len(given) else "-"
 
 
 def _quantity_line(q: str, column: np.ndarray) -> str:
@@ -254,7 +272,8 @@ def map_to_axisymmetric(measurements: Measurements) -> Measurements:
         sigma.pop("ux", None)
     note = "mapped to axisymmetric (x = r, y = axis): ux = u_r, exx = e_rr, ezz = e_theta, exy = e_ry"
     return Measurements(points=m.points, coordinates=np.column_stack([r, y, np.zeros_like(r)]), stage=m.stage,
-                        force=m.force, values=values, sigma=sigma, comments=m.comments + (note,), source=m.source)
+                        force=m.force, values=values, sigma=sigma, comments=m.comments + (note,), source=m.source,
+                        channels=m.channels)
 
 
 def _where(m: Measurements, row: int) -> str:

@@ -9,17 +9,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..data.table import DISPLACEMENTS, PLANE_TOL
+from ..data.table import CHANNELS, DISPLACEMENTS, PLANE_TOL
 from ..errors import InputError
-from ..model import Displacement, Model
+from ..model import Displacement, Model, Rotation
 from ..model.model import component_index, reaction_label
 
 #: the observable for the measurement file's `force` column: the machine force of each stage [N]
 FORCE = "force"
+#: observables of one value per stage, each a reaction sum of the model: the machine force and the channels of
+#: a tightening test (`torque`, `clamp` columns; :data:`frictionid.data.table.CHANNELS`)
+STAGE_OBSERVABLES = (FORCE,) + tuple(CHANNELS)
 
 
 def _kind(quantity: str) -> str:
-    return FORCE if quantity == FORCE else "u" if quantity in DISPLACEMENTS else "e"
+    return quantity if quantity in STAGE_OBSERVABLES else "u" if quantity in DISPLACEMENTS else "e"
 
 
 def machine_force(model: Model) -> str:
@@ -43,6 +46,41 @@ def machine_force(model: Model) -> str:
     return driven[0]
 
 
+def channel_reaction(model: Model, channel: str, reactions: dict | None = None,
+                     where: str = "data.reactions") -> str:
+    """Label of the reaction sum of ``model`` that the per-stage observable ``channel`` measures.
+
+    "force": :func:`machine_force`. "torque", "clamp": the label ``reactions`` (the ``[data] reactions`` table)
+    gives for it, e.g. ``{ clamp = "plate1_rim.y" }``; without one, "torque" is the torque about the axis of the
+    one boundary turned by a prescribed rotation (the tightening bolt: "nut_outer.torque") and "clamp" has no
+    default (where the load cell sits is the rig's choice).
+
+    Raises
+    ------
+    InputError
+        A channel with no reaction to measure, or a label that is not one of the model's reactions.
+    """
+    if channel == FORCE:
+        return machine_force(model)
+    reactions = dict(reactions or {})
+    label = reactions.get(channel)
+    if label is None and channel == "torque":
+        turned = list(dict.fromkeys(reaction_label(load.boundary, 2, model.kind) for load in model.loads
+                                    if isinstance(load, Rotation)))
+        label = turned[0] if len(turned) == 1 else None
+    if label is None:
+        example = model.reaction_labels[0] if model.reaction_labels else "boundary.y"
+        raise InputError(f"{where}: the observable {channel!r} ({CHANNELS[channel][0]}) needs the reaction it "
+                         f"measures, e.g. reactions = {{ {channel} = \"{example}\" }}; the model's reactions are "
+                         f"{list(model.reaction_labels)}")
+    if label not in model.reaction_labels:
+        close = difflib.get_close_matches(str(label), list(model.reaction_labels), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"{where}.{channel}: {label!r} is not a reaction of the model{hint}; the model's "
+                         f"reactions are {list(model.reaction_labels)}")
+    return label
+
+
 @dataclass(frozen=True)
 class Observations:
     """The measured values an identification fits.
@@ -55,10 +93,12 @@ class Observations:
     row : (n_obs,) backend row (point * n_quantities + quantity) of each observation
     stage : (n_obs,) 0-based stage of each observation
     y : (n_obs,) measured values; sigma : (n_obs,) standard deviations (from the file or data.noise)
-    labels : "point:quantity@stage" per observation ("force@stage" for the machine force)
+    labels : "point:quantity@stage" per observation ("force@stage" for the machine force, "torque@stage",
+        "clamp@stage" for the channels of a tightening test)
     noise_known : whether sigma is a stated noise level (then chi^2 / dof should be about 1)
-    reactions : reaction sums the backend appends after the point rows (the machine force, if observed):
-        row ``n_points * len(quantities) + k`` is ``reactions[k]``
+    reactions : reaction sums the backend appends after the point rows (the machine force, torque and clamp
+        force, those observed, in that order): row ``n_points * len(quantities) + k`` is ``reactions[k]``;
+        y and sigma of those rows are in the model's units (N mm, N)
     point_labels : the measurement file's label of each point; source : that file, for messages
     minus_row : (n_obs,) backend row subtracted from ``row``'s value (-1: none): a displacement measured relative
         to a reference point's ([data] relative_to) is predicted as the difference of the two points' values
@@ -244,7 +284,7 @@ def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.nda
 
 def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
                       regions: dict | None = None, relative: dict | None = None,
-                      specimens: dict | None = None) -> Observations:
+                      specimens: dict | None = None, reactions: dict | None = None) -> Observations:
     """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model.
 
     ``regions`` is the ``[data] regions`` table, resolved by :func:`region_of_points` against every point of the
@@ -252,20 +292,23 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     relative_to``): that point's displacements are fitted as its displacement minus the reference's at the same
     stage, in the data and in the model (the reference's own displacements are then not fitted). ``specimens``
     (point label -> specimen): each specimen's machine force is an observation of its own (of the same model
-    reaction: specimens share the model and its load path)."""
+    reaction: specimens share the model and its load path). The per-stage observables ``torque`` and ``clamp``
+    (columns of that name, file units N m and N; noise in the same units) are reaction sums of the model too, found
+    by :func:`channel_reaction` from ``reactions`` (the ``[data] reactions`` table)."""
     noise, regions, relative = dict(noise or {}), dict(regions or {}), dict(relative or {})
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
             raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
-    observe_force = FORCE in observables
-    reactions = (machine_force(model),) if observe_force else ()
-    observables = [q for q in observables if q != FORCE]
+    channels = [c for c in STAGE_OBSERVABLES if c in observables]
+    reactions = tuple(channel_reaction(model, c, reactions) for c in channels)
+    observables = [q for q in observables if q not in STAGE_OBSERVABLES]
     wanted = list(observables)
     if model.kind == "axisymmetric" and "ux" in wanted and "uz" in measurements.quantities and "uz" not in wanted:
         wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
     all_labels = measurements.points
     measurements = measurements.select(quantities=wanted, stages=list(stages))
-    forces = _forces(measurements, stages, noise, dict(specimens or {})) if observe_force else []
+    forces = [(k, *f) for k, c in enumerate(channels) for f in _forces(measurements, stages, noise,
+                                                                       dict(specimens or {}), c)]
     measurements, coordinates = _coordinates(measurements, model)
     labels_of = list(dict.fromkeys(measurements.points))
     region_of = region_of_points(regions, all_labels, model.mesh.region_names)
@@ -303,22 +346,22 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
             minus.append(-1 if reference is None else point_index[reference] * len(quantities) + q_index)
             sigma.append(s)
             labels.append(f"{label}:{quantity}@{measurements.stage[i]}")
-    for specimen, stage_number, value, sig in forces:
+    for k, specimen, stage_number, value, sig in forces:
         minus.append(-1)
-        row.append(len(points) * len(quantities))
+        row.append(len(points) * len(quantities) + k)
         stage.append(stage_number - 1)
         y.append(value)
         sigma.append(sig)
-        labels.append(f"{'' if specimen is None else specimen + '/'}{FORCE}@{stage_number}")
+        labels.append(f"{'' if specimen is None else specimen + '/'}{channels[k]}@{stage_number}")
     if not y:
         raise InputError(f"{measurements.source}: no measured values for {list(observables)} at stages {list(stages)}")
     sigma = np.array(sigma)
     noise_known = not np.any(np.isnan(sigma))
-    kinds = {_kind(q) for q in quantities} | ({FORCE} if forces else set())
+    kinds = {_kind(q) for q in quantities} | set(channels)
     if not noise_known and len(kinds) > 1:
         raise InputError("data: displacements and strains are observed together without standard deviations; "
                          "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5, "
-                         "force = 1.0 })")
+                         "force = 1.0 }; torque [N m] and clamp [N] by their names)")
     return Observations(points=points, point_regions=tuple(region_of[p] for p in labels_of),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
                         sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
@@ -337,25 +380,33 @@ def _reference_value(measurements, at: dict, reference: str, quantity: str, i: i
     return float(value)
 
 
-def _forces(measurements, stages, noise: dict, specimens: dict) -> list[tuple[str | None, int, float, float]]:
-    """(specimen or None, stage, machine force [N], sigma or nan) of each specimen and observed stage, from the
-    files' `force` column; the views of one specimen must agree."""
-    sigma = noise.get(FORCE, np.nan)
+def _forces(measurements, stages, noise: dict, specimens: dict,
+            channel: str = FORCE) -> list[tuple[str | None, int, float, float]]:
+    """(specimen or None, stage, value, sigma or nan) of each specimen and observed stage, from the files'
+    ``channel`` column (`force` [N], or `torque` [N m] / `clamp` [N], returned in the model's N mm / N); the
+    views of one specimen must agree."""
+    sigma = noise.get(channel, np.nan)
     if not (isinstance(sigma, (int, float)) and not isinstance(sigma, bool) and (np.isnan(sigma) or sigma > 0)):
-        raise InputError(f"data.noise.{FORCE}: must be a positive number, got {sigma!r}")
+        raise InputError(f"data.noise.{channel}: must be a positive number, got {sigma!r}")
+    what, unit, scale = ("machine force", "N", 1.0) if channel == FORCE else CHANNELS[channel]
+    column = measurements.force if channel == FORCE else measurements.channels.get(channel)
+    if column is None:
+        raise InputError(f"{measurements.source}: data.observables has {channel!r} but the data have no column "
+                         f"{channel!r} ({what} [{unit}] of each stage)")
     of = np.array([specimens.get(p, "") for p in measurements.points])
     out = []
     for specimen in dict.fromkeys(of.tolist()):
         for stage in stages:
             rows = (of == specimen) & (measurements.stage == stage)
-            given = np.unique(measurements.force[rows & ~np.isnan(measurements.force)])
+            given = np.unique(column[rows & ~np.isnan(column)])
             whose = f"specimen {specimen!r}: " if specimen else ""
             if not len(given):
-                raise InputError(f"{measurements.source}: {whose}data.observables has 'force' but no row of stage "
-                                 f"{stage} gives the machine force (column 'force', or a file's force)")
+                source = "column 'force', or a file's force" if channel == FORCE else f"column {channel!r}"
+                raise InputError(f"{measurements.source}: {whose}data.observables has {channel!r} but no row of stage "
+                                 f"{stage} gives the {what} ({source})")
             if len(given) > 1:
-                raise InputError(f"{measurements.source}: {whose}stage {stage} has the machine forces "
-                                 f"{', '.join(f'{f:g}' for f in given)} N from different files; the views of one "
-                                 "stage share one force (several specimens: give each file its specimen)")
-            out.append((specimen or None, int(stage), float(given[0]), float(sigma)))
+                raise InputError(f"{measurements.source}: {whose}stage {stage} has the {what}s "
+                                 f"{', '.join(f'{f:g}' for f in given)} {unit} from different files; the views of one "
+                                 "stage share one value (several specimens: give each file its specimen)")
+            out.append((specimen or None, int(stage), scale * float(given[0]), scale * float(sigma)))
     return out
