@@ -9,14 +9,23 @@ The meshes are structured, the half (quarter) mesh exactly the x >= 0 (and y >= 
 two agree to round-off and the solver tolerance: 1e-8 of each quantity's range.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
+import frictionid.fem.interface as interface_module
+import frictionid.fem.problem as problem_module
+from frictionid.backends.calculix.backend import CalculixBackend
+from frictionid.backends.embedded import EmbeddedBackend
+from frictionid.errors import SolverError
 from frictionid.fem.contact import SLIP, STICK, free_tangents
 from frictionid.fem.problem import Problem
 from frictionid.model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 from frictionid.model.mesh import CELL_FACETS
 
+from test_calculix_run import needs_ccx, rms_of_range
 from test_verification import _check_sensitivities
 
 PLATE, BLOCK = Material(3500.0, 0.35), Material(71000.0, 0.33)
@@ -96,8 +105,8 @@ def block_on_plate(dim: int, whole: bool, n: int = 2) -> Mesh:
 
 def symmetric_model(dim: int, whole: bool, stretch=(0.0, 0.004, 0.03), n: int = 2) -> Model:
     """Press the block's top (20 MPa; its top held laterally), then stretch the plate symmetrically: its sides
-    driven outwards by ``stretch`` [mm] per stage, its bottom held vertically. Stages: press (stick and slip by
-    the bodies' different lateral expansion), a small stretch (partial slip), a large one (gross slip)."""
+    driven outwards by ``stretch`` [mm] per stage, its bottom held vertically. With :data:`STRETCH` the stages
+    are: press (every pair sticks), a small stretch (partial slip), a large one (gross slip)."""
     mesh = block_on_plate(dim, whole, n)
     up = dim - 1
     supports = [Support("plate_bottom", (up,)), Support("block_top", tuple(range(dim - 1)))]
@@ -195,3 +204,94 @@ def test_half_model_gives_the_whole_models_solution(solved):
         np.testing.assert_allclose(sp_.reactions[ip, rp] * scale, sw.reactions[iw, rw], rtol=1e-8)
         np.testing.assert_allclose(sp_.d_reactions[ip, rp] * scale[:, None], sw.d_reactions[iw, rw], rtol=0,
                                    atol=1e-8 * np.abs(sw.d_reactions[iw, rw]).max())
+
+
+@pytest.mark.parametrize("dim", [2, 3], ids=["plane-strain-half", "3d-quarter"])
+def test_sensitivities_with_held_pairs_match_central_differences(dim):
+    """d reactions / d mu of the part model at every increment against central differences (rtol 1e-6,
+    h = 1e-6, the helper of the other solver tests): stick, partial and gross slip with held pairs."""
+    problem = Problem.build(symmetric_model(dim, False, STRETCH))
+    solution = _check_sensitivities(problem, MU)
+    assert np.abs(solution.d_reactions).max() > 0
+
+
+def _rotated(pairs, angle: float):
+    """The pairs with their tangent vectors turned by ``angle`` about the normal (3-D)."""
+    c, s = np.cos(angle), np.sin(angle)
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+    frames = np.einsum("ij,njk->nik", turn, pairs.frames)
+    B = (sp.block_diag([turn] * pairs.n_pairs, format="csr") @ pairs.B).tocsr()
+    return dataclasses.replace(pairs, frames=frames, B=B)
+
+
+def test_held_directions_that_are_not_frame_axes(monkeypatch):
+    """The 3-D quarter with every pair's tangent vectors turned by 30 deg about the normal: on the planes the
+    held direction is then a mix of t1 and t2, its projector not diagonal, the friction force still the same
+    vector, so displacements and reactions are those of the unturned frames (1e-8); sensitivities by central
+    differences."""
+    straight = Problem.build(symmetric_model(3, False, STRETCH))
+    reference = straight.solve(MU)
+    monkeypatch.setattr(problem_module, "contact_pairs",
+                        lambda space, model: _rotated(interface_module.contact_pairs(space, model), np.pi / 6))
+    turned = Problem.build(symmetric_model(3, False, STRETCH))
+    E = free_tangents(turned.pairs.B, turned.condensed.free, 3)
+    partly = (np.trace(E, axis1=1, axis2=2) > 0.5) & (np.trace(E, axis1=1, axis2=2) < 1.5)
+    assert partly.sum() == 8 and np.abs(E[partly][:, 0, 1]).min() > 0.4                       # cos 30 sin 30
+    solution = _check_sensitivities(turned, MU)
+    np.testing.assert_array_equal(solution.state, reference.state)
+    for i in range(solution.n_increments):
+        u = straight.displacement(reference, i)
+        np.testing.assert_allclose(turned.displacement(solution, i), u, rtol=0, atol=1e-8 * np.abs(u).max())
+    np.testing.assert_allclose(solution.reactions, reference.reactions, rtol=0,
+                               atol=1e-8 * np.abs(reference.reactions).max())
+
+
+@needs_ccx
+@pytest.mark.parametrize("dim, n", [(2, 4), (3, 2)], ids=["plane-strain-half", "3d-quarter"])
+def test_part_model_against_calculix(dim, n):
+    """The part model in CalculiX (surface-to-surface penalty contact; the symmetry planes are plain supports
+    there) against the embedded solver: block displacements within 0.5 % of their range (RMS) and every reaction,
+    the symmetry planes' included, within 2 % of the stage's largest at each stage end. Measured: displacements
+    0.05-0.14 %; reactions up to 1.6 % (2-D, the planes' share in gross slip: the tangential traction jumps at
+    x = 0 and the two discretisations spread it differently; 0.14 % with twice the cells), 0.4 % (3-D); ccx
+    about 1 s (2-D) and 1.6 s (3-D) per run."""
+    model = symmetric_model(dim, False, STRETCH, n)
+    if dim == 2:
+        points, quantities = np.array([[x, y] for x in (1.0, 3.0, 4.5) for y in (0.5, 2.0)]), ("ux", "uy")
+    else:
+        points = np.array([[x, y, z] for x in (1.0, 4.5) for y in (1.0, 4.5) for z in (0.5, 2.0)])
+        quantities = ("ux", "uy", "uz")
+    regions = ["block"] * len(points)
+    embedded = EmbeddedBackend(model, points, quantities, regions).problem.solve(MU)
+    ccx = CalculixBackend(model, points, quantities, regions).solve(MU)
+    assert ccx.reaction_labels == embedded.reaction_labels
+    for s in range(3):
+        end = embedded.stage_end(s)
+        assert rms_of_range(embedded.observations[end], ccx.observations[s]) < 0.005
+        reactions = embedded.reactions[end]
+        np.testing.assert_allclose(ccx.reactions[s], reactions, rtol=0, atol=0.02 * np.abs(reactions).max())
+
+
+@pytest.mark.parametrize("overlap", [0.0, 1e-3], ids=["touching", "overlapping"])
+def test_pairs_whose_gap_the_supports_hold(overlap):
+    """Supports holding both sides of the rim's pairs in the normal direction fix their gap: touching, they stay
+    open with no force (the supports carry it) and the centre's pairs take the press; overlapping, no increment
+    has a solution and the error names the cause and a pair."""
+    model = symmetric_model(2, False, STRETCH)
+    mesh = model.mesh
+    points = np.array(mesh.points)
+    points[np.unique(mesh.cells[mesh.regions["block"]]), 1] -= overlap
+    model = dataclasses.replace(model, mesh=Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions),
+                                                 dict(mesh.boundaries)),
+                                supports=model.supports + (Support("rim", (1,)), Support("plate_top", (1,))))
+    problem = Problem.build(model)
+    rim = problem.pairs.zone_share[:, 1] > 0                     # x = 2.5, 3.75, 5: the nodes of the rim's facets
+    assert rim.sum() == 3
+    if overlap:
+        with pytest.raises(SolverError, match=r"supports hold both sides of 3 overlapping contact pair\(s\) in the "
+                                              r"normal direction \(first at node \d+, position \[[\d.]+, -0\.001\]\)"):
+            problem.solve(MU)
+        return
+    solution = problem.solve(MU)
+    assert np.all(solution.state[:, rim] == 0) and np.all(solution.lam[:, rim] == 0.0)
+    assert np.all(solution.state[:, ~rim] != 0)

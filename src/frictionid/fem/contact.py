@@ -50,13 +50,10 @@ def free_tangents(B: sp.spmatrix, free: np.ndarray, dim: int) -> np.ndarray | No
     the whole rows' squared norm. On symmetry planes the free part is exactly zero; a direction within 1e-6 rad of
     a held one has a compliance 1e-12 of the others, which round-off in W cannot tell from zero.
     """
-    B = sp.csr_matrix(B)
+    B, B_f = _on_free(B, free)
     n_pairs = B.shape[0] // dim
-    if dim == 1 or n_pairs == 0:
+    if n_pairs == 0:
         return None
-    on_free = np.zeros(B.shape[1])
-    on_free[free] = 1.0
-    B_f = (B @ sp.diags(on_free)).tocsr()
     rows = [dim * np.arange(n_pairs) + k for k in range(1, dim)]
     gram = np.zeros((n_pairs, dim - 1, dim - 1))
     for a in range(dim - 1):
@@ -72,6 +69,24 @@ def free_tangents(B: sp.spmatrix, free: np.ndarray, dim: int) -> np.ndarray | No
     E[keep.all(axis=1)] = np.eye(dim - 1)              # exactly: the free pairs' equations as without projectors
     E[~keep.any(axis=1)] = 0.0
     return E
+
+
+def held_normals(B: sp.spmatrix, free: np.ndarray, dim: int) -> np.ndarray:
+    """(n_pairs,) pairs whose normal relative displacement the supports hold (criterion of :func:`free_tangents`):
+    their gap is prescribed, their normal force undetermined. At zero gap or open they stay open with no force
+    (the supports carry it); overlapping, no increment has a solution."""
+    B, B_f = _on_free(B, free)
+    normal = dim * np.arange(B.shape[0] // dim)
+    norm = np.asarray(B[normal].multiply(B[normal]).sum(axis=1)).ravel()
+    return np.asarray(B_f[normal].multiply(B_f[normal]).sum(axis=1)).ravel() <= HELD_RTOL ** 2 * norm
+
+
+def _on_free(B: sp.spmatrix, free: np.ndarray) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """(B, B with the columns of prescribed dofs zeroed)."""
+    B = sp.csr_matrix(B)
+    on_free = np.zeros(B.shape[1])
+    on_free[free] = 1.0
+    return B, (B @ sp.diags(on_free)).tocsr()
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,8 @@ import scipy.linalg as la
 
 from ..errors import SolverError
 from .condense import Condensed
-from .contact import OPEN, SLIP, Increment, Linearisation, NewtonResult, free_tangents, newton, stick_predictor
+from .contact import (OPEN, SLIP, Increment, Linearisation, NewtonResult, free_tangents, held_normals, newton,
+                      stick_predictor)
 from .pairs import ContactPairs
 
 log = logging.getLogger(__name__)
@@ -108,6 +109,20 @@ class LoadPathSolver:
             top[:, 1:, :] -= np.einsum("nij,njz->niz", lin.Q[:, 1:, 1:], dw_prev)
         return la.lu_solve(la.lu_factor(lin.J, check_finite=False), -rhs, check_finite=False)
 
+    def _overlap_held(self, amplitude) -> str:
+        """The failure's likely cause where pairs that overlap at ``amplitude`` have their gap held by the
+        supports on both sides (:func:`held_normals`), else ''."""
+        held = held_normals(self.pairs.B, self.c.free, self.pairs.dim)
+        gap = self.pairs.gap + self._increment(amplitude, None).w0[::self.pairs.dim]
+        stuck = np.flatnonzero(held & (gap < 0))
+        if not stuck.size:
+            return ""
+        i = stuck[0]
+        return (f"; the supports hold both sides of {len(stuck)} overlapping contact pair(s) in the normal "
+                f"direction (first at node {int(self.pairs.nodes[i])}, position "
+                f"{np.round(self.pairs.position[i], 6).tolist()}), so their gap cannot close and their contact "
+                "force is undetermined: release the normal support on one side of the interface")
+
     def step(self, path: _Path, start, end, mu, sensitivities: bool, where: str) -> StepResult:
         """Advance ``path`` from amplitude ``start`` to ``end``, halving the step on failure."""
         pending = [(start, end, 0)]
@@ -121,7 +136,7 @@ class LoadPathSolver:
                     raise SolverError(
                         f"contact did not converge in {where}: residual {result.residual:.3g} N after "
                         f"{result.n_iterations} Newton iterations and {depth} increment cuts"
-                        + ("; the active set cycles" if result.cycling else ""))
+                        + ("; the active set cycles" if result.cycling else "") + self._overlap_held(b))
                 n_cuts += 1
                 log.info("%s: Newton stalled at residual %.3g N, cutting the increment (cut %d)",
                          where, result.residual, depth + 1)
