@@ -90,7 +90,8 @@ class Measurements:
         n = len(self.points)
         stage = np.asarray(self.stage)
         set_ = object.__setattr__
-        set_(self, "points", tuple(str(p) for p in self.points))
+        plain = isinstance(self.points, tuple) and set(map(type, self.points)) <= {str}   # 1e5 labels: ms
+        set_(self, "points", self.points if plain else tuple(str(p) for p in self.points))
         set_(self, "coordinates", np.asarray(self.coordinates, dtype=float).reshape(n, 3))
         set_(self, "stage", stage.astype(int).reshape(n))
         set_(self, "force", np.asarray(self.force, dtype=float).reshape(n))

