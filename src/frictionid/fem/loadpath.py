@@ -84,8 +84,8 @@ class LoadPathSolver:
             held = self.pairs.gap <= 1e-9 * (extent or 1.0)
         else:
             held = path.state != OPEN
-        starts = [x for x in (stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held, self.free_T), path.x)
-                  if x is not None]
+        predictor = stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held, self.free_T)
+        starts = [x for x in (predictor, path.x) if x is not None]
         for x0 in starts:
             result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0),
                             free_T=self.free_T)
