@@ -86,7 +86,7 @@ def _on_free(B: sp.spmatrix, free: np.ndarray) -> tuple[sp.csr_matrix, sp.csr_ma
     B = sp.csr_matrix(B)
     on_free = np.zeros(B.shape[1])
     on_free[free] = 1.0
-    return B, (B @ sp.diags(on_free)).tocsr()
+    return B, sp.csr_matrix((B.data * on_free[B.indices], B.indices, B.indptr), shape=B.shape)
 
 
 @dataclass(frozen=True)
