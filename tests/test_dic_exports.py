@@ -64,6 +64,19 @@ def test_check_data_says_what_it_recognised(capsys):
     assert "points: 12, rows: 12" in out                       # the measurements' summary follows
 
 
+def test_dice_invalid_markers_are_dropped_and_counted_each(capsys):
+    """DICe marks a failed point by SIGMA = -1 and MATCH = -1 (record_failed_step) and by its STATUS_FLAG; each marker
+    alone drops the row and check-data counts it under that marker."""
+    m, report = read_export(FIXTURES / "DICe_solution_0001.txt", stage=1)
+    assert report.dropped == {"with SIGMA = -1 (correlation failed)": 1, "with MATCH = -1 (correlation failed)": 1,
+                              "with a STATUS_FLAG of failure (not 0-4, 6, 18 or 26: DICe's Status_Flag)": 1}
+    assert "2" not in m.points and "8" not in m.points and "12" not in m.points and len(m.points) == 12
+    assert main(["check-data", str(FIXTURES / "DICe_solution_0001.txt")]) == 0
+    out = capsys.readouterr().out
+    assert "12 valid of 15 rows; dropped: 1 with SIGMA = -1 (correlation failed); 1 with a STATUS_FLAG" in out
+    assert "1 with MATCH = -1" in out
+
+
 def test_check_data_reads_a_generic_csv_as_before(capsys):
     assert main(["check-data", str(FIXTURES / "generic.csv")]) == 0
     out = capsys.readouterr().out

@@ -5,12 +5,22 @@ read by public post-processing scripts such as aa55865/DIC_scripts' ``data_parse
 ``SUBSET_ID`` (the point id), ``COORDINATE_X/Y`` and ``DISPLACEMENT_X/Y`` (image coordinates, pixels),
 stereo / calibrated runs add ``MODEL_COORDINATES_X/Y/Z`` and ``MODEL_DISPLACEMENT_X/Y/Z`` (in the units of the
 calibration, taken as mm), ``VSG_STRAIN_XX/YY/XY`` (virtual strain gauge, Green-Lagrange tensor components),
-``SIGMA`` (-1 where the correlation failed), ``STATUS_FLAG``, ``GAMMA``, ``BETA``, ... The model columns are read
-when present; pixel columns alone are refused (a pixel is not a length). ``NORMAL_STRAIN_X`` etc. are the
-subset shape function's parameters, not the strain field, and are not read. Rows with ``SIGMA = -1`` are dropped.
+``SIGMA`` (-1 where the correlation failed), ``MATCH``, ``STATUS_FLAG``, ``GAMMA``, ``BETA``, ... The model columns
+are read when present; pixel columns alone are refused (a pixel is not a length). ``NORMAL_STRAIN_X`` etc. are
+the subset shape function's parameters, not the strain field, and are not read.
+
+Invalid points, as DICe marks them (its ``Schema::record_failed_step`` sets ``SIGMA``, ``MATCH``, ``GAMMA`` and
+``BETA`` to -1 and ``STATUS_FLAG`` to the reason; the reasons are DICe's ``Status_Flag`` enumeration in
+``DICe_Types.h``): rows with ``SIGMA = -1``, with ``MATCH = -1``, or with a ``STATUS_FLAG`` other than the
+successful ones (0 correlation successful, 1-4 initialised from the previous frame / a connected subset / a
+neighbour / successfully, 6 search successful, 18 search using the previous step successful, 26 reference subset
+reset) are dropped, each counted under its marker. Code 15 (a value averaged from connected subsets, not
+correlated) is dropped as well: it is not a measurement of that point.
 """
 
 from __future__ import annotations
+
+import math
 
 from .layout import Layout
 
@@ -18,6 +28,13 @@ NAME = "dice"
 TITLE = "DICe solution file"
 KEY_COLUMNS = "SUBSET_ID, COORDINATE_X or MODEL_COORDINATES_X, ..., SIGMA"
 _AXES = {"X": "x", "Y": "y", "Z": "z"}
+#: DICe's Status_Flag values of a point whose values were correlated (see the module docstring)
+SUCCESS_FLAGS = frozenset({0, 1, 2, 3, 4, 6, 18, 26})
+#: (column, test, reason) of DICe's invalid-point markers, tried in this order
+INVALID = (("SIGMA", lambda v: v == -1.0, "with SIGMA = -1 (correlation failed)"),
+           ("MATCH", lambda v: v == -1.0, "with MATCH = -1 (correlation failed)"),
+           ("STATUS_FLAG", lambda v: not math.isnan(v) and v not in SUCCESS_FLAGS,
+            "with a STATUS_FLAG of failure (not 0-4, 6, 18 or 26: DICe's Status_Flag)"))
 
 
 def recognise(names: tuple[str, ...]) -> bool:
@@ -38,5 +55,5 @@ def layout(names: tuple[str, ...]) -> Layout:
             columns["e" + component.lower()] = f"VSG_STRAIN_{component}"
     unit = "mm" if model else "px"
     units = {t: unit for t in columns if t in ("x", "y", "z", "ux", "uy", "uz")}
-    invalid = (("SIGMA", lambda v: v == -1.0, "with SIGMA = -1 (correlation failed)"),) if "SIGMA" in names else ()
+    invalid = tuple(marker for marker in INVALID if marker[0] in names)
     return Layout(NAME, columns, "green-lagrange", "DICe's VSG_STRAIN_* are Green-Lagrange", invalid, units)
