@@ -257,8 +257,9 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
                                config.data.get("strain_window"))
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
+    backend_s = time.perf_counter() - condensed
     echo(f"{config.solver['backend']} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "
-         f"({time.perf_counter() - condensed:.1f} s{', condensed' if config.solver['backend'] == 'embedded' else ''})")
+         f"({backend_s:.1f} s{', condensed' if config.solver['backend'] == 'embedded' else ''})")
     executor = make_executor(backend, int(config.run["workers"]), config.run["scheduler"],
                              int(config.run["retries"]), f"{config.where}:")
     try:
@@ -280,7 +281,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     store.set_status("running")
     try:
         result = _finish(config, setup, evaluator, problem, store, run_dir, start, on_prefit, progress, write_files,
-                         echo)
+                         echo, backend_s)
     finally:
         evaluator.close()
     return IdentificationResult(result, run_dir if write_files else None)
@@ -303,7 +304,8 @@ def _iteration_lines(echo, on_iteration=None):
 
 
 def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: RunStore, run_dir: Path,
-            start: float, on_prefit, progress, write_files: bool = True, echo=lambda text: None) -> dict:
+            start: float, on_prefit, progress, write_files: bool = True, echo=lambda text: None,
+            backend_s: float | None = None) -> dict:
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
     leaves result.json (with ``write_files``; the store keeps the result either way)."""
     try:
@@ -333,6 +335,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     if zones:
         echo(f"profiles of {', '.join(zones)}: {int(config.identify['profile_points'])} refits each ...")
         result["profiles"] = _profiles(config, setup, evaluator, store, result, zones)
+    result["timings"] = solve_timings(store, backend_s)
     store.put_result(result)
     store.set_status(result["status"])
     if write_files:
@@ -341,6 +344,21 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
             export_fields(evaluator.backend, [result["parameters"][z]["value"] for z in setup.model.zone_names],
                           run_dir / "fields", echo)
     return result
+
+
+def solve_timings(store: RunStore, backend_s: float | None = None) -> dict:
+    """result.json's ``timings``: the backend's set-up time [s] (model condensed, or ccx checked) and, per kind
+    of evaluation in the store ("forward", "forward+sensitivities", "held ..."), the count and the wall times [s]
+    of its successful solves as measured where they ran (in a worker process with run.workers; replayed
+    evaluations keep the time of the run that made them)."""
+    walls: dict[str, list[float]] = {}
+    for evaluation in store.evaluations():
+        if evaluation.status == "ok":
+            walls.setdefault(evaluation.kind, []).append(evaluation.wall_time)
+    return {"backend_s": None if backend_s is None else float(backend_s),
+            "solves": {kind: {"n": len(w), "median_s": float(np.median(w)), "min_s": float(np.min(w)),
+                              "max_s": float(np.max(w)), "total_s": float(np.sum(w))}
+                       for kind, w in walls.items()}}
 
 
 def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
