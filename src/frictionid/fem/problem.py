@@ -184,9 +184,10 @@ class Problem:
         mu_pair = self.pairs.mu(mu)
         records = []
         previous = np.zeros(amps.shape[1])
-        # one BLAS thread: the Newton steps' dense solves (a few hundred to a few thousand unknowns) gain little
-        # from threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared
-        # (benchmarks/blas_threads.py)
+        # one BLAS thread for the whole solve, the outputs' products included: the Newton steps' dense solves (a
+        # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
+        # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
+        # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py)
         with threadpool_limits(1, user_api="blas"):
             for i, (stage, amp) in enumerate(zip(stages, amps)):
                 where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
@@ -195,7 +196,7 @@ class Problem:
                                 step.n_newton, step.n_cuts))
                 log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
                 previous = amp
-        solution = self._solution(mu, stages, amps, records, sensitivities)
+            solution = self._solution(mu, stages, amps, records, sensitivities)
         if max_slip is not None:
             self.check_small_sliding(solution, max_slip)
         return solution
@@ -209,8 +210,8 @@ class Problem:
         d_obs = d_reac = None
         if sensitivities:
             S = np.array([r[2] for r in records])                               # (n_inc, n_x, n_z)
-            d_obs = np.einsum("ox,ixz->ioz", c.obs_ops.full, S)
-            d_reac = np.einsum("ox,ixz->ioz", c.reac_ops.full, S)
+            d_obs = c.obs_ops.full @ S                                           # (n_inc, n_obs, n_z)
+            d_reac = c.reac_ops.full @ S
         if self.expand is not None:
             outputs["obs"] = ExpandedRows(outputs["obs"], self.expand)
             d_obs = None if d_obs is None else ExpandedRows(d_obs, self.expand)
