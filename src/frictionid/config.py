@@ -22,7 +22,7 @@ SCHEMA = {
              "relative_to": None, "strain_window": None, "reactions": {}},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
-               "load_scale": 1.0},
+               "load_scale": 1.0, "factorisation": "auto"},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
@@ -64,6 +64,7 @@ TYPES = {
     "solver.normal_stiffness": ((int, float), "a number [N/mm^3]"),
     "solver.stick_slope": ((int, float), "a number [N/mm^3]"),
     "solver.load_scale": ((int, float), "a number > 0"),
+    "solver.factorisation": (str, '"auto", "cholmod" or "superlu"'),
     "identify.method": (str, "a method name"),
     "identify.jacobian": (str, '"analytic", "forward" or "central"'),
     "identify.max_iterations": (int, "a whole number"),
@@ -116,6 +117,19 @@ def _check_types(tables: dict, path: Path) -> None:
         for item in tables[table].get(key) or []:
             if isinstance(item, bool) or not isinstance(item, kind):
                 raise InputError(f"{path}: {dotted} has {item!r}; expected {TYPES[dotted][1]}")
+
+
+#: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu")}
+
+
+def _check_choices(tables: dict, path: Path) -> None:
+    for dotted, names in CHOICES.items():
+        table, key = dotted.split(".")
+        value = tables[table].get(key)
+        if value is not None and value not in names:
+            raise InputError(f"{path}: {dotted} must be {TYPES[dotted][1]}, got {value!r}"
+                             f"{_suggest(value, names)}")
 
 
 @dataclass(frozen=True)
@@ -222,6 +236,7 @@ def _validated(raw: dict, path: Path, text: str, need: tuple[str, ...], name: st
             raise InputError(f"{where}: missing table [{table}]")
     tables = {table: _table(raw, table, where) for table in SCHEMA}
     _check_types(tables, where)
+    _check_choices(tables, where)
     if isinstance(tables["model"].get("file"), str):      # a builder's mesh file: relative to the config's folder
         tables["model"]["file"] = str(path.resolve().parent / tables["model"]["file"])
     for table, key in (("model", "builder"), ("friction", "zones")):

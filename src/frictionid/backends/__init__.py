@@ -27,8 +27,9 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
     points : (n, dim) [mm]; quantities : observed quantities; regions : region of each point (or None)
     options : the [solver] keys (``ccx``, ``timeout``, ``keep_work``, ``work_dir``, ``threads``, ``contact``,
         ``normal_stiffness``, ``stick_slope``, ``load_scale``: see
-        :class:`~frictionid.backends.calculix.backend.CalculixSettings`);
-        the embedded backend has none and ignores them.
+        :class:`~frictionid.backends.calculix.backend.CalculixSettings`); the embedded backend reads
+        ``factorisation`` ("auto", "cholmod", "superlu": how the condensation factorises the stiffness) and
+        ignores the others.
     where : how messages name the options' origin
     reactions : labels of reaction sums ("boundary.axis") appended as rows after the point rows
     window : DIC strain window [mm] of the strains ([data] strain_window), embedded backend only
@@ -41,7 +42,8 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
     if name == "embedded":
         from .embedded import EmbeddedBackend
 
-        return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions), window=window)
+        return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions), window=window,
+                               factorisation=(options or {}).get("factorisation", "auto"))
     if name == "calculix":
         if window is not None:
             raise InputError("data.strain_window needs the embedded backend: the calculix backend reads strains "

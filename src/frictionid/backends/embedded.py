@@ -76,12 +76,13 @@ def _cached(key, kind: str = "condensed", *extra) -> Path | None:
     return _CACHE[0] / f"{kind}-{digest}.{'pkl' if kind == 'condensed' else 'npz'}"
 
 
-def _key(model: Model, points, quantities: tuple[str, ...], regions, window=None) -> tuple:
-    return (model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
-            quantities, None if regions is None else tuple(regions)) + (() if window is None else (window,))
+def _key(model: Model, points, quantities: tuple[str, ...], regions, window=None, factorisation="auto") -> tuple:
+    return ((model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
+             quantities, None if regions is None else tuple(regions)) + (() if window is None else (window,))
+            + (() if factorisation == "auto" else (factorisation,)))
 
 
-def _load_or_build(key, model: Model, points, quantities, regions, window=None) -> Problem:
+def _load_or_build(key, model: Model, points, quantities, regions, window=None, factorisation="auto") -> Problem:
     path = _cached(key)
     if path is not None and path.exists():
         try:
@@ -92,7 +93,8 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None) 
                 return problem
         except Exception as exc:                              # a truncated or stale file: build anew
             log.warning("condensation cache %s unreadable (%s); building it again", path, exc)
-    problem = Problem.build(model, points=points, quantities=quantities, regions=regions, window=window)
+    problem = Problem.build(model, points=points, quantities=quantities, regions=regions, window=window,
+                            factorisation=factorisation)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_suffix(f".{os.getpid()}.part")
@@ -103,24 +105,25 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None) 
 
 
 def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: bool = True,
-           window: float | None = None) -> Problem:
+           window: float | None = None, factorisation: str = "auto") -> Problem:
     """Problem.build, reusing a recent build when model and observation points are the same in content.
 
     Runs of one session (a study's several identifications, an example's methods) share the condensation;
     at most :data:`N_KEPT` builds are kept, so memory holds few factorisations besides the ones in use.
     ``keep=False``: a one-off build (e.g. a refined mesh for an error estimate) that uses a kept build if there
     is one but neither stores itself nor pushes a kept build out. With :func:`use_cache` the builds are also
-    stored on disk and read back in later sessions.
+    stored on disk and read back in later sessions. ``factorisation``: how the condensation factorises the
+    stiffness (:meth:`Problem.build`); builds with another factorisation are not reused.
     """
-    key = _key(model, points, quantities, regions, window)
+    key = _key(model, points, quantities, regions, window, factorisation)
     if key in _RECENT:
         _RECENT[key] = _RECENT.pop(key)                        # most recently used last
         return _RECENT[key]
     if not keep:
-        return _load_or_build(key, model, points, quantities, regions, window)
+        return _load_or_build(key, model, points, quantities, regions, window, factorisation)
     while len(_RECENT) >= N_KEPT:
         _RECENT.pop(next(iter(_RECENT)))
-    _RECENT[key] = _load_or_build(key, model, points, quantities, regions, window)
+    _RECENT[key] = _load_or_build(key, model, points, quantities, regions, window, factorisation)
     return _RECENT[key]
 
 
@@ -131,23 +134,25 @@ class EmbeddedBackend:
     block test) appended as rows after the point rows; none by default. ``keep``: whether the condensation is
     kept for reuse by later backends of the same session (see :func:`_built`). ``window`` [mm]: the DIC strain
     window the model's strains are filtered with ([data] strain_window; :func:`frictionid.fem.points.point_operator`).
+    ``factorisation``: "auto", "cholmod" or "superlu", the condensation's factorisation ([solver] factorisation).
     """
 
     name = "embedded"
     has_sensitivities = True
 
     def __init__(self, model: Model, points: np.ndarray, quantities: tuple[str, ...], regions=None,
-                 reactions: tuple[str, ...] = (), keep: bool = True, window: float | None = None):
+                 reactions: tuple[str, ...] = (), keep: bool = True, window: float | None = None,
+                 factorisation: str = "auto"):
         self.model = model
         points = None if points is None or len(points) == 0 or not quantities else points
-        self.problem = _built(model, points, tuple(quantities), regions, keep, window)
+        self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
         if unknown:
             raise InputError(f"model: no reaction {unknown}; the model's reactions are "
                              f"{list(self.problem.reaction_labels)}")
         self.reactions = tuple(reactions)
         self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
-        self._key = _key(model, points, tuple(quantities), regions, window) if _CACHE else None
+        self._key = _key(model, points, tuple(quantities), regions, window, factorisation) if _CACHE else None
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
         """The observation rows at ``mu``; with :func:`use_cache` read from (or written to) the cache folder."""

@@ -88,7 +88,7 @@ class Problem:
     @classmethod
     def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
               points=None, quantities=("ux", "uy"), regions=None, compress: bool = True,
-              window: float | None = None) -> "Problem":
+              window: float | None = None, factorisation: str = "auto") -> "Problem":
         """Assemble, discretise the interfaces and condense.
 
         Parameters
@@ -103,6 +103,9 @@ class Problem:
         compress : bool
             Condense the dofs the observation rows touch instead of the rows when they are fewer (see
             :func:`compressed`; a full field); False: always the rows.
+        factorisation : "auto" | "cholmod" | "superlu"
+            How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
+            [solver] factorisation).
         """
         space = Space.build(model.mesh, model.kind, model.element)
         if points is not None and observe is not None:
@@ -121,7 +124,8 @@ class Problem:
             raise InputError(f"observation rows have {observe.shape[1]} columns, the model {space.n_dofs} dofs")
         n_rows = observe.shape[0] if expand is None else expand.shape[0]
         labels_obs = tuple(observation_labels) or tuple(f"obs{i}" for i in range(n_rows))
-        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.n_components)
+        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.n_components,
+                             factorisation=factorisation)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
