@@ -154,6 +154,55 @@ def test_columns_map_an_unknown_layout(tmp_path):
         read_data(config_data(file=str(path), columns={**columns, "uu": "Ux"}), Path)
 
 
+def _sigma_export(path, rows):
+    path.write_text("Id;X [mm];Y [mm];U [mm];sU [µm];Exx [%];sExx [%]\n"
+                    + "".join(";".join(r) + "\n" for r in rows), encoding="latin-1")
+    return path
+
+
+SIGMA_COLUMNS = {"point": "Id", "x": "X", "y": "Y", "ux": "U", "sigma_ux": "sU", "exx": "Exx", "sigma_exx": "sExx"}
+
+
+def test_sigma_columns_of_an_export_weight_the_values(tmp_path):
+    """[data] columns maps per-point standard deviations (sigma_<quantity>): converted with their own unit (µm,
+    %), a strain's through the slope of the measure's conversion (log: d e / d l = exp(l)), an empty cell left to
+    [data] noise; the observations carry them as the generic CSV's sigma columns do."""
+    from frictionid.builders.block import block_model_2d
+    from frictionid.inverse.observations import observations_from
+
+    rows = [["A", "1.0", "2.0", "0.01", "0.5", "0.2", "0.01"], ["B", "-1.5", "4.0", "-0.02", "", "0.3", "0.02"],
+            ["C", "2.0", "6.0", "0.005", "2.0", "", "0.05"]]
+    path = _sigma_export(tmp_path / "s.csv", [[c.replace(".", ",") for c in r] for r in rows])
+    m, report = read_export(path, stage=2, columns=SIGMA_COLUMNS, strain="log")
+    np.testing.assert_array_equal(m.sigma["ux"], [0.5e-3, np.nan, 2.0e-3])
+    np.testing.assert_allclose(m.sigma["exx"], [1e-4 * np.exp(2e-3), 2e-4 * np.exp(3e-3), np.nan], rtol=1e-15)
+    assert "sigma_ux <- 'sU'" in "\n".join(report.lines()) and report.units["sigma_ux"] == "µm"
+    measured = read_data({"file": [{"path": "s.csv", "stage": 2, "force": 10.0}], "columns": SIGMA_COLUMNS,
+                          "strain": "log"}, lambda p: tmp_path / p)
+    obs = observations_from(measured, block_model_2d(mesh_size=2.0), ["ux", "exx"], [2], {"u": 0.007, "e": 0.003})
+    sigma = dict(zip(obs.labels, obs.sigma))
+    assert sigma["A:ux@2"] == 0.5e-3 and sigma["B:ux@2"] == 0.007 and sigma["C:ux@2"] == 2.0e-3
+    assert sigma["A:exx@2"] == m.sigma["exx"][0] and "C:exx@2" not in sigma
+
+
+@pytest.mark.parametrize("columns, rows, message", [
+    ({"x": "X", "y": "Y", "sigma_ux": "sU"}, [["A", "1", "2", "0.1", "0.5", "0.2", "0.01"]],
+     "sigma_ux without the column of ux"),
+    (SIGMA_COLUMNS, [["A", "1", "2", "0.1", "0.5", "0.2", "0.01"], ["B", "1", "3", "0.1", "-0.5", "0.2", "0.01"]],
+     r"s.csv:3: column 'sU': a standard deviation of ux must be positive"),
+])
+def test_bad_sigma_columns_are_refused(tmp_path, columns, rows, message):
+    with pytest.raises(InputError, match=message):
+        read_export(_sigma_export(tmp_path / "s.csv", rows), stage=1, columns=columns, strain="log")
+
+
+def test_a_pixel_sigma_is_not_taken_as_a_standard_deviation_in_mm():
+    """VIC-3D's sigma and DICe's SIGMA are a correlation's confidence in pixels: mapped as sigma_ux, refused."""
+    for file, flavour, column in (("vic3d.csv", "vic3d", "sigma"), ("DICe_solution_0001.txt", "dice", "SIGMA")):
+        with pytest.raises(InputError, match=f"unit 'px' cannot be converted to mm.*pixels \\(column '{column}'\\)"):
+            read_export(FIXTURES / file, stage=1, format=flavour, columns={"sigma_ux": column})
+
+
 def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
     files = [str(FIXTURES / "vic3d.csv"), {"path": str(FIXTURES / "DICe_solution_0001.txt"), "stage": 3,
                                             "force": 1500.0}]

@@ -28,6 +28,10 @@ NAME = "dice"
 TITLE = "DICe solution file"
 KEY_COLUMNS = "SUBSET_ID, COORDINATE_X or MODEL_COORDINATES_X, ..., SIGMA"
 _AXES = {"X": "x", "Y": "y", "Z": "z"}
+#: columns in image pixels; SIGMA is DICe's predicted standard deviation of the displacement solution (from the
+#: image noise and interpolation bias) in pixels, with no conversion to mm in the export
+PIXEL_COLUMNS = {"COORDINATE_X": "px", "COORDINATE_Y": "px", "DISPLACEMENT_X": "px", "DISPLACEMENT_Y": "px",
+                 "SIGMA": "px"}
 #: DICe's Status_Flag values of a point whose values were correlated (see the module docstring)
 SUCCESS_FLAGS = frozenset({0, 1, 2, 3, 4, 6, 18, 26})
 #: (column, test, reason) of DICe's invalid-point markers, tried in this order
@@ -56,4 +60,5 @@ def layout(names: tuple[str, ...]) -> Layout:
     unit = "mm" if model else "px"
     units = {t: unit for t in columns if t in ("x", "y", "z", "ux", "uy", "uz")}
     invalid = tuple(marker for marker in INVALID if marker[0] in names)
-    return Layout(NAME, columns, "green-lagrange", "DICe's VSG_STRAIN_* are Green-Lagrange", invalid, units)
+    return Layout(NAME, columns, "green-lagrange", "DICe's VSG_STRAIN_* are Green-Lagrange", invalid, units,
+                  PIXEL_COLUMNS)

@@ -12,10 +12,13 @@ import numpy as np
 from ...errors import InputError
 from ..table import DISPLACEMENTS, QUANTITIES, STRAINS, Measurements
 from .text import ExportText
-from .units import MEASURES, length_factor, small_strain, strain_factor
+from .units import MEASURES, length_factor, small_strain, small_strain_slope, strain_factor
 
-#: what a layout may map: a point label, undeformed coordinates [mm], the measured quantities
-TARGETS = ("point", "x", "y", "z") + QUANTITIES
+#: standard deviations a ``columns`` mapping may name: ``sigma_<quantity>`` in the quantity's kind of unit
+SIGMA_TARGETS = tuple(f"sigma_{q}" for q in QUANTITIES)
+#: what a layout may map: a point label, undeformed coordinates [mm], the measured quantities, their standard
+#: deviations
+TARGETS = ("point", "x", "y", "z") + QUANTITIES + SIGMA_TARGETS
 
 
 @dataclass(frozen=True)
@@ -30,6 +33,8 @@ class Layout:
     measure_from : why that measure (a header name, the program's default), for the report
     invalid : (column, test on its value, reason): rows whose value passes the test are dropped
     units : target -> unit where the file states none (a program that writes no units but documents them)
+    column_units : column -> unit the program documents for a column the layout does not map (pixels), so that
+        a ``columns`` mapping of it is refused instead of taken as mm
     """
 
     flavour: str
@@ -38,6 +43,7 @@ class Layout:
     measure_from: str = ""
     invalid: tuple[tuple[str, Callable[[float], bool], str], ...] = ()
     units: dict[str, str] = field(default_factory=dict)
+    column_units: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,7 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
         if reason is None:
             values = {t: _cell(src, line, text.names[i], fields[i] if i < len(fields) else "") * factors[t]
                       for t, i in index.items() if t != "point"}
+            _check_sigma(src, line, text, values, index)
             reason = "with empty or NaN coordinates" if any(math.isnan(values[c]) for c in "xy" if c in values) \
                 else "without any value" if all(math.isnan(v) for t, v in values.items() if t in QUANTITIES) \
                 else None
@@ -109,6 +116,10 @@ def _check_columns(text: ExportText, layout: Layout) -> None:
         raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: no column "
                          f"{', '.join(repr(c) for c in absent.values())} (for {', '.join(absent)}); the header has "
                          f"{text.header()}")
+    alone = [t for t in layout.columns if t in SIGMA_TARGETS and t[6:] not in layout.columns]
+    if alone:
+        raise InputError(f"{text.source}: [data] columns: {', '.join(alone)} without the column of "
+                         f"{', '.join(t[6:] for t in alone)}; map the value's column too")
     missing = [c for c in ("x", "y") if c not in layout.columns]
     if missing:
         raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: no coordinate column for "
@@ -138,14 +149,29 @@ def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
     for target, column in layout.columns.items():
         if target == "point":
             continue
-        unit = text.units[text.index(column)] or layout.units.get(target)
-        if target in STRAINS:
+        unit = text.units[text.index(column)] or layout.units.get(target) or layout.column_units.get(column)
+        if target.removeprefix("sigma_") in STRAINS:
             factors[target] = strain_factor(unit, column, text.source)
             units[target] = unit if unit is not None else "-"
-        else:
+            continue
+        try:
             factors[target] = length_factor(unit, column, text.source)
-            units[target] = unit if unit is not None else "mm (no unit in the file)"
+        except InputError as exc:
+            if target not in SIGMA_TARGETS:
+                raise
+            raise InputError(f"{exc}; {target} is a standard deviation of {target[6:]} [mm]: a correlation's "
+                             f"confidence in pixels (column {column!r}) has no conversion to mm that the export "
+                             f"gives; map a column in mm or give [data] noise") from None
+        units[target] = unit if unit is not None else "mm (no unit in the file)"
     return factors, units
+
+
+def _check_sigma(src: str, line: int, text: ExportText, values: dict, index: dict) -> None:
+    """A standard deviation given on a valid row must be positive (empty: not given)."""
+    for target in SIGMA_TARGETS:
+        if target in values and not math.isnan(values[target]) and not values[target] > 0:
+            raise InputError(f"{src}:{line}: column {text.names[index[target]]!r}: a standard deviation of "
+                             f"{target[6:]} must be positive, got {values[target]!r}")
 
 
 def _invalid(src, line, text, fields, tests, index) -> str | None:
@@ -185,12 +211,15 @@ def _measurements(text: ExportText, layout: Layout, stage: int, labels, rows, me
     if n == 0:
         raise InputError(f"{text.source}: no valid point ({len(text.rows)} rows, all dropped)")
     column = lambda t: np.array([r.get(t, 0.0 if t == "z" else math.nan) for r in rows])  # noqa: E731
-    values = {}
+    values, sigma = {}, {}
     for q in QUANTITIES:
         if q in layout.columns:
             values[q] = column(q) if q in DISPLACEMENTS else small_strain(column(q), measure, q[1] == q[2])
+        if f"sigma_{q}" in layout.columns:
+            slope = 1.0 if q in DISPLACEMENTS else small_strain_slope(column(q), measure, q[1] == q[2])
+            sigma[q] = np.where(np.isnan(values[q]), math.nan, column(f"sigma_{q}") * slope)
     return Measurements(points=tuple(labels), coordinates=np.column_stack([column(c) for c in "xyz"]),
-                        stage=np.full(n, stage), force=np.full(n, math.nan), values=values,
+                        stage=np.full(n, stage), force=np.full(n, math.nan), values=values, sigma=sigma,
                         comments=(f"{layout.flavour} export {text.source}, stage {stage}",), source=text.source)
 
 

@@ -39,7 +39,7 @@ def choose_layout(text: ExportText, format: str | None = None, columns: dict | N
         return base
     mapped = {**base.columns, **columns}
     return Layout(base.flavour + (" + columns" if name else ""), {t: mapped[t] for t in TARGETS if t in mapped},
-                  base.strain_measure, base.measure_from, base.invalid, base.units)
+                  base.strain_measure, base.measure_from, base.invalid, base.units, base.column_units)
 
 
 def _recognise(text: ExportText, where: str) -> str:

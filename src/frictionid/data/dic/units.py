@@ -56,3 +56,20 @@ def small_strain(values: np.ndarray, measure: str, normal: bool) -> np.ndarray:
     if measure == "log":
         return np.expm1(values)
     raise InputError(f"strain measure {measure!r} is not one of {', '.join(MEASURES)}")
+
+
+def small_strain_slope(values: np.ndarray, measure: str, normal: bool) -> np.ndarray:
+    """d(small strain) / d(measured strain) of :func:`small_strain` at the measured values: what a standard
+    deviation of the measured strain is multiplied by (independent small errors). Green-Lagrange: 1 / (1 + e) =
+    1 / sqrt(1 + 2 E); log: 1 + e = exp(l); engineering and shear components: 1.
+
+    >>> float(small_strain_slope(np.array([np.log(1.02)]), "log", normal=True)[0])
+    1.02
+    """
+    if measure == "engineering" or not normal:
+        return np.ones_like(values)
+    if measure == "green-lagrange":
+        return 1.0 / np.sqrt(1.0 + 2.0 * values)
+    if measure == "log":
+        return np.exp(values)
+    raise InputError(f"strain measure {measure!r} is not one of {', '.join(MEASURES)}")

@@ -15,6 +15,9 @@ from .layout import Layout
 NAME = "vic3d"
 TITLE = "VIC-3D / VIC-2D CSV"
 KEY_COLUMNS = "X, Y, (Z,) U, V, (W,) sigma, exx, eyy, exy"
+#: columns in image pixels: sigma is the correlation's 1-sigma confidence interval in pixels, with no conversion
+#: to a displacement in mm in the export (a [data] columns mapping of it as sigma_<q> is refused)
+PIXEL_COLUMNS = {"x": "px", "y": "px", "sigma": "px"}
 _MAP = {"x": "X", "y": "Y", "z": "Z", "ux": "U", "uy": "V", "uz": "W", "exx": "exx", "eyy": "eyy", "exy": "exy"}
 
 
@@ -27,4 +30,4 @@ def layout(names: tuple[str, ...]) -> Layout:
     units = {t: "mm" for t in columns if t[0] in "xyzu"}
     return Layout(NAME, columns, "green-lagrange", "VIC's default Lagrange strain; set [data] strain if the "
                   "project used another", (("sigma", lambda v: v == -1.0, "with sigma = -1 (no correlation)"),),
-                  units)
+                  units, PIXEL_COLUMNS)
