@@ -203,6 +203,36 @@ def test_a_pixel_sigma_is_not_taken_as_a_standard_deviation_in_mm():
             read_export(FIXTURES / file, stage=1, format=flavour, columns={"sigma_ux": column})
 
 
+def _force_export(path, forces):
+    rows = [f"{x!r};{y!r};{1e-3 * x!r};{f}" for (x, y), f in zip([(1.0, 2.0), (-1.5, 4.0), (2.0, 6.0)], forces)]
+    path.write_text("X [mm];Y [mm];U [mm];Force [kN]\n" + "\n".join(r.replace(".", ",") for r in rows) + "\n",
+                    encoding="utf-8")
+    return path
+
+
+FORCE_COLUMNS = {"x": "X", "y": "Y", "ux": "U", "force": "Force"}
+
+
+def test_a_load_cell_column_of_an_export_is_the_stage_force(tmp_path, capsys):
+    """[data] columns = { force = "..." }: the export's load-cell channel (kN here) is its stage's machine force, read
+    in N; a row without it is fine; rows that disagree, or a force the config also gives differently, are refused."""
+    path = _force_export(tmp_path / "f.csv", ["1.25", "", "1.25"])
+    m, report = read_export(path, stage=2, columns=FORCE_COLUMNS)
+    assert np.all(m.force == 1250.0) and m.stage_force(2) == 1250.0 and report.units["force"] == "kN"
+    measured = read_data({"file": [{"path": "f.csv", "stage": 2}], "columns": FORCE_COLUMNS}, lambda p: tmp_path / p)
+    assert measured.stage_force(2) == 1250.0
+    with pytest.raises(InputError, match="the file gives the force 1250.0 N, the config 1300.0 N"):
+        read_data({"file": [{"path": "f.csv", "stage": 2, "force": 1300.0}], "columns": FORCE_COLUMNS},
+                  lambda p: tmp_path / p)
+    _force_export(tmp_path / "g.csv", ["1.25", "1.5", "1.25"])
+    with pytest.raises(InputError, match=r"g.csv:3: column 'Force': force 1500.0 N differs from 1250.0 N on line 2"):
+        read_export(tmp_path / "g.csv", stage=2, columns=FORCE_COLUMNS)
+    _force_export(tmp_path / "h.csv", ["1.25", "1.25", "1.25"])
+    (tmp_path / "h.csv").write_text((tmp_path / "h.csv").read_text().replace("[kN]", "[kp]"))
+    with pytest.raises(InputError, match="force unit 'kp' cannot be converted to N"):
+        read_export(tmp_path / "h.csv", stage=2, columns=FORCE_COLUMNS)
+
+
 def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
     files = [str(FIXTURES / "vic3d.csv"), {"path": str(FIXTURES / "DICe_solution_0001.txt"), "stage": 3,
                                             "force": 1500.0}]

@@ -260,7 +260,7 @@ def _with_forces(m: Measurements, forces: dict[int, float]) -> Measurements:
         rows = m.stage == stage
         given = rows & ~np.isnan(m.force)
         if np.any(m.force[given] != value):
-            raise InputError(f"{m.source}: stage {stage}: the file gives the force {m.force[given][0]!r} N, the "
+            raise InputError(f"{m.source}: stage {stage}: the file gives the force {float(m.force[given][0])!r} N, the "
                              f"config {value!r} N; give one of them")
         force[rows] = value
     return Measurements(m.points, m.coordinates, m.stage, force, m.values, m.sigma, m.comments, m.source, m.channels)

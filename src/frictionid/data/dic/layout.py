@@ -12,13 +12,15 @@ import numpy as np
 from ...errors import InputError
 from ..table import DISPLACEMENTS, QUANTITIES, STRAINS, Measurements
 from .text import ExportText
-from .units import MEASURES, length_factor, small_strain, small_strain_slope, strain_factor
+from .units import MEASURES, force_factor, length_factor, small_strain, small_strain_slope, strain_factor
 
 #: standard deviations a ``columns`` mapping may name: ``sigma_<quantity>`` in the quantity's kind of unit
 SIGMA_TARGETS = tuple(f"sigma_{q}" for q in QUANTITIES)
 #: what a layout may map: a point label, undeformed coordinates [mm], the measured quantities, their standard
 #: deviations
-TARGETS = ("point", "x", "y", "z") + QUANTITIES + SIGMA_TARGETS
+TARGETS = ("point", "x", "y", "z") + QUANTITIES + SIGMA_TARGETS + ("force",)
+#: rows of one export (one stage) must give the same machine force up to this relative difference
+FORCE_RTOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -90,7 +92,7 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
     factors, units = _factors(text, layout)
     index = {t: text.index(c) for t, c in layout.columns.items()}
     tests = [(text.index(c), test, reason) for c, test, reason in layout.invalid]
-    labels, rows, dropped = [], [], {}
+    labels, rows, lines, dropped = [], [], [], {}
     for number, (line, fields) in enumerate(text.rows, start=1):
         reason = _invalid(src, line, text, fields, tests, index)
         if reason is None:
@@ -105,6 +107,9 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
             continue
         labels.append(_label(src, line, fields, index, number))
         rows.append(values)
+        lines.append(line)
+    if "force" in layout.columns:
+        _check_force(text, layout.columns["force"], rows, lines, units["force"])
     return _measurements(text, layout, stage, labels, rows, measure), ExportReport(
         src, layout.flavour, dict(layout.columns), units, measure_text, stage, len(text.rows), len(rows), dropped,
         sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text))
@@ -150,6 +155,10 @@ def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
         if target == "point":
             continue
         unit = text.units[text.index(column)] or layout.units.get(target) or layout.column_units.get(column)
+        if target == "force":
+            factors[target] = force_factor(unit, column, text.source)
+            units[target] = unit if unit is not None else "N (no unit in the file)"
+            continue
         if target.removeprefix("sigma_") in STRAINS:
             factors[target] = strain_factor(unit, column, text.source)
             units[target] = unit if unit is not None else "-"
@@ -164,6 +173,18 @@ def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
                              f"gives; map a column in mm or give [data] noise") from None
         units[target] = unit if unit is not None else "mm (no unit in the file)"
     return factors, units
+
+
+def _check_force(text: ExportText, column: str, rows: list, lines: list, unit: str) -> None:
+    """An export is one stage: every valid row that gives the force gives the same (up to FORCE_RTOL)."""
+    given = [(line, row["force"]) for line, row in zip(lines, rows) if not math.isnan(row["force"])]
+    if not given:
+        raise InputError(f"{text.source}: column {column!r} (force): no valid row gives a value")
+    first_line, first = given[0]
+    for line, value in given:
+        if abs(value - first) > FORCE_RTOL * max(abs(value), abs(first)):
+            raise InputError(f"{text.source}:{line}: column {column!r}: force {value!r} N differs from {first!r} N "
+                             f"on line {first_line}; an export is one stage, which has one machine force")
 
 
 def _check_sigma(src: str, line: int, text: ExportText, values: dict, index: dict) -> None:
@@ -218,8 +239,11 @@ def _measurements(text: ExportText, layout: Layout, stage: int, labels, rows, me
         if f"sigma_{q}" in layout.columns:
             slope = 1.0 if q in DISPLACEMENTS else small_strain_slope(column(q), measure, q[1] == q[2])
             sigma[q] = np.where(np.isnan(values[q]), math.nan, column(f"sigma_{q}") * slope)
+    force = np.full(n, math.nan)
+    if "force" in layout.columns:                                  # one value (_check_force): on every row
+        force[:] = next(r["force"] for r in rows if not math.isnan(r["force"]))
     return Measurements(points=tuple(labels), coordinates=np.column_stack([column(c) for c in "xyz"]),
-                        stage=np.full(n, stage), force=np.full(n, math.nan), values=values, sigma=sigma,
+                        stage=np.full(n, stage), force=force, values=values, sigma=sigma,
                         comments=(f"{layout.flavour} export {text.source}, stage {stage}",), source=text.source)
 
 

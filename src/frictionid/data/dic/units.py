@@ -11,6 +11,8 @@ LENGTH = {"mm": 1.0, "m": 1e3, "cm": 10.0, "µm": 1e-3, "μm": 1e-3, "um": 1e-3}
 #: strain units -> factor to a pure number ("S": DaVis's name for a pure strain)
 STRAIN = {"-": 1.0, "1": 1.0, "": 1.0, "S": 1.0, "mm/mm": 1.0, "m/m": 1.0, "%": 1e-2, "µm/m": 1e-6, "μm/m": 1e-6,
           "µε": 1e-6, "μɛ": 1e-6, "microstrain": 1e-6}
+#: force units -> factor to N (a load cell's channel in an export)
+FORCE = {"N": 1.0, "kN": 1e3, "mN": 1e-3, "MN": 1e6, "lbf": 4.4482216152605}
 #: strain measures a file may state, and how they are called in messages
 MEASURES = {"engineering": "engineering (technical) strain", "green-lagrange": "Green-Lagrange strain",
             "log": "logarithmic (true, Hencky) strain"}
@@ -25,6 +27,17 @@ def length_factor(unit: str | None, column: str, source: str) -> float:
     except KeyError:
         raise InputError(f"{source}: column {column!r}: unit {unit!r} cannot be converted to mm (known: "
                          f"{', '.join(LENGTH)}); pixels need the DIC software's calibration, export in mm") from None
+
+
+def force_factor(unit: str | None, column: str, source: str) -> float:
+    """Factor from the column's unit to N (None: no unit stated, taken as N)."""
+    if unit is None:
+        return 1.0
+    try:
+        return FORCE[unit.strip()]
+    except KeyError:
+        raise InputError(f"{source}: column {column!r}: force unit {unit!r} cannot be converted to N (known: "
+                         f"{', '.join(FORCE)})") from None
 
 
 def strain_factor(unit: str | None, column: str, source: str) -> float:
