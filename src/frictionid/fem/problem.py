@@ -181,26 +181,28 @@ class Problem:
         ``max_slip``: small-sliding limit in local element lengths (None: no check), see
         :meth:`check_small_sliding`.
         """
-        mu = self.model.coefficients(mu)
+        # one BLAS thread for the whole solve, its set-up and outputs included: the Newton steps' dense solves (a
+        # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
+        # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
+        # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py)
+        with threadpool_limits(1, user_api="blas"):
+            return self._solve(self.model.coefficients(mu), sensitivities, max_slip)
+
+    def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None) -> Solution:
         solver = LoadPathSolver(self.condensed, self.pairs)
         path = solver.start()
         stages, amps = self.amplitudes()
         mu_pair = self.pairs.mu(mu)
         records = []
         previous = np.zeros(amps.shape[1])
-        # one BLAS thread for the whole solve, the outputs' products included: the Newton steps' dense solves (a
-        # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
-        # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
-        # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py)
-        with threadpool_limits(1, user_api="blas"):
-            for i, (stage, amp) in enumerate(zip(stages, amps)):
-                where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
-                step = solver.step(path, previous, amp, mu_pair, sensitivities, where)
-                records.append((path.x.copy(), step.state, None if path.S is None else path.S.copy(),
-                                step.n_newton, step.n_cuts))
-                log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
-                previous = amp
-            solution = self._solution(mu, stages, amps, records, sensitivities)
+        for i, (stage, amp) in enumerate(zip(stages, amps)):
+            where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
+            step = solver.step(path, previous, amp, mu_pair, sensitivities, where)
+            records.append((path.x.copy(), step.state, None if path.S is None else path.S.copy(),
+                            step.n_newton, step.n_cuts))
+            log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
+            previous = amp
+        solution = self._solution(mu, stages, amps, records, sensitivities)
         if max_slip is not None:
             self.check_small_sliding(solution, max_slip)
         return solution
