@@ -285,20 +285,32 @@ def _inverse_map(space: Space, cell_xyz: np.ndarray, targets: np.ndarray):
     cell_xyz, targets = cell_xyz - origin[:, None, :], targets - origin
     centroid = space.scalar.elem.refdom.p.mean(axis=1)
     reference = np.repeat(centroid[:, None], len(targets), axis=1)
+    size = np.ptp(cell_xyz, axis=1).max(axis=1)
+    residual = np.empty_like(targets)
+    stale = np.ones(len(targets), dtype=bool)          # reference moved since its residual was computed
     active = np.arange(len(targets))
     for iteration in range(1 if _is_affine(space) else NEWTON_MAX_ITER):
-        residual, jacobian = _forward_map(space, cell_xyz[active], reference[:, active], targets[active])
+        r, jacobian = _forward_map(space, cell_xyz[active], reference[:, active], targets[active])
+        residual[active], stale[active] = r, False
+        if iteration:
+            # at its point to round-off (the next step would be below NEWTON_TOL): done without that step, which
+            # saves an affine cell (a parallelepiped, most of a structured mesh) its confirming step
+            moving = np.linalg.norm(r, axis=1) > NEWTON_TOL * size[active]
+            active, r, jacobian = active[moving], r[moving], jacobian[moving]
+            if not active.size:
+                break
         jacobian[np.abs(np.linalg.det(jacobian)) < 1e-300] = np.eye(space.dim)
-        step = np.linalg.solve(jacobian, residual[..., None])[..., 0].T
+        step = np.linalg.solve(jacobian, r[..., None])[..., 0].T
         unclipped = reference[:, active] + step
         reference[:, active] = np.clip(unclipped, -1.0, 2.0)
+        stale[active] = True
         # a target still thrown out of the box after two steps is far outside this cell: stop following it
         far_out = (iteration >= 2) & np.any(unclipped != reference[:, active], axis=0)
         active = active[(np.abs(step).max(axis=0) >= NEWTON_TOL) & ~far_out]
         if not active.size:
             break
-    residual, _ = _forward_map(space, cell_xyz, reference, targets)
-    size = np.ptp(cell_xyz, axis=1).max(axis=1)
+    if stale.any():
+        residual[stale] = _forward_map(space, cell_xyz[stale], reference[:, stale], targets[stale])[0]
     converged = np.linalg.norm(residual, axis=1) <= 1e-9 * size
     return reference, converged
 

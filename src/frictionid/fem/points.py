@@ -204,12 +204,12 @@ def _located_operator(space: Space, quantities: tuple[str, ...], points: np.ndar
     Each row has the dofs of its point's cell only: the rows are written straight into CSR arrays as blocks
     (n_points, n_quantities, n_local, dim), without a COO sort, with 32-bit indices where they fit (1e5 points
     with six quantities, 14.4 million entries, in a few tenths of a second)."""
-    phi, grad = _shape_functions(space, cells, reference)
+    phi, grad, det = _shape_functions(space, cells, reference)
     nodes = space.node_of[space.scalar.element_dofs[:, cells]].T              # (n, n_local)
     n_points, n_local = nodes.shape
     dim = space.n_components
     if space.element == "incompatible":
-        block = _internal_modes(space, materials, quantities, cells, phi, nodes)
+        block = _internal_modes(space, materials, quantities, cells, phi, nodes, det)
     else:
         block = np.zeros((n_points, len(quantities), n_local, dim))
     for q, name in enumerate(quantities):
@@ -241,13 +241,14 @@ def _checked_quantities(kind: str, quantities) -> tuple[str, ...]:
 
 
 def _shape_functions(space: Space, cells: np.ndarray, reference: np.ndarray):
-    """Shape function values (n, n_local) and physical gradients (n, n_local, dim) [1/mm] at located points."""
+    """Shape function values (n, n_local), physical gradients (n, n_local, dim) [1/mm] and the Jacobian's
+    determinant det(dx/dX) (n,) of the element map at located points."""
     cell_xyz = cell_nodes(space)[cells]
     phi, dphi = reference_basis(space, reference)
     jacobian = np.einsum("nka,nkb->nab", cell_xyz, dphi)
     # grad_x phi = J^-T grad_X phi
     grad = np.linalg.solve(np.swapaxes(jacobian, 1, 2), np.swapaxes(dphi, 1, 2))
-    return phi, np.swapaxes(grad, 1, 2)
+    return phi, np.swapaxes(grad, 1, 2), np.linalg.det(jacobian)
 
 
 def _terms(space: Space, name: str, points: np.ndarray, phi: np.ndarray, grad: np.ndarray):
@@ -266,12 +267,14 @@ def _terms(space: Space, name: str, points: np.ndarray, phi: np.ndarray, grad: n
     return [(a, 0.5 * grad[:, :, b]), (b, 0.5 * grad[:, :, a])]
 
 
-def _internal_modes(space: Space, materials, quantities, cells, phi, nodes) -> np.ndarray:
+def _internal_modes(space: Space, materials, quantities, cells, phi, nodes, det) -> np.ndarray:
     """The condensed incompatible modes' share of the rows at the located points: (n, n_quantities, 8, 3) on
     the cells' nodal dofs (node in ``nodes``' order, component).
 
     Per point the modes P_i = 1 - xi_i^2 and their gradients in Taylor's form (:func:`incompatible.gradients`),
-    grad P_i = (det J0 / det J) (-2 xi_i) J0^-1[i, :], the centre's Jacobian J0 once per cell; per cell the
+    grad P_i = (det J0 / det J) (-2 xi_i) J0^-1[i, :], the centre's Jacobian J0 once per cell (the ratio of
+    determinants is that of the scikit-fem map, ``det`` at the points: the two maps differ by an affine map of
+    the reference cube, whose determinant cancels); per cell the
     recovery alpha = -R u_e. A quantity's row is then sum_i c_i(point) A_i(cell) with c_i = P_i (displacements) or
     (det J0 / det J) (-2 xi_i) (strains) and A_i the cell's (24,) recovery rows (for a strain combined with
     J0^-1): one matrix product per cell for all its points and quantities."""
@@ -293,11 +296,11 @@ def _internal_modes(space: Space, materials, quantities, cells, phi, nodes) -> n
     alpha = -R.reshape(len(first), incompatible.N_MODES, space.dim, incompatible.N_NODES, space.dim)
     alpha = np.take_along_axis(alpha, position[first][:, None, None, :, None], axis=3).reshape(
         len(first), incompatible.N_MODES, space.dim, incompatible.N_U)        # (cell, mode, component, dof)
-    _, dN = incompatible.trilinear(xi)
-    det = np.linalg.det(np.einsum("nka,nkb->nab", xyz[which], dN))
     centre = np.einsum("cka,kb->cab", xyz, incompatible.trilinear(np.zeros((1, space.dim)))[1][0])
     inverse0 = np.linalg.inv(centre)                                         # (cell, mode i, x)
-    gradient_weight = (np.linalg.det(centre)[which] / det)[:, None] * (-2.0 * xi)    # (n, mode)
+    _, dphi0 = reference_basis(space, space.scalar.elem.refdom.p.mean(axis=1)[:, None])
+    det0 = np.linalg.det(np.einsum("cka,kb->cab", cell_nodes(space)[cells[first]], dphi0[0]))
+    gradient_weight = (det0[which] / det)[:, None] * (-2.0 * xi)             # (n, mode)
     coefficient = np.empty((len(cells), len(quantities), incompatible.N_MODES))
     rows = np.empty((len(first), len(quantities), incompatible.N_MODES, incompatible.N_U))
     for q, name in enumerate(quantities):
