@@ -9,7 +9,7 @@ standard deviation for each value (generic CSV, docs/data.md). Phases as a user 
 operator, condensation) and one forward solve with sensitivities (``predict``). The model build is printed but is
 the same for every size. Target: 1e5 points in no more than twice the time of 100.
 
-Run: .venv/bin/python benchmarks/full_field.py [n_points ...]      (default 100 10000 100000)
+Run: .venv/bin/python benchmarks/full_field.py [--repeat N] [n_points ...]   (default 100 10000 100000, N = 2)
 """
 
 import json
@@ -116,4 +116,8 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["--one"]:
         print(json.dumps(measure(int(sys.argv[2]))))
     else:
-        main(tuple(int(a) for a in sys.argv[1:]) or (100, 10000, 100000))
+        args = sys.argv[1:]
+        repeat = int(args[args.index("--repeat") + 1]) if "--repeat" in args else 2
+        if "--repeat" in args:
+            del args[args.index("--repeat"):args.index("--repeat") + 2]
+        main(tuple(int(a) for a in args) or (100, 10000, 100000), repeat)

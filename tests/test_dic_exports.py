@@ -77,6 +77,37 @@ def test_dice_invalid_markers_are_dropped_and_counted_each(capsys):
     assert "1 with MATCH = -1" in out
 
 
+def test_dice_header_geometry_is_reported_and_the_window_source_said(capsys, tmp_path):
+    """DICe's preamble gives the subset, step and VSG strain window in image pixels: check-data reports them (not
+    used as [data] strain_window, a square in mm); check-data CONFIG says where the fit's window comes from."""
+    from frictionid.config import config_from_dict
+    from frictionid.data.sources import check_config_data
+
+    assert main(["check-data", str(FIXTURES / "DICe_solution_0001.txt")]) == 0
+    out = capsys.readouterr().out
+    assert "DICe header: subset 41 px, step 10 x 10 px, VSG strain window 61 px (a circle in the image)" in out
+    _, report = read_export(FIXTURES / "vic3d.csv", stage=1)
+    assert report.notes == ()
+    shutil.copy(FIXTURES / "DICe_solution_0001.txt", tmp_path)
+    for window, said in ((None, "strain window: none ([data] strain_window not set)"),
+                         (1.5, "strain window: 1.5 mm, from [data] strain_window")):
+        config = config_from_dict({"data": {"file": "DICe_solution_0001.txt", "observables": ["ux"], "stages": [1],
+                                            "strain_window": window}}, need=("data",), base=tmp_path)
+        assert said in check_config_data(config)
+
+
+def test_a_format_is_recognised_from_the_head_or_past_a_long_preamble(tmp_path):
+    """The reader is chosen from the file's first 64 kB; a preamble longer than that is read whole."""
+    from frictionid.data.dic.text import HEAD_BYTES, read_text
+
+    generic = (FIXTURES / "generic.csv").read_text()
+    long = tmp_path / "long.csv"
+    long.write_text("# provenance ...\n" * (HEAD_BYTES // 17 + 10) + generic)
+    assert read_text(long, n_rows=50).names[:2] == ("point", "x")
+    read = read_data({"file": "long.csv"}, lambda p: tmp_path / p)
+    assert read.digest() == read_measurements(FIXTURES / "generic.csv").digest() and len(read.comments) > 3000
+
+
 def test_check_data_reads_a_generic_csv_as_before(capsys):
     assert main(["check-data", str(FIXTURES / "generic.csv")]) == 0
     out = capsys.readouterr().out

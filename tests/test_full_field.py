@@ -91,13 +91,14 @@ def test_plain_table_reads_like_row_by_row(tmp_path):
     spaced.write_text("# units\n" + header + "\n" + "\n".join(rows[:50] + [""] + rows[50:]) + "\n")
     a, b = reader.read_measurements(plain), reader.read_measurements(spaced)
     assert a == b and a.n_rows == 120 and a.stages == (1, 2, 3)
-    assert reader._plain_columns(plain.read_text().splitlines()[2:], 9) is not None      # the one-pass path ran
-    assert reader._plain_columns(spaced.read_text().splitlines()[2:], 9) is None
+    assert reader._plain_columns(plain.read_text().splitlines()[2:], 9)[0] is not None   # the one-pass path ran
+    assert reader._plain_columns(spaced.read_text().splitlines()[2:], 9)[0] is None
     np.testing.assert_array_equal(a.values["uy"], [float(r.split(",")[7]) for r in rows])
     np.testing.assert_array_equal(a.stage, [1 + k // 40 for k in range(120)])
     for k, (old, bad, message) in enumerate([
             (rows[10], rows[10] + ",1.0", r"plain\d?.csv:13: 10 fields, but the header \(line 2\) has 9"),
             (rows[10], rows[10].replace(",-5.0,", ",-5.0.1,"), r":13: column 'y': '-5.0.1' is not a number"),
+            (rows[10], rows[10].replace(",-5.0,", ",-5_0,"), r":13: column 'y': '-5_0' is not a number"),
             (rows[11], rows[10], r":14: column 'point': point 'P10' at stage 1 is already on line 13"),
             (rows[45], rows[45].replace(",200.0,", ",201.0,"), r":48: column 'force': 201.0 N differs from 200.0 N "
                                                                r"of stage 2 on line 43")]):

@@ -60,11 +60,11 @@ def read_measurements(path) -> Measurements:
     [(0, 'uy', 0.0123, nan)]
     """
     source = str(path)
-    comments, header, lines, by_column = _split(source, _read_lines(path))
+    comments, header, lines, by_column, plain = _split(source, _read_lines(path))
     columns = _check_header(source, *header)
     if not lines:
         raise InputError(f"{_at(source, header[0])}no data rows after the header")
-    cells = {name: _column(source, lines, name, by_column[index]) for name, index in columns.items()}
+    cells = {name: _column(source, lines, name, by_column[index], plain) for name, index in columns.items()}
     _check_rows(source, header[0], lines, cells)
     return Measurements(
         points=tuple(cells["point"]), coordinates=np.column_stack([cells[c] for c in "xyz"]),
@@ -87,7 +87,8 @@ def _read_lines(path) -> list[str]:
 
 
 def _split(source: str, lines: list[str]):
-    """Comment texts, (line, header fields), the 1-based line of each data row and the fields by column.
+    """Comment texts, (line, header fields), the 1-based line of each data row, the fields by column, and whether
+    the table is plain ASCII without an underscore (so that a column float() reads is one of numbers).
 
     Comment lines (``#``) and blank lines are skipped anywhere. A table of plain rows (after the header no
     comment, blank line, quote or white space; every row as wide as the header) is split in one pass over the
@@ -105,9 +106,9 @@ def _split(source: str, lines: list[str]):
         raise InputError(f"{source}: no header and no data (expected '#' comment lines, a header "
                          f"{','.join(REQUIRED)},... and one row per point and stage)")
     body = lines[header[0]:]
-    by_column = _plain_columns(body, len(header[1]))
+    by_column, plain = _plain_columns(body, len(header[1]))
     if by_column is not None:
-        return comments, header, list(range(header[0] + 1, header[0] + 1 + len(body))), by_column
+        return comments, header, list(range(header[0] + 1, header[0] + 1 + len(body))), by_column, plain
     rows = []
     for number, text in enumerate(body, start=header[0] + 1):
         if text.lstrip().startswith("#"):
@@ -118,7 +119,7 @@ def _split(source: str, lines: list[str]):
             rows.append((number, fields))
     width = len(header[1])
     return (comments, header, [number for number, _ in rows],
-            [list(column) for column in zip(*(fields for _, fields in rows))] if rows else [[]] * width)
+            [list(column) for column in zip(*(fields for _, fields in rows))] if rows else [[]] * width, False)
 
 
 def _fields(text: str) -> list[str]:
@@ -133,17 +134,18 @@ def _fields(text: str) -> list[str]:
 _NOT_PLAIN = ('"', "#", " ", "\t", "\r", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x1f", "\x85")
 
 
-def _plain_columns(body: list[str], width: int) -> list[list[str]] | None:
-    """The fields by column of data lines that are all plain (see :func:`_split`), else None."""
+def _plain_columns(body: list[str], width: int) -> tuple[list[list[str]] | None, bool]:
+    """The fields by column of data lines that are all plain (see :func:`_split`), else None; and whether they
+    hold no underscore (then a column that float() reads is one of numbers as :func:`_number` reads them)."""
     if not body or not all(body):
-        return None
+        return None, False
     block = "\n".join(body)
     if not block.isascii() or any(c in block for c in _NOT_PLAIN):
-        return None
+        return None, False
     if set(map(str.count, body, itertools.repeat(","))) != {width - 1}:
-        return None
+        return None, False
     fields = block.replace("\n", ",").split(",")
-    return [fields[j::width] for j in range(width)]
+    return [fields[j::width] for j in range(width)], "_" not in block
 
 
 def _check_header(source: str, line: int, names: list[str]) -> dict[str, int]:
@@ -183,18 +185,21 @@ def _check_width(source: str, line: int, fields: list[str], header) -> None:
                          f"has {len(header[1])}: {','.join(header[1])}")
 
 
-def _column(source: str, lines: list[int], name: str, texts: list[str]):
+def _column(source: str, lines: list[int], name: str, texts: list[str], plain: bool = False):
     """The values of one column, checked as :func:`_cell` checks each cell; a column of finite numbers only (no
-    empty cell) is converted at once (1e5 rows in a few ms), anything else cell by cell."""
+    empty cell) is converted at once (1e5 rows in a few ms), anything else cell by cell. ``plain``: the whole
+    table is ASCII without underscores (checked once by :func:`_split`)."""
     if name == "point" and all(texts):
         return list(texts)
     digits = "".join(texts) if name == "stage" else ""
-    if digits.isascii() and digits.isdigit() and all(texts) and all(map(int, texts)):
-        return [int(text) for text in texts]                  # digits only, none of them 0: positive integers
-    joined = "\n".join(texts) if name not in ("point", "stage") else ""
+    if digits.isascii() and digits.isdigit() and all(texts):
+        numbers = list(map(int, texts))
+        if all(numbers):
+            return numbers                                    # digits only, none of them 0: positive integers
+    numeric = name not in ("point", "stage") and bool(texts)
     # float() reads every cell _NUMBER matches the same way; it also reads nan, inf (not finite), 1_000 and
     # non-ASCII digits, which the checks here leave to the cell-by-cell path and its messages
-    if joined and joined.isascii() and "_" not in joined:
+    if numeric and (plain or ("\n".join(texts).isascii() and not any("_" in text for text in texts))):
         try:
             values = np.array(texts, dtype=float)
         except ValueError:
@@ -240,10 +245,10 @@ def _number(source: str, line: int, name: str, text: str) -> float:
 
 def _check_rows(source: str, header_line: int, lines: list[int], cells: dict) -> None:
     """Checks across rows: unique (point, stage), one force per stage, no empty quantity column."""
-    keys = list(zip(cells["point"], cells["stage"]))
-    if len(set(keys)) != len(keys):
-        first = {}
-        for line, key in zip(lines, keys):
+    points = cells["point"]
+    if len(set(points)) != len(points) and len(set(zip(points, cells["stage"]))) != len(points):
+        first = {}                                                  # (distinct labels: distinct pairs)
+        for line, key in zip(lines, zip(points, cells["stage"])):
             if key in first:
                 raise InputError(f"{_at(source, line, 'point')}point {key[0]!r} at stage {key[1]} is already on "
                                  f"line {first[key]}")

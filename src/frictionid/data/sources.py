@@ -335,5 +335,9 @@ def check_config_data(config, model=None) -> str:
     it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
     sources = read_sources(config.data, config.resolve, config.where, model)
     relative = sorted(set(sources.relative.values()))
+    window = config.data.get("strain_window")
+    window_line = (f"strain window: {window:g} mm, from [data] strain_window (the model's strains are fitted over "
+                   "it, as the DIC software filtered the measured ones)" if window is not None else
+                   "strain window: none ([data] strain_window not set): the model's strains are taken at the points")
     return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
-                                       else []) + [sources.measurements.summary()])
+                                       else []) + [window_line, sources.measurements.summary()])

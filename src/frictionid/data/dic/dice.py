@@ -21,8 +21,10 @@ correlated) is dropped as well: it is not a measurement of that point.
 from __future__ import annotations
 
 import math
+import re
 
 from .layout import Layout
+from .text import ExportText
 
 NAME = "dice"
 TITLE = "DICe solution file"
@@ -39,6 +41,31 @@ INVALID = (("SIGMA", lambda v: v == -1.0, "with SIGMA = -1 (correlation failed)"
            ("MATCH", lambda v: v == -1.0, "with MATCH = -1 (correlation failed)"),
            ("STATUS_FLAG", lambda v: not math.isnan(v) and v not in SUCCESS_FLAGS,
             "with a STATUS_FLAG of failure (not 0-4, 6, 18 or 26: DICe's Status_Flag)"))
+
+
+#: preamble lines DICe writes about the correlation's geometry (Schema's output header), all in image pixels
+_HEADER = {"subset": re.compile(r"Subset size:\s*(\d+)"),
+           "step": re.compile(r"Step size:\s*x\s*(-?\d+)\s*y\s*(-?\d+)"),
+           "window": re.compile(r"Strain window size in pixels:\s*(\d+)")}
+
+
+def header_notes(text: ExportText) -> list[str]:
+    """What DICe's preamble says about the subset, the step and the VSG strain window (image pixels), for the
+    report. None of it is used as [data] strain_window: DICe's window is a circle in image pixels (the subsets
+    whose image coordinates lie within half its size), frictionid's a square in mm in the model's frame."""
+    found = {key: pattern.search(line) for line in text.preamble for key, pattern in _HEADER.items()
+             if pattern.search(line)}
+    if not found:
+        return []
+    parts = []
+    if "subset" in found:
+        parts.append(f"subset {found['subset'][1]} px")
+    if "step" in found:
+        parts.append(f"step {found['step'][1]} x {found['step'][2]} px")
+    if "window" in found:
+        parts.append(f"VSG strain window {found['window'][1]} px (a circle in the image)")
+    return [f"DICe header: {', '.join(parts)}; [data] strain_window is not taken from it (a square in mm in the "
+            "model's frame): state the window in mm, e.g. the VSG size times the pixel size"]
 
 
 def recognise(names: tuple[str, ...]) -> bool:

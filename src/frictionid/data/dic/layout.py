@@ -63,6 +63,8 @@ class ExportReport:
     dropped: dict[str, int]
     n_missing: int
     text: str
+    #: what the export's header says besides the columns (e.g. DICe's subset, step and strain window), one line each
+    notes: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
         mapped = ", ".join(f"{t} <- {c!r}" for t, c in self.columns.items())
@@ -71,7 +73,7 @@ class ExportReport:
         return [f"{self.source}: {self.flavour} export ({self.text}), stage {self.stage}",
                 f"  columns: {mapped}", f"  units: {units}", f"  strains: {self.strain}",
                 f"  points: {self.n_valid} valid of {self.n_rows} rows; dropped: {why}; "
-                f"{self.n_missing} empty quantity cells left as missing values"]
+                f"{self.n_missing} empty quantity cells left as missing values"] + [f"  {n}" for n in self.notes]
 
 
 def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None = None

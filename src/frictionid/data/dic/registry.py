@@ -3,6 +3,8 @@ never guessed (a header no flavour or two flavours claim is an error saying what
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ...errors import InputError
 from . import davis, dice, gom, matchid, vic3d
 from .layout import TARGETS, ExportReport, Layout, read_layout
@@ -77,7 +79,11 @@ def read_export(path, stage: int, format: str | None = None, columns: dict | Non
     >>> print("\\n".join(report.lines()))  # doctest: +SKIP
     """
     text = read_text(path)
-    return read_layout(text, choose_layout(text, format, columns), stage, strain)
+    layout = choose_layout(text, format, columns)
+    measurements, report = read_layout(text, layout, stage, strain)
+    flavour = FLAVOURS.get(layout.flavour.split(" + ")[0])
+    notes = getattr(flavour, "header_notes", None)
+    return measurements, (replace(report, notes=tuple(notes(text))) if notes else report)
 
 
 __all__ = ["FLAVOURS", "FORMATS", "ExportReport", "choose_layout", "is_generic", "read_export"]

@@ -54,7 +54,8 @@ def read_text(path, n_rows: int | None = None) -> ExportText:
     """Split an export into preamble, header, optional unit row and data rows.
 
     ``n_rows``: split only the first that many lines after the header (enough to recognise the format without
-    splitting a full field of 1e5 rows); all by default.
+    splitting a full field of 1e5 rows), read from the file's first HEAD_BYTES where they are there (the
+    encoding is then that of those bytes); all by default.
 
     UTF-8 (with or without byte-order mark) is tried first, then Latin-1, the encoding of exports written by
     Windows programs (``µm``, ``°`` in headers). The separator is the first of ``;``, tab, ``,`` found in the
@@ -66,7 +67,19 @@ def read_text(path, n_rows: int | None = None) -> ExportText:
         A missing file or a file without header and data rows.
     """
     source = str(path)
-    text, encoding = _decode(path)
+    if n_rows is not None:
+        try:                                       # the head only: recognising a 1e5-row file reads 64 kB of it
+            return _read(source, *_decode(path, HEAD_BYTES), n_rows)
+        except InputError:
+            pass                                   # a longer preamble, or no data row in the head: all of it
+    return _read(source, *_decode(path), n_rows)
+
+
+#: bytes read to recognise a file's format (read_text with n_rows): whole lines of its beginning
+HEAD_BYTES = 1 << 16
+
+
+def _read(source: str, text: str, encoding: str, n_rows: int | None) -> ExportText:
     lines = text.splitlines()
     preamble, number = [], 0
     for number, line in enumerate(lines, start=1):
@@ -93,9 +106,15 @@ def read_text(path, n_rows: int | None = None) -> ExportText:
                       encoding)
 
 
-def _decode(path) -> tuple[str, str]:
+def _decode(path, head: int | None = None) -> tuple[str, str]:
+    """The text and its encoding; ``head``: only the whole lines within the first that many bytes."""
     try:
-        raw = Path(path).read_bytes()
+        if head is None:
+            raw = Path(path).read_bytes()
+        else:
+            with open(path, "rb") as stream:
+                raw = stream.read(head + 1)
+            raw = raw if len(raw) <= head else raw[:raw.rfind(b"\n", 0, head) + 1]
     except FileNotFoundError:
         raise InputError(f"{path}: no such measurement file") from None
     except IsADirectoryError:
