@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
+from itertools import compress
 
 import numpy as np
 
@@ -159,7 +160,8 @@ class Measurements:
         names = self.quantities if quantities is None else self._known_quantities(quantities)
         rows = np.ones(self.n_rows, bool) if stages is None else np.isin(self.stage, self._known_stages(stages))
         return Measurements(
-            points=tuple(p for p, keep in zip(self.points, rows) if keep), coordinates=self.coordinates[rows],
+            points=self.points if rows.all() else tuple(compress(self.points, rows.tolist())),
+            coordinates=self.coordinates[rows],
             stage=self.stage[rows], force=self.force[rows],
             values={q: self.values[q][rows] for q in names},
             sigma={q: self.sigma[q][rows] for q in names if q in self.sigma},

@@ -217,7 +217,7 @@ def region_of_points(regions: dict | None, labels, region_names, where: str = "d
     matches = {key: [] for key in regions if _is_pattern(key)}        # labels of each pattern, one match per pattern
     for key in matches:
         match = re.compile(fnmatch.translate(key)).match
-        matches[key] = [label for label in labels if match(label)]
+        matches[key] = list(labels) if key == "*" else [label for label in labels if match(label)]   # "*": all
     known = set(labels)
     for key, value in regions.items():
         if not isinstance(value, str) or value not in region_names:
@@ -258,7 +258,9 @@ def _regions_of(labels: list, regions: dict, matches: dict, where: str) -> dict:
         label = next(label for label in labels if label in tied)
         raise InputError(f"{where}: point {label!r} matches the patterns {tied[label]}, equally specific, with "
                          "different regions; name the point itself or make one pattern longer")
-    return {label: found.get(label) for label in labels}
+    regions_of = dict.fromkeys(labels)                      # None (any cell) unless a key gave one
+    regions_of.update(found)
+    return regions_of
 
 
 def noise_of(quantity: str, noise: dict) -> float | None:
@@ -313,14 +315,15 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     measurements, coordinates = _coordinates(measurements, model)
     labels_of = list(dict.fromkeys(measurements.points))
     region_of = region_of_points(regions, all_labels, model.mesh.region_names)
-    point_index = {p: i for i, p in enumerate(labels_of)}
-    first = {p: i for i, p in reversed(list(enumerate(measurements.points)))}
+    point_index = dict(zip(labels_of, range(len(labels_of))))
+    n_rows = len(measurements.points)
+    first = dict(zip(reversed(measurements.points), range(n_rows - 1, -1, -1)))       # each label's first row
     points = coordinates[[first[p] for p in labels_of]].reshape(-1, coordinates.shape[1])
     quantities = tuple(observables)
     row, stage, y, sigma, labels, minus = [], [], [], [], [], []
     at = {(p, int(s)): i for i, (p, s) in enumerate(zip(measurements.points, measurements.stage))} if relative \
         else {}
-    point_of = np.array([point_index[p] for p in measurements.points], dtype=np.int64)
+    point_of = np.fromiter(map(point_index.__getitem__, measurements.points), dtype=np.int64, count=n_rows)
     names, at_stage = measurements.points, [f"@{s}" for s in measurements.stage.tolist()]   # labels' parts per row
     for q_index, quantity in enumerate(quantities):
         values = measurements.values[quantity]
@@ -366,7 +369,7 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
         raise InputError("data: displacements and strains are observed together without standard deviations; "
                          "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5, "
                          "force = 1.0 }; torque [N m] and clamp [N] by their names)")
-    return Observations(points=points, point_regions=tuple(region_of[p] for p in labels_of),
+    return Observations(points=points, point_regions=tuple(map(region_of.__getitem__, labels_of)),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
                         sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
                         reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source),
