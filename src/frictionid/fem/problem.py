@@ -56,7 +56,9 @@ def compressed(observe: sp.spmatrix | None) -> tuple[sp.csr_matrix | None, sp.cs
     if observe is None:
         return None, None
     observe = sp.csr_matrix(observe)
-    kept = np.flatnonzero(np.bincount(observe.indices, minlength=observe.shape[1]))
+    touched = np.zeros(observe.shape[1], dtype=bool)
+    touched[observe.indices] = True                      # 14 million entries: 60 ms (np.unique, bincount: 0.3 s)
+    kept = np.flatnonzero(touched)
     if len(kept) >= observe.shape[0]:
         return observe, None
     select = sp.csr_matrix((np.ones(len(kept)), (np.arange(len(kept)), kept)), shape=(len(kept), observe.shape[1]))
