@@ -56,14 +56,13 @@ def ring(model):
     return dataclasses.replace(model, mesh=moved, kind="axisymmetric")
 
 
-def write_tet_block(path: Path, order: int, quarter: int = 4, outer: int = 3, block_z: int = 5,
-                    plate_z: int = 3) -> Path:
-    """Reference test 1 meshed with gmsh tetrahedra (order 1 or 2) as a user would, in the groups of
-    tests/fixtures/user_block/block.msh: every curve transfinite (``quarter`` divisions per half side of the
-    footprint, ``outer`` outside it, ``block_z`` / ``plate_z`` through the block / plate), so the block's bottom
-    and the plate's top carry identical triangles and the bodies keep their own coincident interface nodes;
-    the volumes are meshed freely (Delaunay), so coordinates carry gmsh's round-off."""
-    with gmsh_session("tet_block"):
+def _block_on_plate(mesh_curve, path: Path, order: int, recombine: bool) -> Path:
+    """Reference test 1's geometry in gmsh with the groups of tests/fixtures/user_block/block.msh (regions "plate",
+    "block"; boundaries "plate_bottom", "plate_top", "block_top"; zones "A"-"D" by quadrant), each body fragmented
+    on its own so that the bodies keep their own coincident interface nodes; ``mesh_curve(curve, start, end)``
+    makes each curve transfinite (start, end: its end points in its parametric direction); with ``recombine``
+    transfinite hexahedra, else Delaunay tetrahedra on transfinite surfaces; written to ``path``."""
+    with gmsh_session("user_block"):
         occ = gmsh.model.occ
 
         def boxes(breaks, z0, z1):
@@ -75,16 +74,15 @@ def write_tet_block(path: Path, order: int, quarter: int = 4, outer: int = 3, bl
         plate, block = boxes([-20, -5, 0, 5, 20], -5, 0), boxes([-5, 0, 5], 0, 10)
         occ.synchronize()
         for _, curve in gmsh.model.getEntities(1):
-            ends = [np.array(gmsh.model.getValue(0, abs(p), []))
-                    for _, p in gmsh.model.getBoundary([(1, curve)], oriented=False)]
-            axis = int(np.argmax(np.abs(ends[1] - ends[0])))
-            if axis == 2:
-                n = block_z if sum(ends)[2] > 0 else plate_z
-            else:
-                n = quarter if max(abs(ends[0][axis]), abs(ends[1][axis])) <= 5 + 1e-6 else outer
-            gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
+            low, high = gmsh.model.getParametrizationBounds(1, curve)
+            mesh_curve(curve, *(np.array(gmsh.model.getValue(1, curve, [t])) for t in (low[0], high[0])))
         for _, surface in gmsh.model.getEntities(2):
             gmsh.model.mesh.setTransfiniteSurface(surface)
+            if recombine:
+                gmsh.model.mesh.setRecombine(2, surface)
+        if recombine:
+            for _, volume in gmsh.model.getEntities(3):
+                gmsh.model.mesh.setTransfiniteVolume(volume)
 
         def faces_at(volumes, value):
             faces = {abs(t) for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=False,
@@ -108,6 +106,47 @@ def write_tet_block(path: Path, order: int, quarter: int = 4, outer: int = 3, bl
             gmsh.model.mesh.setOrder(2)
         gmsh.write(str(path))
     return path
+
+
+def write_tet_block(path: Path, order: int, quarter: int = 4, outer: int = 3, block_z: int = 5,
+                    plate_z: int = 3) -> Path:
+    """Reference test 1 meshed with gmsh tetrahedra (order 1 or 2) as a user would, in the groups of
+    tests/fixtures/user_block/block.msh: every curve transfinite (``quarter`` divisions per half side of the
+    footprint, ``outer`` outside it, ``block_z`` / ``plate_z`` through the block / plate), so the block's bottom
+    and the plate's top carry identical triangles and the bodies keep their own coincident interface nodes;
+    the volumes are meshed freely (Delaunay), so coordinates carry gmsh's round-off."""
+    def mesh_curve(curve, start, end):
+        axis = int(np.argmax(np.abs(end - start)))
+        if axis == 2:
+            n = block_z if start[2] + end[2] > 0 else plate_z
+        else:
+            n = quarter if max(abs(start[axis]), abs(end[axis])) <= 5 + 1e-6 else outer
+        gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
+
+    return _block_on_plate(mesh_curve, path, order, recombine=False)
+
+
+def write_hex_block(path: Path, order: int = 2, quarter: int = 4, outer: int = 12, block_z: int = 6,
+                    plate_z: int = 3, bump: float = 0.4, z_ratio: float = 1.35, growth: float = 1.2) -> Path:
+    """Reference test 1 meshed with gmsh's transfinite hexahedra (order 2: 27 nodes) graded as a user would
+    grade with gmsh's own curve laws, in the groups of tests/fixtures/user_block/block.msh: ``quarter``
+    divisions per half side of the footprint with a "Bump" of ``bump`` (smallest at the footprint's edges and
+    its quadrant borders), ``outer`` outside it growing by ``growth`` away from the block, ``block_z`` /
+    ``plate_z`` layers through block / plate growing by ``z_ratio`` away from the interface. Another layout
+    than the block builder's (which maps every coordinate by one smooth function)."""
+    def mesh_curve(curve, start, end):
+        axis = int(np.argmax(np.abs(end - start)))
+        if axis == 2:                          # first element at the interface z = 0
+            ratio = z_ratio if abs(start[2]) < 1e-6 else 1 / z_ratio
+            gmsh.model.mesh.setTransfiniteCurve(curve, (block_z if start[2] + end[2] > 0 else plate_z) + 1,
+                                                "Progression", ratio)
+        elif max(abs(start[axis]), abs(end[axis])) <= 5 + 1e-6:
+            gmsh.model.mesh.setTransfiniteCurve(curve, quarter + 1, "Bump", bump)
+        else:                                  # outside the footprint: growing away from the block
+            ratio = growth if abs(start[axis]) < abs(end[axis]) else 1 / growth
+            gmsh.model.mesh.setTransfiniteCurve(curve, outer + 1, "Progression", ratio)
+
+    return _block_on_plate(mesh_curve, path, order, recombine=True)
 
 
 def element_model(element: str, folder: Path, n_pull: int = 4):
