@@ -9,7 +9,7 @@ default / one thread. Run: .venv/bin/python benchmarks/blas_threads.py (about 2 
 import multiprocessing
 import time
 
-from threadpoolctl import threadpool_info, threadpool_limits
+from threadpoolctl import threadpool_info
 
 from _measure import best_of
 from frictionid.builders.registry import build_model
@@ -27,10 +27,7 @@ def _busy(stop):
 
 
 class _Unlimited:
-    """threadpool_limits that leaves BLAS at its default (to time the solver as it was)."""
-
-    def __init__(self, *args, **kwargs):
-        pass
+    """A limit that leaves BLAS at its default (to time the solver as it was)."""
 
     def __enter__(self):
         return self
@@ -40,11 +37,12 @@ class _Unlimited:
 
 
 def solve_time(problem: Problem, mu: dict, limited: bool) -> float:
-    problem_module.threadpool_limits = threadpool_limits if limited else _Unlimited
+    limit = problem_module.one_blas_thread
+    problem_module.one_blas_thread = limit if limited else _Unlimited
     try:
         return best_of(3, lambda: problem.solve(mu, sensitivities=True))[0]
     finally:
-        problem_module.threadpool_limits = threadpool_limits
+        problem_module.one_blas_thread = limit
 
 
 def main() -> None:

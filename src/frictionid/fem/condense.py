@@ -29,6 +29,7 @@ from ..errors import InputError
 from ..progress import bar
 from . import cholesky
 from .assembly import LoadChannels
+from .threads import blas_threads_for
 
 log = logging.getLogger(__name__)
 
@@ -141,11 +142,12 @@ class GeneralisedInverse:
         probe[last[-1]] = 1.0
         expected = self.cholesky.solve(probe)[last]
         L_ss = self.cholesky.trailing()
-        Z = la.solve_triangular(L_ss, rows[:, last].T.toarray(), lower=True, check_finite=False)
-        out = Z.T @ Z[:, :n_w]
-        e = np.zeros(len(last))
-        e[-1] = 1.0
-        got = la.solve_triangular(L_ss, la.solve_triangular(L_ss, e, lower=True), lower=True, trans="T")
+        with blas_threads_for(len(last)):       # one thread for small blocks (fem/threads.py)
+            Z = la.solve_triangular(L_ss, rows[:, last].T.toarray(), lower=True, check_finite=False)
+            out = Z.T @ Z[:, :n_w]
+            e = np.zeros(len(last))
+            e[-1] = 1.0
+            got = la.solve_triangular(L_ss, la.solve_triangular(L_ss, e, lower=True), lower=True, trans="T")
         if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max()):
             log.warning("CHOLMOD's factor is not in the requested order: condensing by solves instead")
             return None

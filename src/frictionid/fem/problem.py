@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from threadpoolctl import threadpool_limits
 
 from ..errors import InputError, SolverError
 from ..model import Model
@@ -21,6 +20,7 @@ from .pairs import ContactPairs
 from .rigid import free_rigid_modes
 from .solution import ExpandedRows, Solution
 from .space import Space
+from .threads import one_blas_thread
 
 log = logging.getLogger(__name__)
 
@@ -228,7 +228,7 @@ class Problem:
         # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
         # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
         # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py)
-        with threadpool_limits(1, user_api="blas"):
+        with one_blas_thread():
             return self._solve(self.model.coefficients(mu), sensitivities, max_slip)
 
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None) -> Solution:
