@@ -30,6 +30,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bolt.py
 	$(PY) benchmarks/backends.py
 	$(PY) benchmarks/blas_threads.py
+	$(PY) benchmarks/cli_threads.py
 	$(PY) benchmarks/user_mesh.py
 	$(PY) benchmarks/full_field.py
 	$(PY) benchmarks/tightening.py
