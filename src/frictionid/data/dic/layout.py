@@ -100,18 +100,18 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
         if reason is None:
             values = {t: _cell(src, line, text.names[i], fields[i] if i < len(fields) else "") * factors[t]
                       for t, i in index.items() if t != "point"}
-            _check_sigma(src, line, text, values, index)
             reason = "with empty or NaN coordinates" if any(math.isnan(values[c]) for c in "xy" if c in values) \
                 else "without any value" if all(math.isnan(v) for t, v in values.items() if t in QUANTITIES) \
                 else None
         if reason is not None:
             dropped[reason] = dropped.get(reason, 0) + 1
             continue
+        _check_sigma(src, line, text, values, index)
         labels.append(_label(src, line, fields, index, number))
         rows.append(values)
         lines.append(line)
     if "force" in layout.columns:
-        _check_force(text, layout.columns["force"], rows, lines, units["force"])
+        _check_force(text, layout.columns["force"], rows, lines)
     return _measurements(text, layout, stage, labels, rows, measure), ExportReport(
         src, layout.flavour, dict(layout.columns), units, measure_text, stage, len(text.rows), len(rows), dropped,
         sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text))
@@ -177,7 +177,7 @@ def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
     return factors, units
 
 
-def _check_force(text: ExportText, column: str, rows: list, lines: list, unit: str) -> None:
+def _check_force(text: ExportText, column: str, rows: list, lines: list) -> None:
     """An export is one stage: every valid row that gives the force gives the same (up to FORCE_RTOL)."""
     given = [(line, row["force"]) for line, row in zip(lines, rows) if not math.isnan(row["force"])]
     if not given:
