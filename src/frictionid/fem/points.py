@@ -274,8 +274,8 @@ def _internal_modes(space: Space, materials, quantities, cells, phi, nodes, det)
     Per point the modes P_i = 1 - xi_i^2 and their gradients in Taylor's form (:func:`incompatible.gradients`),
     grad P_i = (det J0 / det J) (-2 xi_i) J0^-1[i, :], the centre's Jacobian J0 once per cell (the ratio of
     determinants is that of the scikit-fem map, ``det`` at the points: the two maps differ by an affine map of
-    the reference cube, whose determinant cancels); per cell the
-    recovery alpha = -R u_e. A quantity's row is then sum_i c_i(point) A_i(cell) with c_i = P_i (displacements) or
+    the reference cube, whose determinant cancels); per cell the recovery alpha = -R u_e. A quantity's row is
+    then sum_i c_i(point) A_i(cell) with c_i = P_i (displacements) or
     (det J0 / det J) (-2 xi_i) (strains) and A_i the cell's (24,) recovery rows (for a strain combined with
     J0^-1): one matrix product per cell for all its points and quantities."""
     if materials is None:
