@@ -247,3 +247,29 @@ def test_measured_points_of_a_twist_model_must_lie_on_the_x_y_plane():
         off = SimpleNamespace(coordinates=np.array([[4.0, 9.0, 0.0], bad]), source="m.csv")
         with pytest.raises(InputError, match="m.csv: an axisymmetric model with twist needs points on the x-y plane"):
             _coordinates(off, model)
+
+
+def test_a_ring_turned_on_a_cone_slips_on_the_coulomb_disc():
+    """cone_deg = 30 (a flank without its helix): the face is y = (r - 6) tan 30, held bottom and pressed top flat;
+    turned into gross slip each closed pair's friction is mu times its normal force, the clamp force is the pairs'
+    axial resultant, and the torque is that of their circumferential friction forces."""
+    with pytest.raises(InputError, match="cone_deg"):
+        turned_rings_model(cone_deg=75.0)
+    model = turned_rings_model(size=1.0, order=1, cone_deg=30.0)
+    problem = Problem.build(model)
+    face = model.mesh.boundary_nodes("inside")
+    points = model.mesh.points
+    np.testing.assert_allclose(points[face, 1], (points[face, 0] - 6.0) * np.tan(np.radians(30.0)), atol=1e-12)
+    assert np.ptp(points[model.mesh.boundary_nodes("upper_top"), 1]) == 0.0
+    mu = np.array([0.1, 0.2])
+    solution = problem.solve(mu)
+    lam, closed = solution.lam[-1], solution.state[-1] != OPEN
+    assert np.all(solution.state[-1][closed] == SLIP) and closed.sum() > 0.8 * len(closed)
+    friction = np.linalg.norm(lam[:, 1:], axis=1)
+    np.testing.assert_allclose(friction[closed], problem.pairs.mu(mu)[closed] * lam[closed, 0], rtol=1e-8)
+    frames = problem.pairs.frames
+    axial = np.einsum("pk,pk->", lam, frames[:, :, 1])                 # y components of n, t1, t
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert abs(axial) == pytest.approx(reactions["lower_bottom.y"], rel=1e-8)
+    torque = np.sum(lam[:, 2] * problem.pairs.position[:, 0])
+    assert abs(torque) == pytest.approx(reactions["upper_top.torque"], rel=1e-8)

@@ -19,9 +19,9 @@ PRESSURE, MU, ANGLES, N_THETA = 50.0, (0.1, 0.2), (8e-5, 2e-3), 72
 INNER, MIDDLE, OUTER = 6.0, 8.0, 10.0
 
 
-def _twist(points, regions):
+def _twist(points, regions, cone=0.0):
     """Press, turn to 8e-5 rad (partial slip: the outer zone sticks in part), turn on to 2e-3 rad (gross slip)."""
-    model = turned_rings_model(inner=INNER, outer=OUTER, pressure=PRESSURE, size=0.5)
+    model = turned_rings_model(inner=INNER, outer=OUTER, pressure=PRESSURE, size=0.5, cone_deg=cone)
     model = dataclasses.replace(model, loads=(Pressure("upper_top", (PRESSURE,) * 3),
                                               Rotation("upper_top", (0.0,) + ANGLES)),
                                 stages=(Stage("press", 1), Stage("turn", 4), Stage("turn on", 4)))

@@ -5,6 +5,8 @@ Meshes are structured (transfinite) triangles, linear or quadratic, one rectangl
 
 from __future__ import annotations
 
+import dataclasses
+
 import gmsh
 import numpy as np
 
@@ -19,7 +21,8 @@ _SIDES = ("bottom", "outer", "top", "inner")
 
 def _rectangle(name: str, r: tuple[float, float], y: tuple[float, float], size: float, splits=()) -> dict:
     """Add the rectangle r x y (its own points and lines) to the built-in geometry, transfinite with about
-    ``size`` spacing (set on the geometry: constraints set on the model are lost at the next synchronize); the bottom and top lines are split at the radii ``splits``. Returns group name -> tags."""
+    ``size`` spacing (set on the geometry: constraints set on the model are lost at the next synchronize); the
+    bottom and top lines are split at the radii ``splits``. Returns group name -> tags."""
     geo = gmsh.model.geo
     radii = [r[0], *splits, r[1]]
     bottom = [geo.addPoint(x, y[0], 0.0) for x in radii]
@@ -79,7 +82,7 @@ def shaft_model(radius: float = 5.0, length: float = 20.0, bore: float = 0.0, E:
 
 def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 4.0, E: float = 200000.0,
                        nu: float = 0.3, pressure: float = 50.0, angle: float = 2e-3, size: float = 0.5,
-                       order: int = 2, n_turn: int = 4, lead: float = 0.0) -> Model:
+                       order: int = 2, n_turn: int = 4, lead: float = 0.0, cone_deg: float = 0.0) -> Model:
     """A ring pressed axially on a ring of the same section and turned about the axis (x = r, y = axis).
 
     Rings inner <= r <= outer: "lower" at -height <= y <= 0, "upper" at 0 <= y <= height, with coincident
@@ -93,6 +96,10 @@ def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 
 
     ``lead`` [mm per turn]: the face is a helicoid of that lead (a square thread; the interface's
     :attr:`~frictionid.model.ContactInterface.lead`): turning the upper ring screws it along the axis.
+
+    ``cone_deg`` [deg]: the face is a cone rising outwards at that angle, y = (r - inner) tan(cone_deg) (a thread
+    flank's 30 deg without its helix): every node is moved by :func:`cone_shift`, which leaves the held bottom and
+    the pressed top flat. The pressure is then not uniform and the slip is in the section too.
     """
     inner, outer, height = positive("inner", inner), positive("outer", outer), positive("height", height)
     if not inner < outer:
@@ -105,6 +112,10 @@ def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 
         upper = _rectangle("upper", (inner, outer), (0.0, height), size, splits=(middle,))
         upper["inside"], upper["outside"] = upper.pop("upper_bottom_0"), upper.pop("upper_bottom_1")
         mesh = _mesh([lower, upper], order)
+    if cone_deg:
+        if not 0.0 < cone_deg < 60.0:
+            raise InputError(f"`cone_deg` must lie in (0, 60) deg, got {cone_deg!r}")
+        mesh = dataclasses.replace(mesh, points=cone_shift(mesh.points, inner, height, cone_deg))
     pressure = positive("pressure", pressure)
     return Model(mesh=mesh, kind="axisymmetric_twist",
                  materials={"lower": Material(E, nu, "lower"), "upper": Material(E, nu, "upper")},
@@ -112,6 +123,19 @@ def turned_rings_model(inner: float = 6.0, outer: float = 10.0, height: float = 
                  loads=(Pressure("upper_top", (pressure, pressure)), Rotation("upper_top", (0.0, angle))),
                  stages=(Stage("press", 1), Stage("turn", count("n_turn", n_turn))),
                  interfaces=(ContactInterface("face", ("inside", "outside"), "lower_top", "node-to-node", lead),))
+
+
+def cone_shift(points: np.ndarray, inner: float, height: float, cone_deg: float) -> np.ndarray:
+    """(n, 2 or 3) points (r, y[, z] with r = x, or 3-D with r = sqrt(x^2 + z^2)) moved along y by
+    (r - inner) tan(cone_deg) (1 - |y| / height): the plane y = 0 becomes the cone, y = -height and y = height stay.
+
+    >>> cone_shift(np.array([[10.0, 0.0], [10.0, 4.0], [8.0, -2.0]]), 6.0, 4.0, 45.0).round(12).tolist()
+    [[10.0, 4.0], [10.0, 4.0], [8.0, -1.0]]
+    """
+    points = np.array(points, dtype=float)
+    r = np.hypot(points[:, 0], points[:, 2]) if points.shape[1] == 3 else points[:, 0]
+    points[:, 1] += (r - inner) * np.tan(np.radians(cone_deg)) * (1.0 - np.abs(points[:, 1]) / height)
+    return points
 
 
 def effective_radius(inner: float, outer: float) -> float:
