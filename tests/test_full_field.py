@@ -91,8 +91,14 @@ def test_plain_table_reads_like_row_by_row(tmp_path):
     spaced.write_text("# units\n" + header + "\n" + "\n".join(rows[:50] + [""] + rows[50:]) + "\n")
     a, b = reader.read_measurements(plain), reader.read_measurements(spaced)
     assert a == b and a.n_rows == 120 and a.stages == (1, 2, 3)
-    assert reader._plain_columns(plain.read_text().splitlines()[2:], 9)[0] is not None   # the one-pass path ran
-    assert reader._plain_columns(spaced.read_text().splitlines()[2:], 9)[0] is None
+    table = reader._plain_columns(plain.read_text().splitlines()[2:], 9)[0]              # the one-pass path ran
+    assert table is not None and reader._plain_columns(spaced.read_text().splitlines()[2:], 9)[0] is None
+    columns = {name: k for k, name in enumerate(header.split(","))}
+    numbers = reader._numbers(table, columns)                                           # numpy's text reader
+    assert set(numbers) == set(columns) - {"point", "stage"} and table.few(0) == table[0] == list(a.points)
+    for name, k in columns.items():
+        if name in numbers:
+            np.testing.assert_array_equal(numbers[name], [float(r.split(",")[k]) for r in rows])
     np.testing.assert_array_equal(a.values["uy"], [float(r.split(",")[7]) for r in rows])
     np.testing.assert_array_equal(a.stage, [1 + k // 40 for k in range(120)])
     for k, (old, bad, message) in enumerate([

@@ -64,7 +64,9 @@ def read_measurements(path) -> Measurements:
     columns = _check_header(source, *header)
     if not lines:
         raise InputError(f"{_at(source, header[0])}no data rows after the header")
-    cells = {name: _column(source, lines, name, by_column[index], plain) for name, index in columns.items()}
+    cells = _numbers(by_column, columns) if plain and isinstance(by_column, _PlainTable) else {}
+    cells.update({name: _column(source, lines, name, by_column.few(index) if cells else by_column[index], plain)
+                  for name, index in columns.items() if name not in cells})
     _check_rows(source, header[0], lines, cells)
     return Measurements(
         points=tuple(cells["point"]), coordinates=np.column_stack([cells[c] for c in "xyz"]),
@@ -106,7 +108,7 @@ def _split(source: str, lines: list[str]):
         raise InputError(f"{source}: no header and no data (expected '#' comment lines, a header "
                          f"{','.join(REQUIRED)},... and one row per point and stage)")
     body = lines[header[0]:]
-    by_column, plain = _plain_columns(body, len(header[1]))
+    by_column, plain = _plain_columns(body, len(header[1]))         # a _PlainTable: columns split when asked
     if by_column is not None:
         return comments, header, list(range(header[0] + 1, header[0] + 1 + len(body))), by_column, plain
     rows = []
@@ -134,9 +136,25 @@ def _fields(text: str) -> list[str]:
 _NOT_PLAIN = ('"', "#", " ", "\t", "\r", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x1f", "\x85")
 
 
-def _plain_columns(body: list[str], width: int) -> tuple[list[list[str]] | None, bool]:
-    """The fields by column of data lines that are all plain (see :func:`_split`), else None; and whether they
-    hold no underscore (then a column that float() reads is one of numbers as :func:`_number` reads them)."""
+class _PlainTable:
+    """Plain data lines (see :func:`_split`): ``table[j]`` the texts of column j (the whole table split once, when
+    first asked), ``table.few(j)`` those of column j alone (each line split up to it), ``table.body`` the lines."""
+
+    def __init__(self, body: list[str], width: int, block: str):
+        self.body, self.width, self._block, self._fields = body, width, block, None
+
+    def __getitem__(self, j: int) -> list[str]:
+        if self._fields is None:
+            self._fields = self._block.replace("\n", ",").split(",")
+        return self._fields[j::self.width]
+
+    def few(self, j: int) -> list[str]:
+        return [line.split(",", j + 1)[j] for line in self.body]
+
+
+def _plain_columns(body: list[str], width: int) -> tuple[_PlainTable | None, bool]:
+    """The data lines as a :class:`_PlainTable` if they are all plain (see :func:`_split`), else None; and whether
+    they hold no underscore (then a column that float() reads is one of numbers as :func:`_number` reads them)."""
     if not body or not all(body):
         return None, False
     block = "\n".join(body)
@@ -144,8 +162,26 @@ def _plain_columns(body: list[str], width: int) -> tuple[list[list[str]] | None,
         return None, False
     if set(map(str.count, body, itertools.repeat(","))) != {width - 1}:
         return None, False
-    fields = block.replace("\n", ",").split(",")
-    return [fields[j::width] for j in range(width)], "_" not in block
+    return _PlainTable(body, width, block), "_" not in block
+
+
+def _numbers(table: _PlainTable, columns: dict[str, int]) -> dict[str, np.ndarray]:
+    """Every numeric column of a plain table read at once by numpy's text reader, which reads a field as float()
+    does (1e5 rows x 15 columns in about 0.4 s instead of 0.7 s through Python strings); {} if a column has an
+    empty cell, a cell that is no number, a value that is not finite or a sigma <= 0: the cell-by-cell path then
+    reads them and names the cell."""
+    numeric = {name: index for name, index in columns.items() if name not in ("point", "stage")}
+    if not numeric:
+        return {}
+    try:
+        values = np.loadtxt(table.body, delimiter=",", usecols=list(numeric.values()), comments=None, dtype=float,
+                            ndmin=2, encoding=None)
+    except ValueError:
+        return {}
+    cells = {name: np.ascontiguousarray(values[:, k]) for k, name in enumerate(numeric)}
+    if not np.isfinite(values).all() or any((cells[name] <= 0).any() for name in cells if name.startswith("sigma_")):
+        return {}
+    return cells
 
 
 def _check_header(source: str, line: int, names: list[str]) -> dict[str, int]:
