@@ -79,6 +79,9 @@ def test_a_channel_needs_its_reaction_and_its_column():
     with pytest.raises(InputError, match=r"data\.reactions\.clamp: 'lower_bottom\.z' is not a reaction of the "
                                          r"model \(did you mean 'lower_bottom\.y'\?\)"):
         channel_reaction(model, "clamp", {"clamp": "lower_bottom.z"})
+    with pytest.raises(InputError, match=r"data\.reactions: 'clmap' is not a per-stage observable with a reaction "
+                                         r"to name \(did you mean 'clamp'\?\); expected torque, clamp"):
+        observations_from(_data(), model, ["torque"], [2], {"torque": 0.01}, reactions={"clmap": "lower_bottom.y"})
     bare = Measurements(points=("P",), coordinates=[[10.0, 2.0, 0.0]], stage=[1], force=[np.nan],
                         values={"uz": [0.0]}, source="m.csv")
     with pytest.raises(InputError, match="m.csv: data.observables has 'torque' but the data have no column 'torque'"):

@@ -15,7 +15,7 @@ from .data.sources import read_data
 from .errors import InputError
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
-from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, region_of_points
+from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
 from .inverse.parameters import Parameters
 from .report.vtu import export_fields
 
@@ -47,6 +47,7 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
                        if q not in STAGE_OBSERVABLES)
     region_of = region_of_points(config.data.get("regions"), labels, model.mesh.region_names)
     channels = {}
+    check_reaction_keys(config.data.get("reactions"), f"{config.where}: [data] reactions")
     for channel in STAGE_OBSERVABLES:
         try:
             channels[channel] = channel_reaction(model, channel, config.data.get("reactions"),

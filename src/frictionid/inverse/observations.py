@@ -47,6 +47,22 @@ def machine_force(model: Model) -> str:
     return driven[0]
 
 
+def check_reaction_keys(reactions: dict | None, where: str = "data.reactions") -> dict:
+    """The ``[data] reactions`` table, its keys checked to be channels (:data:`~frictionid.data.table.CHANNELS`).
+
+    >>> check_reaction_keys({"clamp": "plate1_rim.y"})
+    {'clamp': 'plate1_rim.y'}
+    """
+    reactions = dict(reactions or {})
+    unknown = [key for key in reactions if key not in CHANNELS]
+    if unknown:
+        close = difflib.get_close_matches(str(unknown[0]), list(CHANNELS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"{where}: {unknown[0]!r} is not a per-stage observable with a reaction to name{hint}; "
+                         f"expected {', '.join(CHANNELS)}")
+    return reactions
+
+
 def channel_reaction(model: Model, channel: str, reactions: dict | None = None,
                      where: str = "data.reactions") -> str:
     """Label of the reaction sum of ``model`` that the per-stage observable ``channel`` measures.
@@ -61,9 +77,9 @@ def channel_reaction(model: Model, channel: str, reactions: dict | None = None,
     InputError
         A channel with no reaction to measure, or a label that is not one of the model's reactions.
     """
+    reactions = check_reaction_keys(reactions, where)
     if channel == FORCE:
         return machine_force(model)
-    reactions = dict(reactions or {})
     label = reactions.get(channel)
     if label is None and channel == "torque":
         turned = list(dict.fromkeys(reaction_label(load.boundary, 2, model.kind) for load in model.loads
