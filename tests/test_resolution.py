@@ -31,6 +31,24 @@ def test_a_zone_no_row_sees_and_two_indistinguishable_zones_are_not_seen():
     assert np.isinf(stderr[:2]).all() and stderr[2] == pytest.approx(1 / 3)
 
 
+def test_a_well_seen_zone_with_a_trace_in_an_unseen_direction_keeps_its_standard_error():
+    """Seven zones whose data see every direction but one, the difference of zones 1 and 2 (singular value 1e-7
+    of the largest, eigenvalue 1e-14: unseen), in which zone 7 has a trace of 1e-6 (as the nut bearing next to
+    six thread zones in the bolt's tightening test): zones 1 and 2 are not seen, zone 7 keeps the standard error
+    of the seen directions (its trace would add 1e-12 / 1e-12 of 1 / top to its variance: less than it has)."""
+    rng = np.random.default_rng(7)
+    null = np.zeros(7)
+    null[[0, 1, 6]] = 1.0, -1.0, 1e-6
+    basis, _ = np.linalg.qr(np.column_stack([null, rng.normal(size=(7, 6))]))
+    singular = np.array([1e-7, 0.3, 0.5, 0.7, 0.9, 1.0, 0.1])
+    J = np.linalg.qr(rng.normal(size=(20, 7)))[0] @ np.diag(singular) @ basis.T
+    information = J.T @ J
+    stderr = predicted_stderr(information)
+    assert np.isinf(stderr[:2]).all() and np.isfinite(stderr[2:]).all()
+    seen = np.sqrt(np.diag(np.linalg.pinv(information, rcond=1e-12, hermitian=True)))
+    np.testing.assert_allclose(stderr[2:], seen[2:], rtol=1e-6)
+
+
 def test_resolution_flags_and_correlation():
     J = np.array([[10.0, 9.9], [10.0, 10.1], [0.0, 0.0]])       # two nearly equal columns: strongly correlated
     found = resolution(J, ("A", "B"), tolerance=0.05)

@@ -21,14 +21,24 @@ RCOND = 1e-12
 def predicted_stderr(information: np.ndarray) -> np.ndarray:
     """(n,) sqrt(diag F^-1) of an information matrix (n, n); inf where a zone lies in its null space.
 
+    Directions with eigenvalues at most RCOND times the largest count as unseen. A zone is blind (inf) when its
+    share of them would dominate its variance even at that floor, sum_unseen v^2 / (RCOND top) > sum_seen v^2 / w:
+    a zone whose share of an unseen direction is a trace (a well-seen bearing next to thread zones that only
+    their sum is seen of) keeps its standard error from the seen directions.
+
     >>> predicted_stderr(np.diag([4.0, 0.0]))
     array([0.5, inf])
+    >>> predicted_stderr(np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 4.0]]))
+    array([inf, inf, 0.5])
     """
     w, v = np.linalg.eigh(np.asarray(information, dtype=float))
     top = max(w.max(initial=0.0), 0.0)
-    seen = w > RCOND * top if top > 0 else np.zeros_like(w, dtype=bool)
+    if top <= 0:
+        return np.full(len(w), np.inf)
+    seen = w > RCOND * top
     variance = (v[:, seen] ** 2) @ (1.0 / w[seen])
-    blind = np.any(np.abs(v[:, ~seen]) > 1e-8, axis=1)
+    unseen = (v[:, ~seen] ** 2).sum(axis=1) / (RCOND * top)
+    blind = unseen > variance
     return np.where(blind, np.inf, np.sqrt(variance))
 
 
