@@ -143,7 +143,8 @@ def test_identify_thread_and_bearing_from_torque_clamp_force_and_dic_through_the
     """examples/bolt-m20/tightening: simulate on the 0.2 mm flank mesh (thread 0.14, nut bearing 0.12; columns ux,
     uy, uz, torque, clamp), noise of the stated size added (0.5 um, 0.4 N m, 50 N; seed 3), then identify.toml on
     the 0.25 mm mesh: the resolution check resolves thread and nut bearing, both recovered within 0.02 (measured
-    0.1396 +/- 0.0005, 0.1185 +/- 0.0011); zones.toml (A-F one by one): A-F reported not resolved."""
+    0.1396 +/- 0.0005, 0.1185 +/- 0.0011); zones.toml (A-F one by one): A-F reported not resolved, the nut
+    bearing next to them resolved."""
     import json
     import shutil
     from pathlib import Path
@@ -172,3 +173,5 @@ def test_identify_thread_and_bearing_from_torque_clamp_force_and_dic_through_the
     assert main(["identify", str(folder / "zones.toml")]) == 0
     zones = json.loads((folder / "runs" / "zones" / "result.json").read_text())["parameters"]
     assert not any(zones[zone]["identifiable"] for zone in "ABCDEF")
+    assert zones["nut_plate"]["identifiable"] is True                 # a trace in the threads' unseen directions
+    assert zones["nut_plate"]["value"] == pytest.approx(0.12, abs=0.02)
