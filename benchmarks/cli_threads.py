@@ -6,7 +6,7 @@ one core busy, and with `run.workers = 2`.
 Two CLI paths, both on the default 3-D block (`builder = "block"`, mesh 1.0 mm, 23,595 dofs, 121 contact pairs):
 
 - `frictionid demo --block`: exactly one forward + sensitivity solve; it prints the solve's time ("forward +
-  sensitivities X s"), read here (best of 3 runs each way). Cases: idle, one core busy.
+  sensitivities X s"), read here (best of 4 runs each way). Cases: idle, one core busy.
 - `frictionid identify` of twin data (made by `frictionid simulate` at known coefficients, 704 DIC points ux, uy,
   uz at the end of the pull) with `identify.jacobian = "analytic"` (every solve a forward + sensitivity solve)
   and `identify.starts = 2`, 3 iterations per start: with `run.workers = 2` the two starts run side by side in
@@ -71,13 +71,19 @@ class Busy:
         return False
 
 
+def _turn(k: int) -> tuple[bool, bool]:
+    """Which runs first in turn ``k`` (one thread or not): alternately, so that an order effect (the first of two
+    runs after a pause) falls on both."""
+    return (False, True) if k % 2 == 0 else (True, False)
+
+
 def demo_block(cwd: Path, repeat: int = 3) -> tuple[tuple[float, float], tuple[float, float]]:
     """(best solve time [s] that `frictionid demo --block` reports, best wall time [s]) of ``repeat`` runs with the
-    default environment and of as many with one thread, taking turns (a change in the machine's other load
-    falls on both)."""
+    default environment and of as many with one thread, taking turns, each first in every other turn (a
+    change in the machine's other load falls on both)."""
     figures = {False: ([], []), True: ([], [])}
-    for _ in range(repeat):
-        for one_thread in (False, True):
+    for k in range(repeat):
+        for one_thread in _turn(k):
             out, wall = run(["demo", "--block"], one_thread, cwd)
             figures[one_thread][0].append(float(re.search(r"forward \+ sensitivities ([0-9.]+) s", out).group(1)))
             figures[one_thread][1].append(wall)
@@ -114,7 +120,7 @@ def identify_pair(folder: Path, name: str, workers: int, repeat: int = 2) -> tup
     run with the smaller median solve of each."""
     runs = {False: [], True: []}
     for k in range(repeat):
-        for one_thread in (False, True):
+        for one_thread in _turn(k):
             runs[one_thread].append(identify(folder, f"{name}{k}{'-1' if one_thread else ''}", workers, one_thread))
     return min(runs[False]), min(runs[True])
 
@@ -137,10 +143,10 @@ def main() -> None:
     ratios = []
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        print("frictionid demo --block (one forward + sensitivity solve, the time it prints, best of 3):")
-        ratios.append(line("idle", *demo_block(folder), "solve"))
+        print("frictionid demo --block (one forward + sensitivity solve, the time it prints, best of 4):")
+        ratios.append(line("idle", *demo_block(folder, 4), "solve"))
         with Busy():
-            ratios.append(line("one core busy", *demo_block(folder), "solve"))
+            ratios.append(line("one core busy", *demo_block(folder, 4), "solve"))
         write_twin(folder)
         print("frictionid identify, 2 starts, analytic Jacobian (median forward + sensitivity solve of result.json "
               "timings, the better of 2 runs):")
