@@ -4,16 +4,19 @@ coefficients, and the [model] / regions lines of its configs."""
 
 #: the coefficients the twin data are simulated with
 TRUE = {"A": 0.32, "B": 0.18, "C": 0.41}
-#: a measurement file template (values are placeholders; `frictionid simulate` fills them)
-POINTS = """# observation points on the block's sides and the base top (plane strain, z = 0)
-point,x,y,z,stage,uy
-P1,-5.0,0.5,0.0,1,0.0
-P2,-5.0,1.5,0.0,1,0.0
-P3,5.0,0.5,0.0,1,0.0
-P4,5.0,1.5,0.0,1,0.0
-P5,-7.0,0.0,0.0,1,0.0
-P6,7.0,0.0,0.0,1,0.0
-"""
+#: the six observation points: four on the block's sides, two on the base top (plane strain, z = 0)
+XY = {"P1": (-5.0, 0.5), "P2": (-5.0, 1.5), "P3": (5.0, 0.5), "P4": (5.0, 1.5), "P5": (-7.0, 0.0), "P6": (7.0, 0.0)}
+
+
+def points_csv(stage: int = 1, quantities: tuple[str, ...] = ("uy",)) -> str:
+    """A measurement file template of the six points at ``stage`` with ``quantities`` columns (values are
+    placeholders; `frictionid simulate` fills them)."""
+    rows = "".join(f"{p},{x},{y},0.0,{stage}" + ",0.0" * len(quantities) + "\n" for p, (x, y) in XY.items())
+    return ("# observation points on the block's sides and the base top (plane strain, z = 0)\n"
+            f"point,x,y,z,stage{''.join(',' + q for q in quantities)}\n" + rows)
+
+
+POINTS = points_csv()
 MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
 #: the [data] regions line: P1-P4 on the block, P5, P6 on the base
 REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'

@@ -5,18 +5,11 @@ from pathlib import Path
 
 import pytest
 
+from block2d_case import points_csv
 from frictionid.cli import main
 
 TRUE = {"A": 0.32, "B": 0.18}
-POINTS = """# points on the block's sides and the base top (plane strain, z = 0)
-point,x,y,z,stage,ux,uy
-P1,-5.0,0.5,0.0,2,0.0,0.0
-P2,-5.0,1.5,0.0,2,0.0,0.0
-P3,5.0,0.5,0.0,2,0.0,0.0
-P4,5.0,1.5,0.0,2,0.0,0.0
-P5,-7.0,0.0,0.0,2,0.0,0.0
-P6,7.0,0.0,0.0,2,0.0,0.0
-"""
+POINTS = points_csv(stage=2, quantities=("ux", "uy"))
 REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
 
 

@@ -5,17 +5,11 @@ import json
 import numpy as np
 import pytest
 
+from block2d_case import points_csv
 from frictionid.cli import main
 from frictionid.run.profile import CHI2_95, grid, interval
 
-POINTS = """point,x,y,z,stage,ux,uy
-P1,-5.0,0.5,0.0,2,0.0,0.0
-P2,-5.0,1.5,0.0,2,0.0,0.0
-P3,5.0,0.5,0.0,2,0.0,0.0
-P4,5.0,1.5,0.0,2,0.0,0.0
-P5,-7.0,0.0,0.0,2,0.0,0.0
-P6,7.0,0.0,0.0,2,0.0,0.0
-"""
+POINTS = points_csv(stage=2, quantities=("ux", "uy"))
 REGIONS = 'regions = { "P[1-4]" = "block", "P[56]" = "base" }\n'
 
 
