@@ -78,22 +78,31 @@ def test_dice_invalid_markers_are_dropped_and_counted_each(capsys):
 
 
 def test_dice_header_geometry_is_reported_and_the_window_source_said(capsys, tmp_path):
-    """DICe's preamble gives the subset, step and VSG strain window in image pixels: check-data reports them (not
-    used as [data] strain_window, a square in mm); check-data CONFIG says where the fit's window comes from."""
+    """DICe's preamble gives the subset, step and VSG strain window in image pixels: check-data reports them, and the
+    window in mm at the pixel size fitted between the pixel and the model coordinates, with the residual (the
+    fixture's points lie on a curved patch, so the map is no uniform scale: said to be approximate); check-data
+    CONFIG says where the fit's window comes from."""
     from frictionid.config import config_from_dict
     from frictionid.data.sources import check_config_data
 
     assert main(["check-data", str(FIXTURES / "DICe_solution_0001.txt")]) == 0
     out = capsys.readouterr().out
     assert "DICe header: subset 41 px, step 10 x 10 px, VSG strain window 61 px (a circle in the image)" in out
+    assert "strain window 61 px from the header = " in out and "the scale fitted between the pixel and the " \
+        "physical coordinates of 12 points: residual RMS" in out and "the window in mm is approximate" in out
     _, report = read_export(FIXTURES / "vic3d.csv", stage=1)
-    assert report.notes == ()
+    assert report.notes == () and report.window is None
     shutil.copy(FIXTURES / "DICe_solution_0001.txt", tmp_path)
-    for window, said in ((None, "strain window: none ([data] strain_window not set)"),
-                         (1.5, "strain window: 1.5 mm, from [data] strain_window")):
+    for window, said in ((None, "mm (circle, diameter), from the header of"),
+                         (1.5, "strain window: 1.5 mm (square), from [data] strain_window")):
         config = config_from_dict({"data": {"file": "DICe_solution_0001.txt", "observables": ["ux"], "stages": [1],
                                             "strain_window": window}}, need=("data",), base=tmp_path)
         assert said in check_config_data(config)
+    shutil.copy(FIXTURES / "vic3d.csv", tmp_path)
+    config = config_from_dict({"data": {"file": "vic3d.csv", "observables": ["ux"], "stages": [1]}}, need=("data",),
+                              base=tmp_path)
+    assert "strain window: none ([data] strain_window not set, no strain window in the exports' headers)" in \
+        check_config_data(config)
 
 
 def test_a_format_is_recognised_from_the_head_or_past_a_long_preamble(tmp_path):
@@ -339,3 +348,159 @@ def test_simulate_reads_data_file_like_identify(tmp_path):
     assert main(["simulate", str(folder / "listed.toml"), "--out", str(folder / "listed.csv")]) == 0
     listed, one = (dataclasses.replace(read_measurements(folder / f), comments=()) for f in ("listed.csv", "one.csv"))
     assert listed == one          # the comments name the config
+
+
+# --- DIC levelling: the strain window of DICe's header ------------------------------------------------------------
+
+#: the grid of a DICe run on the 2-D block's face: step 10 px at 40 px/mm (0.25 mm), window 61 px = 1.525 mm
+PX_PER_MM, WINDOW_PX = 40.0, 61
+
+
+def _grid(stage: int = 1):
+    """DIC-like points on the block (a regular grid, step 0.25 mm), smooth displacements and strains."""
+    from frictionid.data import Measurements
+
+    x, y = np.meshgrid(np.arange(-4.5, 4.51, 0.25), np.arange(1.0, 9.01, 0.25))
+    x, y = x.ravel(), y.ravel()
+    values = {"ux": 1e-3 * x * y, "uy": -2e-4 * x ** 2, "exx": 1e-3 * y, "eyy": 2e-5 * x, "exy": 1e-4 * x}
+    return Measurements(points=tuple(f"P{k}" for k in range(len(x))), coordinates=np.column_stack(
+        [x, y, np.zeros(len(x))]), stage=np.full(len(x), stage), force=np.full(len(x), np.nan), values=values)
+
+
+def _window_config(folder, **data):
+    from frictionid.config import config_from_dict
+
+    return config_from_dict({
+        "model": {"builder": "block2d", "mesh_size": 2.0, "n_pull": 1}, "friction": {"zones": {"A": 0.2, "B": 0.2}},
+        "data": {"observables": ["ux", "exx", "eyy", "exy"], "stages": [1], "regions": {"*": "block"},
+                 "noise": {"u": 5e-4, "e": 1e-4}, **data},
+        "identify": {"suggestions": 0}, "run": {"dir": "run"}}, need=("model", "friction", "data", "run"), base=folder)
+
+
+def _operator(setup):
+    """The fit's observation operator of a setup, its rows ordered by the points' coordinates (labels differ)."""
+    from frictionid.fem.space import Space
+    from frictionid.identification import strain_window
+
+    model, obs = setup.model, setup.observations
+    space = Space.build(model.mesh, model.kind, model.element)
+    H = point_operator_of(space, obs, model, strain_window(setup.window))
+    order = np.lexsort(np.asarray(obs.points).T[::-1])
+    n_q = len(obs.quantities)
+    return H[(order[:, None] * n_q + np.arange(n_q)).ravel()].toarray()
+
+
+def point_operator_of(space, obs, model, window):
+    from frictionid.fem.points import point_operator
+
+    return point_operator(space, obs.points, obs.quantities, obs.point_regions, model.materials, window)
+
+
+@pytest.fixture(scope="module")
+def window_files(tmp_path_factory):
+    """The grid as the generic CSV and as DICe exports: calibrated with the image's y down, without the pixel
+    columns, and at stage 2 with another window."""
+    folder = tmp_path_factory.mktemp("window")
+    m = _grid()
+    write_measurements(folder / "generic.csv", m)
+    generate.write_dice(folder / "dice.txt", m, px_per_mm=PX_PER_MM, y_down=True, window=WINDOW_PX)
+    generate.write_dice(folder / "no_pixels.txt", m, pixels=False, window=WINDOW_PX)
+    generate.write_dice(folder / "dice_41.txt", _grid(stage=2), px_per_mm=PX_PER_MM, y_down=True, window=41)
+    return folder
+
+
+def test_a_dice_header_window_gives_the_operator_of_the_equivalent_config_window(window_files):
+    """DICe's VSG window (61 px) converted with the pixel size fitted between COORDINATE_X/Y and MODEL_COORDINATES
+    (the image's y down: a turn, exactly fitted) is a circle of 1.525 mm: the fit's operator is the generic CSV's
+    with strain_window = 1.525, strain_window_shape = "circle"; it is neither the square of that side nor pointwise.
+    check-data and result.json's data.strain_window say where it came from."""
+    from frictionid.data.sources import check_config_data
+    from frictionid.identification import data_section, prepare
+
+    dice = prepare(_window_config(window_files, file="dice.txt"))
+    size = WINDOW_PX / PX_PER_MM
+    assert dice.window.origin == "export header" and dice.window.shape == "circle"
+    assert abs(dice.window.size - size) <= 1e-12 * size
+    record = dice.window.files[0]
+    assert abs(record["mm_per_pixel"] - 1 / PX_PER_MM) < 1e-15 and record["scale_residual_max_mm"] < 1e-12
+    generic = {shape: prepare(_window_config(window_files, file="generic.csv", strain_window=size,
+                                             strain_window_shape=shape)) for shape in ("circle", "square")}
+    pointwise = prepare(_window_config(window_files, file="generic.csv"))
+    H = _operator(dice)
+    scale = np.abs(H).max()
+    assert np.abs(H - _operator(generic["circle"])).max() <= 1e-12 * scale
+    assert np.abs(H - _operator(generic["square"])).max() > 1e-3 * scale
+    assert np.abs(H - _operator(pointwise)).max() > 1e-3 * scale
+    said = check_config_data(_window_config(window_files, file="dice.txt"))
+    assert "strain window 61 px from the header = 1.525 mm (circle, diameter) at 0.025 mm/px" in said
+    assert f"strain window: 1.525 mm (circle, diameter), from the header of {window_files / 'dice.txt'}" in said
+    section = data_section([], dice.observations, dice.window)["strain_window"]
+    assert section["origin"] == "export header" and section["shape"] == "circle"
+    assert section["files"][0]["pixels"] == WINDOW_PX and section["files"][0]["file"].endswith("dice.txt")
+
+
+def test_without_pixel_coordinates_the_header_window_is_not_used(window_files, capsys):
+    """An export without the pixel coordinates gives no pixel size: the window is not converted, check-data says
+    why, a fit of strains needs [data] strain_window (exit 2), a fit of displacements runs without a window."""
+    from frictionid.data.sources import check_config_data
+    from frictionid.identification import prepare
+
+    said = check_config_data(_window_config(window_files, file="no_pixels.txt"))
+    assert "strain window 61 px from the header, not converted to mm: the file has no pixel coordinates" in said
+    assert "strain window: none; " in said
+    with pytest.raises(InputError, match=r"no_pixels.txt: the header's strain window \(61 px\) cannot be converted "
+                                         r"to mm: .*; give \[data\] strain_window in mm"):
+        prepare(_window_config(window_files, file="no_pixels.txt"))
+    assert prepare(_window_config(window_files, file="no_pixels.txt", observables=["ux"])).window.size is None
+    given = prepare(_window_config(window_files, file="no_pixels.txt", strain_window=1.5))
+    assert given.window.size == 1.5 and given.window.origin == "[data] strain_window"
+
+
+def test_the_config_window_overrides_the_header(window_files):
+    """[data] strain_window is the fit's window (a square unless strain_window_shape says circle) whatever the
+    headers say; check-data names the header's window as overridden."""
+    from frictionid.data.sources import check_config_data
+    from frictionid.identification import prepare
+
+    dice = prepare(_window_config(window_files, file="dice.txt", strain_window=2.0))
+    generic = prepare(_window_config(window_files, file="generic.csv", strain_window=2.0))
+    assert (dice.window.size, dice.window.shape, dice.window.origin) == (2.0, "square", "[data] strain_window")
+    H = _operator(dice)
+    assert np.abs(H - _operator(generic)).max() <= 1e-12 * np.abs(H).max()
+    said = check_config_data(_window_config(window_files, file="dice.txt", strain_window=2.0))
+    assert "strain window: 2 mm (square), from [data] strain_window" in said
+    assert "gives 61 px = 1.525 mm, a circle; overridden" in said
+
+
+def test_two_files_with_different_header_windows_are_refused(window_files):
+    """A fit has one window: two exports whose headers give different windows are refused naming both (and a
+    config window settles it)."""
+    from frictionid.identification import prepare
+
+    files = ["dice.txt", "dice_41.txt"]
+    with pytest.raises(InputError, match=r"dice.txt and .*dice_41.txt give different strain windows in their "
+                                         r"headers \(61 px at 0.025 mm/px = 1.525 mm and 41 px .* = 1.025 mm\)"):
+        prepare(_window_config(window_files, file=files, stages=[1, 2]))
+    assert prepare(_window_config(window_files, file=files, stages=[1, 2], strain_window=1.0)).window.size == 1.0
+
+
+def test_the_circular_window_is_dices_vsg_computation():
+    """The circle of diameter window x pixel size on the specimen holds the subsets DICe's VSG post-processor takes
+    (those within half the window of the point in the image, DICe_PostProcessor.cpp's radius search) and the
+    plane fitted to them gives its gradient: computed here as DICe computes it, point by point, for a
+    nonlinear field on the grid, the same to 1e-12."""
+    from frictionid.fem.points import window_gradients
+
+    m = _grid()
+    xy = m.coordinates[:, :2]
+    uv = np.column_stack([PX_PER_MM * xy[:, 0] + 500, 400 - PX_PER_MM * xy[:, 1]])   # generate.write_dice, y down
+    f = np.sin(xy[:, 0]) * xy[:, 1] ** 2
+    gradient, _ = window_gradients(xy, WINDOW_PX / PX_PER_MM, shape="circle")
+    ours = np.column_stack([g @ f for g in gradient])
+    radius2 = (WINDOW_PX / 2) ** 2 + 1e-5                         # DICe: neighborhood_radius^2 + tiny, in pixels
+    dice = np.empty_like(ours)
+    for i in range(len(xy)):
+        near = np.sum((uv - uv[i]) ** 2, axis=1) <= radius2
+        X = np.column_stack([np.ones(near.sum()), xy[near] - xy[i]])
+        dice[i] = np.linalg.lstsq(X, f[near], rcond=None)[0][1:]
+    assert np.abs(ours - dice).max() <= 1e-12 * np.abs(dice).max()

@@ -18,9 +18,11 @@ from .backends.embedded import EmbeddedBackend
 from .builders.registry import build_model
 from .config import Config, config_from_dict
 from .data.measurements import Measurements
+from .data.dic.window import choose as choose_window
 from .data.sources import data_digest, data_paths, read_sources
 from .errors import InputError, SolverError
 from .fem.locate import PointsOutside
+from .fem.points import StrainWindow
 from .inverse.evaluator import JACOBIANS, Evaluator
 from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
 from .inverse.observations import observations_from
@@ -55,6 +57,8 @@ class Setup:
     model_options: dict
     data_file: Path | None = None
     frames: tuple = ()
+    #: the fit's DIC strain window (:class:`~frictionid.data.dic.window.WindowChoice`), None: none
+    window: object = None
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -111,17 +115,21 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                          "backend (the estimate refines the embedded model)")
     data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None
     given, frames, relative, specimens = measurements, [], {}, {}
+    window = choose_window(config.data.get("strain_window"), config.data.get("strain_window_shape"), [])
     if measurements is None:
         sources = read_sources(config.data, config.resolve, where, model)
         measurements, frames, relative = sources.measurements, sources.frames, sources.relative
-        specimens = sources.specimens
+        specimens, window = sources.specimens, sources.window
         for frame in frames:
             echo(f"{frame['file']}: {frame['line']}")
+        if window.origin == "export header":
+            echo(window.lines[0])
+    window = window.for_fit(config.data["observables"])
     observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
                                      config.data.get("noise"), config.data.get("regions"), relative, specimens,
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
-                 data_file, tuple(frames))
+                 data_file, tuple(frames), window)
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -254,7 +262,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
                                solver_options(config), f"{config.where}: [solver]", obs.reactions,
-                               config.data.get("strain_window"))
+                               strain_window(setup.window))
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
     backend_s = time.perf_counter() - condensed
@@ -490,7 +498,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
         "model": setup.model_options,
-        "data": data_section(setup.frames, obs),
+        "data": data_section(setup.frames, obs, setup.window),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
                             "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),
@@ -503,13 +511,20 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
     }
 
 
-def data_section(frames, obs) -> dict:
-    """result.json's ``data``: the frame of each file that has one (given or fitted, with its residual) and the
-    reference points displacements are fitted relative to ([data] relative_to)."""
+def data_section(frames, obs, window=None) -> dict:
+    """result.json's ``data``: the frame of each file that has one (given or fitted, with its residual), the
+    reference points displacements are fitted relative to ([data] relative_to) and the strain window of the fit
+    (size, shape, origin: [data] strain_window or the exports' headers with their pixel sizes)."""
     minus = np.full(obs.n_obs, -1) if obs.minus_row is None else obs.minus_row
     n_quantities = max(len(obs.quantities), 1)
     return {"frames": [{k: v for k, v in f.items() if k != "line"} for f in frames],
-            "relative_to": sorted({obs.point_labels[m // n_quantities] for m in minus[minus >= 0]})}
+            "relative_to": sorted({obs.point_labels[m // n_quantities] for m in minus[minus >= 0]}),
+            **({} if window is None else {"strain_window": window.as_dict()})}
+
+
+def strain_window(window) -> StrainWindow | None:
+    """The backend's window from a setup's choice (None: strains at the points)."""
+    return None if window is None or window.size is None else StrainWindow(window.size, window.shape)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from .dic import is_generic, read_export, read_text
+from .dic.window import FileWindow, HeaderWindow, WindowChoice, choose
 from .frame_fit import fit_to_points, fit_to_surface
 from .frames import FrameSpec, frame_spec, in_model_frame
 from .measurements import read_measurements
@@ -128,6 +129,8 @@ class Sources:
     frames: list[dict] = field(default_factory=list)
     relative: dict[str, str] = field(default_factory=dict)
     specimens: dict[str, str] = field(default_factory=dict)
+    #: the fit's strain window (config or the exports' headers), :class:`~.dic.window.WindowChoice`
+    window: WindowChoice | None = None
 
 
 def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
@@ -152,16 +155,18 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         A bad entry or transform, a file no reader recognises, a (point, stage) given by two files, a force that
         contradicts the file's, a reference point the file does not have.
     """
-    parts, lines, frames, relative, fitted, specimens = [], [], [], {}, {}, {}
+    parts, lines, frames, relative, fitted, specimens, windows = [], [], [], {}, {}, {}, []
     listed = entries(data, resolve, where)
     if any(e.specimen is not None for e in listed) and any(e.specimen is None for e in listed):
         raise InputError(f"{where}: [data] file: some entries name a specimen and some do not; give every file its "
                          "specimen")
     for entry in listed:
-        measurements, report, generic, flavour = _read(entry, data.get("strain"))
+        measurements, report, generic, flavour, header = _read(entry, data.get("strain"))
         forces = {s: _listed_force(data.get("forces"), s, where) for s in measurements.stages} if generic \
             else {entry.stage: entry.force}
         measurements = _with_forces(measurements, {s: f for s, f in forces.items() if f is not None})
+        strains = any(q[0] == "e" for q in measurements.quantities)
+        frame = None
         if entry.transform is not None:
             measurements, frame = _framed(entry, measurements, model, fitted)
             frames.append(frame)
@@ -170,13 +175,15 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         elif flavour == "matchid":
             report = report + [f"  note: {MATCHID_NOTE}"]
             log.warning("%s: %s", entry.path, MATCHID_NOTE)
+        windows.append(FileWindow(str(entry.path), header, 1.0 if frame is None else float(frame["scale"]), strains))
         relative.update(_relative_labels(entry, measurements, relative))
         if entry.specimen is not None:
             specimens.update({entry.label(p): entry.specimen for p in measurements.points})
         parts.append(_with_view(entry, measurements))
         lines += report + ([f"  points labelled '{entry.label('<point>')}'"] if entry.view or entry.specimen
                            else [])
-    return Sources(_joined(parts), lines, frames, relative, specimens)
+    window = choose(data.get("strain_window"), data.get("strain_window_shape"), windows)
+    return Sources(_joined(parts), lines, frames, relative, specimens, window)
 
 
 #: MatchID's frame (docs/data.md): read as written, turned by a transform
@@ -184,14 +191,14 @@ MATCHID_NOTE = ("MatchID writes Y (and V) downwards, as in the image; read as wr
                 "with y up needs transform = { rotation_deg = [180, 0, 0] } (y and z turned)")
 
 
-def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool, str]:
+def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool, str, HeaderWindow | None]:
     text = read_text(entry.path, n_rows=50)         # the header tells the generic CSV from an export
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
         m = read_measurements(entry.path)
         return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],
-                True, "generic")
+                True, "generic", None)
     m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain)
-    return m, report.lines(), False, report.flavour
+    return m, report.lines(), False, report.flavour, report.window
 
 
 def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measurements, dict]:
@@ -335,9 +342,5 @@ def check_config_data(config, model=None) -> str:
     it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
     sources = read_sources(config.data, config.resolve, config.where, model)
     relative = sorted(set(sources.relative.values()))
-    window = config.data.get("strain_window")
-    window_line = (f"strain window: {window:g} mm, from [data] strain_window (the model's strains are fitted over "
-                   "it, as the DIC software filtered the measured ones)" if window is not None else
-                   "strain window: none ([data] strain_window not set): the model's strains are taken at the points")
     return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
-                                       else []) + [window_line, sources.measurements.summary()])
+                                       else []) + list(sources.window.lines) + [sources.measurements.summary()])

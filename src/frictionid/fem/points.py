@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -22,6 +23,34 @@ QUANTITIES = {
     "axisymmetric_twist": ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"),
 }
 _AXIS = {"x": 0, "y": 1, "z": 2}
+#: window shapes: the distance each measures (scipy's Minkowski p): a square / cube (max-norm), a circle / ball
+SHAPES = {"square": np.inf, "circle": 2.0}
+
+
+@dataclass(frozen=True)
+class StrainWindow:
+    """A DIC strain window in the model's frame: ``size`` [mm] the side of the square (cube) or the diameter of
+    the circle (ball) centred on each point (see :func:`window_gradients`). A plain number as ``window`` is a
+    square of that side."""
+
+    size: float
+    shape: str = "square"
+
+    def __post_init__(self):
+        size = self.size
+        if isinstance(size, bool) or not isinstance(size, (int, float)) or not np.isfinite(size) or size <= 0:
+            raise InputError(f"data.strain_window: must be a positive length [mm], got {size!r}")
+        if self.shape not in SHAPES:
+            raise InputError(f"data.strain_window_shape: {self.shape!r} is not one of {', '.join(SHAPES)}")
+        object.__setattr__(self, "size", float(size))
+
+    def describe(self) -> str:
+        return f"{self.size:g} mm" + ("" if self.shape == "square" else " (a circle's diameter)")
+
+    @classmethod
+    def of(cls, window) -> "StrainWindow | None":
+        """``window`` as a StrainWindow: None, a number (a square of that side [mm]) or a StrainWindow."""
+        return window if window is None or isinstance(window, cls) else cls(window)
 
 
 def point_operator(space: Space, points, quantities: Sequence[str],
@@ -50,11 +79,12 @@ def point_operator(space: Space, points, quantities: Sequence[str],
         Needed (only) when ``space.element`` is "incompatible": the condensed internal modes, which add
         displacement inside a cell (none at its nodes) and strain, are recovered from the nodal dofs through
         the cell's stiffness (:mod:`frictionid.fem.incompatible`).
-    window : float [mm], optional
+    window : float [mm] or StrainWindow, optional
         DIC strain window (virtual strain gauge): each strain component at point i is the one of the
         least-squares plane fit of the model's displacements at the points themselves within the window,
         filtered as DIC filters the measured strains (see :func:`window_gradients`); displacements stay
-        pointwise. None: strains at the points.
+        pointwise. A number is a square of that side; :class:`StrainWindow` also gives a circle. None: strains
+        at the points.
 
     Returns
     -------
@@ -78,6 +108,7 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     cells, reference = locate(space, points, regions)
     pointwise = _located_operator(space, quantities, points, cells, reference, materials)
     strains = [q for q in quantities if q[0] == "e" and not (q == "ezz" and space.kind == "plane_strain")]
+    window = StrainWindow.of(window)
     if window is None or not strains:
         return pointwise
     if space.kind == "axisymmetric_twist":
@@ -90,7 +121,7 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     moved = _located_operator(space, displacements, points, cells, reference, materials)
     rows = [moved[k::space.dim] for k in range(space.dim)]                     # (n, n_dofs) per component
     groups = None if regions is None else [str(r) for r in regions]
-    gradient, spanned = window_gradients(points, window, groups)
+    gradient, spanned = window_gradients(points, window.size, groups, window.shape)
     parts = []
     for q, name in enumerate(quantities):
         if name not in strains:
@@ -100,7 +131,7 @@ def point_operator(space: Space, points, quantities: Sequence[str],
         missing = np.flatnonzero(~(spanned[:, a] & spanned[:, b]))
         if missing.size:
             i = missing[0]
-            raise InputError(f"data.strain_window = {window:g} mm: {name} at point {i} "
+            raise InputError(f"data.strain_window = {window.describe()}: {name} at point {i} "
                              f"{np.round(points[i], 6).tolist()} needs the displacement's gradient along "
                              f"{'xyz'[a]}{'' if a == b else ' and ' + 'xyz'[b]}, which the "
                              f"{len(gradient[0][i].indices)} point(s) within its window do not span "
@@ -112,12 +143,14 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     return stacked[order]
 
 
-def window_gradients(points, window: float, groups: Sequence | None = None):
+def window_gradients(points, window: float, groups: Sequence | None = None, shape: str = "square"):
     """Least-squares gradient over a DIC strain window, as a linear map of values at the points themselves.
 
     The window of point i holds the points j (of its group) with ``max_k |x_jk - x_ik| <= window / 2``: a square
     (cube) of side ``window`` centred on it, the strain window of a DIC program's strain computation (subsets on a
-    grid, a plane fitted to their displacements). The plane f(x) = c + g . (x - m) (m the window points' mean)
+    grid, a plane fitted to their displacements); with ``shape = "circle"`` those with ``|x_j - x_i| <= window /
+    2``: a circle (ball) of diameter ``window``, as DICe's VSG selects its subsets. The plane
+    f(x) = c + g . (x - m) (m the window points' mean)
     fitted to values f_j by least squares has the gradient g = (D^T D)^+ D^T f with D the rows x_j - m: linear in
     the values, ``g_a(i) = sum_j C_a[i, j] f_j``. Directions the window's points do not span (the normal of a
     face they lie on) get no gradient; ``spanned`` says which axes are spanned (to 1e-6).
@@ -130,6 +163,7 @@ def window_gradients(points, window: float, groups: Sequence | None = None):
     points : (n, dim) [mm]
     window : float [mm], > 0
     groups : (n,) labels, optional: a window holds only points of its own group (e.g. region or view)
+    shape : "square" (default) or "circle"
 
     Returns
     -------
@@ -144,13 +178,16 @@ def window_gradients(points, window: float, groups: Sequence | None = None):
     n, dim = points.shape
     if isinstance(window, bool) or not isinstance(window, (int, float)) or not np.isfinite(window) or window <= 0:
         raise InputError(f"data.strain_window: must be a positive length [mm], got {window!r}")
+    if shape not in SHAPES:
+        raise InputError(f"data.strain_window_shape: {shape!r} is not one of {', '.join(SHAPES)}")
     label = np.zeros(n, dtype=np.int64) if groups is None else np.unique(np.asarray(groups, dtype=str),
                                                                          return_inverse=True)[1].ravel()
     pair_i, pair_j = [], []
     for group in np.unique(label):
         members = np.flatnonzero(label == group)
         tree = cKDTree(points[members])
-        close = tree.sparse_distance_matrix(tree, window / 2 * (1 + 1e-12), p=np.inf, output_type="ndarray")
+        close = tree.sparse_distance_matrix(tree, window / 2 * (1 + 1e-12), p=SHAPES[shape],
+                                            output_type="ndarray")
         pair_i.append(members[close["i"]])
         pair_j.append(members[close["j"]])
         pair_i.append(members)                                 # each point is in its own window (distance 0)

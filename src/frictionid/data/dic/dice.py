@@ -23,8 +23,12 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
+
+from . import window
 from .layout import Layout
 from .text import ExportText
+from .window import HeaderWindow
 
 NAME = "dice"
 TITLE = "DICe solution file"
@@ -49,12 +53,15 @@ _HEADER = {"subset": re.compile(r"Subset size:\s*(\d+)"),
            "window": re.compile(r"Strain window size in pixels:\s*(\d+)")}
 
 
+def _header(text: ExportText) -> dict:
+    return {key: pattern.search(line) for line in text.preamble for key, pattern in _HEADER.items()
+            if pattern.search(line)}
+
+
 def header_notes(text: ExportText) -> list[str]:
     """What DICe's preamble says about the subset, the step and the VSG strain window (image pixels), for the
-    report. None of it is used as [data] strain_window: DICe's window is a circle in image pixels (the subsets
-    whose image coordinates lie within half its size), frictionid's a square in mm in the model's frame."""
-    found = {key: pattern.search(line) for line in text.preamble for key, pattern in _HEADER.items()
-             if pattern.search(line)}
+    report (the window's conversion to mm is :func:`header_window`'s)."""
+    found = _header(text)
     if not found:
         return []
     parts = []
@@ -64,8 +71,43 @@ def header_notes(text: ExportText) -> list[str]:
         parts.append(f"step {found['step'][1]} x {found['step'][2]} px")
     if "window" in found:
         parts.append(f"VSG strain window {found['window'][1]} px (a circle in the image)")
-    return [f"DICe header: {', '.join(parts)}; [data] strain_window is not taken from it (a square in mm in the "
-            "model's frame): state the window in mm, e.g. the VSG size times the pixel size"]
+    return [f"DICe header: {', '.join(parts)}"]
+
+
+#: DICe's pixel and physical coordinates of a point: the pixel size is the scale between them
+PIXEL_XY, MODEL_XYZ = ("COORDINATE_X", "COORDINATE_Y"), ("MODEL_COORDINATES_X", "MODEL_COORDINATES_Y",
+                                                         "MODEL_COORDINATES_Z")
+
+
+def header_window(text: ExportText, layout: Layout, lines: tuple[int, ...], xyz) -> HeaderWindow | None:
+    """The VSG strain window of DICe's preamble (``Strain window size in pixels``), with the pixel size fitted
+    between the valid points' ``COORDINATE_X/Y`` [px] and their coordinates ``xyz`` [mm] read from
+    ``MODEL_COORDINATES_X/Y/Z`` (``lines``: the file line of each); None where the preamble gives no window.
+
+    DICe's VSG post-processor takes, for each subset, the subsets whose image coordinates lie within half the
+    window of its own (a circle of that diameter in the image) and fits a plane to their displacements over their
+    model coordinates: the window is a circle of diameter window x pixel size on the specimen."""
+    found = _header(text).get("window")
+    if found is None:
+        return None
+    pixels = float(found[1])
+    if any(name not in text.names for name in PIXEL_XY):
+        return window.fitted(text.source, pixels, None, None, "the file has no pixel coordinates "
+                                                              "(COORDINATE_X, COORDINATE_Y)")
+    if layout.columns.get("x") != MODEL_XYZ[0] or layout.columns.get("y") != MODEL_XYZ[1]:
+        return window.fitted(text.source, pixels, None, None, "the points' coordinates are not DICe's physical "
+                             "MODEL_COORDINATES_X/Y (a calibrated run's), so the file gives no scale")
+    columns = [text.index(name) for name in PIXEL_XY]
+    rows = dict(text.rows)
+    uv = np.array([[_number(rows[line], i) for i in columns] for line in lines]).reshape(-1, 2)
+    return window.fitted(text.source, pixels, uv, np.asarray(xyz, dtype=float))
+
+
+def _number(fields: tuple[str, ...], i: int) -> float:
+    try:
+        return float(fields[i])
+    except (IndexError, ValueError):
+        return math.nan
 
 
 def recognise(names: tuple[str, ...]) -> bool:

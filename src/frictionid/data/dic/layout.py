@@ -65,6 +65,10 @@ class ExportReport:
     text: str
     #: what the export's header says besides the columns (e.g. DICe's subset, step and strain window), one line each
     notes: tuple[str, ...] = ()
+    #: the file's line of each valid point, in the order of the measurements' rows
+    lines_read: tuple[int, ...] = field(default=(), repr=False, compare=False)
+    #: the strain window the export's header gives (:class:`~.window.HeaderWindow`), None where it gives none
+    window: object = None
 
     def lines(self) -> list[str]:
         mapped = ", ".join(f"{t} <- {c!r}" for t, c in self.columns.items())
@@ -114,7 +118,7 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
         _check_force(text, layout.columns["force"], rows, lines)
     return _measurements(text, layout, stage, labels, rows, measure), ExportReport(
         src, layout.flavour, dict(layout.columns), units, measure_text, stage, len(text.rows), len(rows), dropped,
-        sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text))
+        sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text), lines_read=tuple(lines))
 
 
 def _check_columns(text: ExportText, layout: Layout) -> None:

@@ -83,7 +83,13 @@ def read_export(path, stage: int, format: str | None = None, columns: dict | Non
     measurements, report = read_layout(text, layout, stage, strain)
     flavour = FLAVOURS.get(layout.flavour.split(" + ")[0])
     notes = getattr(flavour, "header_notes", None)
-    return measurements, (replace(report, notes=tuple(notes(text))) if notes else report)
+    if notes:
+        report = replace(report, notes=tuple(notes(text)))
+    window = getattr(flavour, "header_window", None)
+    found = window(text, layout, report.lines_read, measurements.coordinates) if window else None
+    if found is not None:
+        report = replace(report, window=found, notes=report.notes + (found.line(),))
+    return measurements, report
 
 
 __all__ = ["FLAVOURS", "FORMATS", "ExportReport", "choose_layout", "is_generic", "read_export"]
