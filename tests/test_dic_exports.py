@@ -504,3 +504,19 @@ def test_the_circular_window_is_dices_vsg_computation():
         X = np.column_stack([np.ones(near.sum()), xy[near] - xy[i]])
         dice[i] = np.linalg.lstsq(X, f[near], rcond=None)[0][1:]
     assert np.abs(ours - dice).max() <= 1e-12 * np.abs(dice).max()
+
+
+def test_a_frame_scale_enlarges_the_header_window_and_a_file_without_one_is_refused(window_files):
+    """The window is in the model's frame: a transform's scale multiplies it. Files with strains of which one gives
+    a header window and one none leave the fit's window undecided: refused once strains are fitted."""
+    from frictionid.data.sources import read_sources
+
+    resolve = lambda p: window_files / p                                       # noqa: E731
+    scaled = read_sources({"file": [{"path": "dice.txt", "transform": {"rotation_deg": 0, "scale": 2.0}}]},
+                          resolve).window
+    assert abs(scaled.size - 2 * WINDOW_PX / PX_PER_MM) <= 1e-12 and scaled.files[0]["frame_scale"] == 2.0
+    mixed = read_sources({"file": ["dice.txt", "generic.csv"]}, resolve).window
+    assert mixed.size is None and mixed.for_fit(["ux"]) is mixed
+    with pytest.raises(InputError, match=r"dice.txt gives a strain window in its header \(1.525 mm\) and .*"
+                                         r"generic.csv none"):
+        mixed.for_fit(["ux", "exx"])
