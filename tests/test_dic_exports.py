@@ -520,3 +520,39 @@ def test_a_frame_scale_enlarges_the_header_window_and_a_file_without_one_is_refu
     with pytest.raises(InputError, match=r"dice.txt gives a strain window in its header \(1.525 mm\) and .*"
                                          r"generic.csv none"):
         mixed.for_fit(["ux", "exx"])
+
+
+def test_identify_fits_over_the_header_window(tmp_path):
+    """End to end: strains the model made over DICe's circular window (41 px at 20 px/mm), exported by DICe with
+    that window in its header, identify to the coefficients that made them (no misfit at the start) and like the
+    generic CSV with the equivalent strain_window; without a window the same data do not fit."""
+    from frictionid.backends.embedded import EmbeddedBackend
+    from frictionid.builders.block import block_model_2d
+    from frictionid.data import Measurements
+    from frictionid.fem.points import StrainWindow
+    from frictionid.identification import identify_config
+
+    x, y = np.meshgrid(np.arange(-4.5, 4.51, 0.5), np.arange(1.0, 9.01, 0.5))
+    points = np.column_stack([x.ravel(), y.ravel()])
+    n, truth, window = len(points), np.array([0.25, 0.4]), StrainWindow(41 / 20.0, "circle")
+    model = block_model_2d(mesh_size=2.0, n_pull=1)
+    values = EmbeddedBackend(model, points, ("ux", "exx", "exy"), ["block"] * n, keep=False,
+                             window=window).predict(truth).values[-1]
+    m = Measurements(points=tuple(f"P{k}" for k in range(n)), coordinates=np.column_stack([points, np.zeros(n)]),
+                     stage=np.full(n, 2), force=np.full(n, np.nan),
+                     values={q: values[k::3] for k, q in enumerate(("ux", "exx", "exy"))})
+    write_measurements(tmp_path / "generic.csv", m)
+    generate.write_dice(tmp_path / "dice.txt", m, invalid_at=(), px_per_mm=20.0, window=41)
+    fits = {}
+    for name, data in (("dice", {"file": [{"path": "dice.txt", "stage": 2}]}), ("none", {"file": "generic.csv"}),
+                       ("generic", {"file": "generic.csv", "strain_window": 2.05, "strain_window_shape": "circle"})):
+        config = _window_config(tmp_path, observables=["ux", "exx", "exy"], stages=[2], **data)
+        config.friction["zones"] = {"A": 0.25, "B": 0.4}
+        config.identify.update(max_iterations=3)
+        config.run["dir"] = f"run_{name}"
+        fits[name] = identify_config(config, write_files=False).to_dict()
+    assert fits["dice"]["objective"]["initial"] < 1e-12 < 1.0 < fits["none"]["objective"]["initial"]
+    for zone, p in fits["generic"]["parameters"].items():
+        assert abs(fits["dice"]["parameters"][zone]["value"] - p["value"]) <= 1e-8
+    assert fits["dice"]["data"]["strain_window"]["origin"] == "export header"
+    assert fits["generic"]["data"]["strain_window"]["origin"] == "[data] strain_window"
