@@ -482,6 +482,10 @@ def test_two_files_with_different_header_windows_are_refused(window_files):
                                          r"headers \(61 px at 0.025 mm/px = 1.525 mm and 41 px .* = 1.025 mm\)"):
         prepare(_window_config(window_files, file=files, stages=[1, 2]))
     assert prepare(_window_config(window_files, file=files, stages=[1, 2], strain_window=1.0)).window.size == 1.0
+    with pytest.raises(InputError, match=r"strain_window_shape = 'round' is not one of square, circle"):
+        prepare(_window_config(window_files, file="dice.txt", strain_window=1.0, strain_window_shape="round"))
+    with pytest.raises(InputError, match=r"strain_window_shape needs \[data\] strain_window"):
+        prepare(_window_config(window_files, file="dice.txt", strain_window_shape="circle"))
 
 
 def test_the_circular_window_is_dices_vsg_computation():

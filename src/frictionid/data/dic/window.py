@@ -18,6 +18,8 @@ import numpy as np
 from ...errors import InputError
 from ..frame_fit import umeyama
 
+#: the window shapes frictionid fits over (:data:`frictionid.fem.points.SHAPES`)
+SHAPES = ("square", "circle")
 #: two files' windows in the model frame [mm] that differ by more than this (relative) are two windows
 SAME_RTOL = 1e-6
 #: a pixel-to-physical map whose largest residual exceeds this fraction of the window is not a uniform scale
@@ -131,6 +133,8 @@ def choose(size, shape: str | None, files: list[FileWindow]) -> WindowChoice:
     different windows, some give none, or a window's pixel size is unknown."""
     headers = [f for f in files if f.header is not None]
     records = tuple({**f.header.as_dict(), "frame_scale": f.frame_scale, "size_model_mm": f.size} for f in headers)
+    if shape is not None and shape not in SHAPES:
+        raise InputError(f"[data] strain_window_shape = {shape!r} is not one of {', '.join(SHAPES)}")
     if size is not None:
         shape = shape or "square"
         overridden = [f"  (the header of {f.source} gives {f.header.pixels:g} px"
