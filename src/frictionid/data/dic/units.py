@@ -18,37 +18,33 @@ MEASURES = {"engineering": "engineering (technical) strain", "green-lagrange": "
             "log": "logarithmic (true, Hencky) strain"}
 
 
-def length_factor(unit: str | None, column: str, source: str) -> float:
-    """Factor from the column's unit to mm (None: no unit stated, taken as mm)."""
+def _factor(table: dict, unit: str | None, cannot: str) -> float:
+    """``table``'s factor of ``unit`` (None: no unit stated, factor 1); else InputError with ``cannot`` + the
+    known units."""
     if unit is None:
         return 1.0
     try:
-        return LENGTH[unit.strip()]
+        return table[unit.strip()]
     except KeyError:
-        raise InputError(f"{source}: column {column!r}: unit {unit!r} cannot be converted to mm (known: "
-                         f"{', '.join(LENGTH)}); pixels need the DIC software's calibration, export in mm") from None
+        raise InputError(cannot) from None
+
+
+def length_factor(unit: str | None, column: str, source: str) -> float:
+    """Factor from the column's unit to mm (None: no unit stated, taken as mm)."""
+    return _factor(LENGTH, unit, f"{source}: column {column!r}: unit {unit!r} cannot be converted to mm (known: "
+                   f"{', '.join(LENGTH)}); pixels need the DIC software's calibration, export in mm")
 
 
 def force_factor(unit: str | None, column: str, source: str) -> float:
     """Factor from the column's unit to N (None: no unit stated, taken as N)."""
-    if unit is None:
-        return 1.0
-    try:
-        return FORCE[unit.strip()]
-    except KeyError:
-        raise InputError(f"{source}: column {column!r}: force unit {unit!r} cannot be converted to N (known: "
-                         f"{', '.join(FORCE)})") from None
+    return _factor(FORCE, unit, f"{source}: column {column!r}: force unit {unit!r} cannot be converted to N (known: "
+                   f"{', '.join(FORCE)})")
 
 
 def strain_factor(unit: str | None, column: str, source: str) -> float:
     """Factor from the column's unit to a pure number (``%`` -> 0.01); None: no unit stated, a pure number."""
-    if unit is None:
-        return 1.0
-    try:
-        return STRAIN[unit.strip()]
-    except KeyError:
-        raise InputError(f"{source}: column {column!r}: strain unit {unit!r} cannot be converted (known: "
-                         f"{', '.join(repr(u) for u in STRAIN)})") from None
+    return _factor(STRAIN, unit, f"{source}: column {column!r}: strain unit {unit!r} cannot be converted (known: "
+                   f"{', '.join(repr(u) for u in STRAIN)})")
 
 
 def small_strain(values: np.ndarray, measure: str, normal: bool) -> np.ndarray:
