@@ -33,6 +33,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/cli_threads.py
 	$(PY) benchmarks/user_mesh.py
 	$(PY) benchmarks/full_field.py
+	$(PY) benchmarks/frame_fit.py
 	$(PY) benchmarks/tightening.py
 	$(PY) benchmarks/dask_overhead.py
 
