@@ -9,20 +9,23 @@ they wait for work, cost up to 60x (benchmarks/blas_threads.py, benchmarks/cli_t
 from __future__ import annotations
 
 import contextlib
+import functools
 
 from threadpoolctl import ThreadpoolController
 
 #: dense blocks with fewer rows than this are factorised and solved with one BLAS thread
 SMALL = 2000
-_BLAS: list[ThreadpoolController] = []
+
+
+@functools.cache
+def _controller() -> ThreadpoolController:
+    """The process's thread-pool controller, made once (threadpoolctl's scan of the loaded libraries costs 1-10 ms)."""
+    return ThreadpoolController()
 
 
 def one_blas_thread():
-    """A context in which the BLAS libraries run one thread each, restored after it. The controller is made once,
-    at the first call (threadpoolctl's scan of the loaded libraries costs 1-10 ms, once per solve before)."""
-    if not _BLAS:
-        _BLAS.append(ThreadpoolController())
-    return _BLAS[0].limit(limits=1, user_api="blas")
+    """A context in which the BLAS libraries run one thread each, restored after it."""
+    return _controller().limit(limits=1, user_api="blas")
 
 
 def blas_threads_for(n: int):
