@@ -28,8 +28,7 @@ _INTEGER = re.compile(r"\+?\d+")
 _SPACE = re.compile(r"\s")
 
 __all__ = ["CHANNELS", "Measurements", "QUANTITIES", "REQUIRED", "UNITS_COMMENT", "map_to_axisymmetric",
-           "read_measurements",
-           "write_measurements"]
+           "read_measurements", "write_measurements"]
 
 
 def _at(source: str, line: int, column: str | None = None) -> str:
