@@ -198,8 +198,14 @@ def test_report_profile_dilation_states_and_plot(model, problem, solution, tmp_p
     path = plot_load_shares(thread_loads(model, solution), tmp_path / "shares.png")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert plot_flank_profile(profile, tmp_path / "flanks.png").read_bytes()[:4] == b"\x89PNG"
-    text = bolt_summary(model, solution)
-    assert "Sopwith fit lam P" in text and text.count("\n") + 1 == 2 + 7 + 1 + 8
+    lines = bolt_summary(model, solution).splitlines()
+    loads = thread_loads(model, solution)
+    assert "Sopwith fit lam P" in lines[0] and lines[1].startswith("thread")
+    rows = [line.split() for line in lines[2:2 + loads.n_threads]]
+    assert [int(r[0]) for r in rows] == list(range(1, loads.n_threads + 1))  # one row per engaged thread
+    np.testing.assert_allclose([float(r[1]) for r in rows], loads.force, atol=0.05)
+    assert lines[2 + loads.n_threads].startswith("zone")
+    assert [line.split()[0] for line in lines[3 + loads.n_threads:]] == list(solution.zone_names)
 
 
 def test_measurement_points_and_sensitivities(problem, solution):

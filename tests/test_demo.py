@@ -19,11 +19,39 @@ def demo(tmp_path_factory):
     return out
 
 
+PNG = b"\x89PNG\r\n\x1a\n"
+RUNS = ("trf", "paper", "trf-noisy", "trf-noisy-uy")
+
+
+def _table_rows(demo):
+    """table.txt as {run: line}; the first column names the row."""
+    return {line.split()[0]: line for line in (demo / "table.txt").read_text().splitlines()[1:] if line.strip()}
+
+
 def test_demo_writes_its_results(demo):
-    for name in ("table.txt", "fig9.png", "load_shares.png", "bolt.txt", "mesh_sequence.txt", "measured.csv",
-                 "measured_exact.csv", "summary.json", "runs/trf/result.json", "runs/paper/history.csv"):
-        assert (demo / name).stat().st_size > 0, name
-    assert "Sopwith fit lam P" in (demo / "bolt.txt").read_text()
+    """Each file holds what it names: figures are PNGs, the table has a row per run and the truth, the thread
+    forces add up to the machine force, the data are the ten flank points, the histories start at the start."""
+    for name in ("fig9.png", "load_shares.png"):
+        assert (demo / name).read_bytes()[:8] == PNG, name
+    rows = _table_rows(demo)
+    assert set(RUNS) | {"true"} <= set(rows)
+    assert [float(v) for v in rows["true"].split()[1:]] == pytest.approx(list(TRUE_MU.values()))
+    bolt = (demo / "bolt.txt").read_text()
+    force, thread_sum = map(float, re.search(r"machine force (\S+) N, thread forces sum (\S+) N", bolt).groups())
+    shares = [float(m) for m in re.findall(r"^\s+\d+\s+\S+\s+(\S+)\s+\S+$", bolt, re.M)]
+    assert thread_sum == pytest.approx(force, rel=5e-3) and sum(shares) == pytest.approx(100.0, abs=0.5)
+    assert len(shares) >= 6 and "Sopwith fit lam P" in bolt
+    assert re.search(r"^\s+0\.\d+\s+\d+\s+\d+\s", (demo / "mesh_sequence.txt").read_text(), re.M)
+    for name in ("measured.csv", "measured_exact.csv"):
+        lines = [ln for ln in (demo / name).read_text().splitlines() if ln and not ln.startswith("#")]
+        assert lines[0].startswith("point,x,y,z,stage") and "uy" in lines[0].split(",")
+        assert len({ln.split(",")[0] for ln in lines[1:]}) == 10, name       # P1-P5 on flanks 1 and 2
+    summary = json.loads((demo / "summary.json").read_text())
+    assert summary["true"] == TRUE_MU and list(summary["runs"]) == list(RUNS)
+    history = (demo / "runs/paper/history.csv").read_text().splitlines()
+    assert history[0].split(",")[:2] == ["iteration", "objective"] and len(history) >= 3
+    start = dict(zip(history[0].split(","), history[1].split(",")))
+    assert all(float(start[z]) == pytest.approx(0.1) for z in TRUE_MU)      # the seed's start value
 
 
 def test_noise_free_twin_recovers_what_the_data_resolve_and_flags_the_rest(demo):
@@ -42,8 +70,8 @@ def test_noise_free_twin_recovers_what_the_data_resolve_and_flags_the_rest(demo)
 def test_dic_noise_resolves_nothing_and_says_so(demo):
     result = json.loads((demo / "runs/trf-noisy-uy/result.json").read_text())
     assert not any(result["parameters"][z]["identifiable"] for z in TRUE_MU)
-    table = (demo / "table.txt").read_text()
-    assert table.count("?") >= 6
+    cells = re.findall(r"\d\.\d{4} \[[^]]*\]( [b?]+)?", _table_rows(demo)["trf-noisy-uy"])
+    assert len(cells) == len(TRUE_MU) and all("?" in flags for flags in cells)
 
 
 def test_a_second_demo_into_the_same_folder_needs_resume(demo, capsys):
