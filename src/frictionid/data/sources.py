@@ -131,6 +131,10 @@ class Sources:
     specimens: dict[str, str] = field(default_factory=dict)
     #: the fit's strain window (config or the exports' headers), :class:`~.dic.window.WindowChoice`
     window: WindowChoice | None = None
+    #: how each export was read (result.json's ``data.files``: format, coordinates, strain measure, points)
+    files: list[dict] = field(default_factory=list)
+    #: what an identification needs that the files do not give (read with ``check``), one line each
+    needed: list[str] = field(default_factory=list)
 
 
 def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
@@ -144,10 +148,12 @@ def read_data_reported(data: dict, resolve, where: str = "[data]", model=None) -
     return sources.measurements, sources.lines
 
 
-def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sources:
+def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: bool = False) -> Sources:
     """Every file of ``[data] file`` read into one table in the model's frame, with what was recognised.
 
-    ``model`` gives the surface a frame is fitted to (``fit = "surface"``); it is not needed otherwise.
+    ``model`` gives the surface a frame is fitted to (``fit = "surface"``); it is not needed otherwise. With
+    ``check`` (``frictionid check-data``) what only an identification needs (a strain measure the file does not
+    state, a machine force) is listed in ``needed`` instead of refused.
 
     Raises
     ------
@@ -155,13 +161,16 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         A bad entry or transform, a file no reader recognises, a (point, stage) given by two files, a force that
         contradicts the file's, a reference point the file does not have.
     """
-    parts, lines, frames, relative, fitted, specimens, windows = [], [], [], {}, {}, {}, []
+    parts, lines, frames, relative, fitted, specimens, windows, files, needed = [], [], [], {}, {}, {}, [], [], []
     listed = entries(data, resolve, where)
     if any(e.specimen is not None for e in listed) and any(e.specimen is None for e in listed):
         raise InputError(f"{where}: [data] file: some entries name a specimen and some do not; give every file its "
                          "specimen")
     for entry in listed:
-        measurements, report, generic, flavour, header = _read(entry, data.get("strain"))
+        measurements, report, generic, flavour, header, read = _read(entry, data.get("strain"), check)
+        if read is not None:
+            files.append(read.as_dict())
+            needed += [f"{n}: {entry.path}" for n in read.needed]
         forces = {s: _listed_force(data.get("forces"), s, where) for s in measurements.stages} if generic \
             else {entry.stage: entry.force}
         measurements = _with_forces(measurements, {s: f for s, f in forces.items() if f is not None})
@@ -183,7 +192,12 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         lines += report + ([f"  points labelled '{entry.label('<point>')}'"] if entry.view or entry.specimen
                            else [])
     window = choose(data.get("strain_window"), data.get("strain_window_shape"), windows)
-    return Sources(_joined(parts), lines, frames, relative, specimens, window)
+    joined = _joined(parts)
+    if check and np.any(np.isnan(joined.force)):
+        stages = sorted({int(s) for s in joined.stage[np.isnan(joined.force)]})
+        needed.append(f"[data] forces (or a file's force), where force is observed: no machine force for stage(s) "
+                      f"{', '.join(map(str, stages))}")
+    return Sources(joined, lines, frames, relative, specimens, window, files, needed)
 
 
 #: MatchID's frame (docs/data.md): read as written, turned by a transform
@@ -191,14 +205,15 @@ MATCHID_NOTE = ("MatchID writes Y (and V) downwards, as in the image; read as wr
                 "with y up needs transform = { rotation_deg = [180, 0, 0] } (y and z turned)")
 
 
-def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool, str, HeaderWindow | None]:
+def _read(entry: Entry, strain: str | None, check: bool = False):
+    """(measurements, report lines, generic?, flavour, header window, ExportReport or None for a generic CSV)."""
     text = read_text(entry.path, n_rows=50)         # the header tells the generic CSV from an export
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
         m = read_measurements(entry.path)
         return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],
-                True, "generic", None)
-    m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain)
-    return m, report.lines(), False, report.flavour, report.window
+                True, "generic", None, None)
+    m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain, check)
+    return m, report.lines(), False, report.flavour, report.window, report
 
 
 def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measurements, dict]:
@@ -325,8 +340,16 @@ def data_digest(data: dict, resolve) -> str:
 def check_data(path, format: str | None = None, strain: str | None = None) -> str:
     """What ``frictionid check-data FILE`` prints: what was recognised (flavour, columns, units, strain measure,
     valid and dropped points) and the summary of the measurements. An export is shown as stage 1."""
-    m, lines = read_data_reported({"file": str(path), "format": format, "strain": strain}, Path)
-    return "\n".join(lines + [m.summary()])
+    sources = read_sources({"file": str(path), "format": format, "strain": strain}, Path, check=True)
+    return "\n".join(sources.lines + [sources.measurements.summary()] + needed_lines(sources.needed))
+
+
+def needed_lines(needed: list[str]) -> list[str]:
+    """check-data's last lines: what an identification will need besides the files (none: no line)."""
+    if not needed:
+        return []
+    keys = ", ".join(dict.fromkeys(n.split(" (")[0].split(":")[0] for n in needed))
+    return [f"needed to identify: {keys}"] + [f"  {n}" for n in needed]
 
 
 def fits_surface(data: dict) -> bool:
@@ -340,7 +363,8 @@ def fits_surface(data: dict) -> bool:
 def check_config_data(config, model=None) -> str:
     """What ``frictionid check-data CONFIG.toml`` prints: every file of the config's ``[data]`` as identify reads
     it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
-    sources = read_sources(config.data, config.resolve, config.where, model)
+    sources = read_sources(config.data, config.resolve, config.where, model, check=True)
     relative = sorted(set(sources.relative.values()))
     return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
-                                       else []) + list(sources.window.lines) + [sources.measurements.summary()])
+                                       else []) + list(sources.window.lines) + [sources.measurements.summary()]
+                      + needed_lines(sources.needed))

@@ -5,13 +5,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from ...errors import InputError
-from . import davis, dice, gom, matchid, vic3d
+from . import aramis, davis, dice, gom, matchid, vic3d
 from .layout import TARGETS, ExportReport, Layout, read_layout
 from .text import ExportText, name_unit, read_text
 
 #: the export flavours by ``format`` name, in the order they are tried
-FLAVOURS = {m.NAME: m for m in (dice, vic3d, matchid, gom, davis)}
+FLAVOURS = {m.NAME: m for m in (dice, vic3d, matchid, gom, aramis, davis)}
 #: every ``format`` value: the generic CSV, the flavours
 FORMATS = ("generic",) + tuple(FLAVOURS)
 
@@ -37,11 +39,13 @@ def choose_layout(text: ExportText, format: str | None = None, columns: dict | N
         base = FLAVOURS[name].layout(text.names) if name else Layout("columns", {}, None, "")
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+    from_text = getattr(FLAVOURS.get(name), "from_text", None)
+    base = from_text(base, text) if from_text else base
     if not columns:
         return base
     mapped = {**base.columns, **columns}
-    return Layout(base.flavour + (" + columns" if name else ""), {t: mapped[t] for t in TARGETS if t in mapped},
-                  base.strain_measure, base.measure_from, base.invalid, base.units, base.column_units)
+    return replace(base, flavour=base.flavour + (" + columns" if name else ""),
+                   columns={t: mapped[t] for t in TARGETS if t in mapped})
 
 
 def _recognise(text: ExportText, where: str) -> str:
@@ -70,8 +74,10 @@ def _check_columns_option(text: ExportText, columns: dict) -> None:
 
 
 def read_export(path, stage: int, format: str | None = None, columns: dict | None = None,
-                strain: str | None = None):
-    """Read one DIC export as the measurements of ``stage``; returns (Measurements, ExportReport).
+                strain: str | None = None, check: bool = False):
+    """Read one DIC export as the measurements of ``stage``; returns (Measurements, ExportReport). ``check``
+    (``frictionid check-data``): what only an identification needs (the strain measure) is listed in the
+    report's ``needed`` instead of refused.
 
     Examples
     --------
@@ -80,11 +86,16 @@ def read_export(path, stage: int, format: str | None = None, columns: dict | Non
     """
     text = read_text(path)
     layout = choose_layout(text, format, columns)
-    measurements, report = read_layout(text, layout, stage, strain)
+    measurements, report = read_layout(text, layout, stage, strain, check)
     flavour = FLAVOURS.get(layout.flavour.split(" + ")[0])
+    force = getattr(flavour, "header_force", None)
+    found = force(text) if force and "force" not in layout.columns else None
+    if found is not None:
+        measurements = replace(measurements, force=np.full(measurements.n_rows, found[0]))
+        report = replace(report, notes=report.notes + (found[1],))
     notes = getattr(flavour, "header_notes", None)
     if notes:
-        report = replace(report, notes=tuple(notes(text)))
+        report = replace(report, notes=tuple(notes(text)) + report.notes)
     window = getattr(flavour, "header_window", None)
     found = window(text, layout, report.lines_read, measurements.coordinates) if window else None
     if found is not None:
