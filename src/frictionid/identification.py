@@ -122,6 +122,8 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         sources = read_sources(config.data, config.resolve, where, model)
         measurements, frames, relative = sources.measurements, sources.frames, sources.relative
         specimens, window, files = sources.specimens, sources.window, sources.files
+        if sources.plane:
+            echo(sources.plane)
         for read in files:
             if read["coordinates"].startswith("deformed"):
                 echo(f"{read['file']}: coordinates: {read['coordinates']}")

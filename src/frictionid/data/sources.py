@@ -16,9 +16,10 @@ import numpy as np
 from ..errors import InputError
 from .dic import is_generic, read_export, read_text
 from .dic.window import FileWindow, HeaderWindow, WindowChoice, choose
-from .frame_fit import fit_to_points, fit_to_surface
+from .frame_fit import fit_to_points, fit_to_surface, residual_check
 from .frames import FrameSpec, frame_spec, in_model_frame
 from .measurements import read_measurements
+from .plane import onto_plane, plane_tolerance
 from .table import Measurements
 
 log = logging.getLogger(__name__)
@@ -135,6 +136,8 @@ class Sources:
     files: list[dict] = field(default_factory=list)
     #: what an identification needs that the files do not give (read with ``check``), one line each
     needed: list[str] = field(default_factory=list)
+    #: points of a plane model's data projected onto its plane (how many, the largest |z|), None: none moved
+    plane: str | None = None
 
 
 def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
@@ -177,7 +180,7 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
         strains = any(q[0] == "e" for q in measurements.quantities)
         frame = None
         if entry.transform is not None:
-            measurements, frame = _framed(entry, measurements, model, fitted)
+            measurements, frame = _framed(entry, measurements, model, fitted, data.get("noise"))
             frames.append(frame)
             report = report + [f"  {frame['line']}"]
             log.info("%s: %s", entry.path, frame["line"])
@@ -192,12 +195,15 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
         lines += report + ([f"  points labelled '{entry.label('<point>')}'"] if entry.view or entry.specimen
                            else [])
     window = choose(data.get("strain_window"), data.get("strain_window_shape"), windows)
-    joined = _joined(parts)
+    joined, plane = _joined(parts), None
+    if model is not None and model.kind == "plane_strain":
+        joined, plane = onto_plane(joined, plane_tolerance(data.get("plane_tolerance"), where), model.kind)
+        lines += [plane] if plane else []
     if check and np.any(np.isnan(joined.force)):
         stages = sorted({int(s) for s in joined.stage[np.isnan(joined.force)]})
         needed.append(f"[data] forces (or a file's force), where force is observed: no machine force for stage(s) "
                       f"{', '.join(map(str, stages))}")
-    return Sources(joined, lines, frames, relative, specimens, window, files, needed)
+    return Sources(joined, lines, frames, relative, specimens, window, files, needed, plane)
 
 
 #: MatchID's frame (docs/data.md): read as written, turned by a transform
@@ -216,8 +222,9 @@ def _read(entry: Entry, strain: str | None, check: bool = False):
     return m, report.lines(), False, report.flavour, report.window, report
 
 
-def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measurements, dict]:
-    """``m`` in the model's frame by the entry's transform (fitted once per transform and set of points)."""
+def _framed(entry: Entry, m: Measurements, model, fitted: dict, noise=None) -> tuple[Measurements, dict]:
+    """``m`` in the model's frame by the entry's transform (fitted once per transform and set of points); a fitted
+    frame whose residual is far above the displacement ``noise`` (``[data] noise``) carries a warning."""
     spec = entry.transform
     labels = list(dict.fromkeys(m.points))
     first = {p: i for i, p in reversed(list(enumerate(m.points)))}
@@ -233,9 +240,22 @@ def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measure
                 fit_to_surface(spec, labels, xyz, _surface(spec, model), str(entry.path))
         fit = fitted[key]
         frame, report, line = fit.frame, fit.as_dict(), fit.line()
+        warning = residual_check(fit, _displacement_noise(noise), xyz, 3 if model is None else model.mesh.dim,
+                                 spec.key)
+        if warning:
+            log.warning("%s: %s", entry.path, warning)
+            report, line = {**report, "warning": warning}, f"{line}; {warning}"
     note = f"frame: {line}"
     return (in_model_frame(m, frame, note),
             {"file": str(entry.path), "stage": entry.stage, "view": entry.view, **report, "line": line})
+
+
+def _displacement_noise(noise) -> float | None:
+    """The in-plane displacement noise [mm] of a ``[data] noise`` table (ux's, else u's), None where not given."""
+    if not isinstance(noise, dict):
+        return None
+    value = noise.get("ux", noise.get("u"))
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 else None
 
 
 def _surface(spec: FrameSpec, model):

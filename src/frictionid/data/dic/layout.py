@@ -224,6 +224,12 @@ def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
             factors[target] = strain_factor(unit, column, text.source)
             units[target] = unit if unit is not None else "-"
             continue
+        pixels = layout.column_units.get(column) if text.units[text.index(column)] is None else None
+        if pixels is not None and target not in SIGMA_TARGETS:
+            raise InputError(f"{text.source}:{text.header_line}: column {column!r} (for {target}) holds image "
+                             f"pixels: unit {pixels!r} cannot be converted to mm (a pixel becomes a length only "
+                             f"through the DIC calibration); map the export's calibrated coordinates and "
+                             f"displacements, or export them from the DIC program")
         try:
             factors[target] = length_factor(unit, column, text.source)
         except InputError as exc:

@@ -36,7 +36,8 @@ def choose_layout(text: ExportText, format: str | None = None, columns: dict | N
         columns = {t: c if c in text.names else name_unit(c)[0] for t, c in columns.items()}
     name = format if format is not None else None if columns else _recognise(text, where)
     try:
-        base = FLAVOURS[name].layout(text.names) if name else Layout("columns", {}, None, "")
+        base = FLAVOURS[name].layout(text.names) if name else Layout("columns", {}, None, "",
+                                                                     column_units=_pixel_columns(text))
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
     from_text = getattr(FLAVOURS.get(name), "from_text", None)
@@ -46,6 +47,16 @@ def choose_layout(text: ExportText, format: str | None = None, columns: dict | N
     mapped = {**base.columns, **columns}
     return replace(base, flavour=base.flavour + (" + columns" if name else ""),
                    columns={t: mapped[t] for t in TARGETS if t in mapped})
+
+
+def _pixel_columns(text: ExportText) -> dict[str, str]:
+    """The columns in image pixels of the flavours that recognise the header (DICe's COORDINATE_X, VIC's x, ...):
+    a ``columns`` mapping without ``format`` must not take them for lengths."""
+    found = {}
+    for flavour in FLAVOURS.values():
+        if flavour.recognise(text.names):
+            found.update(getattr(flavour, "PIXEL_COLUMNS", {}))
+    return found
 
 
 def _recognise(text: ExportText, where: str) -> str:
