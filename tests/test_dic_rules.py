@@ -4,6 +4,7 @@ the key, line or column, no traceback, nothing written."""
 
 import shutil
 import sys
+from dataclasses import replace
 import tomllib
 from pathlib import Path
 
@@ -39,12 +40,11 @@ def _scattered(first: Path, name: str, amplitude: float, at=None) -> Path:
     z = np.random.default_rng(3).uniform(-amplitude, amplitude, m.n_rows) if at is None else \
         np.where(np.arange(m.n_rows) == at, amplitude, 0.0)
     path = first / name
-    write_measurements(path, Measurements(m, np.c_[m.coordinates[:, :2], z]))
+    write_measurements(path, _with_coordinates(m, np.c_[m.coordinates[:, :2], z]))
     return path
 
 
-def Measurements(m, coordinates):
-    from dataclasses import replace
+def _with_coordinates(m, coordinates):
     return replace(m, coordinates=coordinates)
 
 
@@ -119,13 +119,13 @@ def test_a_surface_frame_on_a_flat_face_says_it_cannot_fix_the_in_plane_rotation
     n = len(file_xyz)
     m = generate.synthetic(n)
     path = tmp_path / "face.csv"
-    write_measurements(path, Measurements(m, file_xyz))
+    write_measurements(path, _with_coordinates(m, file_xyz))
     data = {"file": str(path), "transform": {"fit": "surface"}, "noise": {"u": 0.0005}}
     with pytest.raises(InputError, match=r"residual RMS .* times the displacement noise 0.0005 mm: in a plane model .*"
                                          r"a flat face cannot fix the in-plane rotation: use fit = \"points\""):
         read_sources(data, Path, model=block2d)
     top = np.c_[file_xyz[:, :2] * 0.4, np.full(n, 10.0)]            # the 3-D block's top face
-    write_measurements(path, Measurements(m, Frame.of([0.0, 0.0, 8.5]).inverse().points(top)))
+    write_measurements(path, _with_coordinates(m, Frame.of([0.0, 0.0, 8.5]).inverse().points(top)))
     with pytest.raises(InputError, match=r"lie on one plane .* a flat face cannot fix the in-plane rotation"):
         read_sources(data, Path, model=block3d)
 
@@ -176,3 +176,17 @@ def test_bad_exports_of_the_new_layouts_exit_2_naming_file_and_line(tmp_path, ca
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert sorted(tmp_path.iterdir()) == before
+
+
+def test_check_data_of_a_config_lists_what_its_identification_needs(tmp_path, capsys):
+    """A config whose export does not state its strain measure: check-data reads it and names the key (exit 0);
+    the machine force is listed only where force is observed; identify's reading refuses."""
+    shutil.copy(FIXTURES / "corpus" / "matchid2024_1.csv", tmp_path / "m.csv")
+    config = tmp_path / "check.toml"
+    for observables, force in ((["ux", "exx"], False), (["ux", "exx", "force"], True)):
+        config.write_text(tomli_w.dumps({"data": {"file": "m.csv", "observables": observables, "stages": [1]}}))
+        assert main(["check-data", str(config)]) == 0
+        out = capsys.readouterr().out
+        assert "needed to identify: [data] strain" in out and ("[data] forces" in out) == force
+    with pytest.raises(InputError, match="does not say which strain measure"):
+        read_sources({"file": str(tmp_path / "m.csv")}, Path)

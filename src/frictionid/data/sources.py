@@ -199,7 +199,7 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
     if model is not None and model.kind == "plane_strain":
         joined, plane = onto_plane(joined, plane_tolerance(data.get("plane_tolerance"), where), model.kind)
         lines += [plane] if plane else []
-    if check and np.any(np.isnan(joined.force)):
+    if check and "force" in data.get("observables", ["force"]) and np.any(np.isnan(joined.force)):
         stages = sorted({int(s) for s in joined.stage[np.isnan(joined.force)]})
         needed.append(f"[data] forces (or a file's force), where force is observed: no machine force for stage(s) "
                       f"{', '.join(map(str, stages))}")
