@@ -167,6 +167,11 @@ NODEMAP = ("# SIGNALS:\n# force                         : value_element       : 
      "nodemap.txt:3: gom: the coordinates are deformed positions (ZEISS Correlate's x, y, z are the points' "
      "positions at the exported stage); the reference position needs the displacement column of y"),
     ("x_pic,y_pic,x,y,z,u,v,w\n1,2,1.0,2.0,0.0,0.001,abc,0\n", "nodemap.txt:2: column 'v': 'abc' is not a number"),
+    ("Project;p\r\nUnit;inch;%\r\nx;y;z;displacement_x;displacement_y\r\n1,0;2,0;0,0;0,0;0,1\r\n",
+     "nodemap.txt: column 'x': unit 'inch' cannot be converted to mm"),
+    (NODEMAP.format("ID", "x_undef [mm]", "y_undef [mm]", "z_undef [mm]", "u [mm]", "v [mm]", 1, 1.0, 2.0, 0.0,
+                    0.001, 0.002, force=5.0) + "         1;  2.0;  2.0;  0.0;  0.001;  0.002\n",
+     "nodemap.txt: point id '1' appears twice"),
 ])
 def test_bad_exports_of_the_new_layouts_exit_2_naming_file_and_line(tmp_path, capsys, text, message):
     path = tmp_path / "nodemap.txt"
@@ -190,3 +195,13 @@ def test_check_data_of_a_config_lists_what_its_identification_needs(tmp_path, ca
         assert "needed to identify: [data] strain" in out and ("[data] forces" in out) == force
     with pytest.raises(InputError, match="does not say which strain measure"):
         read_sources({"file": str(tmp_path / "m.csv")}, Path)
+
+
+def test_a_config_force_that_contradicts_the_nodemap_metadata_is_refused(tmp_path, capsys):
+    shutil.copy(FIXTURES / "corpus" / "aramis_nodemap_1.txt", tmp_path / "n.txt")
+    config = tmp_path / "check.toml"
+    config.write_text(tomli_w.dumps({"data": {"file": [{"path": "n.txt", "force": 990.0}], "observables": ["ux"],
+                                              "stages": [1]}}))
+    assert main(["check-data", str(config)]) == 2
+    err = capsys.readouterr().err
+    assert "n.txt: stage 1: the file gives the force 1000.0 N, the config 990.0 N" in err and "Traceback" not in err
