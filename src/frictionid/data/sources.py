@@ -187,6 +187,7 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
         elif flavour == "matchid":
             report = report + [f"  note: {MATCHID_NOTE}"]
             log.warning("%s: %s", entry.path, MATCHID_NOTE)
+            needed.append(f"[data] transform (unless the model's y points down as MatchID's does): {entry.path}")
         windows.append(FileWindow(str(entry.path), header, 1.0 if frame is None else float(frame["scale"]), strains))
         relative.update(_relative_labels(entry, measurements, relative))
         if entry.specimen is not None:
