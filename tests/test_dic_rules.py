@@ -205,3 +205,35 @@ def test_a_config_force_that_contradicts_the_nodemap_metadata_is_refused(tmp_pat
     assert main(["check-data", str(config)]) == 2
     err = capsys.readouterr().err
     assert "n.txt: stage 1: the file gives the force 1000.0 N, the config 990.0 N" in err and "Traceback" not in err
+
+
+def test_coordinates_states_what_an_exports_coordinate_columns_hold(tmp_path):
+    """[data] coordinates = "deformed": a MatchID 2024.1 export written with the positions at the stage reads to
+    the reference positions; "reference" reads a MatchID 2023 export's coordinates as written."""
+    import corpus
+    generic = read_measurements(FIXTURES / "corpus" / "generic.csv").select(stages=[2])
+    u = np.column_stack([generic.values[q] for q in ("ux", "uy", "uz")])
+    corpus.write_matchid_2024(tmp_path / "m2024.csv", _with_coordinates(generic, generic.coordinates + u))
+    read = read_sources({"file": str(tmp_path / "m2024.csv"), "strain": "green-lagrange",
+                         "coordinates": "deformed"}, Path)
+    assert np.abs(read.measurements.coordinates - generic.coordinates).max() < 1e-12
+    assert read.files[0]["coordinates"].startswith('deformed positions ([data] coordinates = "deformed")')
+    corpus.write_matchid_2023(tmp_path / "m2023.csv", generic)
+    read = read_sources({"file": [{"path": str(tmp_path / "m2023.csv"), "coordinates": "reference"}],
+                         "strain": "log"}, Path)
+    assert np.abs(read.measurements.coordinates - (generic.coordinates + u)).max() < 1e-12
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"file": "generic.csv", "coordinates": "current"},
+     "[data] file entry 1: coordinates must be \"reference\" or \"deformed\""),
+    ({"file": "generic.csv", "coordinates": "deformed"}, "[data] coordinates = \"deformed\" is for DIC exports"),
+    ({"file": "generic.csv", "coordinates": 1}, "coordinates"),
+])
+def test_a_bad_coordinates_key_is_refused(tmp_path, capsys, data, message):
+    shutil.copy(FIXTURES / "generic.csv", tmp_path / "generic.csv")
+    config = tmp_path / "check.toml"
+    config.write_text(tomli_w.dumps({"data": {"observables": ["ux"], "stages": [1], **data}}))
+    assert main(["check-data", str(config)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "check.toml" in err and "Traceback" not in err

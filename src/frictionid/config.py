@@ -20,7 +20,7 @@ SCHEMA = {
     "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {},
              "format": None, "columns": None, "strain": None, "forces": None, "transform": None,
              "relative_to": None, "strain_window": None, "strain_window_shape": None, "reactions": {},
-             "plane_tolerance": None},
+             "plane_tolerance": None, "coordinates": None},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
                "load_scale": 1.0, "factorisation": "auto"},
@@ -53,6 +53,7 @@ TYPES = {
     "data.relative_to": (str, 'a point label of the data file, e.g. "12"'),
     "data.strain_window": ((int, float), "a positive length [mm]: the DIC strain window, e.g. 0.8"),
     "data.strain_window_shape": (str, '"square" (default) or "circle" (of diameter strain_window)'),
+    "data.coordinates": (str, '"reference" or "deformed": what the exports\' coordinate columns hold'),
     "data.plane_tolerance": ((int, float), "a length >= 0 [mm]: out-of-plane scatter projected onto a plane model's "
                                            "plane, e.g. 0.005"),
     "data.stages": (list, "a list of stage numbers, e.g. [2]"),

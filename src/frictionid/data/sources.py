@@ -25,7 +25,10 @@ from .table import Measurements
 log = logging.getLogger(__name__)
 
 #: keys of a table entry of ``[data] file``
-ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "specimen", "transform", "relative_to")
+ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "specimen", "transform", "relative_to",
+              "coordinates")
+#: what an export's coordinate columns may hold (``coordinates``): reference or deformed positions
+COORDINATES = ("reference", "deformed")
 #: joins a view's name and a point's label in the file: "front/12"
 VIEW_SEPARATOR = "/"
 
@@ -45,6 +48,8 @@ class Entry:
     transform: FrameSpec | None = None
     relative_to: str | None = None
     specimen: str | None = None
+    #: "reference" or "deformed": what the export's coordinate columns hold (None: as its reader knows)
+    coordinates: str | None = None
 
     def label(self, label: str) -> str:
         """A point's label in the data: the file's, after ``specimen/`` and ``view/`` where the entry names them."""
@@ -91,7 +96,15 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
                  item.get("columns", data.get("columns")) or None, _name(item, "view", position, where),
                  None if transform is None else frame_spec(transform, key),
                  _relative_to(item.get("relative_to", data.get("relative_to")), position, where),
-                 _name(item, "specimen", position, where))
+                 _name(item, "specimen", position, where), _coordinates(item, data, position, where))
+
+
+def _coordinates(item: dict, data: dict, position: int, where: str) -> str | None:
+    value = item.get("coordinates", data.get("coordinates"))
+    if value is not None and value not in COORDINATES:
+        raise InputError(f"{where}: [data] file entry {position}: coordinates must be \"reference\" or "
+                         f"\"deformed\" (what the export's coordinate columns hold), got {value!r}")
+    return value
 
 
 def _name(item: dict, key: str, position: int, where: str) -> str | None:
@@ -170,7 +183,7 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
         raise InputError(f"{where}: [data] file: some entries name a specimen and some do not; give every file its "
                          "specimen")
     for entry in listed:
-        measurements, report, generic, flavour, header, read = _read(entry, data.get("strain"), check)
+        measurements, report, generic, flavour, header, read = _read(entry, data.get("strain"), check, where)
         if read is not None:
             files.append(read.as_dict())
             needed += [f"{n}: {entry.path}" for n in read.needed]
@@ -212,14 +225,17 @@ MATCHID_NOTE = ("MatchID writes Y (and V) downwards, as in the image; read as wr
                 "with y up needs transform = { rotation_deg = [180, 0, 0] } (y and z turned)")
 
 
-def _read(entry: Entry, strain: str | None, check: bool = False):
+def _read(entry: Entry, strain: str | None, check: bool = False, where: str = "[data]"):
     """(measurements, report lines, generic?, flavour, header window, ExportReport or None for a generic CSV)."""
     text = read_text(entry.path, n_rows=50)         # the header tells the generic CSV from an export
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
+        if entry.coordinates == "deformed":
+            raise InputError(f"{where}: [data] coordinates = \"deformed\" is for DIC exports; {entry.path} is a generic "
+                             "CSV, whose x, y, z are reference positions (docs/data.md)")
         m = read_measurements(entry.path)
         return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],
                 True, "generic", None, None)
-    m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain, check)
+    m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain, check, entry.coordinates)
     return m, report.lines(), False, report.flavour, report.window, report
 
 

@@ -85,10 +85,11 @@ def _check_columns_option(text: ExportText, columns: dict) -> None:
 
 
 def read_export(path, stage: int, format: str | None = None, columns: dict | None = None,
-                strain: str | None = None, check: bool = False):
+                strain: str | None = None, check: bool = False, coordinates: str | None = None):
     """Read one DIC export as the measurements of ``stage``; returns (Measurements, ExportReport). ``check``
     (``frictionid check-data``): what only an identification needs (the strain measure) is listed in the
-    report's ``needed`` instead of refused.
+    report's ``needed`` instead of refused. ``coordinates`` (``[data] coordinates``): "reference" or "deformed",
+    what the coordinate columns hold where the reader's layout says otherwise (None: the layout's).
 
     Examples
     --------
@@ -97,6 +98,8 @@ def read_export(path, stage: int, format: str | None = None, columns: dict | Non
     """
     text = read_text(path)
     layout = choose_layout(text, format, columns)
+    if coordinates is not None and (coordinates == "deformed") != bool(layout.deformed):
+        layout = replace(layout, deformed="[data] coordinates = \"deformed\"" if coordinates == "deformed" else "")
     measurements, report = read_layout(text, layout, stage, strain, check)
     flavour = FLAVOURS.get(layout.flavour.split(" + ")[0])
     force = getattr(flavour, "header_force", None)
