@@ -230,8 +230,8 @@ def _read(entry: Entry, strain: str | None, check: bool = False, where: str = "[
     text = read_text(entry.path, n_rows=50)         # the header tells the generic CSV from an export
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
         if entry.coordinates == "deformed":
-            raise InputError(f"{where}: [data] coordinates = \"deformed\" is for DIC exports; {entry.path} is a generic "
-                             "CSV, whose x, y, z are reference positions (docs/data.md)")
+            raise InputError(f"{where}: [data] coordinates = \"deformed\" is for DIC exports; {entry.path} is a "
+                             "generic CSV, whose x, y, z are reference positions (docs/data.md)")
         m = read_measurements(entry.path)
         return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],
                 True, "generic", None, None)
