@@ -237,3 +237,16 @@ def test_a_bad_coordinates_key_is_refused(tmp_path, capsys, data, message):
     assert main(["check-data", str(config)]) == 2
     err = capsys.readouterr().err
     assert message in err and "check.toml" in err and "Traceback" not in err
+
+
+def test_a_preamble_padded_by_a_spreadsheet_reads_like_the_export(tmp_path):
+    """A Correlate export saved again by a spreadsheet: every preamble line padded with ';' to the header's width."""
+    lines = (FIXTURES / "corpus" / "gom_correlate_1.csv").read_bytes().decode().split("\r\n")
+    width = lines[5].count(";")
+    padded = [line + ";" * (width - line.count(";")) if k < 5 else line for k, line in enumerate(lines)]
+    (tmp_path / "padded.csv").write_bytes("\r\n".join(padded).encode())
+    one, two = (read_sources({"file": str(path)}, Path).measurements
+                for path in (FIXTURES / "corpus" / "gom_correlate_1.csv", tmp_path / "padded.csv"))
+    assert padded[0] == "Project;corpus" + ";" * (width - 1)
+    assert one.points == two.points and np.array_equal(one.coordinates, two.coordinates)
+    assert all(np.array_equal(one.values[q], two.values[q], equal_nan=True) for q in one.quantities)

@@ -140,16 +140,25 @@ def _separator(lines: list[str], number: int) -> str:
 
 def _key_values(lines: list[str], number: int, separator: str) -> tuple[int, list]:
     """Skip the key/value lines before the header (``Project;...``, ``Unit;mm;%``): lines of at most
-    KEY_VALUE_FIELDS fields, fewer than the rows after them have. Returns the header's line and the pairs."""
-    sample = [(k, _split(line, separator)) for k, line in enumerate(lines[number - 1:number - 1 + _SAMPLE],
-                                                                       start=number) if line.strip()]
-    width = len(sample[-1][1])
+    KEY_VALUE_FIELDS filled fields (a spreadsheet pads them with empty ones), fewer than the widest row after them.
+    Returns the header's line and the pairs."""
+    sample = [(k, _filled(_split(line, separator))) for k, line in
+              enumerate(lines[number - 1:number - 1 + _SAMPLE], start=number) if line.strip()]
+    width = max(len(fields) for _, fields in sample)
     keyed = []
     for k, fields in sample[:-1]:
         if len(fields) > KEY_VALUE_FIELDS or len(fields) >= width or _NUMBER.fullmatch(fields[0].replace(",", ".")):
             return k, keyed
         keyed.append((fields[0], tuple(f for f in fields[1:] if f)))
     return number, []
+
+
+def _filled(fields: tuple[str, ...]) -> tuple[str, ...]:
+    """``fields`` without the empty ones at the end."""
+    n = len(fields)
+    while n > 1 and not fields[n - 1]:
+        n -= 1
+    return fields[:n]
 
 
 def _commented_header(line: str, comments: list, separator: str) -> tuple[int, str] | None:
