@@ -250,3 +250,20 @@ def test_a_preamble_padded_by_a_spreadsheet_reads_like_the_export(tmp_path):
     assert padded[0] == "Project;corpus" + ";" * (width - 1)
     assert one.points == two.points and np.array_equal(one.coordinates, two.coordinates)
     assert all(np.array_equal(one.values[q], two.values[q], equal_nan=True) for q in one.quantities)
+
+
+def test_a_plane_surface_frame_a_little_off_the_edges_is_a_warning_not_a_refusal(tmp_path, block2d):
+    """Points on three edges of the plane block, the upper half of one edge 0.03 mm inside (a specimen edge off
+    the model's): far above the noise, far below the section's size: fitted, with the warning."""
+    rng = np.random.default_rng(7)
+    n = 10
+    side = rng.uniform(0.5, 9.5, n)
+    edges = np.concatenate([np.c_[np.where(side > 5, -4.97, -5.0), side, np.zeros(n)],
+                            np.c_[rng.uniform(-4, 4, n), np.full(n, 10.0), np.zeros(n)],
+                            np.c_[rng.uniform(6, 18, n), np.zeros(n), np.zeros(n)]])
+    m = generate.synthetic(3 * n)
+    write_measurements(tmp_path / "edges.csv", _with_coordinates(m, Frame.of([0, 0, 5.0]).inverse().points(edges)))
+    data = {"file": str(tmp_path / "edges.csv"), "transform": {"fit": "surface"}, "noise": {"u": 0.0005}}
+    frame = read_sources(data, Path, model=block2d).frames[0]
+    assert frame["warning"].startswith(f"warning: the fitted frame's residual RMS {frame['residual_rms_mm']:.3g} mm")
+    assert 0.005 < frame["residual_rms_mm"] < 0.03

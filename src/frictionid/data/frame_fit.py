@@ -24,9 +24,11 @@ FIT_POINTS = 5000
 #: largest lie on one plane: a flat face, on which a surface fit cannot fix the in-plane turn and shifts
 FLAT = 1e-3
 #: a fitted frame whose residual RMS exceeds this many displacement noises (without a stated noise: FAR_FRACTION
-#: of the points' extent) does not put the points where they were measured: warned (a plane model's surface fit:
-#: refused, its points lie on the section's flat face)
+#: of the points' extent) does not put the points where they were measured: warned
 FAR, FAR_FRACTION = 10.0, 1e-3
+#: a plane model's surface fit whose residual RMS exceeds this fraction of the points' extent too is refused: its
+#: points lie on the section's flat face, not on its boundary (a real edge's deviation from the model's is smaller)
+FACE_FRACTION = 1e-2
 
 log = logging.getLogger(__name__)
 
@@ -169,8 +171,8 @@ def residual_check(fit: FrameFit, noise: float | None, xyz: np.ndarray, dim: int
     Raises
     ------
     InputError
-        A surface fit of a plane (2-D) model far off: DIC points on the section's face are not on its boundary,
-        which the fit matches by a wrong turn.
+        A surface fit of a plane (2-D) model far off, also beyond FACE_FRACTION of the points' extent: DIC points
+        on the section's face are not on its boundary, which the fit matches by a wrong turn.
     """
     size = float(np.ptp(np.asarray(xyz, float), axis=0).max()) if len(xyz) else 0.0
     limit = FAR * noise if noise else FAR_FRACTION * size
@@ -178,7 +180,7 @@ def residual_check(fit: FrameFit, noise: float | None, xyz: np.ndarray, dim: int
         return None
     against = f"{fit.rms / noise:.3g} times the displacement noise {noise:g} mm" if noise else \
         f"{fit.rms / size:.3g} of the points' extent {size:.3g} mm (no displacement noise stated)"
-    if fit.fit == "surface" and dim == 2:
+    if fit.fit == "surface" and dim == 2 and fit.rms > FACE_FRACTION * size:
         raise InputError(f"{key}: the frame fitted to the model's surface leaves a residual RMS {fit.rms:.3g} mm, "
                          f"{against}: in a plane model the surface is the section's boundary, and DIC points "
                          "measured on the section's flat face lie inside it; a flat face cannot fix the in-plane "
