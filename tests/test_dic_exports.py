@@ -171,8 +171,12 @@ def test_dice_pixels_alone_are_refused(capsys, tmp_path):
 
 
 def test_strains_of_unstated_measure_need_the_strain_key(capsys):
-    err = check_data_error(capsys, FIXTURES / "davis.txt")
-    assert "does not say which strain measure" in err and 'strain = "engineering"' in err
+    """check-data reads the file and names the key; an identification's reading refuses without it."""
+    assert main(["check-data", str(FIXTURES / "davis.txt")]) == 0
+    out = capsys.readouterr().out
+    assert "needed to identify: [data] strain" in out and 'strain = "engineering"' in out
+    with pytest.raises(InputError, match="does not say which strain measure"):
+        read_data(config_data(file=str(FIXTURES / "davis.txt")), Path)
 
 
 def config_data(**data):

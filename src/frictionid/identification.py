@@ -59,6 +59,8 @@ class Setup:
     frames: tuple = ()
     #: the fit's DIC strain window (:class:`~frictionid.data.dic.window.WindowChoice`), None: none
     window: object = None
+    #: how each DIC export was read (format, coordinates, strain measure, points): result.json's ``data.files``
+    files: tuple = ()
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -114,12 +116,17 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
     data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None
-    given, frames, relative, specimens = measurements, [], {}, {}
+    given, frames, relative, specimens, files = measurements, [], {}, {}, []
     window = choose_window(config.data.get("strain_window"), config.data.get("strain_window_shape"), [])
     if measurements is None:
         sources = read_sources(config.data, config.resolve, where, model)
         measurements, frames, relative = sources.measurements, sources.frames, sources.relative
-        specimens, window = sources.specimens, sources.window
+        specimens, window, files = sources.specimens, sources.window, sources.files
+        if sources.plane:
+            echo(sources.plane)
+        for read in files:
+            if read["coordinates"].startswith("deformed"):
+                echo(f"{read['file']}: coordinates: {read['coordinates']}")
         for frame in frames:
             echo(f"{frame['file']}: {frame['line']}")
         if window.origin == "export header":
@@ -129,7 +136,7 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                                      config.data.get("noise"), config.data.get("regions"), relative, specimens,
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
-                 data_file, tuple(frames), window)
+                 data_file, tuple(frames), window, tuple(files))
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -498,7 +505,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
         "model": setup.model_options,
-        "data": data_section(setup.frames, obs, setup.window),
+        "data": data_section(setup.frames, obs, setup.window, setup.files),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
                             "correlation": np.where(np.isnan(unc.correlation), None, unc.correlation).tolist(),
@@ -511,15 +518,17 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
     }
 
 
-def data_section(frames, obs, window=None) -> dict:
+def data_section(frames, obs, window=None, files=()) -> dict:
     """result.json's ``data``: the frame of each file that has one (given or fitted, with its residual), the
-    reference points displacements are fitted relative to ([data] relative_to) and the strain window of the fit
-    (size, shape, origin: [data] strain_window or the exports' headers with their pixel sizes)."""
+    reference points displacements are fitted relative to ([data] relative_to), the strain window of the fit
+    (size, shape, origin: [data] strain_window or the exports' headers with their pixel sizes) and how each DIC
+    export was read (``files``: format, stage, coordinates as written or converted from deformed positions,
+    strain measure, rows, valid points, dropped rows by reason)."""
     minus = np.full(obs.n_obs, -1) if obs.minus_row is None else obs.minus_row
     n_quantities = max(len(obs.quantities), 1)
     return {"frames": [{k: v for k, v in f.items() if k != "line"} for f in frames],
             "relative_to": sorted({obs.point_labels[m // n_quantities] for m in minus[minus >= 0]}),
-            **({} if window is None else {"strain_window": window.as_dict()})}
+            **({} if window is None else {"strain_window": window.as_dict()}), "files": list(files)}
 
 
 def strain_window(window) -> StrainWindow | None:

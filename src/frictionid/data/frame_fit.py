@@ -20,6 +20,15 @@ MAX_STEPS, STEP_TOL = 100, 1e-12
 #: a surface frame is fitted to every k-th point, at most this many (6 or 7 unknowns); its residual is reported
 #: over all points
 FIT_POINTS = 5000
+#: points whose smallest spread (singular value of the centred coordinates) is below this fraction of their
+#: largest lie on one plane: a flat face, on which a surface fit cannot fix the in-plane turn and shifts
+FLAT = 1e-3
+#: a fitted frame whose residual RMS exceeds this many displacement noises (without a stated noise: FAR_FRACTION
+#: of the points' extent) does not put the points where they were measured: warned
+FAR, FAR_FRACTION = 10.0, 1e-3
+#: a plane model's surface fit whose residual RMS exceeds this fraction of the points' extent too is refused: its
+#: points lie on the section's flat face, not on its boundary (a real edge's deviation from the model's is smaller)
+FACE_FRACTION = 1e-2
 
 log = logging.getLogger(__name__)
 
@@ -112,6 +121,8 @@ def fit_to_surface(spec: FrameSpec, labels, xyz: np.ndarray, surface, source: st
     """
     dim, frame, every = surface.dim, spec.frame, -(-len(xyz) // FIT_POINTS)
     size = float(np.ptp(xyz, axis=0).max()) or 1.0
+    if dim == 3:
+        _not_flat(spec, xyz, source)
     sample = xyz[::every]
     residual, jac = _linearised(frame, sample, surface, spec.fit_scale)
     for step in range(MAX_STEPS):
@@ -141,6 +152,43 @@ def fit_to_surface(spec: FrameSpec, labels, xyz: np.ndarray, surface, source: st
     if every > 1:
         residual = _linearised(frame, xyz, surface, spec.fit_scale)[0]
     return _fit(frame, "surface", np.linalg.norm(residual, axis=1), list(labels))
+
+
+def _not_flat(spec: FrameSpec, xyz: np.ndarray, source: str) -> None:
+    spread = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False) / np.sqrt(max(len(xyz), 1))
+    if len(spread) == 3 and spread[2] <= FLAT * spread[0]:
+        raise InputError(f"{spec.key}: the {len(xyz)} points of {source} do not fix the frame on the model's surface: "
+                         f"they lie on one plane (RMS spread {spread[2]:.3g} mm out of it, {spread[0]:.3g} mm in "
+                         "it), and a flat face cannot fix the in-plane rotation: the turn about its normal and the "
+                         "shifts along it are left free; use fit = \"points\" with 3 reference points, or give "
+                         "rotation_deg and translation")
+
+
+def residual_check(fit: FrameFit, noise: float | None, xyz: np.ndarray, dim: int, key: str) -> str | None:
+    """A warning where ``fit``'s residual RMS is far above the displacement ``noise`` [mm] (None: above FAR_FRACTION
+    of the points' extent), else None.
+
+    Raises
+    ------
+    InputError
+        A surface fit of a plane (2-D) model far off, also beyond FACE_FRACTION of the points' extent: DIC points
+        on the section's face are not on its boundary, which the fit matches by a wrong turn.
+    """
+    size = float(np.ptp(np.asarray(xyz, float), axis=0).max()) if len(xyz) else 0.0
+    limit = FAR * noise if noise else FAR_FRACTION * size
+    if not fit.rms > limit:
+        return None
+    against = f"{fit.rms / noise:.3g} times the displacement noise {noise:g} mm" if noise else \
+        f"{fit.rms / size:.3g} of the points' extent {size:.3g} mm (no displacement noise stated)"
+    if fit.fit == "surface" and dim == 2 and fit.rms > FACE_FRACTION * size:
+        raise InputError(f"{key}: the frame fitted to the model's surface leaves a residual RMS {fit.rms:.3g} mm, "
+                         f"{against}: in a plane model the surface is the section's boundary, and DIC points "
+                         "measured on the section's flat face lie inside it; a flat face cannot fix the in-plane "
+                         "rotation: use fit = \"points\" with 3 reference points, or give rotation_deg and "
+                         "translation")
+    return (f"warning: the fitted frame's residual RMS {fit.rms:.3g} mm is {against}: the points are not where "
+            "the frame puts them (other reference points or surface regions, a unit, or a model that is not the "
+            "specimen?)")
 
 
 def _units(dim: int, size: float, with_scale: bool) -> np.ndarray:

@@ -16,15 +16,19 @@ import numpy as np
 from ..errors import InputError
 from .dic import is_generic, read_export, read_text
 from .dic.window import FileWindow, HeaderWindow, WindowChoice, choose
-from .frame_fit import fit_to_points, fit_to_surface
+from .frame_fit import fit_to_points, fit_to_surface, residual_check
 from .frames import FrameSpec, frame_spec, in_model_frame
 from .measurements import read_measurements
+from .plane import onto_plane, plane_tolerance
 from .table import Measurements
 
 log = logging.getLogger(__name__)
 
 #: keys of a table entry of ``[data] file``
-ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "specimen", "transform", "relative_to")
+ENTRY_KEYS = ("path", "stage", "force", "format", "columns", "view", "specimen", "transform", "relative_to",
+              "coordinates")
+#: what an export's coordinate columns may hold (``coordinates``): reference or deformed positions
+COORDINATES = ("reference", "deformed")
 #: joins a view's name and a point's label in the file: "front/12"
 VIEW_SEPARATOR = "/"
 
@@ -44,6 +48,8 @@ class Entry:
     transform: FrameSpec | None = None
     relative_to: str | None = None
     specimen: str | None = None
+    #: "reference" or "deformed": what the export's coordinate columns hold (None: as its reader knows)
+    coordinates: str | None = None
 
     def label(self, label: str) -> str:
         """A point's label in the data: the file's, after ``specimen/`` and ``view/`` where the entry names them."""
@@ -90,7 +96,15 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
                  item.get("columns", data.get("columns")) or None, _name(item, "view", position, where),
                  None if transform is None else frame_spec(transform, key),
                  _relative_to(item.get("relative_to", data.get("relative_to")), position, where),
-                 _name(item, "specimen", position, where))
+                 _name(item, "specimen", position, where), _coordinates(item, data, position, where))
+
+
+def _coordinates(item: dict, data: dict, position: int, where: str) -> str | None:
+    value = item.get("coordinates", data.get("coordinates"))
+    if value is not None and value not in COORDINATES:
+        raise InputError(f"{where}: [data] file entry {position}: coordinates must be \"reference\" or "
+                         f"\"deformed\" (what the export's coordinate columns hold), got {value!r}")
+    return value
 
 
 def _name(item: dict, key: str, position: int, where: str) -> str | None:
@@ -131,6 +145,12 @@ class Sources:
     specimens: dict[str, str] = field(default_factory=dict)
     #: the fit's strain window (config or the exports' headers), :class:`~.dic.window.WindowChoice`
     window: WindowChoice | None = None
+    #: how each export was read (result.json's ``data.files``: format, coordinates, strain measure, points)
+    files: list[dict] = field(default_factory=list)
+    #: what an identification needs that the files do not give (read with ``check``), one line each
+    needed: list[str] = field(default_factory=list)
+    #: points of a plane model's data projected onto its plane (how many, the largest |z|), None: none moved
+    plane: str | None = None
 
 
 def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
@@ -144,10 +164,12 @@ def read_data_reported(data: dict, resolve, where: str = "[data]", model=None) -
     return sources.measurements, sources.lines
 
 
-def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sources:
+def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: bool = False) -> Sources:
     """Every file of ``[data] file`` read into one table in the model's frame, with what was recognised.
 
-    ``model`` gives the surface a frame is fitted to (``fit = "surface"``); it is not needed otherwise.
+    ``model`` gives the surface a frame is fitted to (``fit = "surface"``); it is not needed otherwise. With
+    ``check`` (``frictionid check-data``) what only an identification needs (a strain measure the file does not
+    state, a machine force) is listed in ``needed`` instead of refused.
 
     Raises
     ------
@@ -155,26 +177,30 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         A bad entry or transform, a file no reader recognises, a (point, stage) given by two files, a force that
         contradicts the file's, a reference point the file does not have.
     """
-    parts, lines, frames, relative, fitted, specimens, windows = [], [], [], {}, {}, {}, []
+    parts, lines, frames, relative, fitted, specimens, windows, files, needed = [], [], [], {}, {}, {}, [], [], []
     listed = entries(data, resolve, where)
     if any(e.specimen is not None for e in listed) and any(e.specimen is None for e in listed):
         raise InputError(f"{where}: [data] file: some entries name a specimen and some do not; give every file its "
                          "specimen")
     for entry in listed:
-        measurements, report, generic, flavour, header = _read(entry, data.get("strain"))
+        measurements, report, generic, flavour, header, read = _read(entry, data.get("strain"), check, where)
+        if read is not None:
+            files.append(read.as_dict())
+            needed += [f"{n}: {entry.path}" for n in read.needed]
         forces = {s: _listed_force(data.get("forces"), s, where) for s in measurements.stages} if generic \
             else {entry.stage: entry.force}
         measurements = _with_forces(measurements, {s: f for s, f in forces.items() if f is not None})
         strains = any(q[0] == "e" for q in measurements.quantities)
         frame = None
         if entry.transform is not None:
-            measurements, frame = _framed(entry, measurements, model, fitted)
+            measurements, frame = _framed(entry, measurements, model, fitted, data.get("noise"))
             frames.append(frame)
             report = report + [f"  {frame['line']}"]
             log.info("%s: %s", entry.path, frame["line"])
         elif flavour == "matchid":
             report = report + [f"  note: {MATCHID_NOTE}"]
             log.warning("%s: %s", entry.path, MATCHID_NOTE)
+            needed.append(f"[data] transform (unless the model's y points down as MatchID's does): {entry.path}")
         windows.append(FileWindow(str(entry.path), header, 1.0 if frame is None else float(frame["scale"]), strains))
         relative.update(_relative_labels(entry, measurements, relative))
         if entry.specimen is not None:
@@ -183,7 +209,15 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None) -> Sour
         lines += report + ([f"  points labelled '{entry.label('<point>')}'"] if entry.view or entry.specimen
                            else [])
     window = choose(data.get("strain_window"), data.get("strain_window_shape"), windows)
-    return Sources(_joined(parts), lines, frames, relative, specimens, window)
+    joined, plane = _joined(parts), None
+    if model is not None and model.kind == "plane_strain":
+        joined, plane = onto_plane(joined, plane_tolerance(data.get("plane_tolerance"), where), model.kind)
+        lines += [plane] if plane else []
+    if check and "force" in data.get("observables", ["force"]) and np.any(np.isnan(joined.force)):
+        stages = sorted({int(s) for s in joined.stage[np.isnan(joined.force)]})
+        needed.append(f"[data] forces (or a file's force), where force is observed: no machine force for stage(s) "
+                      f"{', '.join(map(str, stages))}")
+    return Sources(joined, lines, frames, relative, specimens, window, files, needed, plane)
 
 
 #: MatchID's frame (docs/data.md): read as written, turned by a transform
@@ -191,18 +225,23 @@ MATCHID_NOTE = ("MatchID writes Y (and V) downwards, as in the image; read as wr
                 "with y up needs transform = { rotation_deg = [180, 0, 0] } (y and z turned)")
 
 
-def _read(entry: Entry, strain: str | None) -> tuple[Measurements, list[str], bool, str, HeaderWindow | None]:
+def _read(entry: Entry, strain: str | None, check: bool = False, where: str = "[data]"):
+    """(measurements, report lines, generic?, flavour, header window, ExportReport or None for a generic CSV)."""
     text = read_text(entry.path, n_rows=50)         # the header tells the generic CSV from an export
     if entry.format == "generic" or entry.format is None and not entry.columns and is_generic(text):
+        if entry.coordinates == "deformed":
+            raise InputError(f"{where}: [data] coordinates = \"deformed\" is for DIC exports; {entry.path} is a "
+                             "generic CSV, whose x, y, z are reference positions (docs/data.md)")
         m = read_measurements(entry.path)
         return (m, [f"{entry.path}: generic CSV, stages {', '.join(map(str, m.stages))} from its stage column"],
-                True, "generic", None)
-    m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain)
-    return m, report.lines(), False, report.flavour, report.window
+                True, "generic", None, None)
+    m, report = read_export(entry.path, entry.stage, entry.format, entry.columns, strain, check, entry.coordinates)
+    return m, report.lines(), False, report.flavour, report.window, report
 
 
-def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measurements, dict]:
-    """``m`` in the model's frame by the entry's transform (fitted once per transform and set of points)."""
+def _framed(entry: Entry, m: Measurements, model, fitted: dict, noise=None) -> tuple[Measurements, dict]:
+    """``m`` in the model's frame by the entry's transform (fitted once per transform and set of points); a fitted
+    frame whose residual is far above the displacement ``noise`` (``[data] noise``) carries a warning."""
     spec = entry.transform
     labels = list(dict.fromkeys(m.points))
     first = {p: i for i, p in reversed(list(enumerate(m.points)))}
@@ -218,9 +257,22 @@ def _framed(entry: Entry, m: Measurements, model, fitted: dict) -> tuple[Measure
                 fit_to_surface(spec, labels, xyz, _surface(spec, model), str(entry.path))
         fit = fitted[key]
         frame, report, line = fit.frame, fit.as_dict(), fit.line()
+        warning = residual_check(fit, _displacement_noise(noise), xyz, 3 if model is None else model.mesh.dim,
+                                 spec.key)
+        if warning:
+            log.warning("%s: %s", entry.path, warning)
+            report, line = {**report, "warning": warning}, f"{line}; {warning}"
     note = f"frame: {line}"
     return (in_model_frame(m, frame, note),
             {"file": str(entry.path), "stage": entry.stage, "view": entry.view, **report, "line": line})
+
+
+def _displacement_noise(noise) -> float | None:
+    """The in-plane displacement noise [mm] of a ``[data] noise`` table (ux's, else u's), None where not given."""
+    if not isinstance(noise, dict):
+        return None
+    value = noise.get("ux", noise.get("u"))
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 else None
 
 
 def _surface(spec: FrameSpec, model):
@@ -325,8 +377,16 @@ def data_digest(data: dict, resolve) -> str:
 def check_data(path, format: str | None = None, strain: str | None = None) -> str:
     """What ``frictionid check-data FILE`` prints: what was recognised (flavour, columns, units, strain measure,
     valid and dropped points) and the summary of the measurements. An export is shown as stage 1."""
-    m, lines = read_data_reported({"file": str(path), "format": format, "strain": strain}, Path)
-    return "\n".join(lines + [m.summary()])
+    sources = read_sources({"file": str(path), "format": format, "strain": strain}, Path, check=True)
+    return "\n".join(sources.lines + [sources.measurements.summary()] + needed_lines(sources.needed))
+
+
+def needed_lines(needed: list[str]) -> list[str]:
+    """check-data's last lines: what an identification will need besides the files (none: no line)."""
+    if not needed:
+        return []
+    keys = ", ".join(dict.fromkeys(n.split(" (")[0].split(":")[0] for n in needed))
+    return [f"needed to identify: {keys}"] + [f"  {n}" for n in needed]
 
 
 def fits_surface(data: dict) -> bool:
@@ -340,7 +400,8 @@ def fits_surface(data: dict) -> bool:
 def check_config_data(config, model=None) -> str:
     """What ``frictionid check-data CONFIG.toml`` prints: every file of the config's ``[data]`` as identify reads
     it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
-    sources = read_sources(config.data, config.resolve, config.where, model)
+    sources = read_sources(config.data, config.resolve, config.where, model, check=True)
     relative = sorted(set(sources.relative.values()))
     return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
-                                       else []) + list(sources.window.lines) + [sources.measurements.summary()])
+                                       else []) + list(sources.window.lines) + [sources.measurements.summary()]
+                      + needed_lines(sources.needed))

@@ -7,9 +7,18 @@ Windows, an optional point id (``ID``, ``Id``, ``Point ID``, ``Punkt-ID``), then
 ``epsXY [%]`` (technical, i.e. engineering, strain) or ``phiX``, ``phiY``, ``phiXY`` (true, i.e. logarithmic, strain,
 GOM's phi). A file with both eps and phi columns is refused (say which with ``columns``). Points without a
 value (empty cells) are dropped.
+
+ZEISS (GOM) Correlate's CSV export of a stage with its project preamble: key/value lines ``Project;...``,
+``Element;...``, ``Stage;...``, ``Date;...``, ``Unit;mm;%`` (the length and the strain unit of every column), then
+the user's columns ``x;y;z;displacement_x;displacement_y;displacement_z;epsilon_x;epsilon_y;epsilon_xy``, German
+locale (``;``, decimal comma, CRLF). Public analysis scripts read it with ``skiprows=5`` and subtract the
+displacement from ``x``, ``y``, ``z``, the points' positions at that stage: the reader does the same (reported).
+``epsilon`` is GOM's technical (engineering) strain.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 from ...errors import InputError
 from .layout import Layout
@@ -21,11 +30,32 @@ IDS = ("ID", "Id", "id", "Point ID", "Punkt-ID", "Point id")
 _STRAINS = {"eps": ("engineering", "technical strain eps"), "phi": ("log", "true strain phi")}
 
 
+#: Correlate's long names (target -> column)
+LONG_NAMES = {"x": "x", "y": "y", "z": "z", "ux": "displacement_x", "uy": "displacement_y", "uz": "displacement_z",
+              "exx": "epsilon_x", "eyy": "epsilon_y", "exy": "epsilon_xy"}
+DEFORMED = "ZEISS Correlate's x, y, z are the points' positions at the exported stage"
+
+
 def recognise(names: tuple[str, ...]) -> bool:
-    return "x" in names and (any(n in names for n in ("epsX", "phiX", "dx", "dX")))
+    return "x" in names and (any(n in names for n in ("epsX", "phiX", "dx", "dX", "displacement_x")))
+
+
+def from_text(layout: Layout, text) -> Layout:
+    """The preamble's ``Unit;<length>;<strain>`` line gives the unit of every column that states none."""
+    unit = text.meta("Unit")
+    if not unit:
+        return layout
+    length, strain = (unit + (None,))[:2]
+    units = {t: length if t in "xyz" or t.startswith("u") else strain for t in layout.columns if t != "point"}
+    return replace(layout, units={t: u for t, u in units.items() if u is not None}, variant=layout.variant +
+                   f"{', ' if layout.variant else ''}units from the preamble line 'Unit;{';'.join(unit)}'")
 
 
 def layout(names: tuple[str, ...]) -> Layout:
+    if "displacement_x" in names:
+        columns = {t: c for t, c in LONG_NAMES.items() if c in names}
+        return Layout(NAME, columns, "engineering", "GOM's technical strain epsilon", deformed=DEFORMED,
+                      variant="ZEISS Correlate with project preamble")
     columns = {"point": next(n for n in names if n in IDS)} if any(n in IDS for n in names) else {}
     columns.update({c: c for c in "xyz" if c in names})
     for c in "xyz":

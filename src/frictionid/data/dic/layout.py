@@ -37,6 +37,9 @@ class Layout:
     units : target -> unit where the file states none (a program that writes no units but documents them)
     column_units : column -> unit the program documents for a column the layout does not map (pixels), so that
         a ``columns`` mapping of it is refused instead of taken as mm
+    deformed : why the coordinate columns hold the deformed (current) position of the points ("" : they hold the
+        reference position); the reference position is then the coordinate minus the displacement
+    variant : which of the program's layouts this is, for the report (e.g. "MatchID 2023 names")
     """
 
     flavour: str
@@ -46,6 +49,12 @@ class Layout:
     invalid: tuple[tuple[str, Callable[[float], bool], str], ...] = ()
     units: dict[str, str] = field(default_factory=dict)
     column_units: dict[str, str] = field(default_factory=dict)
+    deformed: str = ""
+    variant: str = ""
+
+
+#: what a report says of coordinates read as they are
+REFERENCE = "reference (undeformed) positions, as written"
 
 
 @dataclass(frozen=True)
@@ -69,22 +78,34 @@ class ExportReport:
     lines_read: tuple[int, ...] = field(default=(), repr=False, compare=False)
     #: the strain window the export's header gives (:class:`~.window.HeaderWindow`), None where it gives none
     window: object = None
+    #: what the coordinate columns hold and what was done with them (:data:`REFERENCE` or the conversion)
+    coordinates: str = REFERENCE
+    #: what only an identification needs and the file does not give, e.g. "[data] strain (...)"
+    needed: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
         mapped = ", ".join(f"{t} <- {c!r}" for t, c in self.columns.items())
         units = ", ".join(f"{t} [{u}]" for t, u in self.units.items())
         why = "; ".join(f"{n} {reason}" for reason, n in self.dropped.items()) or "none"
         return [f"{self.source}: {self.flavour} export ({self.text}), stage {self.stage}",
-                f"  columns: {mapped}", f"  units: {units}", f"  strains: {self.strain}",
+                f"  columns: {mapped}", f"  units: {units}", f"  coordinates: {self.coordinates}",
+                f"  strains: {self.strain}",
                 f"  points: {self.n_valid} valid of {self.n_rows} rows; dropped: {why}; "
                 f"{self.n_missing} empty quantity cells left as missing values"] + [f"  {n}" for n in self.notes]
 
+    def as_dict(self) -> dict:
+        """What result.json's ``data.files`` says of this file."""
+        return {"file": self.source, "format": self.flavour, "stage": self.stage, "coordinates": self.coordinates,
+                "strain": self.strain, "rows": self.n_rows, "valid": self.n_valid, "dropped": dict(self.dropped)}
 
-def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None = None
+
+def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None = None, check: bool = False
                 ) -> tuple[Measurements, ExportReport]:
-    """The rows of ``text`` as measurements at ``stage``: coordinates and displacements in mm, strains as small
-    tensor strains; invalid rows (the layout's tests, empty or NaN coordinates, no value at all) dropped and
-    counted. ``strain`` (config ``[data] strain``) states the measure where the layout does not know it.
+    """The rows of ``text`` as measurements at ``stage``: coordinates (reference positions) and displacements in
+    mm, strains as small tensor strains; invalid rows (the layout's tests, empty or NaN coordinates, no value at
+    all, deformed coordinates without a displacement) dropped and counted. ``strain`` (config ``[data] strain``)
+    states the measure where the layout does not know it; with ``check`` (``frictionid check-data``) strains of
+    unknown measure are kept as written and the report says the key an identification needs.
 
     Raises
     ------
@@ -94,7 +115,14 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
     """
     src = text.source
     _check_columns(text, layout)
-    measure, measure_text = _measure(text, layout, strain)
+    needed = ()
+    try:
+        measure, measure_text = _measure(text, layout, strain)
+    except InputError as exc:
+        if not check or strain is not None:
+            raise
+        measure, measure_text = "engineering", "measure not stated by the file: shown as written"
+        needed = (f"[data] strain ({str(exc).split(': ', 2)[-1]})",)
     factors, units = _factors(text, layout)
     index = {t: text.index(c) for t, c in layout.columns.items()}
     tests = [(text.index(c), test, reason) for c, test, reason in layout.invalid]
@@ -106,7 +134,7 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
                       for t, i in index.items() if t != "point"}
             reason = "with empty or NaN coordinates" if any(math.isnan(values[c]) for c in "xy" if c in values) \
                 else "without any value" if all(math.isnan(v) for t, v in values.items() if t in QUANTITIES) \
-                else None
+                else _to_reference(values) if layout.deformed else None
         if reason is not None:
             dropped[reason] = dropped.get(reason, 0) + 1
             continue
@@ -118,7 +146,28 @@ def read_layout(text: ExportText, layout: Layout, stage: int, strain: str | None
         _check_force(text, layout.columns["force"], rows, lines)
     return _measurements(text, layout, stage, labels, rows, measure), ExportReport(
         src, layout.flavour, dict(layout.columns), units, measure_text, stage, len(text.rows), len(rows), dropped,
-        sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text), lines_read=tuple(lines))
+        sum(math.isnan(r[q]) for r in rows for q in r if q in QUANTITIES), _describe(text, layout),
+        lines_read=tuple(lines), coordinates=_coordinates_text(layout), needed=needed)
+
+
+def _to_reference(values: dict) -> str | None:
+    """Deformed coordinates of one row (in ``values``, mm) made reference positions in place: x - ux, y - uy and,
+    where the row gives uz, z - uz (a 2-D export's z stays as written); the reason to drop the row where ux or uy
+    is missing."""
+    if any(math.isnan(values["u" + c]) for c in "xy"):
+        return "with deformed coordinates but no in-plane displacement (no reference position)"
+    for c in "xyz":
+        if c in values and not math.isnan(values.get("u" + c, math.nan)):
+            values[c] -= values["u" + c]
+    return None
+
+
+def _coordinates_text(layout: Layout) -> str:
+    if not layout.deformed:
+        return REFERENCE
+    columns = layout.columns
+    axes = ", ".join(f"{c} = {columns[c]} - {columns['u' + c]}" for c in "xyz" if c in columns and "u" + c in columns)
+    return f"deformed positions ({layout.deformed}), converted to reference positions: {axes}"
 
 
 def _check_columns(text: ExportText, layout: Layout) -> None:
@@ -139,6 +188,12 @@ def _check_columns(text: ExportText, layout: Layout) -> None:
     if not set(layout.columns) & set(QUANTITIES):
         raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: no displacement or strain column "
                          f"found in {text.header()}")
+    lacking = [c for c in "xy" if layout.deformed and "u" + c not in layout.columns]
+    if lacking:
+        raise InputError(f"{text.source}:{text.header_line}: {layout.flavour}: the coordinates are deformed "
+                         f"positions ({layout.deformed}); the reference position needs the displacement "
+                         f"column{'s' * (len(lacking) > 1)} of {' and '.join(lacking)}, which the header "
+                         f"({text.header()}) does not have")
 
 
 def _measure(text: ExportText, layout: Layout, strain: str | None) -> tuple[str | None, str]:
@@ -169,6 +224,12 @@ def _factors(text: ExportText, layout: Layout) -> tuple[dict, dict]:
             factors[target] = strain_factor(unit, column, text.source)
             units[target] = unit if unit is not None else "-"
             continue
+        pixels = layout.column_units.get(column) if text.units[text.index(column)] is None else None
+        if pixels is not None and target not in SIGMA_TARGETS:
+            raise InputError(f"{text.source}:{text.header_line}: column {column!r} (for {target}) holds image "
+                             f"pixels: unit {pixels!r} cannot be converted to mm (a pixel becomes a length only "
+                             f"through the DIC calibration); map the export's calibrated coordinates and "
+                             f"displacements, or export them from the DIC program")
         try:
             factors[target] = length_factor(unit, column, text.source)
         except InputError as exc:
@@ -253,7 +314,8 @@ def _measurements(text: ExportText, layout: Layout, stage: int, labels, rows, me
                         comments=(f"{layout.flavour} export {text.source}, stage {stage}",), source=text.source)
 
 
-def _describe(text: ExportText) -> str:
+def _describe(text: ExportText, layout: Layout) -> str:
     separator = {"\t": "tab", ";": "';'", ",": "','"}[text.separator]
-    return (f"{separator}-separated, {'decimal comma, ' if text.decimal_comma else ''}{text.encoding}, "
-            f"header on line {text.header_line}")
+    return (f"{layout.variant + ', ' if layout.variant else ''}{separator}-separated, "
+            f"{'decimal comma, ' if text.decimal_comma else ''}{text.encoding}, "
+            f"header on line {text.header_line}{' (a # comment line)' if text.header_commented else ''}")

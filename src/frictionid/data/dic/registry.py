@@ -5,13 +5,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from ...errors import InputError
-from . import davis, dice, gom, matchid, vic3d
+from . import aramis, davis, dice, gom, matchid, vic3d
 from .layout import TARGETS, ExportReport, Layout, read_layout
 from .text import ExportText, name_unit, read_text
 
 #: the export flavours by ``format`` name, in the order they are tried
-FLAVOURS = {m.NAME: m for m in (dice, vic3d, matchid, gom, davis)}
+FLAVOURS = {m.NAME: m for m in (dice, vic3d, matchid, gom, aramis, davis)}
 #: every ``format`` value: the generic CSV, the flavours
 FORMATS = ("generic",) + tuple(FLAVOURS)
 
@@ -34,14 +36,27 @@ def choose_layout(text: ExportText, format: str | None = None, columns: dict | N
         columns = {t: c if c in text.names else name_unit(c)[0] for t, c in columns.items()}
     name = format if format is not None else None if columns else _recognise(text, where)
     try:
-        base = FLAVOURS[name].layout(text.names) if name else Layout("columns", {}, None, "")
+        base = FLAVOURS[name].layout(text.names) if name else Layout("columns", {}, None, "",
+                                                                     column_units=_pixel_columns(text))
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+    from_text = getattr(FLAVOURS.get(name), "from_text", None)
+    base = from_text(base, text) if from_text else base
     if not columns:
         return base
     mapped = {**base.columns, **columns}
-    return Layout(base.flavour + (" + columns" if name else ""), {t: mapped[t] for t in TARGETS if t in mapped},
-                  base.strain_measure, base.measure_from, base.invalid, base.units, base.column_units)
+    return replace(base, flavour=base.flavour + (" + columns" if name else ""),
+                   columns={t: mapped[t] for t in TARGETS if t in mapped})
+
+
+def _pixel_columns(text: ExportText) -> dict[str, str]:
+    """The columns in image pixels of the flavours that recognise the header (DICe's COORDINATE_X, VIC's x, ...):
+    a ``columns`` mapping without ``format`` must not take them for lengths."""
+    found = {}
+    for flavour in FLAVOURS.values():
+        if flavour.recognise(text.names):
+            found.update(getattr(flavour, "PIXEL_COLUMNS", {}))
+    return found
 
 
 def _recognise(text: ExportText, where: str) -> str:
@@ -70,8 +85,11 @@ def _check_columns_option(text: ExportText, columns: dict) -> None:
 
 
 def read_export(path, stage: int, format: str | None = None, columns: dict | None = None,
-                strain: str | None = None):
-    """Read one DIC export as the measurements of ``stage``; returns (Measurements, ExportReport).
+                strain: str | None = None, check: bool = False, coordinates: str | None = None):
+    """Read one DIC export as the measurements of ``stage``; returns (Measurements, ExportReport). ``check``
+    (``frictionid check-data``): what only an identification needs (the strain measure) is listed in the
+    report's ``needed`` instead of refused. ``coordinates`` (``[data] coordinates``): "reference" or "deformed",
+    what the coordinate columns hold where the reader's layout says otherwise (None: the layout's).
 
     Examples
     --------
@@ -80,11 +98,18 @@ def read_export(path, stage: int, format: str | None = None, columns: dict | Non
     """
     text = read_text(path)
     layout = choose_layout(text, format, columns)
-    measurements, report = read_layout(text, layout, stage, strain)
+    if coordinates is not None and (coordinates == "deformed") != bool(layout.deformed):
+        layout = replace(layout, deformed="[data] coordinates = \"deformed\"" if coordinates == "deformed" else "")
+    measurements, report = read_layout(text, layout, stage, strain, check)
     flavour = FLAVOURS.get(layout.flavour.split(" + ")[0])
+    force = getattr(flavour, "header_force", None)
+    found = force(text) if force and "force" not in layout.columns else None
+    if found is not None:
+        measurements = replace(measurements, force=np.full(measurements.n_rows, found[0]))
+        report = replace(report, notes=report.notes + (found[1],))
     notes = getattr(flavour, "header_notes", None)
     if notes:
-        report = replace(report, notes=tuple(notes(text)))
+        report = replace(report, notes=tuple(notes(text)) + report.notes)
     window = getattr(flavour, "header_window", None)
     found = window(text, layout, report.lines_read, measurements.coordinates) if window else None
     if found is not None:

@@ -30,6 +30,9 @@ class ExportText:
     header_line : line of the header
     preamble : the lines before the header, without their comment marks
     separator, decimal_comma, encoding : how the text was written
+    metadata : the key/value lines of the preamble, (key, (values...)) in file order: ``Unit;mm;%`` (a line of
+        fewer fields than the header before it) and ``# force : value_element : 597.6`` (a comment line with ':')
+    header_commented : the header is the last '#' comment line (its fields match the data rows')
     """
 
     source: str
@@ -41,6 +44,8 @@ class ExportText:
     separator: str
     decimal_comma: bool
     encoding: str
+    metadata: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    header_commented: bool = False
 
     def header(self) -> str:
         """The header as it reads in the file (names with their units), for messages."""
@@ -48,6 +53,10 @@ class ExportText:
 
     def index(self, name: str) -> int:
         return self.names.index(name)
+
+    def meta(self, key: str) -> tuple[str, ...] | None:
+        """The values of the first metadata line whose key is ``key`` (case and surrounding space ignored)."""
+        return next((values for k, values in self.metadata if k.strip().lower() == key.lower()), None)
 
 
 def read_text(path, n_rows: int | None = None) -> ExportText:
@@ -81,29 +90,96 @@ HEAD_BYTES = 1 << 16
 
 def _read(source: str, text: str, encoding: str, n_rows: int | None) -> ExportText:
     lines = text.splitlines()
-    preamble, number = [], 0
+    preamble, comments, number = [], [], 0
     for number, line in enumerate(lines, start=1):
         if line.strip() and not line.lstrip().startswith(_PREAMBLE):
             break
         if line.strip():
             preamble.append(line.lstrip("#*/ \t").rstrip())
+            comments.append((number, line))
     else:
         raise InputError(f"{source}: no header and no data rows")
-    separator = next((s for s in SEPARATORS if s in lines[number - 1]), ",")
+    separator = _separator(lines, number)
+    number, keyed = _key_values(lines, number, separator)
+    commented = _commented_header(lines[number - 1], comments, separator)
+    metadata = tuple(_comment_meta(line) for _, line in comments if ":" in line) + tuple(keyed)
+    preamble += [separator.join((key,) + values) for key, values in keyed]
     end = None if n_rows is None else number + n_rows
     fields = [_split(line, separator) for line in lines[number - 1:end]]
+    if commented is not None:
+        preamble.pop(len(comments) - 1)
+        fields.insert(0, _split(commented[1].lstrip().lstrip("#"), separator))
     names, units = zip(*(name_unit(f) for f in fields[0]))
-    data = [(number + k, f) for k, f in enumerate(fields[1:], start=1) if any(fields[k])]
+    first = number if commented is None else number - 1     # rows are numbered from the line after the header
+    header_line = number if commented is None else commented[0]
+    data = [(first + k, f) for k, f in enumerate(fields[1:], start=1) if any(fields[k])]
     if data and _is_unit_row(data[0][1]):
         units = tuple(u if u is not None else _bare(r) for u, r in zip(units, data[0][1] + ("",) * len(names)))
         data = data[1:]
     if not data:
-        raise InputError(f"{source}:{number}: a header ({', '.join(names)}) but no data rows")
+        raise InputError(f"{source}:{header_line}: a header ({', '.join(names)}) but no data rows")
     comma = separator != "," and any("," in cell for _, row in data[:50] for cell in row)
     if comma:
         data = [(line, tuple(cell.replace(",", ".") for cell in row)) for line, row in data]
-    return ExportText(source, tuple(names), tuple(units), tuple(data), number, tuple(preamble), separator, comma,
-                      encoding)
+    return ExportText(source, tuple(names), tuple(units), tuple(data), header_line, tuple(preamble), separator,
+                      comma, encoding, metadata, commented is not None)
+
+
+#: a key/value line of a preamble has at most this many fields (``Unit;mm;%``: the key and two units)
+KEY_VALUE_FIELDS = 3
+#: lines of a file's beginning looked at for its separator and its rows' width
+_SAMPLE = 60
+
+
+def _separator(lines: list[str], number: int) -> str:
+    """The first of SEPARATORS in the last non-empty line of the sample from ``number``: a data row where the
+    file has one (a key/value preamble line such as ``Project name`` may have no separator)."""
+    sample = [line for line in lines[number - 1:number - 1 + _SAMPLE] if line.strip()]
+    return next((s for s in SEPARATORS if s in sample[-1]), next((s for s in SEPARATORS if s in sample[0]), ","))
+
+
+def _key_values(lines: list[str], number: int, separator: str) -> tuple[int, list]:
+    """Skip the key/value lines before the header (``Project;...``, ``Unit;mm;%``): lines of at most
+    KEY_VALUE_FIELDS filled fields (a spreadsheet pads them with empty ones), fewer than the widest row after them.
+    Returns the header's line and the pairs."""
+    sample = [(k, _filled(_split(line, separator))) for k, line in
+              enumerate(lines[number - 1:number - 1 + _SAMPLE], start=number) if line.strip()]
+    width = max(len(fields) for _, fields in sample)
+    keyed = []
+    for k, fields in sample[:-1]:
+        if len(fields) > KEY_VALUE_FIELDS or len(fields) >= width or _NUMBER.fullmatch(fields[0].replace(",", ".")):
+            return k, keyed
+        keyed.append((fields[0], tuple(f for f in fields[1:] if f)))
+    return number, []
+
+
+def _filled(fields: tuple[str, ...]) -> tuple[str, ...]:
+    """``fields`` without the empty ones at the end."""
+    n = len(fields)
+    while n > 1 and not fields[n - 1]:
+        n -= 1
+    return fields[:n]
+
+
+def _commented_header(line: str, comments: list, separator: str) -> tuple[int, str] | None:
+    """The last comment line, where it is the header: the first non-comment line is a row of numbers (or NaN,
+    empty cells) and the comment, split alike, has as many fields, none of them a number."""
+    if not comments:
+        return None
+    row = _split(line, separator)
+    if not all(not c or _NUMBER.fullmatch(c.replace(",", ".")) for c in row):
+        return None
+    number, comment = comments[-1]
+    fields = _split(comment.lstrip().lstrip("#"), separator)
+    if len(fields) != len(row) or any(not f or _NUMBER.fullmatch(f) for f in fields):
+        return None
+    return number, comment
+
+
+def _comment_meta(line: str) -> tuple[str, tuple[str, ...]]:
+    """``# force : value_element : 597.6`` -> ("force", ("value_element", "597.6"))."""
+    key, *values = (part.strip() for part in line.lstrip("#*/ \t").split(":"))
+    return key, tuple(values)
 
 
 def _decode(path, head: int | None = None) -> tuple[str, str]:
