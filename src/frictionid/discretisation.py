@@ -92,7 +92,7 @@ def with_model_error(evaluator, parameters, model_options: dict, model, outcome,
     if mode != "include":
         return error, outcome
     scale = error_scale(evaluator.model_values(outcome.x) - obs.y, obs.sigma, error.estimate, len(outcome.x))
-    error = replace(error, scale=scale)
+    error = replace(error, scale=scale, before=np.array(outcome.x, dtype=float))
     evaluator.reweigh(inflated_sigma(obs, error))
     second = refit(outcome.x, outcome.n_iterations + 1)
     return error, replace(second, n_iterations=outcome.n_iterations + 1 + second.n_iterations,

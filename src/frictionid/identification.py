@@ -30,7 +30,7 @@ from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
 from .discretisation import check_options, refine_until, with_model_error
 from .inverse.adequacy import Adequacy, assess, bias_shift
-from .inverse.uncertainty import Uncertainty, at_bounds, estimate
+from .inverse.uncertainty import Uncertainty, at_bounds, estimate, systematic_error
 from .model import Model
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
@@ -337,6 +337,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                  write_files)
         raise
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
+    _check_bounds(config, setup, evaluator, store, result, echo)
     if starts:
         result["starts"] = starts
     zones = profile.profiled_zones(config.identify["profile"], setup.parameters.free_names, f"{config.where}:")
@@ -402,13 +403,12 @@ def _optimise_starts(problem: LeastSquares, config: Config, setup, evaluator: Ev
     return chosen.outcome, multistart.summary(runs, chosen, params.full, params.names)
 
 
-def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict, zones) -> dict:
-    """identify.profile: each zone held on a grid and the others refitted (:mod:`frictionid.run.profile`), on
-    the identification's store and executor; the refits' iterations are not the run's history."""
+def _refits(config, setup, evaluator: Evaluator, store: RunStore):
+    """(refit, chi2_of) for :mod:`frictionid.run.profile`: ``refit(zone, value, x0)`` refits the other free zones
+    with ``zone`` held at ``value`` (on the identification's store and executor; the refits' iterations are not
+    the run's history, their solves count as its work), ``chi2_of(x)`` the chi-square at a free vector."""
     ident, params, obs = config.identify, setup.parameters, evaluator.obs
     names = list(params.free_names)
-    fitted = np.array([result["parameters"][z]["value"] for z in names])
-    stderr = [result["parameters"][z]["stderr"] for z in names]
 
     def refit(zone, value, x0):
         k = names.index(zone)
@@ -420,15 +420,52 @@ def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict
                                float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
                                float(ident["loss_scale"]))
         x = _optimise(problem, config).x
-        evaluator.count(sub)                                   # the refits' solves count as the run's work
+        evaluator.count(sub)
         return x
 
     def chi2_of(x):
         r = evaluator.residuals(x)[:obs.n_obs]
         return float(r @ r)
 
-    return profile.profiles(zones, names, params, fitted, stderr, chi2_of, refit, evaluator.executor.parallel,
-                            int(ident["profile_points"]), float(result["fit"]["error_scale"]) ** 2)
+    return refit, chi2_of
+
+
+def _fitted(setup, result: dict) -> tuple[list[str], np.ndarray, list]:
+    names = list(setup.parameters.free_names)
+    return (names, np.array([result["parameters"][z]["value"] for z in names]),
+            [result["parameters"][z]["stderr"] for z in names])
+
+
+def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict, zones) -> dict:
+    """identify.profile: each zone held on a grid and the others refitted (:mod:`frictionid.run.profile`)."""
+    names, fitted, stderr = _fitted(setup, result)
+    refit, chi2_of = _refits(config, setup, evaluator, store)
+    return profile.profiles(zones, names, setup.parameters, fitted, stderr, chi2_of, refit,
+                            evaluator.executor.parallel, int(config.identify["profile_points"]),
+                            float(result["fit"]["error_scale"]) ** 2)
+
+
+def _check_bounds(config, setup, evaluator: Evaluator, store: RunStore, result: dict, echo) -> None:
+    """Every zone claimed on a bound gets its profile-likelihood check (:func:`~.run.profile.bound_verdict`) in
+    ``parameters.<zone>.bound_check``; one that fails it is not claimed, and one that passes gets the profile's
+    one-sided interval as ci95."""
+    zones = [z for z, p in result["parameters"].items() if p.get("at_bound") and p.get("identifiable")]
+    if not zones:
+        return
+    echo(f"bound check of {', '.join(zones)} (claimed on a bound): {int(config.identify['profile_points'])} "
+         "refits each ...")
+    names, fitted, stderr = _fitted(setup, result)
+    refit, chi2_of = _refits(config, setup, evaluator, store)
+    checks = profile.bound_checks(zones, names, setup.parameters, fitted, stderr, float(config.identify["resolution"]),
+                                  chi2_of, refit, evaluator.executor.parallel, int(config.identify["profile_points"]),
+                                  float(result["fit"]["error_scale"]) ** 2)
+    for zone, check in checks.items():
+        entry = result["parameters"][zone]
+        entry["bound_check"] = check
+        if check["passed"]:
+            entry["ci95"] = check["interval"]
+        else:
+            entry.update(identifiable=False, why=f"on its bound, but {check['why']}")
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
@@ -480,6 +517,8 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                          at_bound=bool(unc.at_bound[k]), identifiable=bool(unc.identifiable[k]))
             if why[k]:
                 entry["why"] = why[k]
+            if stats.systematic is not None:
+                entry["stderr_systematic"] = float(stats.systematic[k])
         parameters[p.name] = entry
     return {
         "status": outcome.status, "message": outcome.message, "method": config.identify["method"],
@@ -538,6 +577,8 @@ class FitStatistics:
     adequacy: Adequacy
     uncertainty: Uncertainty
     model_shift: np.ndarray | None = None
+    #: (n_free,) systematic standard error in the uncertainty (model error included), None otherwise
+    systematic: np.ndarray | None = None
 
 
 def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float,
@@ -553,12 +594,14 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     inner = ~at_bounds(x, params.lower, params.upper)
     adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner)
-    shift = None
+    shift = systematic = None
     if error is not None and error.signed is not None:
         shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
+        if error.before is not None:                   # "include": the error's effect is part of the interval
+            systematic = systematic_error(shift, error.scale, error.before, x)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
-                   shift)
-    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift)
+                   shift, systematic)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:
