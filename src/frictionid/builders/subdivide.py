@@ -58,7 +58,8 @@ def children_corners(linear: str) -> np.ndarray:
     if linear in ("triangle", "tetra"):
         return np.array([[_simplex_point(n, corners) for n in child]
                          for child in (_TRIANGLE if linear == "triangle" else _TETRA)])
-    return np.array([np.array(offset) + corners / 2 for offset in itertools.product((0.0, 0.5), repeat=len(corners[0]))])
+    offsets = itertools.product((0.0, 0.5), repeat=corners.shape[1])
+    return np.array([np.array(offset) + corners / 2 for offset in offsets])
 
 
 def linear_weights(linear: str, xi: np.ndarray) -> np.ndarray:

@@ -11,9 +11,12 @@ Intervals never leave the bounds: an inner parameter's 95 % interval is x +- q s
 interval [b, b + 1.645 s] (or [b - 1.645 s, b] at an upper bound), never a symmetric one through the bound.
 
 A parameter is reported identifiable when its standard error is within a tolerance (by default a quarter of
-its bound interval), the data do not contradict each other about it (:attr:`.Adequacy.affected`) and, where the
-discretisation error was estimated, that error does not move it by more than SHIFT_LIMIT standard errors; every
-other one gets a reason (``why``).
+its bound interval), the data do not contradict each other about it (:attr:`.Adequacy.affected`), it is not on
+a bound in a fit the stated noise does not explain and, where the discretisation error was estimated, that
+error does not move it by more than SHIFT_LIMIT standard errors; every other one gets a reason (``why``). With
+the model error included in the weights, a systematic part (:func:`systematic_error`) is added to the standard
+error in quadrature. A parameter claimed on a bound still needs its profile-likelihood check
+(:func:`frictionid.run.profile.bound_verdict`), made by the identification.
 """
 
 from __future__ import annotations
