@@ -140,3 +140,24 @@ def test_the_bound_verdict_refuses_a_dip_a_flat_profile_and_a_wide_one():
     # from an upper bound the interval runs downwards
     upper = bound_verdict(1.0 - values, parabola, 1.0, CHI2_BOUND_95, 0.02)
     assert upper["passed"] and upper["interval"][1] == 1.0 and upper["interval"][0] < 1.0
+
+
+@pytest.mark.slow                                               # identification and 7 refits: 25 s
+def test_a_zone_that_fails_its_bound_check_is_not_claimed_and_says_why(folder, monkeypatch):
+    """The identification acts on a failed check: the zone is not claimed, its why names the check's reason, and
+    the check (with its values) stays in result.json."""
+    from frictionid.run import profile as module
+    checks = module.bound_checks
+
+    def failing(*args, **kwargs):
+        out = checks(*args, **kwargs)
+        return {zone: {**check, "passed": False, "why": "made to fail"} for zone, check in out.items()}
+
+    monkeypatch.setattr(module, "bound_checks", failing)
+    data = _measured(folder, "fail", "A = 0.3, B = 0.0", seed=5)
+    assert main(["identify", _config(folder, "fail", "A = 0.2, B = 0.2", data,
+                                     "profile_points = 7\nresolution = 0.05\n")]) == 0
+    b = json.loads((folder / "runs/fail/result.json").read_text())["parameters"]["B"]
+    assert b["at_bound"] and not b["identifiable"] and b["why"] == "on its bound, but made to fail"
+    assert len(b["bound_check"]["chi2"]) == 7                            # the interval stays the linearised one
+    assert b["ci95"][1] == pytest.approx(b["ci95"][0] + 1.6448536 * b["stderr"], rel=1e-6)
