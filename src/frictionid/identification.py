@@ -37,7 +37,7 @@ from .report.outputs import write_outputs
 from .report.vtu import export_fields
 from .report.tables import prefit_summary
 from .result import IdentificationResult
-from .run import multistart, profile
+from .run import multistart, profile, refits
 from .run.executor import check_scheduler, make_executor
 from .run.store import RunStore
 
@@ -337,13 +337,15 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                  write_files)
         raise
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
-    _check_bounds(config, setup, evaluator, store, result, echo)
+    held = refits.HeldRefits(evaluator, setup.parameters, store, config.identify,
+                             lambda problem: _optimise(problem, config))
+    held.check_bounds(result, echo)
     if starts:
         result["starts"] = starts
     zones = profile.profiled_zones(config.identify["profile"], setup.parameters.free_names, f"{config.where}:")
     if zones:
         echo(f"profiles of {', '.join(zones)}: {int(config.identify['profile_points'])} refits each ...")
-        result["profiles"] = _profiles(config, setup, evaluator, store, result, zones)
+        result["profiles"] = held.profiles(zones, result)
     result["timings"] = solve_timings(store, backend_s)
     store.put_result(result)
     store.set_status(result["status"])
@@ -401,71 +403,6 @@ def _optimise_starts(problem: LeastSquares, config: Config, setup, evaluator: Ev
         store.record_iteration(i, x, objective)
     echo(f"best: start {chosen.index + 1} of {len(points)}, J={chosen.outcome.objective:.6e}")
     return chosen.outcome, multistart.summary(runs, chosen, params.full, params.names)
-
-
-def _refits(config, setup, evaluator: Evaluator, store: RunStore):
-    """(refit, chi2_of) for :mod:`frictionid.run.profile`: ``refit(zone, value, x0)`` refits the other free zones
-    with ``zone`` held at ``value`` (on the identification's store and executor; the refits' iterations are not
-    the run's history, their solves count as its work), ``chi2_of(x)`` the chi-square at a free vector."""
-    ident, params, obs = config.identify, setup.parameters, evaluator.obs
-    names = list(params.free_names)
-
-    def refit(zone, value, x0):
-        k = names.index(zone)
-        held = profile.held(params, zone, value, x0)
-        sub = Evaluator(evaluator.backend, obs, held, profile.HeldStore(store, held), ident["jacobian"],
-                        float(ident["step"]), float(ident["tikhonov"]), np.delete(evaluator.prior, k),
-                        float(ident["penalty"]), executor=evaluator.executor)
-        problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
-                               float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
-                               float(ident["loss_scale"]))
-        x = _optimise(problem, config).x
-        evaluator.count(sub)
-        return x
-
-    def chi2_of(x):
-        r = evaluator.residuals(x)[:obs.n_obs]
-        return float(r @ r)
-
-    return refit, chi2_of
-
-
-def _fitted(setup, result: dict) -> tuple[list[str], np.ndarray, list]:
-    names = list(setup.parameters.free_names)
-    return (names, np.array([result["parameters"][z]["value"] for z in names]),
-            [result["parameters"][z]["stderr"] for z in names])
-
-
-def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict, zones) -> dict:
-    """identify.profile: each zone held on a grid and the others refitted (:mod:`frictionid.run.profile`)."""
-    names, fitted, stderr = _fitted(setup, result)
-    refit, chi2_of = _refits(config, setup, evaluator, store)
-    return profile.profiles(zones, names, setup.parameters, fitted, stderr, chi2_of, refit,
-                            evaluator.executor.parallel, int(config.identify["profile_points"]),
-                            float(result["fit"]["error_scale"]) ** 2)
-
-
-def _check_bounds(config, setup, evaluator: Evaluator, store: RunStore, result: dict, echo) -> None:
-    """Every zone claimed on a bound gets its profile-likelihood check (:func:`~.run.profile.bound_verdict`) in
-    ``parameters.<zone>.bound_check``; one that fails it is not claimed, and one that passes gets the profile's
-    one-sided interval as ci95."""
-    zones = [z for z, p in result["parameters"].items() if p.get("at_bound") and p.get("identifiable")]
-    if not zones:
-        return
-    echo(f"bound check of {', '.join(zones)} (claimed on a bound): {int(config.identify['profile_points'])} "
-         "refits each ...")
-    names, fitted, stderr = _fitted(setup, result)
-    refit, chi2_of = _refits(config, setup, evaluator, store)
-    checks = profile.bound_checks(zones, names, setup.parameters, fitted, stderr, float(config.identify["resolution"]),
-                                  chi2_of, refit, evaluator.executor.parallel, int(config.identify["profile_points"]),
-                                  float(result["fit"]["error_scale"]) ** 2)
-    for zone, check in checks.items():
-        entry = result["parameters"][zone]
-        entry["bound_check"] = check
-        if check["passed"]:
-            entry["ci95"] = check["interval"]
-        else:
-            entry.update(identifiable=False, why=f"on its bound, but {check['why']}")
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
