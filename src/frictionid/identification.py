@@ -30,14 +30,14 @@ from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
 from .discretisation import check_options, refine_until, with_model_error
 from .inverse.adequacy import Adequacy, assess, bias_shift
-from .inverse.uncertainty import Uncertainty, at_bounds, estimate
+from .inverse.uncertainty import Uncertainty, at_bounds, estimate, systematic_error
 from .model import Model
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .report.vtu import export_fields
 from .report.tables import prefit_summary
 from .result import IdentificationResult
-from .run import multistart, profile
+from .run import multistart, profile, refits
 from .run.executor import check_scheduler, make_executor
 from .run.store import RunStore
 
@@ -344,12 +344,15 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                  write_files)
         raise
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
+    held = refits.HeldRefits(evaluator, setup.parameters, store, config.identify,
+                             lambda problem: _optimise(problem, config))
+    held.check_bounds(result, echo)
     if starts:
         result["starts"] = starts
     zones = profile.profiled_zones(config.identify["profile"], setup.parameters.free_names, f"{config.where}:")
     if zones:
         echo(f"profiles of {', '.join(zones)}: {int(config.identify['profile_points'])} refits each ...")
-        result["profiles"] = _profiles(config, setup, evaluator, store, result, zones)
+        result["profiles"] = held.profiles(zones, result)
     result["timings"] = solve_timings(store, backend_s)
     store.put_result(result)
     store.set_status(result["status"])
@@ -409,35 +412,6 @@ def _optimise_starts(problem: LeastSquares, config: Config, setup, evaluator: Ev
     return chosen.outcome, multistart.summary(runs, chosen, params.full, params.names)
 
 
-def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict, zones) -> dict:
-    """identify.profile: each zone held on a grid and the others refitted (:mod:`frictionid.run.profile`), on
-    the identification's store and executor; the refits' iterations are not the run's history."""
-    ident, params, obs = config.identify, setup.parameters, evaluator.obs
-    names = list(params.free_names)
-    fitted = np.array([result["parameters"][z]["value"] for z in names])
-    stderr = [result["parameters"][z]["stderr"] for z in names]
-
-    def refit(zone, value, x0):
-        k = names.index(zone)
-        held = profile.held(params, zone, value, x0)
-        sub = Evaluator(evaluator.backend, obs, held, profile.HeldStore(store, held), ident["jacobian"],
-                        float(ident["step"]), float(ident["tikhonov"]), np.delete(evaluator.prior, k),
-                        float(ident["penalty"]), executor=evaluator.executor)
-        problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
-                               float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
-                               float(ident["loss_scale"]))
-        x = _optimise(problem, config).x
-        evaluator.count(sub)                                   # the refits' solves count as the run's work
-        return x
-
-    def chi2_of(x):
-        r = evaluator.residuals(x)[:obs.n_obs]
-        return float(r @ r)
-
-    return profile.profiles(zones, names, params, fitted, stderr, chi2_of, refit, evaluator.executor.parallel,
-                            int(ident["profile_points"]), float(result["fit"]["error_scale"]) ** 2)
-
-
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
     """The discretisation error along the fit, and with "include" the refit (:func:`~.discretisation.
     with_model_error`); the refit's iterations are stored after the fit's."""
@@ -487,6 +461,8 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                          at_bound=bool(unc.at_bound[k]), identifiable=bool(unc.identifiable[k]))
             if why[k]:
                 entry["why"] = why[k]
+            if stats.systematic is not None:
+                entry["stderr_systematic"] = float(stats.systematic[k])
         parameters[p.name] = entry
     return {
         "status": outcome.status, "message": outcome.message, "method": config.identify["method"],
@@ -547,6 +523,8 @@ class FitStatistics:
     adequacy: Adequacy
     uncertainty: Uncertainty
     model_shift: np.ndarray | None = None
+    #: (n_free,) systematic standard error in the uncertainty (model error included), None otherwise
+    systematic: np.ndarray | None = None
 
 
 def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float,
@@ -562,12 +540,14 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     inner = ~at_bounds(x, params.lower, params.upper)
     adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner)
-    shift = None
+    shift = systematic = None
     if error is not None and error.signed is not None:
         shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
+        if error.before is not None:                   # "include": the error's effect is part of the interval
+            systematic = systematic_error(shift, error.scale, error.before, x)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
-                   shift)
-    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift)
+                   shift, systematic)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:

@@ -20,6 +20,7 @@ from .arguments import checked_table
 from .gmsh_mesh import read_gmsh_file
 from .mesh_checks import check_contact_sides, check_held
 from .mesh_inp import read_inp
+from .subdivide import subdivided
 from .zone_rules import split_facets, zone_rules
 
 logger = logging.getLogger(__name__)
@@ -99,22 +100,29 @@ def source_files(path: str | Path) -> list[Path]:
     return found
 
 
-def read_mesh_file(path: Path) -> MeshFile:
-    """The named sets of a .msh, .geo or .inp file."""
+def read_mesh_file(path: Path, refine: int = 0) -> MeshFile:
+    """The named sets of a .msh, .geo or .inp file, refined ``refine`` times: a .msh or .inp by uniform
+    subdivision (:mod:`.subdivide`), a .geo meshed by gmsh with its element sizes divided by 2^refine."""
     suffix = path.suffix.lower()
+    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 0:
+        raise InputError(f"[model] refine = {refine!r}: must be a whole number >= 0 (uniform subdivisions of the "
+                         "mesh, each halving its element size)")
     if suffix == ".inp":
         sets = read_inp(path)
-        return MeshFile(path, sets.points, sets.cell_type, sets.cells, sets.elsets, sets.surfaces, sets.nsets, True)
+        return subdivided(MeshFile(path, sets.points, sets.cell_type, sets.cells, sets.elsets, sets.surfaces,
+                                   sets.nsets, True), refine)
     if suffix not in (".msh", ".geo"):
         raise InputError(f"[model] file = {str(path)!r}: a mesh file must be a gmsh .msh or .geo or an "
                          "Abaqus / CalculiX .inp")
-    mesh, node_sets = read_gmsh_file(path)
-    return MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries),
-                    node_sets)
+    geo = suffix == ".geo"
+    mesh, node_sets = read_gmsh_file(path, 0.5 ** refine if geo else 1.0)
+    source = MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries),
+                      node_sets)
+    return source if geo else subdivided(source, refine)
 
 
 def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials=None, supports=(), loads=(),
-               interfaces=(), element: str = "standard") -> Model:
+               interfaces=(), element: str = "standard", refine: int = 0) -> Model:
     """A model on a user's mesh file; every name is a region, boundary or node set of the file.
 
     Parameters
@@ -142,6 +150,10 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
         on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D).
     element : "standard" | "incompatible"
         Element technology (incompatible modes need linear hexahedra).
+    refine : int
+        Refinements of the file's mesh, each halving the element size: a .msh or .inp by uniform subdivision
+        of every cell (groups carried over), a .geo meshed with gmsh's sizes divided by 2^refine
+        (``identify.model_error`` and ``refine_target`` raise it).
 
     Raises
     ------
@@ -165,7 +177,7 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
         raise InputError("[model] kind = 'axisymmetric_twist': not available for a user's mesh yet (no rotation "
                          "load, no checks of its rigid modes); builder 'bolt' with load = \"tightening\" has it")
     stages = _stages(stages, increments)
-    source = read_mesh_file(path)
+    source = read_mesh_file(path, refine)
     dim = source.points.shape[1]
     if (kind == "3d") != (dim == 3):
         raise InputError(f"[model] kind = {kind!r} does not fit {path.name}, a {dim}-D mesh "

@@ -62,6 +62,14 @@ def result_summary(result: dict) -> str:
         lines.append(f"    {name:<10} {p['value']:.6f} {spread}{interval} (init = {p['initial']:.4f}){flags}")
         if p.get("why"):
             lines.append(f"               why: {p['why']}")
+        if p.get("bound_check", {}).get("passed"):
+            lines.append(f"               on its bound: the profile excludes values beyond {p['ci95'][1]:.4f} "
+                         "(one-sided 95 %)" if p["ci95"][0] == p["bounds"][0] else
+                         f"               on its bound: the profile excludes values below {p['ci95'][0]:.4f} "
+                         "(one-sided 95 %)")
+        if p.get("stderr_systematic"):
+            lines.append(f"               includes {p['stderr_systematic']:.4f} systematic (the model error's "
+                         "effect on it)")
     ident = result["identifiability"]
     lines.append("[[Identifiability]]")
     lines.append("    singular values of the weighted Jacobian: "
