@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import operator
 from collections.abc import Sequence
@@ -15,7 +16,8 @@ from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
 from .interface import contact_pairs
-from .loadpath import LoadPathSolver
+from . import loadpath
+from .loadpath import LoadPathSolver, stuck_inverses
 from .pairs import ContactPairs
 from .rigid import free_rigid_modes
 from .solution import ExpandedRows, Solution
@@ -231,8 +233,15 @@ class Problem:
         with one_blas_thread():
             return self._solve(self.model.coefficients(mu), sensitivities, max_slip)
 
+    @functools.cached_property
+    def _stuck_inverses(self):
+        """The inverses of the stuck contact Jacobian the load path's solves correct (fem/updated_jacobian.py),
+        made at the first solve and kept: they depend on the model only."""
+        return stuck_inverses(self.condensed, self.pairs)
+
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None) -> Solution:
-        solver = LoadPathSolver(self.condensed, self.pairs)
+        stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
+        solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck)
         path = solver.start()
         stages, amps = self.amplitudes()
         mu_pair = self.pairs.mu(mu)
