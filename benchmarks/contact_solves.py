@@ -5,7 +5,8 @@ Models: the plane-strain clamp of tests/fixtures/clamp (6.5k nodes of quadratic 
 zones, 31 increments), the default 3-D block (block_model()) and the default M20 bolt (bolt_model, 10 and 30 kN).
 Each repeat solves forward + sensitivities once with each path, the two paths taking turns (each first in every
 other repeat); the figures are the median per path and the median of the per-repeat ratios, then the largest
-differences between the paths' results relative to each field's largest value. The first updated solve of a model
+differences between the paths' results relative to each field's largest value. The process's CPU time is printed
+too: on a machine shared with other jobs it moves less than the wall time. The first updated solve of a model
 also makes its stuck inverse (once per model, kept for the fit's later solves): printed apart.
 
 Run: .venv/bin/python benchmarks/contact_solves.py [repeats] [model ...]   (models: clamp block bolt)
@@ -39,10 +40,11 @@ def models():
 
 
 def timed_solve(problem: Problem, mu, path: str):
+    """(wall time [s], CPU time of this process [s], solution) of one forward + sensitivity solve."""
     loadpath._LINEAR = path
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     solution = problem.solve(mu, sensitivities=True)
-    return time.perf_counter() - start, solution
+    return time.perf_counter() - start, time.process_time() - cpu, solution
 
 
 def difference(a, b) -> dict:
@@ -58,15 +60,18 @@ def run(name: str, make, mu, repeats: int) -> None:
     model = make()
     problem = Problem.build(model)
     mu = np.full(model.n_zones, 0.15) if mu is None else np.asarray(mu)
-    first, _ = timed_solve(problem, mu, "updated")                  # makes the model's stuck inverse
+    first, _, _ = timed_solve(problem, mu, "updated")                  # makes the model's stuck inverse
     times = {"dense": [], "updated": []}
-    ratios, solutions = [], {}
+    cpu = {"dense": [], "updated": []}
+    ratios, cpu_ratios, solutions = [], [], {}
     for k in range(repeats):
         order = ("dense", "updated") if k % 2 == 0 else ("updated", "dense")
         for path in order:
-            t, solutions[path] = timed_solve(problem, mu, path)
+            t, c, solutions[path] = timed_solve(problem, mu, path)
             times[path].append(t)
+            cpu[path].append(c)
         ratios.append(times["dense"][-1] / times["updated"][-1])
+        cpu_ratios.append(cpu["dense"][-1] / cpu["updated"][-1])
     loadpath._LINEAR = "updated"
     dense, updated = solutions["dense"], solutions["updated"]
     print(f"{name}: {model.mesh.n_nodes} nodes, {problem.pairs.n_pairs} contact pairs "
@@ -77,6 +82,8 @@ def run(name: str, make, mu, repeats: int) -> None:
           f"({int(dense.n_newton.sum())} Newton iterations), updated {statistics.median(times['updated']):.3f} s "
           f"({int(updated.n_newton.sum())}); ratio {statistics.median(ratios):.1f} "
           f"(per repeat {', '.join(f'{r:.1f}' for r in ratios)}); first updated solve {first:.3f} s")
+    print(f"  CPU time, median: dense {statistics.median(cpu['dense']):.3f} s, updated "
+          f"{statistics.median(cpu['updated']):.3f} s; ratio {statistics.median(cpu_ratios):.1f}")
     print("  largest difference / largest value: "
           + ", ".join(f"{k} {v:.1e}" for k, v in difference(dense, updated).items()))
 

@@ -104,7 +104,7 @@ class LoadPathSolver:
         others open (rows scaled by r), solved by the updated solver; None when that system is singular.
 
         With ``path``: the state predictor instead, the contact states of its last increment held: its slipping
-        pairs closed and slipping in their last direction t (lam_T = mu lam_N t), the others as above. Where the
+        pairs closed (g = 0) and slipping in their last direction t (lam_T = mu lam_N t), the others as above. Where the
         states and (in 2-D) the slip directions stay, as in gross slip, it is the increment's solution."""
         n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
         s = self.updated.inverses.base                  # its stuck rows (held gaps: open rows)
@@ -112,15 +112,18 @@ class LoadPathSolver:
         Q = np.where(held[:, None, None], s.Q0, 0.0)
         slip = np.zeros(n_pairs, dtype=bool) if path is None else path.state == SLIP
         if slip.any():
+            # the rows linearise makes for slip at lam_hat = lam_N, tau along t: the same rows as Newton's, so
+            # the same factorisation serves both while the states stay (gross slip)
             P[slip, 1:, 0] = -mu[slip, None] * path.direction[slip]
             P[slip, 1:, 1:] = np.eye(dim - 1)
-            Q[slip, 1:, :] = 0.0
+            Q[slip, 1:, 0] = self.r * mu[slip, None] * path.direction[slip]
+            Q[slip, 1:, 1:] = 0.0
         if self.updated.rcond(P, Q) < np.finfo(float).eps:
             return None
         target = (np.column_stack([-self.pairs.gap, inc.w_prev_T]).ravel() - inc.w0).reshape(n_pairs, dim)
         if self.free_T is not None:
             target[:, 1:] = np.einsum("nij,nj->ni", self.free_T, target[:, 1:])
-        target[slip, 1:] = 0.0
+        target[slip, 1:] = (mu[slip] * target[slip, 0])[:, None] * path.direction[slip] if slip.any() else 0.0
         rhs = np.concatenate([np.where(held[:, None], self.r * target, 0.0).ravel(), -inc.h0])
         x = self.updated(P, Q, rhs, check=False)           # a start: Newton checks where it leads
         return x if np.all(np.isfinite(x)) else None

@@ -38,7 +38,8 @@ RCOND_MIN = 1e-13
 #: a solver takes the inverse with the Jacobian's open pairs held open when the rows of pairs open in one and
 #: closed in the other are more than this fraction of the unknowns (their rows would all be replaced)
 SWITCH_FRACTION = 0.2
-#: stuck inverses kept per model, by their open pairs
+#: stuck inverses kept per model, by their open pairs, and capacitance factorisations per solver, by their rows
+#: (a predictor, Newton's last steps and the sensitivities meet the same few)
 KEEP = 4
 
 
@@ -112,14 +113,15 @@ class StuckInverses:
 
 class UpdatedSolver:
     """Solves J x = b for the Jacobians of one load path by corrections of a :class:`StuckInverse`, keeping the
-    LU factorisation of the last capacitance matrix C for the next Jacobian with the same replaced rows."""
+    LU factorisations of the last few capacitance matrices C for the next Jacobians with the same replaced rows."""
 
     def __init__(self, inverses: StuckInverses):
         self.inverses, self.stuck = inverses, inverses.base
         Wfull, Wa_T = inverses.Wfull, inverses.Wa_T
         self.Wfull, self.Wa_T = Wfull, Wa_T
         self._W_max = np.max(np.abs(Wfull), initial=0.0)
-        self._last = None            # (K, P rows, Q rows, (LU, pivots) of C, 1-norm of C)
+        #: the last few factorisations by their rows: (K, P rows, Q rows, (LU, pivots) of C, 1-norm of C)
+        self._kept: dict[bytes, tuple] = {}
         self.n_factorisations = self.n_dense = self.n_switches = 0
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
@@ -173,29 +175,31 @@ class UpdatedSolver:
         return A @ z                                            # y - A[:, K] u without gathering A's columns
 
     def _factorised(self, P, Q):
-        """(K, P rows, Q rows, LU of C, rcond of C) of the rows where J differs from J0, from the last call's
-        when those rows are the same."""
+        """(K, P rows, Q rows, (LU, pivots) of C, 1-norm of C) of the rows where J differs from J0, kept from an
+        earlier call with the same rows."""
         self._switch(P, Q)
         s = self.stuck
         changed = np.any((P != s.P0) | (Q != s.Q0), axis=2).ravel()
         K = np.flatnonzero(changed)
         dim = P.shape[1]
         P_K, Q_K = P.reshape(-1, dim)[K], Q.reshape(-1, dim)[K]
-        last = self._last
-        if last is not None and np.array_equal(K, last[0]) and np.array_equal(P_K, last[1]) \
-                and np.array_equal(Q_K, last[2]):
-            return last
+        key = K.tobytes() + P_K.tobytes() + Q_K.tobytes()
+        if key in self._kept:
+            return self._kept[key]
         if not len(K):
-            self._last = (K, P_K, Q_K, (None, None), 0.0)
-            return self._last
-        C = self._rows_times(K, P_K, Q_K, None, None)
-        self.n_factorisations += 1
-        norm = np.abs(C).sum(axis=0).max(initial=0.0)
-        lu, pivots, info = la.lapack.dgetrf(C, overwrite_a=True)   # LAPACK directly: no per-call wrapper cost
-        if info > 0:                                                  # exactly singular: J is
-            lu[:] = np.nan
-        self._last = (K, P_K, Q_K, (lu, pivots), norm)
-        return self._last
+            factorised = (K, P_K, Q_K, (None, None), 0.0)
+        else:
+            C = self._rows_times(K, P_K, Q_K, None, None)
+            self.n_factorisations += 1
+            norm = np.abs(C).sum(axis=0).max(initial=0.0)
+            lu, pivots, info = la.lapack.dgetrf(C, overwrite_a=True)   # LAPACK directly: no wrapper cost per call
+            if info > 0:                                                  # exactly singular: J is
+                lu[:] = np.nan
+            factorised = (K, P_K, Q_K, (lu, pivots), norm)
+        while len(self._kept) >= KEEP:
+            self._kept.pop(next(iter(self._kept)))
+        self._kept[key] = factorised
+        return factorised
 
     def _switch(self, P, Q) -> None:
         """Take the inverse holding the Jacobian's open pairs open where the pairs open in one of J and J0 and
@@ -207,7 +211,8 @@ class UpdatedSolver:
             return
         stuck = self.inverses.get(opened)
         if stuck is not None and stuck is not self.stuck:
-            self.stuck, self._last = stuck, None
+            self.stuck = stuck
+            self._kept.clear()
             self.n_switches += 1
 
     def _rows_times(self, K, P_K, Q_K, z, b) -> np.ndarray:
