@@ -226,12 +226,12 @@ class UpdatedSolver:
         if z is not None:
             out = np.einsum("ac,ac...->a...", P_K, z[lam_rows])
         else:
-            # A's rows of each pair once (a slipping pair in 3-D has two rows in K), then K's columns of them
-            pairs, which = np.unique(pair, return_inverse=True)
-            A_K = s.A[(pairs[:, None] * dim + np.arange(dim)).ravel()][:, K].reshape(len(pairs), dim, len(K))
-            out = P_K[:, 0, None] * A_K[which, 0]
-            for c in range(1, dim):
-                out += P_K[:, c, None] * A_K[which, c]
+            # A's rows of each pair once (a slipping pair in 3-D has two rows in K, which is sorted), then K's
+            # columns of them
+            first = np.r_[True, pair[1:] != pair[:-1]]
+            rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
+            A_K = s.A.take(rows, axis=0).take(K, axis=1).reshape(-1, dim, len(K))
+            out = np.einsum("ac,ack->ak", P_K, A_K[np.cumsum(first) - 1])
         closed = s.open_rows[lam_rows[:, 0]] < 0
         if b is not None:
             out[closed] += np.einsum("ac,ac...->a...", Q_K[closed], b[lam_rows[closed]]) / s.r
