@@ -41,6 +41,9 @@ SWITCH_FRACTION = 0.2
 #: stuck inverses kept per model, by their open pairs, and capacitance factorisations per solver, by their rows
 #: (a predictor, Newton's last steps and the sensitivities meet the same few)
 KEEP = 4
+#: the stuck inverses kept per model take at most this many bytes besides the base one (n^2 x 8 bytes each: 288 MB
+#: at 6,000 unknowns)
+KEEP_BYTES = 400e6
 
 
 @dataclass(frozen=True)
@@ -104,11 +107,14 @@ class StuckInverses:
         key = np.packbits(open_pairs).tobytes()
         if key in self._kept:
             self._kept[key] = self._kept.pop(key)                   # most recently used last
-        else:
-            while len(self._kept) >= KEEP:
-                self._kept.pop(next(iter(self._kept)))
-            self._kept[key] = StuckInverse.build(self.Wfull, self.Wa_T, self.r, self.free_T, open_pairs)
-        return self._kept[key]
+            return self._kept[key]
+        n = self.Wfull.shape[1]
+        keep = min(KEEP, 1 + int(KEEP_BYTES // (8.0 * n * n)))
+        while self._kept and len(self._kept) >= keep:
+            self._kept.pop(next(iter(self._kept)))
+        stuck = StuckInverse.build(self.Wfull, self.Wa_T, self.r, self.free_T, open_pairs)
+        self._kept[key] = stuck
+        return stuck
 
 
 class UpdatedSolver:
