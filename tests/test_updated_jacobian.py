@@ -89,11 +89,11 @@ def test_held_tangential_directions_same_as_dense(monkeypatch):
     """The quarter block: pairs on its symmetry planes have held tangential directions (projectors E)."""
     problem = Problem.build(symmetric_model(3, False))
     dense, updated = _both(problem, [0.3, 0.45], monkeypatch)
-    assert problem.pairs.n_pairs and LoadPathSolverProjectors(problem)
+    assert problem.pairs.n_pairs and _has_held_directions(problem)
     _assert_same(dense, updated, rtol=1e-9)
 
 
-def LoadPathSolverProjectors(problem) -> bool:
+def _has_held_directions(problem) -> bool:
     """Whether some pair of ``problem`` has a held tangential direction."""
     return loadpath.LoadPathSolver(problem.condensed, problem.pairs).free_T is not None
 
