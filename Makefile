@@ -36,6 +36,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/frame_fit.py
 	$(PY) benchmarks/tightening.py
 	$(PY) benchmarks/dask_overhead.py
+	$(PY) benchmarks/contact_solves.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
