@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import difflib
+import re
 import tomllib
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 import tomli_w
 
+from .data.table import CHANNELS, QUANTITIES
 from .errors import InputError
 
 REQUIRED = object()   # marks a key without a default
@@ -33,6 +36,8 @@ SCHEMA = {
                "tolerance": None},
 }
 OPEN_TABLES = {"model"}
+#: a message about a config key: it starts with a table's name ("data.noise.u: ...", "[friction] zones: ...")
+_KEY_LED = re.compile(r"\[?(" + "|".join(SCHEMA) + r")\b")
 
 #: expected type of each value (key -> (types, what to say)); checked before anything is built
 TYPES = {
@@ -120,8 +125,43 @@ def _check_types(tables: dict, path: Path) -> None:
                 raise InputError(f"{path}: {dotted} has {item!r}; expected {TYPES[dotted][1]}")
 
 
+#: the observables a [data] table can name: point quantities and the per-stage reaction sums
+OBSERVABLES = QUANTITIES + ("force",) + tuple(CHANNELS)
+#: keys of the tables inside tables (table.key -> allowed keys); the values are checked by :data:`ENTRY_CHECKS`
+SUBKEYS = {"data.noise": ("u", "e") + OBSERVABLES}
+
+
+def _positive(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 and value != float("inf")
+
+
+#: what each entry of a table inside a table must be: (test, what to say)
+ENTRY_CHECKS = {"data.noise": (_positive, "a positive number (a standard deviation in the quantity's unit: mm, "
+                                          "strain, N, N m)")}
+
+
+def _check_subtables(tables: dict, path: Path) -> None:
+    for dotted, known in SUBKEYS.items():
+        table, key = dotted.split(".")
+        for entry, value in (tables[table].get(key) or {}).items():
+            if entry not in known:
+                raise InputError(f"{path}: unknown key {dotted}.{entry}{_suggest(entry, known)}; known keys are "
+                                 f"{list(known)}")
+            test, what = ENTRY_CHECKS[dotted]
+            if not test(value):
+                raise InputError(f"{path}: {dotted}.{entry} must be {what}, got {value!r}")
+    for name in tables["data"].get("observables") or []:
+        if name not in OBSERVABLES:
+            raise InputError(f"{path}: data.observables has {name!r}{_suggest(name, OBSERVABLES)}; observables are "
+                             f"{list(OBSERVABLES)}")
+
+
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu")}
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"),
+           "identify.jacobian": ("analytic", "forward", "central"),
+           "identify.model_error": ("off", "estimate", "include"),
+           "design.criterion": ("A", "D"),
+           "design.candidates": ("surface", "section")}
 
 
 def _check_choices(tables: dict, path: Path) -> None:
@@ -160,6 +200,19 @@ class Config:
         """How messages name the config: its file, or the name given to :func:`config_from_dict`."""
         return self.name if self.name is not None else str(self.path)
 
+    @contextmanager
+    def naming_keys(self):
+        """Checks made later (against the model, the data) raise messages that start with the config key they
+        are about ("data.stages: ..."); inside this block those get the config's file in front, as config.py's
+        own messages have."""
+        try:
+            yield
+        except InputError as exc:
+            message = str(exc)
+            if not _KEY_LED.match(message):
+                raise
+            raise InputError(f"{self.where}: {message}") from None
+
     def resolve(self, value: str) -> Path:
         """A path from the config, relative to the config file's folder."""
         path = Path(value)
@@ -167,7 +220,8 @@ class Config:
 
 
 def _suggest(key: str, known) -> str:
-    close = difflib.get_close_matches(key, list(known), n=1)
+    """" (did you mean 'x'?)" for the known name closest to ``key``, or the one it abbreviates ("f": "force")."""
+    close = difflib.get_close_matches(key, list(known), n=1) or [k for k in known if k.startswith(key)][:1]
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
@@ -238,6 +292,7 @@ def _validated(raw: dict, path: Path, text: str, need: tuple[str, ...], name: st
     tables = {table: _table(raw, table, where) for table in SCHEMA}
     _check_types(tables, where)
     _check_choices(tables, where)
+    _check_subtables(tables, where)
     if isinstance(tables["model"].get("file"), str):      # a builder's mesh file: relative to the config's folder
         tables["model"]["file"] = str(path.resolve().parent / tables["model"]["file"])
     for table, key in (("model", "builder"), ("friction", "zones")):

@@ -32,9 +32,12 @@ from .inverse.design import CRITERIA, finest_partition, information_of, select_p
 from .inverse.observations import noise_of
 from .inverse.resolution import predicted_stderr, resolution
 from .model import Model
+from .paths import check_folder, input_files
 from .prefit import candidate_points, spread_points
 
 KINDS = ("surface", "section")
+#: the files a design writes into its folder
+DESIGN_FILES = ("design.json", "chosen_points.csv", "sensitivity.png")
 
 
 @dataclass(frozen=True)
@@ -139,6 +142,9 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
     """Run the design a config describes (module docstring); writes design.json, chosen_points.csv and
     sensitivity.png to ``out`` (default <run.dir>/design) and returns design.json's content."""
     where, table = config.where, config.design
+    folder = check_folder(out if out is not None else config.resolve(config.run["dir"]) / "design",
+                          "design --out" if out is not None else f"{where}: run.dir", input_files(config),
+                          DESIGN_FILES)
     setup = prepare(config, echo=echo)
     model, params, obs = setup.model, setup.parameters, setup.observations
     n_points = int(table["points"] if n_points is None else n_points)
@@ -181,7 +187,6 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
         partitions[label] = finest_partition(info, names, tolerance, neighbours, interface_of)
         echo(_partition_line(label, partitions[label]))
 
-    folder = out or config.resolve(config.run["dir"]) / "design"
     folder.mkdir(parents=True, exist_ok=True)
     labels = [f"{regions[k]}-{i + 1}" for i, k in enumerate(chosen)]
     region_table = {f"{r}-*": r for r in dict.fromkeys(regions[k] for k in chosen)}
