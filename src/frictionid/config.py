@@ -128,7 +128,7 @@ def _check_types(tables: dict, path: Path) -> None:
 #: the observables a [data] table can name: point quantities and the per-stage reaction sums
 OBSERVABLES = QUANTITIES + ("force",) + tuple(CHANNELS)
 #: keys of the tables inside tables (table.key -> allowed keys); the values are checked by :data:`ENTRY_CHECKS`
-SUBKEYS = {"data.noise": ("u", "e") + OBSERVABLES}
+SUBKEYS = {"data.noise": ("u", "e") + OBSERVABLES, "data.reactions": tuple(CHANNELS)}
 
 
 def _positive(value) -> bool:
@@ -137,7 +137,9 @@ def _positive(value) -> bool:
 
 #: what each entry of a table inside a table must be: (test, what to say)
 ENTRY_CHECKS = {"data.noise": (_positive, "a positive number (a standard deviation in the quantity's unit: mm, "
-                                          "strain, N, N m)")}
+                                          "strain, N, N m)"),
+                 "data.reactions": (lambda value: isinstance(value, str) and bool(value),
+                                    'a reaction label of the model, e.g. "plate1_rim.y"')}
 
 
 def _check_subtables(tables: dict, path: Path) -> None:

@@ -193,8 +193,10 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
         with np.errstate(divide="ignore", invalid="ignore"):
             sigma = np.where(r != 0, np.abs(f - y) / np.abs(r), 1.0) if sigma is None else np.asarray(sigma, float)
         quantities = [q for _, q, _ in split]
-        mistakes = swap_hints(labels, quantities, y, f, sigma, chi2) + scale_hints(
-            quantities, y, f, sigma, {q: g.share for q, g in by_quantity.items()}, model_kind)
+        swapped = swap_hints(labels, quantities, y, f, sigma, chi2)
+        mistakes = list(swapped.values()) + scale_hints(quantities, y, f, sigma,
+                                                        {q: g.share for q, g in by_quantity.items()}, model_kind,
+                                                        {q for pair in swapped for q in pair})
         hint = "; ".join(mistakes + [_hint(by_quantity, by_group, r, bool(mistakes))])
     elif too_small:
         hint = noise_hint({q: g.rms for q, g in by_quantity.items()})

@@ -26,9 +26,12 @@ FACTORS = {
     "torque": {1000.0: "N mm where N m is meant", 1e-3: "N m where N mm is meant"},
     "clamp": {1000.0: "N and kN mixed", 1e-3: "kN where N are meant"},
 }
-#: a scale counts as a named factor within this many decades (large factors are blurred by the fit, which
-#: moves the coefficients towards the wrong data)
-MATCH_DECADES = {True: 0.3, False: 0.05}
+#: a scale s counts as the factor F when log s / log F lies in this range: a fit moves the coefficients towards
+#: the wrong data, so the scale left is smaller than the mistake's (measured: 475 for 1000, 8.3 for 10,
+#: docs/fit-quality.md)
+MATCH = (0.8, 1.1)
+#: a stated noise counts as off by a factor within this many decades of it
+MATCH_DECADES = 0.3
 #: a scale or swap must remove at least this share of its quantities' misfit to be reported
 EXPLAINED = 0.75
 #: scales within this factor of 1 are not a unit mistake
@@ -50,15 +53,16 @@ def kind_of(quantity: str) -> str:
 def named_factor(scale: float, kind: str) -> tuple[float, str] | None:
     """(factor, likely mistake) of the listed factor of ``kind`` closest to ``scale``, if it is close enough.
 
-    >>> named_factor(1010.0, "u")
+    >>> named_factor(475.0, "u")
     (1000.0, 'displacements in um where mm are meant')
     >>> named_factor(3.0, "u") is None
     True
     """
     best = None
     for factor, mistake in FACTORS.get(kind, {}).items():
-        off = abs(np.log10(scale / factor)) if scale > 0 else np.inf
-        if off < MATCH_DECADES[factor >= 100 or factor <= 0.01] and (best is None or off < best[0]):
+        ratio = np.log(scale) / np.log(factor) if scale > 0 else -1.0
+        off = abs(np.log(ratio)) if ratio > 0 else np.inf
+        if MATCH[0] <= ratio <= MATCH[1] and (best is None or off < best[0]):
             best = (off, factor, mistake)
     return None if best is None else best[1:]
 
@@ -74,15 +78,15 @@ def best_scale(y: np.ndarray, f: np.ndarray, sigma: np.ndarray) -> tuple[float, 
     return s, (1.0 - after / before) if before > 0 else 0.0
 
 
-def scale_hints(quantities, y, f, sigma, shares: dict, model_kind: str | None = None) -> list[str]:
+def scale_hints(quantities, y, f, sigma, shares: dict, model_kind: str | None = None, skip=()) -> list[str]:
     """A hint per quantity carrying at least half the misfit whose best-fitting scale is far from 1 and either
     a listed unit factor or a removal of most of its misfit; ``quantities`` (n_obs,) names each row's quantity,
-    ``shares`` each quantity's share of chi-square."""
+    ``shares`` each quantity's share of chi-square; ``skip``: quantities already explained (swapped)."""
     quantities = np.asarray(quantities)
     hints = []
     for name, share in shares.items():
         rows = quantities == name
-        if share < 0.5 or rows.sum() < 1:
+        if share < 0.5 or rows.sum() < 1 or name in skip:
             continue
         s, removed = best_scale(y[rows], f[rows], sigma[rows])
         if not np.isfinite(s) or 1 / NEAR_ONE < abs(s) < NEAR_ONE:
@@ -92,11 +96,12 @@ def scale_hints(quantities, y, f, sigma, shares: dict, model_kind: str | None = 
         plane = kind == "force" and model_kind == "plane_strain" and abs(s) > NEAR_ONE
         if found is None and not plane and removed < EXPLAINED:
             continue
-        head = (f"the measured {name} are {s:.4g} times the model's (best-fitting scale; it removes "
+        head = (f"the measured {name} values are {s:.4g} times the model's (best-fitting scale; it removes "
                 f"{removed:.0%} of their misfit, {share:.0%} of chi-square)")
         if plane:
             hints.append(f"{head}: a load cell in N where the plane-strain model's force is per mm of thickness "
-                         f"(N/mm); divide the force by the specimen's thickness ({abs(s):.3g} mm?)")
+                         f"(N/mm); divide the force by the specimen's thickness in mm (this scale suggests "
+                         f"{abs(s):.3g} mm or more: a fit moves the coefficients towards the data)")
         elif found is not None:
             hints.append(f"{head}: close to {found[0]:g}, {found[1]}; check the unit of that column")
         else:
@@ -104,12 +109,12 @@ def scale_hints(quantities, y, f, sigma, shares: dict, model_kind: str | None = 
     return hints
 
 
-def swap_hints(labels, quantities, y, f, sigma, chi2: float) -> list[str]:
+def swap_hints(labels, quantities, y, f, sigma, chi2: float) -> dict[tuple[str, str], str]:
     """A hint for each pair of components whose measured columns, exchanged (with either sign), fit the model
-    far better than as read, where the pair carries at least half of ``chi2``."""
+    far better than as read, where the pair carries at least half of ``chi2``: pair -> hint."""
     keys = [label.replace(f":{q}@", "@", 1) for label, q in zip(labels, quantities)]
     index = {(k, q): i for i, (k, q) in enumerate(zip(keys, quantities))}
-    hints = []
+    hints = {}
     for a, b in PAIRS:
         both = [(index[k, a], index[k, b]) for k in dict.fromkeys(keys) if (k, a) in index and (k, b) in index]
         if not both:
@@ -124,11 +129,12 @@ def swap_hints(labels, quantities, y, f, sigma, chi2: float) -> list[str]:
         k = int(np.argmin(swapped))
         if swapped[k] > (1 - EXPLAINED) * read:
             continue
-        sa, sb = signs[k]
-        how = "" if (sa, sb) == (1, 1) else f" (as {'-' if sa < 0 else ''}{b} -> {a}, {'-' if sb < 0 else ''}{a} -> {b})"
-        hints.append(f"{a} and {b} look swapped{how}: read the other way round their misfit falls from "
-                     f"{read / max(len(i) * 2, 1):.3g} to {swapped[k] / max(len(i) * 2, 1):.3g} (mean square / noise^2); "
-                     "check [data] columns (or the frame's rotation)")
+        sa, sb = ("" if sign > 0 else "-" for sign in signs[k])
+        how = "" if signs[k] == (1, 1) else f" (as {sa}{b} -> {a}, {sb}{a} -> {b})"
+        n = 2 * len(i)
+        hints[a, b] = (f"{a} and {b} look swapped{how}: read the other way round their misfit falls from "
+                       f"{read / n:.3g} to {swapped[k] / n:.3g} (mean square / noise^2); check [data] columns "
+                       "(or the frame's rotation)")
     return hints
 
 
@@ -142,17 +148,18 @@ def noise_hint(rms: dict) -> str:
     """For a chi-square below its lower quantile: how much smaller than the stated noise each quantity's residuals
     are (``rms``: quantity -> RMS residual / noise), naming a unit where the ratio is one's factor.
 
-    >>> noise_hint({"ux": 0.001}).split(";")[0]
-    'the stated noise is too large or the data were smoothed: the ux residuals are 0.001 of the stated noise (RMS), a factor 1000: noise given in um where mm are meant?'
+    >>> noise_hint({"ux": 0.001}).split(";")[0].split(": ", 1)[1]
+    'the ux residuals are 0.001 of the stated noise (RMS), a factor 1000: noise given in um where mm are meant?'
     """
     parts = []
     for name, value in rms.items():
         if not value > 0:
             continue
         units = NOISE_UNITS.get(kind_of(name), {})
-        found = [(f, m) for f, m in units.items() if abs(np.log10(value * f)) < MATCH_DECADES[True]]
+        found = [(f, m) for f, m in units.items() if abs(np.log10(value * f)) < MATCH_DECADES]
         unit = f", a factor {found[0][0]:g}: noise {found[0][1]}?" if found else ""
         parts.append(f"the {name} residuals are {value:.3g} of the stated noise (RMS){unit}")
-    return ("the stated noise is too large or the data were smoothed: " + "; ".join(parts)
+    return ("the stated noise is too large or the data were smoothed (or carry no noise, as data made by "
+            "`frictionid simulate`): " + "; ".join(parts)
             + "; the standard errors, computed from the stated noise, are then too wide: state the noise of the "
               "data as fitted (docs/fit-quality.md)")

@@ -116,9 +116,9 @@ def _adequacy_lines(fit: dict) -> list[str]:
         return lines + ["    no stated noise: whether the model explains the data cannot be tested; standard "
                         "errors are scaled by the residual"]
     if fit.get("too_small"):
-        lines.append(f"    THE MISFIT IS SMALLER THAN THE STATED NOISE ALLOWS: reduced chi-square {fit['reduced_chi2']:.3g} "
-                     f"< {fit['chi2_01']:.3g} (1 % quantile). The stated noise is too large or the data were "
-                     "smoothed; standard errors below use the stated noise, so they are too wide.")
+        lines.append(f"    THE MISFIT IS SMALLER THAN THE STATED NOISE ALLOWS: reduced chi-square "
+                     f"{fit['reduced_chi2']:.3g} < {fit['chi2_01']:.3g} (1 % quantile). The stated noise is too large or the data were "
+                     "smoothed (or carry none); standard errors below use the stated noise, so they are too wide.")
     elif fit["consistent"]:
         lines.append(f"    the stated noise explains the misfit (reduced chi-square {fit['reduced_chi2']:.3g} "
                      f"<= {fit['chi2_99']:.3g}, its 99 % quantile)")
@@ -144,7 +144,7 @@ def _adequacy_lines(fit: dict) -> list[str]:
         if shift:
             lines.append("    corrected for that error the coefficients would move by (linearised): "
                          + ", ".join(f"{zone} {v:+.3g}" for zone, v in shift.items()))
-    elif fit["consistent"] is not False and not fit.get("too_small"):
+    elif fit["consistent"] is not False:
         lines.append("    not checked: the mesh's discretisation error, which a coefficient can absorb without leaving "
                      "a misfit (identify.model_error = \"estimate\" checks it)")
     misfit = fit["misfit"]
