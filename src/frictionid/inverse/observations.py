@@ -389,8 +389,8 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
 
 
 #: what a data.noise key of each kind of observable is, for messages
-_NOISE_EXAMPLES = {"u": "u = 0.0005 [mm]", "e": "e = 1e-5", FORCE: "force = 1.0 [N]", "torque": "torque = 0.1 [N m]",
-                   "clamp": "clamp = 10.0 [N]"}
+_NOISE_EXAMPLES = {"u": ("u = 0.0005", "mm"), "e": ("e = 1e-5", "strain"), FORCE: ("force = 1.0", "N"),
+                   "torque": ("torque = 0.1", "N m"), "clamp": ("clamp = 10.0", "N")}
 
 
 def _unweighted(labels, sigma: np.ndarray) -> str:
@@ -403,8 +403,10 @@ def _unweighted(labels, sigma: np.ndarray) -> str:
     what = (f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} observed with {', '.join(given)} but "
             "without a standard deviation" if given else
             f"{', '.join(missing)} are observed together without standard deviations")
-    return (f"data.noise: {what}; quantities of different units are weighted by their noise: give data.noise "
-            f"{{ {', '.join(_NOISE_EXAMPLES[k] for k in keys)} }} or sigma_<column> columns")
+    example = ", ".join(_NOISE_EXAMPLES[k][0] for k in keys)
+    units = ", ".join(f"{k} in {_NOISE_EXAMPLES[k][1]}" for k in keys)
+    return (f"data.noise: {what}; quantities of different units are weighted by their noise: give e.g. "
+            f"noise = {{ {example} }} ({units}) or sigma_<column> columns")
 
 
 def _reference_value(measurements, at: dict, reference: str, quantity: str, i: int) -> float:
