@@ -159,11 +159,27 @@ def _check_subtables(tables: dict, path: Path) -> None:
 
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"),
-           "identify.jacobian": ("analytic", "forward", "central"),
-           "identify.model_error": ("off", "estimate", "include"),
-           "design.criterion": ("A", "D"),
-           "design.candidates": ("surface", "section")}
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu")}
+
+
+#: lowest value of numeric keys, and whether the bound itself is allowed (the keys' meaning is in TYPES)
+RANGES = {"solver.timeout": (0, False), "solver.threads": (1, True), "solver.load_scale": (0, False),
+          "solver.normal_stiffness": (0, False), "solver.stick_slope": (0, False),
+          "identify.max_iterations": (0, True), "identify.step": (0, False), "identify.resolution": (0, False),
+          "identify.suggestions": (0, True), "identify.loss_scale": (0, False), "identify.tikhonov": (0, True),
+          "identify.penalty": (0, True), "identify.refine_target": (0, True), "identify.refine_budget": (1, True),
+          "identify.profile_points": (3, True), "run.workers": (1, True), "run.retries": (0, True),
+          "design.points": (1, True), "design.n_candidates": (1, True), "design.tolerance": (0, False),
+          "data.strain_window": (0, False)}
+
+
+def _check_ranges(tables: dict, path: Path) -> None:
+    for dotted, (low, inclusive) in RANGES.items():
+        table, key = dotted.split(".")
+        value = tables[table].get(key)
+        if value is not None and not (value >= low if inclusive else value > low):
+            raise InputError(f"{path}: {dotted} must be {'>=' if inclusive else '>'} {low}, got {value!r} "
+                             f"(expected {TYPES[dotted][1]})")
 
 
 def _check_choices(tables: dict, path: Path) -> None:
@@ -294,6 +310,7 @@ def _validated(raw: dict, path: Path, text: str, need: tuple[str, ...], name: st
     tables = {table: _table(raw, table, where) for table in SCHEMA}
     _check_types(tables, where)
     _check_choices(tables, where)
+    _check_ranges(tables, where)
     _check_subtables(tables, where)
     if isinstance(tables["model"].get("file"), str):      # a builder's mesh file: relative to the config's folder
         tables["model"]["file"] = str(path.resolve().parent / tables["model"]["file"])

@@ -89,18 +89,12 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
 
 def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     ident, where = config.identify, config.where
+    # types and ranges of every key are config.py's (TYPES, RANGES); the names a key takes, their owners'
     if ident["jacobian"] not in JACOBIANS:
         raise InputError(f"{where}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
     check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{where}: [solver]",
                   float(ident["step"]))
-    if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
-        raise InputError(f"{where}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
-                         f"{ident['resolution']!r} and {ident['suggestions']!r}")
-    if int(config.run["workers"]) < 1:
-        raise InputError(f"{where}: run.workers must be at least 1, got {config.run['workers']}")
     check_scheduler(config.run.get("scheduler"), f"{where}:")
-    if int(config.run["retries"]) < 0:
-        raise InputError(f"{where}: run.retries must be 0 or more, got {config.run['retries']}")
     given_model, model_options = model, config.model_options if model is None else {}
     if model is None:
         start = time.perf_counter()
@@ -116,9 +110,6 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     multistart.start_points(ident["starts"], parameters.x0, parameters.lower, parameters.upper, int(ident["seed"]),
                             parameters.free_names, f"{where}:")
     profile.profiled_zones(ident["profile"], parameters.free_names, f"{where}:")
-    if isinstance(ident["profile_points"], bool) or int(ident["profile_points"]) < 3:
-        raise InputError(f"{where}: identify.profile_points must be a whole number >= 3, got "
-                         f"{ident['profile_points']!r}")
     check_options(ident, model_options, f"{where}:")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
@@ -153,8 +144,6 @@ def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -
     if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
         raise InputError(f"{where}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
                          " (a robust loss only with method = \"trf\")")
-    if not float(ident["loss_scale"]) > 0:
-        raise InputError(f"{where}: identify.loss_scale must be > 0, got {ident['loss_scale']!r}")
     try:
         check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"], n_free)
     except InputError as exc:

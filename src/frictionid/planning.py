@@ -148,19 +148,19 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
     folder = check_folder(out if out is not None else config.resolve(config.run["dir"]) / "design",
                           "design --out" if out is not None else f"{where}: run.dir", input_files(config),
                           DESIGN_FILES)
-    with config.naming_keys():
-        model = build_model(config.model_options, f"{where}: [model]")
-        setup = prepare(config, model, planned_measurements(config, model), echo=echo)
-    params, obs = setup.parameters, setup.observations
     n_points = int(table["points"] if n_points is None else n_points)
-    kind = table["candidates"] or ("surface" if model.dim == 3 else "section")
-    if kind not in KINDS:
-        raise InputError(f"{where}: design.candidates = {kind!r} is not one of {list(KINDS)}")
+    if table["candidates"] not in (None, *KINDS):
+        raise InputError(f"{where}: design.candidates = {table['candidates']!r} is not one of {list(KINDS)}")
     if table["criterion"] not in CRITERIA:
         raise InputError(f"{where}: design.criterion = {table['criterion']!r} is not one of {list(CRITERIA)}")
     if int(table["n_candidates"]) < n_points:
         raise InputError(f"{where}: design.n_candidates = {table['n_candidates']} is fewer than the "
                          f"{n_points} points to choose")
+    with config.naming_keys():
+        model = build_model(config.model_options, f"{where}: [model]")
+        setup = prepare(config, model, planned_measurements(config, model), echo=echo)
+    params, obs = setup.parameters, setup.observations
+    kind = table["candidates"] or ("surface" if model.dim == 3 else "section")
     quantities = tuple(q for q in config.data["observables"] if q != "force")
     noise = config.data.get("noise") or {}
     sigma = [noise_of(q, noise) for q in quantities]
