@@ -202,6 +202,19 @@ CASES = [
 ]
 
 
+def test_a_noise_no_observable_uses_is_a_warning_naming_the_file_and_key(tmp_path, capsys, caplog):
+    """Legal but suspicious: the strain noise given for a displacement-only fit (the u noise missing). The
+    warning comes when the config is read, before anything is built; here the missing data file then stops the
+    run, so the folder stays as it was."""
+    case = Case("noise of no observable", (), edit=lambda t: t["data"].update(noise={"e": 1e-5}, file="gone.csv"))
+    _prepare(tmp_path, case)
+    before = _snapshot(tmp_path)
+    assert main(["identify", str(tmp_path / "identify.toml")]) == 2
+    warning = " ".join(r.getMessage() for r in caplog.records if r.levelname == "WARNING")
+    assert "identify.toml: data.noise gives e, but no observed quantity" in warning and "'ux', 'uy'" in warning
+    assert "gone.csv" in capsys.readouterr().err and _snapshot(tmp_path) == before
+
+
 def _snapshot(folder: Path) -> dict:
     return {p.relative_to(folder): (p.stat().st_mtime_ns, p.read_bytes() if p.is_file() else None)
             for p in sorted(folder.rglob("*"))}

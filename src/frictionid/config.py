@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import logging
 import re
 import tomllib
 from contextlib import contextmanager
@@ -13,6 +14,8 @@ import tomli_w
 
 from .data.table import CHANNELS, QUANTITIES
 from .errors import InputError
+
+log = logging.getLogger(__name__)
 
 REQUIRED = object()   # marks a key without a default
 
@@ -152,10 +155,16 @@ def _check_subtables(tables: dict, path: Path) -> None:
             test, what = ENTRY_CHECKS[dotted]
             if not test(value):
                 raise InputError(f"{path}: {dotted}.{entry} must be {what}, got {value!r}")
-    for name in tables["data"].get("observables") or []:
+    observed = tables["data"].get("observables") or []
+    for name in observed:
         if name not in OBSERVABLES:
             raise InputError(f"{path}: data.observables has {name!r}{_suggest(name, OBSERVABLES)}; observables are "
                              f"{list(OBSERVABLES)}")
+    kinds = set(observed) | {q[0] for q in observed if q in QUANTITIES}
+    unused = [key for key in tables["data"].get("noise") or {} if observed and key not in kinds]
+    if unused:                  # legal, but likely a slip: the noise meant for an observable is not where it acts
+        log.warning("%s: data.noise gives %s, but no observed quantity (data.observables = %s) uses %s", path,
+                    ", ".join(unused), observed, "it" if len(unused) == 1 else "them")
 
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
