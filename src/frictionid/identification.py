@@ -32,6 +32,7 @@ from .discretisation import check_options, refine_until, with_model_error
 from .inverse.adequacy import Adequacy, assess, bias_shift
 from .inverse.uncertainty import Uncertainty, at_bounds, estimate, systematic_error
 from .model import Model
+from .paths import check_folder, input_files
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .report.vtu import export_fields
@@ -42,6 +43,10 @@ from .run.executor import check_scheduler, make_executor
 from .run.store import RunStore
 
 log = logging.getLogger(__name__)
+
+#: the files an identification writes into its run.dir (with its store and the fields/ folder)
+RUN_FILES = ("result.json", "history.csv", "convergence.png", "residuals.png", "observations.csv", "report.html",
+             "store.sqlite")
 
 
 @dataclass(frozen=True)
@@ -80,23 +85,22 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
             parameters: Parameters | None = None, echo=lambda text: None) -> Setup:
     """Build the model, read and map the data, validate the parameters and options; a model, measurements or
     parameters given as objects are used instead of the config's [model], data.file and [friction]."""
+    with config.naming_keys():
+        return _prepare(config, model, measurements, parameters, echo)
+
+
+def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     ident, where = config.identify, config.where
+    # types and ranges of every key are config.py's (TYPES, RANGES); the names a key takes, their owners'
     if ident["jacobian"] not in JACOBIANS:
         raise InputError(f"{where}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
     check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{where}: [solver]",
                   float(ident["step"]))
-    if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
-        raise InputError(f"{where}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
-                         f"{ident['resolution']!r} and {ident['suggestions']!r}")
-    if int(config.run["workers"]) < 1:
-        raise InputError(f"{where}: run.workers must be at least 1, got {config.run['workers']}")
     check_scheduler(config.run.get("scheduler"), f"{where}:")
-    if int(config.run["retries"]) < 0:
-        raise InputError(f"{where}: run.retries must be 0 or more, got {config.run['retries']}")
     given_model, model_options = model, config.model_options if model is None else {}
     if model is None:
         start = time.perf_counter()
-        model = build_model(model_options)
+        model = build_model(model_options, f"{where}: [model]")
         echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
              f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
     if parameters is None:
@@ -108,9 +112,6 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     multistart.start_points(ident["starts"], parameters.x0, parameters.lower, parameters.upper, int(ident["seed"]),
                             parameters.free_names, f"{where}:")
     profile.profiled_zones(ident["profile"], parameters.free_names, f"{where}:")
-    if isinstance(ident["profile_points"], bool) or int(ident["profile_points"]) < 3:
-        raise InputError(f"{where}: identify.profile_points must be a whole number >= 3, got "
-                         f"{ident['profile_points']!r}")
     check_options(ident, model_options, f"{where}:")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
@@ -150,8 +151,6 @@ def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -
     if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
         raise InputError(f"{where}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
                          " (a robust loss only with method = \"trf\")")
-    if not float(ident["loss_scale"]) > 0:
-        raise InputError(f"{where}: identify.loss_scale must be > 0, got {ident['loss_scale']!r}")
     try:
         check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"], n_free)
     except InputError as exc:
@@ -257,8 +256,9 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     evaluator)`` after each iteration with all zones' coefficients mu; ``setup`` is :func:`prepare`'s
     (built here when not given); ``write_files=False`` keeps only the store (no result.json, plots, report).
     """
+    run_dir = check_folder(config.resolve(config.run["dir"]), f"{config.where}: run.dir",
+                           input_files(config), RUN_FILES if write_files else ())
     setup = setup or prepare(config, echo=echo)
-    run_dir = config.resolve(config.run["dir"])
     start = time.perf_counter()
     obs = setup.observations
     if float(config.identify["refine_target"]) > 0:
@@ -539,7 +539,10 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     weights = robust_weights(r, problem.loss, problem.loss_scale)
     r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     inner = ~at_bounds(x, params.lower, params.upper)
-    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner)
+    model = getattr(evaluator.backend, "model", None)
+    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner,
+                      sigma=obs.sigma, regions=dict(zip(obs.point_labels, obs.point_regions)),
+                      model_kind=getattr(model, "kind", None))
     shift = systematic = None
     if error is not None and error.signed is not None:
         shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)

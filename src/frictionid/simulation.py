@@ -17,6 +17,7 @@ from .fem.locate import PointsOutside
 from .data.table import CHANNELS
 from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
 from .inverse.parameters import Parameters
+from .paths import check_file, check_folder, input_files
 from .report.vtu import export_fields
 
 DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
@@ -33,8 +34,17 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     fields of the solve go to :func:`fields_folder` of ``out`` for ParaView (docs/results.md); ``echo(text)``
     gets a line about them.
     """
+    with config.naming_keys():
+        return _simulate(config, out, echo)
+
+
+def _simulate(config: Config, out, echo) -> Path:
+    inputs = input_files(config)
+    out = check_file(out, inputs, "output file")
+    if config.run["fields"]:
+        check_folder(fields_folder(out), "output fields folder", inputs)
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
-    model = build_model(config.model_options)
+    model = build_model(config.model_options, f"{config.where}: [model]")
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
@@ -78,6 +88,7 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
                   *(f"{c}: {CHANNELS[c][0]} [{CHANNELS[c][1]}], reaction {channels[c]}" for c in CHANNELS
                     if c in channels)),
         source=str(out), channels={c: np.repeat(sums[c] / CHANNELS[c][2], n_points) for c in CHANNELS if c in sums})
+    out.parent.mkdir(parents=True, exist_ok=True)
     write_measurements(out, measurements)
     if config.run["fields"]:
         export_fields(backend, mu.full(mu.x0), fields_folder(out), echo)

@@ -73,6 +73,9 @@ def _built(options: dict, where: str) -> Model:
         return builder(**options)
     except TypeError as exc:
         raise InputError(f"{where}: {exc}") from None
+    except InputError as exc:           # the builder names the option; the config's file and table go first
+        message = str(exc)
+        raise InputError(message if message.startswith(where) else f"{where}: {message}") from None
 
 
 def _refined_mesh(options: dict, factor: int, where: str) -> dict:

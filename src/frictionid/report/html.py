@@ -162,9 +162,12 @@ def _adequacy(fit: dict | None) -> str:
     verdict = {True: ("good", "the stated noise explains the misfit"),
                False: ("bad", "THE MODEL DOES NOT EXPLAIN THE DATA at the stated noise"),
                None: ("note", "no stated noise: whether the model explains the data cannot be tested")}
-    css, text = verdict[fit.get("consistent")]
+    css, text = verdict[fit.get("consistent")] if not fit.get("too_small") else \
+        ("bad", "THE MISFIT IS SMALLER THAN THE STATED NOISE ALLOWS: the stated noise is too large or the data "
+                "were smoothed")
     rows = [["observations", str(fit["n_obs"])], ["chi-square", f"{fit['chi2']:.4g}"], ["dof", str(fit["dof"])],
             ["reduced chi-square", _num(fit.get("reduced_chi2"))], ["its 99 % quantile", _num(fit.get("chi2_99"))],
+            ["its 1 % quantile", _num(fit.get("chi2_01"))],
             ["p-value", _num(fit.get("p_value"))], ["error scale", _num(fit.get("error_scale"))],
             ["loss", _e(fit.get("loss", "linear"))], ["down-weighted", str(fit.get("n_downweighted", 0))],
             ["RMS residual (data units)", _num(fit.get("rms_residual"))]]
@@ -178,7 +181,7 @@ def _adequacy(fit: dict | None) -> str:
             ["observation", "residual / noise", "measured", "model"],
             [[_e(w["observation"]), f"{w['residual']:+.3g}", f"{w['measured']:.5g}", f"{w['model']:.5g}"]
              for w in fit["worst"]], (0,)))
-    if fit.get("hint") and fit.get("consistent") is False:
+    if fit.get("hint") and (fit.get("consistent") is False or fit.get("too_small")):
         parts.append(f"<p>What to try: {_e(fit['hint'])}</p>")
     parts.append(_model_error(fit.get("model_error")))
     return _section("Fit adequacy", "\n".join(parts))

@@ -123,7 +123,11 @@ def _adequacy_lines(fit: dict) -> list[str]:
     if fit.get("consistent") is None:
         return lines + ["    no stated noise: whether the model explains the data cannot be tested; standard "
                         "errors are scaled by the residual"]
-    if fit["consistent"]:
+    if fit.get("too_small"):
+        lines.append(f"    THE MISFIT IS SMALLER THAN THE STATED NOISE ALLOWS: reduced chi-square "
+                     f"{fit['reduced_chi2']:.3g} < {fit['chi2_01']:.3g} (1 % quantile). The stated noise is too large or the data were "
+                     "smoothed (or carry none); standard errors below use the stated noise, so they are too wide.")
+    elif fit["consistent"]:
         lines.append(f"    the stated noise explains the misfit (reduced chi-square {fit['reduced_chi2']:.3g} "
                      f"<= {fit['chi2_99']:.3g}, its 99 % quantile)")
     else:
@@ -162,6 +166,8 @@ def _adequacy_lines(fit: dict) -> list[str]:
         lines.append("    worst observations (residual / noise, measured, model): "
                      + "; ".join(f"{w['observation']} {w['residual']:+.3g} ({w['measured']:.4g}, {w['model']:.4g})"
                                  for w in fit["worst"][:5]))
+        lines.append(f"    what to try: {fit['hint']}")
+    elif fit.get("too_small"):
         lines.append(f"    what to try: {fit['hint']}")
     return lines
 
