@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Model
+from .contact_map import InterfaceMap, contact_map
 from .node_to_node import node_to_node_pairs
 from .pairs import ContactPairs
 from .space import Space
@@ -19,7 +20,7 @@ def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
 
 
 def contact_pairs(space: Space, model: Model) -> ContactPairs:
-    """Pairs of every interface in model order; "auto" tries node-to-node and falls back to mortar in 2-D.
+    """Pairs of every interface in model order (:func:`interface_pairs`).
 
     "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added, normals of
     helical interfaces tilted by their lead (:func:`frictionid.fem.twist.with_circumferential_tangent`).
@@ -30,15 +31,29 @@ def contact_pairs(space: Space, model: Model) -> ContactPairs:
         pairs = contact_pairs(section, model)
         lead = np.array([model.interfaces[i].lead for i in pairs.interface], dtype=float)
         return with_circumferential_tangent(pairs, model.mesh.n_nodes, lead)
-    parts = []
-    for index, interface in enumerate(model.interfaces):
-        if interface.discretisation == "mortar":
-            parts.append(_mortar(space, model, index))
-            continue
-        try:
-            parts.append(node_to_node_pairs(space, model, index))
-        except InputError:
-            if interface.discretisation == "node-to-node" or space.dim != 2:
-                raise
-            parts.append(_mortar(space, model, index))
+    parts = [interface_pairs(space, model, index)[0] for index in range(len(model.interfaces))]
     return ContactPairs.concatenate(parts, space.n_dofs, model.n_zones, space.dim)
+
+
+def interface_pairs(space: Space, model: Model, index: int) -> tuple[ContactPairs, str]:
+    """The pairs of interface ``index`` and the discretisation used ("node-to-node" or "mortar"): "auto" tries
+    node-to-node and falls back to mortar in 2-D. Either refuses a pairing that fails the set-up checks of
+    :mod:`frictionid.fem.contact_map` (a contact node facing no target, an initial gap beyond gap_tolerance)."""
+    interface = model.interfaces[index]
+    if interface.discretisation == "mortar":
+        return _mortar(space, model, index), "mortar"
+    try:
+        return node_to_node_pairs(space, model, index), "node-to-node"
+    except InputError:
+        if interface.discretisation == "node-to-node" or space.dim != 2:
+            raise
+    return _mortar(space, model, index), "mortar"
+
+
+def contact_setup(model: Model) -> tuple[InterfaceMap, ...]:
+    """The contact map of ``model`` (:func:`frictionid.fem.contact_map.contact_map`) from its pairs as the
+    solver builds them: the set-up checks at model build, before any solve (an :class:`InputError` where they
+    fail). "axisymmetric_twist" models are mapped on their (r, y) section."""
+    kind = "axisymmetric" if model.kind == "axisymmetric_twist" else model.kind
+    space = Space.build(model.mesh, kind, model.element)
+    return contact_map(model, [interface_pairs(space, model, i) for i in range(len(model.interfaces))])
