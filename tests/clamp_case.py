@@ -10,6 +10,7 @@ pad's BASE is fixed; the upper pad's LID is pressed and held in x; the strip's f
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -64,12 +65,14 @@ class _Deck:
         return "\n".join(lines) + "\n"
 
 
-def write_clamp(path: Path, size: float = 0.5) -> Path:
-    """The clamp deck at element size ``size`` [mm] (a divisor of 1) written to ``path``."""
+def write_clamp(path: Path, size: float = 0.5, gap: float = 0.0, thickness: float = 2.0) -> Path:
+    """The clamp deck at element size ``size`` [mm] (a divisor of 1) written to ``path``; the pads ``gap`` [mm]
+    away from a strip ``thickness`` [mm] thick."""
     deck = _Deck()
-    strip = deck.block("STRIP", (0.0, 16.0), (-1.0, 1.0), size)
-    upper = deck.block("UPPER", (0.0, 12.0), (1.0, 3.0), size)
-    lower = deck.block("LOWER", (0.0, 12.0), (-3.0, -1.0), size)
+    t = thickness / 2
+    strip = deck.block("STRIP", (0.0, 16.0), (-t, t), size)
+    upper = deck.block("UPPER", (0.0, 12.0), (t + gap, t + gap + 2.0), size)
+    lower = deck.block("LOWER", (0.0, 12.0), (-t - gap - 2.0, -t - gap), size)
     for k in range(3):
         deck.face(ZONES["T"][k], strip, "top", (4.0 * k, 4.0 * (k + 1)))
         deck.face(ZONES["B"][k], strip, "bottom", (4.0 * k, 4.0 * (k + 1)))
@@ -108,7 +111,20 @@ def model_table(mesh: str, one_target: bool) -> str:
 
 def model_options(mesh: Path, one_target: bool) -> dict:
     """The same [model] as a table (for build_model)."""
-    import tomllib
+    return tomllib.loads(model_table(str(mesh), one_target))["model"]
 
-    table = tomllib.loads(model_table(str(mesh), one_target))["model"]
-    return table
+
+#: observation points: three rows along the strip and one in each pad (plane strain, z = 0)
+POINTS = {**{f"S{k}": (1.0 + 2.0 * (k % 8), (-0.5, 0.0, 0.5)[k // 8]) for k in range(24)},
+          "U1": (6.0, 2.0), "L1": (6.0, -2.0)}
+
+
+def points_csv(quantities=("ux", "uy")) -> str:
+    """A measurement file of the points at stage 2 (values are placeholders `frictionid simulate` fills)."""
+    rows = "".join(f"{p},{x},{y},0.0,2" + ",0.0" * len(quantities) + "\n" for p, (x, y) in POINTS.items())
+    return f"point,x,y,z,stage,{','.join(quantities)}\n" + rows
+
+
+#: [data] regions: the points by body
+REGIONS = "regions = { " + ", ".join(f'{p} = "{"UPPER" if p == "U1" else "LOWER" if p == "L1" else "STRIP"}"'
+                                      for p in POINTS) + " }\n"

@@ -22,6 +22,7 @@ from .data.dic.window import choose as choose_window
 from .data.sources import data_digest, data_paths, read_sources
 from .errors import InputError, SolverError
 from .fem.locate import PointsOutside
+from .fem.interface import contact_setup
 from .fem.points import StrainWindow
 from .inverse.evaluator import JACOBIANS, Evaluator
 from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
@@ -59,6 +60,8 @@ class Setup:
     frames: tuple = ()
     #: the fit's DIC strain window (:class:`~frictionid.data.dic.window.WindowChoice`), None: none
     window: object = None
+    #: the contact map checked at model build (:func:`~frictionid.fem.interface.contact_setup`)
+    contact: tuple = ()
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -97,6 +100,7 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         model = build_model(model_options)
         echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
              f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
+    contact = checked_contact(model, where, echo)
     if parameters is None:
         parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                             config.friction.get("fixed"))
@@ -129,7 +133,19 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                                      config.data.get("noise"), config.data.get("regions"), relative, specimens,
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
-                 data_file, tuple(frames), window)
+                 data_file, tuple(frames), window, contact)
+
+
+def checked_contact(model: Model, where: str, echo) -> tuple:
+    """The model's contact map (:func:`~frictionid.fem.interface.contact_setup`), one line per interface to
+    ``echo``; a failed set-up check is an :class:`InputError` naming ``where`` (the config file)."""
+    try:
+        contact = contact_setup(model)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    for entry in contact:
+        echo(entry.line())
+    return contact
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -497,7 +513,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "mode": config.identify["model_error"], **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
-        "model": setup.model_options,
+        "model": {**setup.model_options, "contact": [entry.as_dict() for entry in setup.contact]},
         "data": data_section(setup.frames, obs, setup.window),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},

@@ -13,6 +13,7 @@ from .data.measurements import Measurements, write_measurements
 from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
+from .identification import checked_contact
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
 from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
@@ -35,6 +36,7 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     """
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
     model = build_model(config.model_options)
+    checked_contact(model, config.where, echo)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)

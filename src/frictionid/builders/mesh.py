@@ -136,10 +136,11 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     loads : list of { type, boundary, component, values }
         ``type`` "pressure" [MPa, positive pushing into the body], "force" [N, total over the boundary, spread
         uniformly; ``component``] or "displacement" [mm; ``component``]; ``values`` one per stage.
-    interfaces : list of { name, zones, contact, zone_rules, target, discretisation }
+    interfaces : list of { name, zones, contact, zone_rules, target, discretisation, gap_tolerance }
         Contact-side boundaries (``zones``, one per friction zone) and/or contact-side boundaries (``contact``)
         split into zones by ``zone_rules`` (see :mod:`frictionid.builders.zone_rules`), and the target boundary
-        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D).
+        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D);
+        ``gap_tolerance`` [mm] the largest initial gap of a contact pair (default half the contact facet size).
     element : "standard" | "incompatible"
         Element technology (incompatible modes need linear hexahedra).
 
@@ -279,7 +280,7 @@ def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict, ruled:
 def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> ContactInterface:
     where = f"[[model.interfaces]] {index}"
     entry = checked_table(entry, {"name": f"interface {index}", "zones": None, "contact": None, "zone_rules": None,
-                                  "target": ..., "discretisation": "auto"}, where)
+                                  "target": ..., "discretisation": "auto", "gap_tolerance": None}, where)
     zones = entry["zones"]
     if zones is None and entry["zone_rules"] is None and entry["contact"] is None:
         raise InputError(f"{where}: needs zones (boundaries on the contact side, one per friction zone) or contact "
@@ -289,7 +290,12 @@ def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> 
     zones = tuple(_name(source, z, ("boundaries",), f"{where} zones", used) for z in zones or ())
     zones += _ruled_zones(source, entry, where, used, ruled, zones)
     target = _name(source, entry["target"], ("boundaries",), f"{where} target", used)
-    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"])
+    tolerance = entry["gap_tolerance"]
+    if tolerance is not None and (isinstance(tolerance, bool) or not isinstance(tolerance, (int, float))
+                                  or not math.isfinite(tolerance) or tolerance <= 0):
+        raise InputError(f"{where} gap_tolerance: must be a positive number of mm (the largest initial gap of a "
+                         f"contact pair), got {tolerance!r}")
+    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"], gap_tolerance=tolerance)
 
 
 def _ruled_zones(source: MeshFile, entry: dict, where: str, used: dict, ruled: dict, zones: tuple) -> tuple:

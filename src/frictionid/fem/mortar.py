@@ -319,6 +319,11 @@ def mortar_pairs(space: Space, model: Model, interface_index: int, *, search_dis
     nodes = np.unique(slave.facets)
     keep = ((weight_all[nodes] > 1e-12 * weight_all.max()) & (covered[nodes] > 0)
             & (covered[nodes] >= (min_coverage - 1e-9) * weight_all[nodes]))
+    if not keep.any():
+        raise InputError(f"[[model.interfaces]] {model.interfaces[interface_index].name!r}: none of its "
+                         f"{len(nodes)} contact nodes (mortar) has a target facet facing it (normals opposed within "
+                         f"{FACING_DEG:g} deg) within {search_distance:.3g} mm; check that the target "
+                         f"{model.interfaces[interface_index].target!r} is the surface the zones face")
     if not keep.all():
         logger.info("mortar: interface %d: %d of %d contact nodes left out (not covered by the target)",
                     interface_index, int((~keep).sum()), len(nodes))
