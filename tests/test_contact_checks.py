@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import warnings
 
+import meshio
 import numpy as np
 import pytest
 
@@ -22,6 +23,7 @@ from frictionid.errors import InputError
 from frictionid.fem.contact_map import FACING_DEG, GAP_FRACTION
 from frictionid.fem.interface import contact_pairs, contact_setup
 from frictionid.fem.space import Space
+from frictionid.report.html import report_html
 
 QUANTITIES = ("ux", "uy", "exx", "exy")
 
@@ -159,13 +161,34 @@ def test_the_model_object_refuses_a_bad_gap_tolerance():
 
 # ------------------------------------------------------------------------------- end to end, on the console
 
-def test_simulate_prints_one_contact_line_per_interface(tmp_path, capsys):
-    folder = _folder(tmp_path, one_target=False)
+def test_simulate_prints_one_contact_line_per_interface_and_the_fields_carry_the_map(tmp_path, capsys):
+    """Pads overlapping the strip by 0.01 mm: the console line says so, and contact_<stage>.vtu holds the initial
+    gap at every contact node, the facing angle and each facet's interface and zone."""
+    folder = _folder(tmp_path, gap=-0.01, one_target=False)
     assert main(["simulate", str(folder / "bad.toml"), "--out", str(folder / "out.csv")]) == 0
     lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("contact ")]
     assert len(lines) == 2
     assert "'upper'" in lines[0] and "'PAD_TOP_FACE'" in lines[0] and "25 pairs" in lines[0]
-    assert "'lower'" in lines[1] and "'PAD_BOTTOM_FACE'" in lines[1] and "25 closed" in lines[1]
+    assert "'lower'" in lines[1] and "'PAD_BOTTOM_FACE'" in lines[1] and "25 interference" in lines[1]
+    assert "initial gap -0.01 to -0.01 mm (tolerance 0.25)" in lines[1]
+    contact = meshio.read(folder / "out.fields" / "contact_1.vtu")
+    np.testing.assert_allclose(contact.point_data["initial_gap_mm"], -0.01, rtol=1e-9)
+    np.testing.assert_allclose(contact.point_data["facing_deg"], 0.0, atol=1e-6)
+    interface, zone = contact.cell_data["interface"][0], contact.cell_data["zone"][0]
+    centre_y = contact.points[contact.cells[0].data].mean(axis=1)[:, 1]
+    np.testing.assert_array_equal(interface, np.where(centre_y > 0, 0, 1))      # upper: the strip's top face
+    np.testing.assert_array_equal(zone // 3, interface)                         # T1-T3, then B1-B3
+
+
+def test_the_report_shows_the_contact_map(tmp_path):
+    mesh = write_clamp(tmp_path / "clamp.inp", size=0.5)
+    contact = [entry.as_dict() for entry in contact_setup(build_model(model_options(mesh, True)))]
+    page = report_html({"status": "converged", "parameters": {}, "model": {"contact": contact}}, {})
+    section = page[page.index("<h2>Contact set-up</h2>"):]
+    section = section[:section.index("</section>")]
+    assert "<td class=\"text\">PADS</td>" in section and "<td>50</td>" in section and "50 closed" in section
+    assert all(f"<td class=\"text\">{zone}</td>" in section for zone in TRUE)
+    assert "no contact map" in report_html({"status": "failed", "parameters": {}}, {})
 
 
 @pytest.mark.slow

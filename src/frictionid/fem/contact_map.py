@@ -113,7 +113,8 @@ def contact_map(model: Model, parts) -> tuple[InterfaceMap, ...]:
     """The :class:`InterfaceMap` of each interface of ``model`` from its pairs: ``parts`` lists, in interface
     order, (pairs of that interface, discretisation used), as :func:`frictionid.fem.interface.interface_pairs`
     gives them."""
-    return tuple(_interface_map(model, interface, pairs, how) for interface, (pairs, how) in zip(model.interfaces, parts))
+    return tuple(_interface_map(model, interface, pairs, how)
+                 for interface, (pairs, how) in zip(model.interfaces, parts))
 
 
 def _interface_map(model: Model, interface: ContactInterface, pairs: ContactPairs, how: str) -> InterfaceMap:

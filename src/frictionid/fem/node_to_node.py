@@ -119,8 +119,8 @@ def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal:
         i = int(np.argmax(miss))
         faced = "no target node facing it" if facing[i].any() else \
             f"no target node whose surface faces it (normals opposed within {FACING_DEG:g} deg)"
-        raise InputError(f"[[model.interfaces]] {name!r}: {int(miss.sum())} of {len(contact)} contact nodes have no partner, "
-                         f"e.g. the node at {np.round(points[contact[i]], 6).tolist()}: {faced} (within "
+        raise InputError(f"[[model.interfaces]] {name!r}: {int(miss.sum())} of {len(contact)} contact nodes have "
+                         f"no partner, e.g. the node at {np.round(points[contact[i]], 6).tolist()}: {faced} (within "
                          f"{0.05 * h:.3g} mm across the normal); the meshes do not match: use discretisation = "
                          "'mortar' (2-D) or make the meshes conforming")
     return near[pick], np.degrees(np.arccos(np.clip(cosine[pick], -1.0, 1.0)))
