@@ -193,7 +193,7 @@ class Problem:
         """(n_pairs,) [mm] size of the largest contact facet at each pair (corner-to-corner edge length)."""
         mesh = self.model.mesh
         length = np.zeros(mesh.n_nodes)
-        for zone in self.model.zone_names:
+        for zone in (z for interface in self.model.interfaces for z in interface.zones):
             facets = mesh.boundary(zone)
             edge = np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1)
             np.maximum.at(length, facets, np.repeat(edge[:, None], facets.shape[1], axis=1))
