@@ -5,7 +5,8 @@ Strip x in [0, 16], y in [-1, 1] (aluminium); pads x in [0, 12] above (y in [1, 
 (steel). Zones on the strip: T1, T2, T3 on its top face (x in [0, 4], [4, 8], [8, 12]), B1, B2, B3 on its bottom
 face. Targets: PAD_TOP_FACE (the upper pad's lower face), PAD_BOTTOM_FACE (the lower pad's upper face) and PADS
 (both faces in one surface: the set-up that paired half the nodes with the opposite pad, 2 mm away). The lower
-pad's BASE is fixed; the upper pad's LID is pressed and held in x; the strip's free END is pulled in x.
+pad's BASE is fixed; the upper pad's LID is pressed and held in x; the strip's free END is pulled in x. LOWER_LEFT
+(the lower pad's left face) shares a corner node with BASE.
 """
 
 from __future__ import annotations
@@ -41,10 +42,12 @@ class _Deck:
         return {"grid": grid, "xs": xs}
 
     def face(self, name: str, block: dict, side: str, x_range=(-np.inf, np.inf)) -> None:
-        """Element faces of a block's side ("bottom" S1, "right" S2, "top" S3) whose centres lie in x_range."""
+        """Element faces of a block's side ("bottom" S1, "right" S2, "top" S3, "left" S4) whose centres lie in
+        x_range."""
         grid, xs = block["grid"], block["xs"]
-        if side == "right":
-            self.surfaces.setdefault(name, []).extend((int(e), "S2") for e in grid[:, -1])
+        if side in ("right", "left"):
+            column, label = (grid[:, -1], "S2") if side == "right" else (grid[:, 0], "S4")
+            self.surfaces.setdefault(name, []).extend((int(e), label) for e in column)
             return
         row, label = (grid[0], "S1") if side == "bottom" else (grid[-1], "S3")
         centre = (xs[:-1] + xs[1:]) / 2
@@ -83,6 +86,7 @@ def write_clamp(path: Path, size: float = 0.5, gap: float = 0.0, thickness: floa
     deck.face("LID", upper, "top")
     deck.face("BASE", lower, "bottom")
     deck.face("END", strip, "right")
+    deck.face("LOWER_LEFT", lower, "left")                     # shares its corner node with BASE
     path.write_text(deck.text())
     return path
 

@@ -216,3 +216,37 @@ def test_twin_from_a_finer_correctly_paired_model_gives_the_same_coefficients_on
         assert abs(apart.coefficients[zone] - truth) < 3 * se, zone
     stored = json.loads((tmp_path / "spanning" / "result.json").read_text())["model"]["contact"]
     assert [(c["name"], c["target"], c["n_pairs"], c["state"]["closed"]) for c in stored] == [("clamp", "PADS", 50, 50)]
+
+
+# ------------------------------------------------------------- prescriptions on boundaries sharing a node
+
+def _with_left_displacement(options: dict, values) -> dict:
+    return {**options, "loads": [*options["loads"], {"type": "displacement", "boundary": "LOWER_LEFT",
+                                                     "component": "x", "values": values}]}
+
+
+def test_a_zero_displacement_sharing_a_node_with_a_support_is_compatible(tmp_path):
+    """Issue 24, finding 9: BASE is fixed and LOWER_LEFT (sharing BASE's corner node) held at x = 0 by a zero
+    displacement: both hold that node's x at zero, so the model solves, and like BASE alone plus a support of
+    LOWER_LEFT in x."""
+    from frictionid.fem.problem import Problem
+
+    options = model_options(write_clamp(tmp_path / "clamp.inp", size=1.0), one_target=False)
+    zero = Problem.build(build_model(_with_left_displacement(options, [0.0, 0.0]))).solve(TRUE)
+    support = {**options, "supports": [*options["supports"], {"boundary": "LOWER_LEFT", "components": ["x"]}]}
+    held = Problem.build(build_model(support)).solve(TRUE)
+    np.testing.assert_allclose(zero.lam, held.lam, rtol=0, atol=1e-9 * np.abs(held.lam).max())
+
+
+def test_conflicting_prescriptions_on_a_shared_node_name_both_boundaries_and_the_node(tmp_path, capsys):
+    folder = _folder(tmp_path)
+    text = (folder / "bad.toml").read_text().replace(
+        "[[model.interfaces]]", '[[model.loads]]\ntype = "displacement"\nboundary = "LOWER_LEFT"\ncomponent = "x"\n'
+                                "values = [0.0, 0.01]\n[[model.interfaces]]", 1)
+    (folder / "bad.toml").write_text(text)
+    assert main(["simulate", str(folder / "bad.toml"), "--out", str(folder / "out.csv")]) == 2
+    err = capsys.readouterr().err
+    for part in ("support 'BASE' holds it at zero", "displacement on 'LOWER_LEFT' prescribes [0.0, 0.01]",
+                 "node", "[0.0, -3.0]", "component x"):
+        assert part in err, (part, err)
+    assert not (folder / "out.csv").exists() and "Traceback" not in err
