@@ -1,6 +1,7 @@
-"""Contact set-up checks at model build (issue 24): every contact node pairs with a target that faces it, initial
-gaps within gap_tolerance, no NaN; the contact map on the console, in result.json and the fields; bad contact
-input exits 2 naming the config file and key, with nothing written.
+"""Model set-up checks at model build (issue 24): every contact node pairs with a target that faces it, initial
+gaps within gap_tolerance, no NaN; the contact map on the console, in result.json, the report and the fields; bad
+contact input exits 2 naming the config file and key, with nothing written; prescriptions of boundaries sharing a
+node (finding 9); what an .inp's element type means (finding 11).
 
 Fixture: tests/clamp_case.py, a plane-strain strip clamped between two pads (three zones per pad), with one
 interface whose target spans both pads or one interface per pad.
@@ -9,7 +10,9 @@ interface whose target spans both pads or one interface per pad.
 from __future__ import annotations
 
 import json
+import logging
 import warnings
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -17,8 +20,10 @@ import pytest
 
 from clamp_case import TRUE, ZONES, model_options, model_table, points_csv, write_clamp
 from frictionid import Parameters, identify
+from frictionid.builders.mesh import mesh_model
 from frictionid.builders.registry import build_model
 from frictionid.cli import main
+from frictionid.config import read_config
 from frictionid.errors import InputError
 from frictionid.fem.contact_map import FACING_DEG, GAP_FRACTION
 from frictionid.fem.interface import contact_pairs, contact_setup
@@ -250,3 +255,39 @@ def test_conflicting_prescriptions_on_a_shared_node_name_both_boundaries_and_the
                  "node", "[0.0, -3.0]", "component x"):
         assert part in err, (part, err)
     assert not (folder / "out.csv").exists() and "Traceback" not in err
+
+
+# ------------------------------------------------------------------------------------- an .inp's element type
+
+FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
+
+
+def test_an_inp_of_c3d8i_is_computed_with_incompatible_modes_and_a_contradicting_element_is_warned(tmp_path,
+                                                                                                      caplog):
+    """Issue 24, finding 11: the deck's C3D8I mean incompatible modes; its C3D8 plain hexahedra; a config element
+    that contradicts the deck is computed as configured, with a warning naming both."""
+    (tmp_path / "block.inp").write_text((FIXTURES / "block.inp").read_text().replace("TYPE=C3D8,", "TYPE=C3D8I,"))
+    options = {**read_config(FIXTURES / "truth.toml").model, "file": str(tmp_path / "block.inp")}
+    assert build_model(options).element == "incompatible"
+    assert build_model({**options, "file": str(FIXTURES / "block.inp")}).element == "standard"
+    with caplog.at_level(logging.WARNING, logger="frictionid"):
+        assert build_model({**options, "element": "standard"}).element == "standard"
+    assert "[model] element = 'standard' contradicts block.inp, whose C3D8I elements mean element 'incompatible'" \
+        in caplog.text
+
+
+@pytest.mark.parametrize("element_type, kind, note", [
+    ("CPE4R", "plane_strain", "CPE4R has reduced integration (one point, hourglass control)"),
+    ("CPE4I", "plane_strain", "CPE4I has incompatible modes, which frictionid has for 8-node hexahedra (C3D8I) only"),
+    ("CPS4", "plane_strain", "CPS4 is a plane stress element, [model] kind = 'plane_strain'"),
+    ("CAX4", "plane_strain", "CAX4 is an axisymmetric element, [model] kind = 'plane_strain'"),
+])
+def test_what_a_decks_element_type_means_and_frictionid_computes_otherwise_is_warned(element_type, kind, note,
+                                                                                       tmp_path, caplog):
+    path = tmp_path / "square.inp"
+    path.write_text("*NODE\n1, 0, 0\n2, 1, 0\n3, 1, 1\n4, 0, 1\n"
+                    f"*ELEMENT, TYPE={element_type}, ELSET=SQUARE\n1, 1, 2, 3, 4\n*NSET, NSET=CORNERS\n1, 2\n")
+    with caplog.at_level(logging.WARNING, logger="frictionid"):
+        model = mesh_model(path, kind=kind, materials={"SQUARE": {"E": 1.0, "nu": 0.3}},
+                           supports=[{"boundary": "CORNERS"}])
+    assert model.element == "standard" and f"square.inp: {note}" in caplog.text

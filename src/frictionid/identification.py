@@ -98,8 +98,7 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     if model is None:
         start = time.perf_counter()
         model = build_model(model_options)
-        echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
-             f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
+        echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
     contact = checked_contact(model, where, echo)
     if parameters is None:
         parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
@@ -134,6 +133,12 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
                  data_file, tuple(frames), window, contact)
+
+
+def model_line(model: Model, builder: str, seconds: float) -> str:
+    """The console's line about a built model: builder, kind, size, cells and element technology, zones."""
+    return (f"model: builder {builder!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, {model.mesh.cell_type} cells, "
+            f"element {model.element!r}, zones {', '.join(model.zone_names)} ({seconds:.1f} s)")
 
 
 def checked_contact(model: Model, where: str, echo) -> tuple:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from .data.measurements import Measurements, write_measurements
 from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
-from .identification import checked_contact
+from .identification import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
 from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
@@ -35,7 +36,9 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     gets a line about them.
     """
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
+    start = time.perf_counter()
     model = build_model(config.model_options)
+    echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
     checked_contact(model, config.where, echo)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
