@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..errors import InputError
@@ -10,6 +12,12 @@ from .contact_map import InterfaceMap, contact_map
 from .node_to_node import node_to_node_pairs
 from .pairs import ContactPairs
 from .space import Space
+
+
+#: the pairs :func:`contact_setup` built last: (weak reference to the model, (kind, element), pairs), which
+#: :func:`contact_pairs` returns for that model and space, so that the check at model build and the solver's
+#: condensation pair the interfaces once
+_LAST: dict = {}
 
 
 def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
@@ -25,6 +33,9 @@ def contact_pairs(space: Space, model: Model) -> ContactPairs:
     "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added, normals of
     helical interfaces tilted by their lead (:func:`frictionid.fem.twist.with_circumferential_tangent`).
     """
+    cached = _LAST.get("pairs")
+    if cached is not None and cached[0]() is model and cached[1] == (space.kind, space.element):
+        return cached[2]
     if space.n_components != space.dim:
         from .twist import with_circumferential_tangent
         section = Space.build(model.mesh, "axisymmetric", model.element)
@@ -56,4 +67,7 @@ def contact_setup(model: Model) -> tuple[InterfaceMap, ...]:
     fail). "axisymmetric_twist" models are mapped on their (r, y) section."""
     kind = "axisymmetric" if model.kind == "axisymmetric_twist" else model.kind
     space = Space.build(model.mesh, kind, model.element)
-    return contact_map(model, [interface_pairs(space, model, i) for i in range(len(model.interfaces))])
+    parts = [interface_pairs(space, model, i) for i in range(len(model.interfaces))]
+    pairs = ContactPairs.concatenate([p for p, _ in parts], space.n_dofs, model.n_zones, space.dim)
+    _LAST["pairs"] = (weakref.ref(model), (space.kind, space.element), pairs)
+    return contact_map(model, parts)
