@@ -70,6 +70,17 @@ def test_a_strip_thinner_than_its_facets_pairs_with_the_facing_pad(tmp_path):
     np.testing.assert_allclose(spanning[2], apart[2], atol=1e-12)
 
 
+def test_normals_that_cancel_are_refused_instead_of_a_nan():
+    """Facets of opposite normals meeting at a node (a surface folded back) give it no normal: refused by name."""
+    from frictionid.fem.node_to_node import _unit_normals
+
+    integrals = np.array([[0.0, 2.0], [0.0, 1.0 - 1.0], [3.0, 4.0]])          # node 1: +n and -n of equal area
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    np.testing.assert_allclose(_unit_normals(integrals, np.array([0, 2]), points, "x"), [[0, 1], [0.6, 0.8]])
+    with pytest.raises(InputError, match=r"1 node\(s\) of target 'T' .* at \[1.0, 0.0\]: a surface folded back"):
+        _unit_normals(integrals, np.array([0, 1, 2]), points, "target 'T'")
+
+
 def test_the_contact_map_states_pairs_gaps_facing_and_zones(tmp_path):
     """The map of the spanning interface: 2 x 25 pairs (0.5 mm quads, 12 mm pads), all closed, facing exactly;
     each zone's area is its 4 mm length (plane strain, per mm thickness); tolerance GAP_FRACTION x 0.5 mm."""
@@ -85,6 +96,23 @@ def test_the_contact_map_states_pairs_gaps_facing_and_zones(tmp_path):
         assert entry.zones[zone]["pairs"] == 9                            # 8 facets: 9 nodes, borders shared
     line = entry.line()
     assert "'clamp'" in line and "50 pairs" in line and "'PADS'" in line and "50 closed" in line
+
+
+def test_the_solver_uses_the_pairs_checked_at_model_build(tmp_path):
+    """contact_setup's pairs are the ones the condensation takes for that model (built once), and equal to pairs
+    built afresh for an equal model."""
+    from frictionid.fem.problem import Problem
+
+    options = model_options(write_clamp(tmp_path / "clamp.inp", size=1.0), True)
+    model = build_model(options)
+    contact_setup(model)
+    checked = contact_pairs(Space.build(model.mesh, model.kind), model)
+    assert Problem.build(model).pairs is checked
+    fresh = _pairs(build_model({**options, "increments": [1, 4]}))           # another model object
+    assert fresh is not checked
+    for name in ("nodes", "gap", "weight", "zone_share", "frames"):
+        np.testing.assert_array_equal(getattr(fresh, name), getattr(checked, name))
+    assert (fresh.B != checked.B).nnz == 0
 
 
 def test_an_open_gap_is_mapped_with_its_size_and_state(tmp_path):

@@ -118,9 +118,10 @@ def contact_map(model: Model, parts) -> tuple[InterfaceMap, ...]:
 
 
 def _interface_map(model: Model, interface: ContactInterface, pairs: ContactPairs, how: str) -> InterfaceMap:
-    gap, share, weight = pairs.gap, pairs.zone_share, pairs.weight
+    share, weight = pairs.zone_share, pairs.weight
     size = facet_size(model.mesh, interface.zones)
     state = initial_state(pairs, size)
+    gap = np.where(state == 0, 0.0, pairs.gap)                  # round-off of coincident nodes (1e-58 mm) is 0
     contact_nodes = np.unique(np.concatenate([model.mesh.boundary_nodes(z) for z in interface.zones]))
     zones = {}
     for zone, coefficient in zip(interface.zones, interface.coefficients):

@@ -126,6 +126,20 @@ def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal:
     return near[pick], np.degrees(np.arccos(np.clip(cosine[pick], -1.0, 1.0)))
 
 
+def _unit_normals(integrals: np.ndarray, nodes: np.ndarray, points: np.ndarray, what: str) -> np.ndarray:
+    """Unit normals (len(nodes), dim) at ``nodes`` from the nodal integrals int N n dS (n_nodes, dim); an
+    :class:`InputError` where they cancel (facets of opposite normals meeting at a node: a surface folded back)."""
+    normal = integrals[nodes]
+    length = np.linalg.norm(normal, axis=1)
+    cancel = length <= 1e-9 * np.abs(integrals).max(initial=0.0)
+    if cancel.any():
+        node = int(nodes[np.argmax(cancel)])
+        raise InputError(f"[[model.interfaces]]: {int(cancel.sum())} node(s) of {what} have no normal (the normals "
+                         f"of their facets cancel), e.g. the node at {np.round(points[node], 6).tolist()}: a surface "
+                         "folded back on itself; give each side of a thin part its own boundary")
+    return normal / length[:, None]
+
+
 def _pair_normals(offset: np.ndarray, target_normal: np.ndarray, h: float) -> np.ndarray:
     """Unit normal of each pair: the direction joining its nodes where they are apart, else the target normal.
 
@@ -171,11 +185,11 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     if np.intersect1d(target_all, contact).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
-    normal_all = _transformed(target_transform, facet_integral(space, interface.target, vector=True))[target_all]
-    normal_all /= np.linalg.norm(normal_all, axis=1)[:, None]
-    contact_normal = _transformed(transform, sum(facet_integral(space, zone, vector=True)
-                                                 for zone in interface.zones))[contact]
-    contact_normal /= np.linalg.norm(contact_normal, axis=1)[:, None]
+    normal_all = _unit_normals(_transformed(target_transform, facet_integral(space, interface.target, vector=True)),
+                               target_all, mesh.points, f"target {interface.target!r} of interface {interface.name!r}")
+    contact_normal = _unit_normals(_transformed(transform, sum(facet_integral(space, zone, vector=True)
+                                                               for zone in interface.zones)),
+                                   contact, mesh.points, f"the zones of interface {interface.name!r}")
     facets = mesh.boundary(interface.target)
     h = np.median(np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1))
     index, facing = _pair_targets(space, contact, target_all, normal_all, contact_normal, h, interface.name)
