@@ -46,18 +46,24 @@ def _by_node(pairs):
     return pairs.nodes[order], pairs.gap[order], pairs.B[rows].toarray(), pairs.zone_share[order]
 
 
-def test_a_target_spanning_both_pads_pairs_each_zone_with_the_pad_it_faces(tmp_path):
+@pytest.mark.parametrize("discretisation", ["auto", "mortar"])
+def test_a_target_spanning_both_pads_pairs_each_zone_with_the_pad_it_faces(discretisation, tmp_path):
     """One interface on PADS (both pads' faces) couples exactly as one interface per pad: the same nodes, gaps,
     relative-displacement rows and zone shares; the pad behind the strip (its face turned the same way as the
     contact node's, 2 mm away) is never a partner."""
     mesh = write_clamp(tmp_path / "clamp.inp", size=0.5)
-    one, two = (build_model(model_options(mesh, one_target)) for one_target in (True, False))
+    one, two = (build_model(_discretised(model_options(mesh, one_target), discretisation))
+                for one_target in (True, False))
     assert one.zone_names == two.zone_names == ZONES["T"] + ZONES["B"]
     spanning, apart = _by_node(_pairs(one)), _by_node(_pairs(two))
     np.testing.assert_array_equal(spanning[0], apart[0])
     np.testing.assert_allclose(spanning[1], 0.0, atol=1e-12)            # the pads touch the strip
     np.testing.assert_allclose(spanning[2], apart[2], atol=1e-12)
     np.testing.assert_allclose(spanning[3], apart[3], atol=1e-12)
+
+
+def _discretised(options: dict, discretisation: str) -> dict:
+    return {**options, "interfaces": [{**i, "discretisation": discretisation} for i in options["interfaces"]]}
 
 
 def test_a_strip_thinner_than_its_facets_pairs_with_the_facing_pad(tmp_path):
@@ -115,14 +121,16 @@ def test_the_solver_uses_the_pairs_checked_at_model_build(tmp_path):
     assert (fresh.B != checked.B).nnz == 0
 
 
-def test_an_open_gap_is_mapped_with_its_size_and_state(tmp_path):
-    """Pads 0.3 mm off the strip: every pair open at 0.3 mm, accepted with gap_tolerance = 0.4."""
-    mesh = write_clamp(tmp_path / "clamp.inp", size=0.5, gap=0.3)
+@pytest.mark.parametrize("gap", [0.3, 0.8])
+def test_an_open_gap_within_the_stated_tolerance_is_mapped_with_its_size_and_state(gap, tmp_path):
+    """Pads 0.3 mm (within a facet size) and 0.8 mm (beyond it) off the strip: every pair open at that gap,
+    accepted with gap_tolerance = gap + 0.1."""
+    mesh = write_clamp(tmp_path / "clamp.inp", size=0.5, gap=gap)
     options = model_options(mesh, True)
-    options["interfaces"][0]["gap_tolerance"] = 0.4
+    options["interfaces"][0]["gap_tolerance"] = gap + 0.1
     (entry,) = contact_setup(build_model(options))
-    assert entry.gap == pytest.approx((0.3, 0.3), rel=1e-9) and entry.state["open"] == 50
-    assert entry.gap_tolerance == 0.4
+    assert entry.gap == pytest.approx((gap, gap), rel=1e-9) and entry.state["open"] == 50
+    assert entry.gap_tolerance == gap + 0.1
 
 
 # ---------------------------------------------------------------------------------------- bad input, exit 2
