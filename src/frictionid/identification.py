@@ -22,7 +22,6 @@ from .data.dic.window import choose as choose_window
 from .data.sources import data_digest, data_paths, read_sources
 from .errors import InputError, SolverError
 from .fem.locate import PointsOutside
-from .fem.interface import contact_setup
 from .fem.points import StrainWindow
 from .inverse.evaluator import JACOBIANS, Evaluator
 from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
@@ -33,6 +32,7 @@ from .discretisation import check_options, refine_until, with_model_error
 from .inverse.adequacy import Adequacy, assess, bias_shift
 from .inverse.uncertainty import Uncertainty, at_bounds, estimate
 from .model import Model
+from .model_checks import checked_contact, model_line
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .report.vtu import export_fields
@@ -133,24 +133,6 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
                  data_file, tuple(frames), window, contact)
-
-
-def model_line(model: Model, builder: str, seconds: float) -> str:
-    """The console's line about a built model: builder, kind, size, cells and element technology, zones."""
-    return (f"model: builder {builder!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, {model.mesh.cell_type} cells, "
-            f"element {model.element!r}, zones {', '.join(model.zone_names)} ({seconds:.1f} s)")
-
-
-def checked_contact(model: Model, where: str, echo) -> tuple:
-    """The model's contact map (:func:`~frictionid.fem.interface.contact_setup`), one line per interface to
-    ``echo``; a failed set-up check is an :class:`InputError` naming ``where`` (the config file)."""
-    try:
-        contact = contact_setup(model)
-    except InputError as exc:
-        raise InputError(f"{where}: {exc}") from None
-    for entry in contact:
-        echo(entry.line())
-    return contact
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -278,7 +260,8 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     if float(config.identify["refine_target"]) > 0:
         options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                                          float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
-        setup = replace(setup, model=model, model_options=options)
+        contact = setup.contact if model is setup.model else checked_contact(model, config.where, echo)
+        setup = replace(setup, model=model, model_options=options, contact=contact)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,

@@ -14,7 +14,7 @@ from .data.measurements import Measurements, write_measurements
 from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
-from .identification import checked_contact, model_line
+from .model_checks import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
 from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
