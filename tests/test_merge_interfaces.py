@@ -13,6 +13,7 @@ from frictionid.backends.calculix.deck import contact_pairs as deck_pairs, write
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
 from frictionid.cli import main
+from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels
 from frictionid.fem.interface import contact_setup
@@ -92,16 +93,26 @@ def test_a_bolts_head_and_nut_bearing_share_a_coefficient():
     assert head.zones["head_plate"]["coefficient"] == nut.zones["nut_plate"]["coefficient"] == "bearing"
 
 
-def test_simulate_and_identify_take_a_merge_across_interfaces(tmp_path, capsys):
+def test_simulate_takes_a_merge_across_interfaces_from_the_config(tmp_path):
+    """[friction] merge across the clamp's two interfaces: the merged coefficients' simulation equals the
+    unmerged one at equal values."""
     write_clamp(tmp_path / "clamp.inp", size=0.5)
     (tmp_path / "points.csv").write_text(points_csv(("ux", "uy")))
-    body = model_table("clamp.inp", False) + (
-        '[friction]\nzones = { P1 = 0.3, P2 = 0.2, T3 = 0.3, B3 = 0.25 }\n'
-        'merge = { P1 = ["T1", "B1"], P2 = ["T2", "B2"] }\n[data]\nfile = "points.csv"\n'
-        'observables = ["ux", "uy"]\nstages = [2]\n')
-    (tmp_path / "truth.toml").write_text(body)
-    assert main(["simulate", str(tmp_path / "truth.toml"), "--out", str(tmp_path / "measured.csv")]) == 0
-    assert "coefficients: P1=0.3, P2=0.2, T3=0.3, B3=0.25" in (tmp_path / "measured.csv").read_text()
+    data = '[data]\nfile = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n'
+    (tmp_path / "merged.toml").write_text(
+        model_table("clamp.inp", False) + '[friction]\nzones = { P1 = 0.3, P2 = 0.2, T3 = 0.3, B3 = 0.25 }\n'
+        'merge = { P1 = ["T1", "B1"], P2 = ["T2", "B2"] }\n' + data)
+    (tmp_path / "apart.toml").write_text(
+        model_table("clamp.inp", False) + '[friction]\nzones = { T1 = 0.3, B1 = 0.3, T2 = 0.2, B2 = 0.2, T3 = 0.3, '
+        'B3 = 0.25 }\n' + data)
+    values = {}
+    for name in ("merged", "apart"):
+        assert main(["simulate", str(tmp_path / f"{name}.toml"), "--out", str(tmp_path / f"{name}.csv")]) == 0
+        values[name] = read_measurements(tmp_path / f"{name}.csv").values
+    assert "coefficients: P1=0.3, P2=0.2, T3=0.3, B3=0.25" in (tmp_path / "merged.csv").read_text()
+    for quantity in ("ux", "uy"):
+        np.testing.assert_allclose(values["merged"][quantity], values["apart"][quantity], rtol=0, atol=1e-12)
+        assert np.abs(values["apart"][quantity]).max() > 1e-4
 
 
 def test_a_merged_name_that_is_another_boundary_is_refused(clamp):
