@@ -26,7 +26,7 @@ from frictionid.cli import main
 from frictionid.config import read_config
 from frictionid.errors import InputError
 from frictionid.fem.contact_map import FACING_DEG, GAP_FRACTION
-from frictionid.fem.interface import contact_pairs, contact_setup
+from frictionid.fem.interface import contact_pairs, contact_setup, model_space
 from frictionid.fem.space import Space
 from frictionid.report.html import report_html
 
@@ -113,7 +113,8 @@ def test_the_solver_uses_the_pairs_checked_at_model_build(tmp_path):
     model = build_model(options)
     contact_setup(model)
     checked = contact_pairs(Space.build(model.mesh, model.kind), model)
-    assert Problem.build(model).pairs is checked
+    problem = Problem.build(model)
+    assert problem.pairs is checked and problem.space is model_space(model)
     fresh = _pairs(build_model({**options, "increments": [1, 4]}))           # another model object
     assert fresh is not checked
     for name in ("nodes", "gap", "weight", "zone_share", "frames"):

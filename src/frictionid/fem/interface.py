@@ -14,10 +14,23 @@ from .pairs import ContactPairs
 from .space import Space
 
 
-#: the pairs :func:`contact_setup` built last: (weak reference to the model, (kind, element), pairs), which
-#: :func:`contact_pairs` returns for that model and space, so that the check at model build and the solver's
-#: condensation pair the interfaces once
+#: what :func:`contact_setup` built last: (weak reference to the model, (kind, element), space, pairs), which
+#: :func:`model_space` and :func:`contact_pairs` return for that model, so that the check at model build and the
+#: solver's condensation build the space and pair the interfaces once; cleared when the model is collected
 _LAST: dict = {}
+
+
+def _cached(model: Model, kind: str, element: str):
+    entry = _LAST.get("setup")
+    if entry is not None and entry[0]() is model and entry[1] == (kind, element):
+        return entry
+    return None
+
+
+def model_space(model: Model) -> Space:
+    """``Space.build(model.mesh, model.kind, model.element)``, the one :func:`contact_setup` built if it did."""
+    entry = _cached(model, model.kind, model.element)
+    return entry[2] if entry is not None else Space.build(model.mesh, model.kind, model.element)
 
 
 def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
@@ -33,9 +46,9 @@ def contact_pairs(space: Space, model: Model) -> ContactPairs:
     "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added, normals of
     helical interfaces tilted by their lead (:func:`frictionid.fem.twist.with_circumferential_tangent`).
     """
-    cached = _LAST.get("pairs")
-    if cached is not None and cached[0]() is model and cached[1] == (space.kind, space.element):
-        return cached[2]
+    entry = _cached(model, space.kind, space.element)
+    if entry is not None and entry[2].n_dofs == space.n_dofs:
+        return entry[3]
     if space.n_components != space.dim:
         from .twist import with_circumferential_tangent
         section = Space.build(model.mesh, "axisymmetric", model.element)
@@ -69,5 +82,5 @@ def contact_setup(model: Model) -> tuple[InterfaceMap, ...]:
     space = Space.build(model.mesh, kind, model.element)
     parts = [interface_pairs(space, model, i) for i in range(len(model.interfaces))]
     pairs = ContactPairs.concatenate([p for p, _ in parts], space.n_dofs, model.n_zones, space.dim)
-    _LAST["pairs"] = (weakref.ref(model), (space.kind, space.element), pairs)
+    _LAST["setup"] = (weakref.ref(model, lambda _: _LAST.clear()), (space.kind, space.element), space, pairs)
     return contact_map(model, parts)

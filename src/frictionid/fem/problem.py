@@ -14,7 +14,7 @@ from ..errors import InputError, SolverError
 from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
-from .interface import contact_pairs
+from .interface import contact_pairs, model_space
 from .loadpath import LoadPathSolver
 from .pairs import ContactPairs
 from .rigid import free_rigid_modes
@@ -149,7 +149,7 @@ class Problem:
             How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
             [solver] factorisation).
         """
-        space = Space.build(model.mesh, model.kind, model.element)
+        space = model_space(model)
         if points is not None and observe is not None:
             raise InputError("observation: give either observe rows or points, not both")
         if points is not None:
