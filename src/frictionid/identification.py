@@ -33,6 +33,7 @@ from .inverse.adequacy import Adequacy, assess, bias_shift
 from .inverse.uncertainty import Uncertainty, at_bounds, estimate, systematic_error
 from .model import Model
 from .paths import check_folder, input_files
+from .model_checks import checked_contact, model_line
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .report.vtu import export_fields
@@ -66,6 +67,8 @@ class Setup:
     window: object = None
     #: how each DIC export was read (format, coordinates, strain measure, points): result.json's ``data.files``
     files: tuple = ()
+    #: the contact map checked at model build (:func:`~frictionid.fem.interface.contact_setup`)
+    contact: tuple = ()
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -101,8 +104,8 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     if model is None:
         start = time.perf_counter()
         model = build_model(model_options, f"{where}: [model]")
-        echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
-             f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
+        echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
+    contact = checked_contact(model, where, echo)
     if parameters is None:
         parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                             config.friction.get("fixed"))
@@ -137,7 +140,7 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
                                      config.data.get("noise"), config.data.get("regions"), relative, specimens,
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
-                 data_file, tuple(frames), window, tuple(files))
+                 data_file, tuple(frames), window, tuple(files), contact)
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -264,7 +267,8 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     if float(config.identify["refine_target"]) > 0:
         options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                                          float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
-        setup = replace(setup, model=model, model_options=options)
+        contact = setup.contact if model is setup.model else checked_contact(model, config.where, echo)
+        setup = replace(setup, model=model, model_options=options, contact=contact)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
@@ -480,7 +484,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "mode": config.identify["model_error"], **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
-        "model": setup.model_options,
+        "model": {**setup.model_options, "contact": [entry.as_dict() for entry in setup.contact]},
         "data": data_section(setup.frames, obs, setup.window, setup.files),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},

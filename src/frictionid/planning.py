@@ -88,9 +88,14 @@ def weighted_rows(model: Model, points, regions, quantities, stages, sigma, mu, 
 
 
 def _zone_relations(model: Model, names) -> tuple[set, list]:
-    """Pairs of the named zones that share a node, and each zone's interface."""
-    nodes = {z: set(model.mesh.boundary_nodes(z).tolist()) for z in names}
-    interface = {z: i.name for i in model.interfaces for z in i.zones}
+    """Pairs of the named zones (coefficients) that share a node, and each zone's interface (a coefficient zones of
+    several interfaces share: their names joined by "+")."""
+    zones_of: dict[str, list] = {}
+    for i in model.interfaces:
+        for zone, coefficient in zip(i.zones, i.coefficients):
+            zones_of.setdefault(coefficient, []).append((zone, i.name))
+    nodes = {c: {int(n) for zone, _ in zones_of[c] for n in model.mesh.boundary_nodes(zone)} for c in names}
+    interface = {c: "+".join(dict.fromkeys(name for _, name in zones_of[c])) for c in names}
     neighbours = {frozenset((a, b)) for a in range(len(names)) for b in range(a + 1, len(names))
                   if nodes[names[a]] & nodes[names[b]]}
     return neighbours, [interface[z] for z in names]

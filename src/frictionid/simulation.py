@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from .data.measurements import Measurements, write_measurements
 from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
+from .model_checks import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
 from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
@@ -44,7 +46,10 @@ def _simulate(config: Config, out, echo) -> Path:
     if config.run["fields"]:
         check_folder(fields_folder(out), "output fields folder", inputs)
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
+    start = time.perf_counter()
     model = build_model(config.model_options, f"{config.where}: [model]")
+    echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
+    checked_contact(model, config.where, echo)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)

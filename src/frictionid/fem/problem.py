@@ -15,7 +15,7 @@ from ..errors import InputError, SolverError
 from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
-from .interface import contact_pairs
+from .interface import contact_pairs, model_space
 from . import loadpath
 from .loadpath import LoadPathSolver, stuck_inverses
 from .pairs import ContactPairs
@@ -197,7 +197,7 @@ class Problem:
             How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
             [solver] factorisation).
         """
-        space = Space.build(model.mesh, model.kind, model.element)
+        space = model_space(model)
         if points is not None and observe is not None:
             raise InputError("observation: give either observe rows or points, not both")
         if points is not None:
@@ -241,7 +241,7 @@ class Problem:
         """(n_pairs,) [mm] size of the largest contact facet at each pair (corner-to-corner edge length)."""
         mesh = self.model.mesh
         length = np.zeros(mesh.n_nodes)
-        for zone in self.model.zone_names:
+        for zone in (z for interface in self.model.interfaces for z in interface.zones):
             facets = mesh.boundary(zone)
             edge = np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1)
             np.maximum.at(length, facets, np.repeat(edge[:, None], facets.shape[1], axis=1))
