@@ -12,14 +12,16 @@ from .space import Space
 
 
 def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
-    if space.dim != 2:
-        raise InputError(f"interface {model.interfaces[index].name!r}: mortar is available for 2-D models only")
+    if space.dim == 3:
+        from .mortar3d import mortar_pairs_3d
+        return mortar_pairs_3d(space, model, index)
     from .mortar import mortar_pairs
     return mortar_pairs(space, model, index)
 
 
 def contact_pairs(space: Space, model: Model) -> ContactPairs:
-    """Pairs of every interface in model order; "auto" tries node-to-node and falls back to mortar in 2-D.
+    """Pairs of every interface in model order; "auto" tries node-to-node and falls back to mortar
+    where the meshes do not match (2-D and 3-D).
 
     "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added, normals of
     helical interfaces tilted by their lead (:func:`frictionid.fem.twist.with_circumferential_tangent`).
@@ -38,7 +40,7 @@ def contact_pairs(space: Space, model: Model) -> ContactPairs:
         try:
             parts.append(node_to_node_pairs(space, model, index))
         except InputError:
-            if interface.discretisation == "node-to-node" or space.dim != 2:
+            if interface.discretisation == "node-to-node":
                 raise
             parts.append(_mortar(space, model, index))
     return ContactPairs.concatenate(parts, space.n_dofs, model.n_zones, space.dim)

@@ -111,7 +111,7 @@ def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal:
         i = int(np.argmax(miss))
         raise InputError(f"interface {name!r}: contact node at {np.round(points[contact[i]], 6).tolist()} has no "
                          f"target node facing it (within {0.05 * h:.3g} mm across the normal); the meshes do not "
-                         "match: use discretisation = 'mortar' (2-D) or make the meshes conforming")
+                         "match: use discretisation = 'mortar' or make the meshes conforming")
     return near[np.arange(len(contact)), best]
 
 

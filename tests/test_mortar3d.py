@@ -1,0 +1,150 @@
+"""3-D dual mortar (fem/mortar3d.py) on separately meshed bodies (tests/stacks3d.py): exact coupling of linear
+fields, the matching limit, the contact patch test, Coulomb's gross slip and sensitivities against central
+differences, for linear and quadratic hexahedra and tetrahedra."""
+
+import numpy as np
+import pytest
+
+from frictionid.errors import InputError
+from frictionid.fem.contact import SLIP, STICK
+from frictionid.fem.interface import contact_pairs
+from frictionid.fem.mortar3d import mortar_pairs_3d
+from frictionid.fem.node_to_node import node_to_node_pairs
+from frictionid.fem.problem import Problem
+from frictionid.fem.space import Space
+from frictionid.model import ContactInterface, Displacement, Material, Model, Pressure, Stage, Support
+
+from stacks3d import stack
+from test_verification import _check_sensitivities
+
+STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
+MU = np.array([0.2, 0.35])
+
+#: (cell type, upper pattern, lower pattern, hexes, order): sides of different sizes, and one side unstructured
+NON_MATCHING = {
+    "hexahedron-sizes": ("grid 4", "grid 3", True, 1),
+    "hexahedron-free": ("grid 4", "free 0.45", True, 1),
+    "hexahedron27-sizes": ("grid 2", "grid 3", True, 2),
+    "hexahedron27-free": ("grid 2", "free 0.7", True, 2),
+    "tetra-free": ("free 0.45", "free 0.6", False, 1),
+    "tetra10-free": ("free 0.6", "free 0.4", False, 2),
+}
+_meshes = {}
+
+
+def _mesh(case):
+    if case not in _meshes:
+        _meshes[case] = stack(*NON_MATCHING[case])
+    return _meshes[case]
+
+
+def _interface(discretisation="mortar"):
+    return (ContactInterface("stack", ("A", "B"), "target", discretisation),)
+
+
+def _linear_field(points):
+    gradient = np.array([[0.3, -1.1, 0.2], [0.7, 0.45, -0.3], [0.1, 0.2, 0.5]])
+    return (np.array([0.2, -0.5, 0.1]) + points @ gradient.T).ravel()
+
+
+@pytest.mark.parametrize("case", list(NON_MATCHING))
+def test_linear_fields_are_coupled_exactly(case):
+    """A linear displacement field of both bodies gives no relative displacement (rows of B annihilate it, to
+    round-off); the weights tile the 2 x 2 mm interface, each positive; flat coincident faces have no gap."""
+    mesh = _mesh(case)
+    model = Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface())
+    pairs = mortar_pairs_3d(Space.build(mesh, "3d"), model, 0)
+    assert np.array_equal(pairs.nodes, np.unique(np.vstack([mesh.boundary("A"), mesh.boundary("B")])))
+    assert pairs.B.getnnz(axis=1).max() > 3 * 3                            # coupled to several target nodes
+    np.testing.assert_allclose(pairs.B @ _linear_field(mesh.points), 0.0, atol=1e-12)
+    assert np.all(pairs.weight > 0) and pairs.weight.sum() == pytest.approx(4.0, rel=1e-12)
+    np.testing.assert_allclose(pairs.zone_share.sum(axis=1), 1.0, rtol=1e-12)
+    area = {z: np.sum(pairs.zone_share[:, i] * pairs.weight) for i, z in enumerate("AB")}
+    assert area["A"] + area["B"] == pytest.approx(4.0, rel=1e-12) and min(area.values()) > 1.5
+    np.testing.assert_allclose(pairs.gap, 0.0, atol=1e-12)
+    np.testing.assert_allclose(pairs.frames[:, 0], [[0.0, 0.0, 1.0]] * pairs.n_pairs, atol=1e-12)
+
+
+@pytest.mark.parametrize("pattern, hexes, order", [("grid 3", True, 1), ("grid 2", True, 2)])
+def test_matching_meshes_give_node_to_node_coupling(pattern, hexes, order):
+    """Where the two sides' facets coincide the dual mortar coupling is node-to-node (D diagonal, M = D)."""
+    mesh = stack(pattern, pattern, hexes, order)
+    model = Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface())
+    space = Space.build(mesh, "3d")
+    mortar, matching = mortar_pairs_3d(space, model, 0), node_to_node_pairs(space, model, 0)
+    assert np.array_equal(mortar.nodes, matching.nodes)
+    assert abs(mortar.B - matching.B).max() < 1e-12
+    np.testing.assert_allclose(mortar.weight, matching.weight, rtol=1e-12)
+    np.testing.assert_allclose(mortar.zone_share, matching.zone_share, atol=1e-12)
+
+
+@pytest.mark.parametrize("hexes, order", [(True, 1), (False, 2)])
+def test_auto_picks_node_to_node_where_meshes_match_and_mortar_where_not(hexes, order):
+    matching = stack("grid 2", "grid 2", hexes, order)
+    different = stack("grid 2", "grid 3", hexes, order)
+    for mesh, expected in ((matching, node_to_node_pairs), (different, mortar_pairs_3d)):
+        model = Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface("auto"))
+        space = Space.build(mesh, "3d")
+        pairs = contact_pairs(space, model)
+        assert abs(pairs.B - expected(space, model, 0).B).max() == 0.0
+    model = Model(different, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface("node-to-node"))
+    with pytest.raises(InputError, match="do not match"):
+        contact_pairs(Space.build(different, "3d"), model)
+
+
+def _pressed(mesh) -> Model:
+    """10 MPa on the upper top, bodies of different stiffness, held by symmetry planes (x = 0, y = 0) and the
+    lower bottom in z: uniaxial stress in both, exact in the element space; frictionless slip where their
+    lateral expansions differ."""
+    return Model(mesh, "3d", {"lower": STEEL, "upper": ALUMINIUM},
+                 supports=(Support("lower_bottom", (2,)), Support("lower_x0", (0,)), Support("upper_x0", (0,)),
+                           Support("lower_y0", (1,)), Support("upper_y0", (1,))),
+                 loads=(Pressure("upper_top", (10.0,)),), stages=(Stage("press", 1),), interfaces=_interface("auto"))
+
+
+@pytest.mark.parametrize("case", list(NON_MATCHING))
+def test_contact_patch_test_gives_the_uniform_pressure(case):
+    """Contact patch test (Taylor & Papadopoulos 1991) on non-matching meshes: 10 MPa at every contact node to
+    1e-8. Measured: 1e-12 relative where the cells' maps are affine (tetrahedra, the rectangular grids); on the
+    unstructured quadrilaterals the integrand is not polynomial (their maps are bilinear), 2e-11 (linear) and
+    6e-9 (quadratic)."""
+    problem = Problem.build(_pressed(_mesh(case)))
+    solution = problem.solve([0.0, 0.0])
+    assert problem.pairs.B.getnnz(axis=1).max() > 6 * 3                  # "auto" took mortar
+    np.testing.assert_allclose(solution.pressure[-1], 10.0, rtol=1e-8)
+    assert solution.zone_normal_force[-1].sum() == pytest.approx(40.0, rel=1e-10)
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert reactions["lower_bottom.z"] == pytest.approx(40.0, rel=1e-10)
+
+
+def _pulled(mesh) -> Model:
+    """Press 10 MPa, then the upper top driven in x (its y held) to 2e-5 mm (stick), 2e-4 mm (partial slip) and
+    0.05 mm (gross slip); lower bottom held."""
+    return Model(mesh, "3d", {"lower": STEEL, "upper": ALUMINIUM},
+                 supports=(Support("lower_bottom", (0, 1, 2)),),
+                 loads=(Pressure("upper_top", (10.0,) * 4),
+                        Displacement("upper_top", "x", (0.0, 2e-5, 2e-4, 0.05)),
+                        Displacement("upper_top", "y", (0.0,) * 4)),
+                 stages=(Stage("press", 1), Stage("stick", 1), Stage("partial", 2), Stage("gross", 2)),
+                 interfaces=_interface())
+
+
+@pytest.mark.parametrize("case", ["hexahedron-free", "tetra10-free"])
+def test_gross_slip_and_sensitivities(case):
+    """Coulomb at gross slip: sum |lam_T| = sum mu_i N_i to 1e-8, every closed pair on its cone, the pull's
+    reaction within 0.5 % (the slip directions' small y part); d reactions / d mu against central differences
+    (rtol 1e-6, h = 1e-6) at every increment: all stuck, partial slip, gross slip."""
+    problem = Problem.build(_pulled(_mesh(case)))
+    solution = _check_sensitivities(problem, MU)
+    states = [np.bincount(solution.state[solution.stage_end(k)], minlength=3) for k in (1, 2)]
+    assert states[0][STICK] > 0 and states[0][SLIP] == 0
+    assert states[1][STICK] > 0 and states[1][SLIP] > 0
+    closed = solution.state[-1] != 0
+    assert np.all(solution.state[-1][closed] == SLIP) and closed.sum() > 0.5 * problem.pairs.n_pairs
+    normal = solution.zone_normal_force[-1]
+    assert normal.sum() == pytest.approx(40.0, rel=1e-10)
+    assert np.linalg.norm(solution.lam[-1, :, 1:], axis=1).sum() == pytest.approx(MU @ normal, rel=1e-8)
+    np.testing.assert_allclose(np.linalg.norm(solution.lam[-1, closed, 1:], axis=1),
+                               problem.pairs.mu(MU)[closed] * solution.lam[-1, closed, 0], rtol=1e-8)
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert abs(reactions["upper_top.x"]) == pytest.approx(MU @ normal, rel=5e-3)
