@@ -11,8 +11,8 @@ def signed_area(polygon: np.ndarray) -> float:
     >>> signed_area(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
     0.5
     """
-    x, y = polygon[:, 0], polygon[:, 1]
-    return float(0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+    points = np.asarray(polygon, dtype=float).tolist()
+    return 0.5 * sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(points, points[1:] + points[:1]))
 
 
 def counter_clockwise(polygon: np.ndarray) -> np.ndarray:
@@ -31,24 +31,24 @@ def clip(subject: np.ndarray, window: np.ndarray, tol: float = 0.0) -> np.ndarra
     >>> round(signed_area(clip(square + 0.5, square)), 12)
     0.25
     """
-    out = np.asarray(subject, dtype=float)
-    for a, b in zip(window, np.roll(window, -1, axis=0)):
-        if len(out) == 0:
+    out = np.asarray(subject, dtype=float).tolist()         # small polygons: plain floats beat numpy here
+    corners = np.asarray(window, dtype=float).tolist()
+    for (ax, ay), (bx, by) in zip(corners, corners[1:] + corners[:1]):
+        if not out:
             break
-        edge = b - a
-        length = np.hypot(*edge)
+        ex, ey = bx - ax, by - ay
+        length = (ex * ex + ey * ey) ** 0.5
         # distance inside the edge's half-plane (left of a -> b)
-        side = (edge[0] * (out[:, 1] - a[1]) - edge[1] * (out[:, 0] - a[0])) / length
-        inside = side >= -tol
-        if inside.all():
+        side = [(ex * (y - ay) - ey * (x - ax)) / length for x, y in out]
+        if min(side) >= -tol:
             continue
         kept = []
-        for i in range(len(out)):
-            j = (i + 1) % len(out)
-            if inside[i]:
-                kept.append(out[i])
-            if inside[i] != inside[j]:
-                t = side[i] / (side[i] - side[j])
-                kept.append(out[i] + t * (out[j] - out[i]))
-        out = np.array(kept).reshape(-1, 2)
-    return out if len(out) >= 3 else np.zeros((0, 2))
+        for i, (p, d) in enumerate(zip(out, side)):
+            q, e = out[(i + 1) % len(out)], side[(i + 1) % len(out)]
+            if d >= -tol:
+                kept.append(p)
+            if (d >= -tol) != (e >= -tol):
+                t = d / (d - e)
+                kept.append([p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
+        out = kept
+    return np.array(out) if len(out) >= 3 else np.zeros((0, 2))

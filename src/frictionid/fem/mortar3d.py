@@ -183,12 +183,20 @@ def _segment(slave: _Side, s: int, dual: np.ndarray, master: _Side, m: int, axes
 
 
 def _candidates(slave: _Side, master: _Side, search_distance: float) -> list[np.ndarray]:
-    """For each slave facet, the master facets within reach that face it."""
+    """For each slave facet, the facing master facets whose projections onto its plane can overlap it (centres
+    within the sum of the facets' radii in the plane) within search_distance across it."""
     tree = cKDTree(master.centre)
     reach = slave.radius + master.radius.max() + search_distance
-    near = tree.query_ball_point(slave.centre, reach)
-    return [np.array([m for m in found if master.normal[m] @ slave.normal[s] < 0], dtype=int)
-            for s, found in enumerate(near)]
+    out = []
+    for s, found in enumerate(tree.query_ball_point(slave.centre, reach)):
+        found = np.asarray(found, dtype=int)
+        offset = master.centre[found] - slave.centre[s]
+        across = offset @ slave.normal[s]
+        along = np.linalg.norm(offset - across[:, None] * slave.normal[s], axis=1)
+        near = (along <= (slave.radius[s] + master.radius[found]) * (1 + 1e-9)) \
+            & (np.abs(across) <= search_distance + master.radius[found])
+        out.append(found[near & (master.normal[found] @ slave.normal[s] < 0)])
+    return out
 
 
 def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float, n_zones: int):
