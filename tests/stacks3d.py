@@ -1,4 +1,5 @@
-"""Two 3-D bodies meshed separately (non-matching interface), shared by the 3-D mortar tests.
+"""3-D bodies meshed separately (non-matching interfaces), shared by the 3-D mortar tests: a stack of two
+bodies (:func:`stack`) and reference test 1 as a user meshes it (:func:`write_nonmatching_block`).
 
 Lower body [0, 2] x [0, 2] x [-1, 0], upper body [0, 2] x [0, 2] x [0, 1]; the upper bottom is split at x = 1
 into zones A (x < 1) and B (x > 1), the lower top is "target". Both are 2-D meshes of their z = 0 / z = -1 face
@@ -11,6 +12,9 @@ set separately:
 """
 
 from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
 
 import gmsh
 import numpy as np
@@ -75,6 +79,59 @@ def stack(upper: str, lower: str, hexes: bool, order: int = 1, layers: int = 2):
     left = points[contact].mean(axis=1)[:, 0] < SIDE / 2
     boundaries.update(A=contact[left], B=contact[~left])
     return Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), boundaries)
+
+
+def user_block_generator():
+    """tests/fixtures/user_block/generate.py as a module (the fixture's own mesh writers)."""
+    spec = importlib.util.spec_from_file_location("user_block_generate",
+                                                  Path(__file__).parent / "fixtures" / "user_block" / "generate.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def write_nonmatching_block(path, block_quarter: int = 4, plate_quarter: int = 3, outer: int = 3,
+                            block_z: int = 6, plate_z: int = 3) -> None:
+    """Reference test 1 as tests/fixtures/user_block/generate.py meshes it (transfinite hexahedra, each body
+    fragmented on its own), but the block's footprint with ``block_quarter`` divisions per half side and the
+    plate's with ``plate_quarter``: the interface nodes do not match (except on the quadrant borders' ends).
+    The block, the contact side, carries the finer mesh, as the slave side of a mortar interface should."""
+    generate = user_block_generator()
+    with gmsh_session("user_block_nonmatching"):
+        plate = generate._boxes([-20, -5, 0, 5, 20], -5, 0)
+        block = generate._boxes([-5, 0, 5], 0, 10)
+        gmsh.model.occ.synchronize()
+        faces = gmsh.model.getBoundary([(3, v) for v in block], combined=False, oriented=False)
+        in_block = {abs(c) for _, c in gmsh.model.getBoundary(faces, combined=False, oriented=False)}
+        for _, curve in gmsh.model.getEntities(1):
+            ends = [np.array(gmsh.model.getValue(0, abs(p), [])) for _, p in
+                    gmsh.model.getBoundary([(1, curve)], oriented=False)]
+            axis = int(np.argmax(np.abs(ends[1] - ends[0])))
+            if axis == 2:
+                n = block_z if curve in in_block else plate_z
+            elif max(abs(ends[0][axis]), abs(ends[1][axis])) <= 5 + 1e-6:
+                n = block_quarter if curve in in_block else plate_quarter
+            else:
+                n = outer
+            gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
+        for _, surface in gmsh.model.getEntities(2):
+            gmsh.model.mesh.setTransfiniteSurface(surface)
+            gmsh.model.mesh.setRecombine(2, surface)
+        for _, volume in gmsh.model.getEntities(3):
+            gmsh.model.mesh.setTransfiniteVolume(volume)
+        add = gmsh.model.addPhysicalGroup
+        add(3, plate, name="plate")
+        add(3, block, name="block")
+        add(2, generate._faces_at(plate, 2, -5), name="plate_bottom")
+        add(2, generate._faces_at(plate, 2, 0), name="plate_top")
+        add(2, generate._faces_at(block, 2, 10), name="block_top")
+        zones = {(-1, -1): "A", (1, -1): "B", (-1, 1): "C", (1, 1): "D"}
+        for face in generate._faces_at(block, 2, 0):
+            x, y, _ = gmsh.model.occ.getCenterOfMass(2, face)
+            add(2, [face], name=zones[(int(np.sign(x)), int(np.sign(y)))])
+        gmsh.model.mesh.generate(3)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
 
 
 def _on(dim: int, tag: int, axis: int, value: float) -> bool:

@@ -5,6 +5,7 @@ differences, for linear and quadratic hexahedra and tetrahedra."""
 import numpy as np
 import pytest
 
+from frictionid.builders.registry import build_model
 from frictionid.errors import InputError
 from frictionid.fem.contact import SLIP, STICK
 from frictionid.fem.interface import contact_pairs
@@ -14,7 +15,8 @@ from frictionid.fem.problem import Problem
 from frictionid.fem.space import Space
 from frictionid.model import ContactInterface, Displacement, Material, Model, Pressure, Stage, Support
 
-from stacks3d import stack
+from element_models import BLOCK_3D, ZONES_3D
+from stacks3d import stack, write_nonmatching_block
 from test_verification import _check_sensitivities
 
 STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
@@ -148,3 +150,21 @@ def test_gross_slip_and_sensitivities(case):
                                problem.pairs.mu(MU)[closed] * solution.lam[-1, closed, 0], rtol=1e-8)
     reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
     assert abs(reactions["upper_top.x"]) == pytest.approx(MU @ normal, rel=5e-3)
+
+
+def test_a_users_separately_meshed_block_builds_and_slips_by_coulomb(tmp_path):
+    """builder = "mesh" with a user's .msh whose block and plate are meshed separately (reference test 1, 4 and
+    3 divisions per half side of the footprint): accepted, "auto" takes mortar, and at the end of the 0.2 mm pull
+    (gross slip) the pull's reaction is sum mu_i N_i (to 0.5 %: the slip directions' small x part) with the press's
+    2000 N carried by the zones (to 1e-8). CalculiX on the same mesh: tests/test_mortar3d_calculix.py."""
+    write_nonmatching_block(tmp_path / "block.msh")
+    model = build_model({"builder": "mesh", "file": str(tmp_path / "block.msh"), **BLOCK_3D})
+    problem = Problem.build(model)
+    assert problem.pairs.n_pairs == 9 ** 2 and problem.pairs.B.getnnz(axis=1).max() > 6 * 3
+    mu = np.array([ZONES_3D[z] for z in model.zone_names])
+    solution = problem.solve(mu)
+    normal = solution.zone_normal_force[-1]
+    assert normal.sum() == pytest.approx(2000.0, rel=1e-8)
+    reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))
+    assert abs(reactions["block_top.y"]) == pytest.approx(mu @ normal, rel=5e-3)
+    assert np.linalg.norm(solution.lam[-1, :, 1:], axis=1).sum() == pytest.approx(mu @ normal, rel=1e-8)
