@@ -13,7 +13,7 @@ from frictionid.fem.mortar3d import mortar_pairs_3d
 from frictionid.fem.node_to_node import node_to_node_pairs
 from frictionid.fem.problem import Problem
 from frictionid.fem.space import Space
-from frictionid.model import ContactInterface, Displacement, Material, Model, Pressure, Stage, Support
+from frictionid.model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 
 from element_models import BLOCK_3D, ZONES_3D
 from hertz3d import THICKNESS, hertz_model, hertz_reference
@@ -94,6 +94,20 @@ def test_auto_picks_node_to_node_where_meshes_match_and_mortar_where_not(hexes, 
     model = Model(different, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface("node-to-node"))
     with pytest.raises(InputError, match="do not match"):
         contact_pairs(Space.build(different, "3d"), model)
+
+
+def test_an_interface_whose_sides_do_not_face_is_refused():
+    """Bad input: the upper body moved 3 mm sideways (its zones face nothing) and the target swapped for a
+    boundary of the same body facing away: each refused by name."""
+    mesh = _mesh("tetra-free")
+    points = np.array(mesh.points)
+    points[np.unique(mesh.cells[mesh.regions["upper"]]), 0] += 3.0
+    moved = Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries))
+    away = ContactInterface("stack", ("A", "B"), "lower_bottom", "mortar")
+    for case, interfaces in ((moved, _interface()), (mesh, (away,))):
+        model = Model(case, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=interfaces)
+        with pytest.raises(InputError, match="interface 'stack': no contact facet of zones \\['A', 'B'\\] faces"):
+            mortar_pairs_3d(Space.build(case, "3d"), model, 0)
 
 
 def _pressed(mesh) -> Model:

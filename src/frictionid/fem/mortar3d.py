@@ -291,6 +291,11 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
         logger.info("mortar: interface %d: %d of %d contact nodes left out (not covered by the target)",
                     interface_index, int((~keep).sum()), len(nodes))
     nodes = nodes[keep]
+    if not len(nodes):
+        interface = model.interfaces[interface_index]
+        raise InputError(f"interface {interface.name!r}: no contact facet of zones {list(interface.zones)} faces "
+                         f"the target {interface.target!r} within {search_distance:.3g} mm (mortar); check that "
+                         "the two boundaries touch and their bodies lie on opposite sides")
     transform = surface_transform(mesh, slave.facets)
     slave_rows = sp.identity(mesh.n_nodes, format="csr")[nodes] if transform is None else transform[1][nodes]
     rows = slave_rows - sp.diags(1.0 / covered[nodes]) @ mortar[nodes]
