@@ -8,7 +8,8 @@ by ``depth`` (a displacement: no body floats before contact closes). Reference (
 (1985), eq. 4.43-4.45): with P the force per mm of length (twice the half model's reaction over T),
 a = sqrt(4 P R / (pi E*)), p0 = 2 P / (pi a), E* = E / (2 (1 - nu^2)).
 
-The x-y sections are meshed by gmsh (quadrilaterals recombined, then extruded to hexahedra; order 1 or 2) with
+The x-y sections are meshed by gmsh (quadrilaterals recombined, then extruded to hexahedra, or triangles
+extruded to tetrahedra; order 1 or 2) with
 size ``h`` within 1.6 A of the contact line on the cylinder, 0.7 h on the block, growing to 1 mm; the cylinder
 has 1 layer through the thickness, the block 2. The contact zone is the cylinder's facets within 1.6 A of the
 contact line, the target the block's top within 2.5 A.
@@ -61,13 +62,13 @@ def _sections():
     return (cylinder, bottom), (block, corners[0])
 
 
-def hertz_mesh(h: float, order: int = 2) -> Mesh:
+def hertz_mesh(h: float, order: int = 2, hexes: bool = True) -> Mesh:
     """The two bodies' mesh; regions "upper", "lower"; boundaries "contact", "target", "top", "bottom", "x0",
     "z0", "z1" (both bodies' where it applies)."""
     with gmsh_session("hertz3d"):
         geo = gmsh.model.geo
         (cylinder, near_upper), (block, near_lower) = _sections()
-        extruded = {name: geo.extrude([(2, face)], 0, 0, THICKNESS, numElements=[layers], recombine=True)
+        extruded = {name: geo.extrude([(2, face)], 0, 0, THICKNESS, numElements=[layers], recombine=hexes)
                     for name, face, layers in (("upper", cylinder, 1), ("lower", block, 2))}
         geo.synchronize()
         fields = [_size_field(h, near_upper), _size_field(0.7 * h, near_lower)]
@@ -76,7 +77,7 @@ def hertz_mesh(h: float, order: int = 2) -> Mesh:
         gmsh.model.mesh.field.setAsBackgroundMesh(minimum)
         for key in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
             gmsh.option.setNumber(key, 0)
-        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.RecombineAll", int(hexes))
         add = gmsh.model.addPhysicalGroup
         groups = {name: [] for name in ("top", "bottom", "x0", "z1", "curved", "block_top")}
         for name, out in extruded.items():
@@ -112,9 +113,9 @@ def hertz_mesh(h: float, order: int = 2) -> Mesh:
     return Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), boundaries)
 
 
-def hertz_model(h: float, order: int = 2, depth: float = DEPTH, n_increments: int = 2) -> Model:
+def hertz_model(h: float, order: int = 2, depth: float = DEPTH, n_increments: int = 2, hexes: bool = True) -> Model:
     """The half slab at contact size h [mm], the cylinder's top moved down by depth [mm]."""
-    return Model(hertz_mesh(h, order), "3d", {"upper": STEEL, "lower": STEEL},
+    return Model(hertz_mesh(h, order, hexes), "3d", {"upper": STEEL, "lower": STEEL},
                  supports=(Support("bottom", (0, 1, 2)), Support("x0", (0,)), Support("z0", (2,)),
                            Support("z1", (2,))),
                  loads=(Displacement("top", "y", (-depth,)),), stages=(Stage("press", n_increments),),
