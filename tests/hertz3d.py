@@ -115,7 +115,8 @@ def hertz_mesh(h: float, order: int = 2, hexes: bool = True) -> Mesh:
     return Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), boundaries)
 
 
-def hertz_model(h: float, order: int = 2, depth: float = DEPTH, n_increments: int = 2, hexes: bool = True) -> Model:
+def hertz_model(h: float, order: int = 2, depth: float = DEPTH, n_increments: int = 2,
+                hexes: bool = True) -> Model:
     """The half slab at contact size h [mm], the cylinder's top moved down by depth [mm]."""
     return Model(hertz_mesh(h, order, hexes), "3d", {"upper": STEEL, "lower": STEEL},
                  supports=(Support("bottom", (0, 1, 2)), Support("x0", (0,)), Support("z0", (2,)),

@@ -18,8 +18,9 @@ pytestmark = [pytest.mark.ccx,
                                  reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")]
 
 #: measured with the defaults of write_nonmatching_block, 4 pull increments (docs/solver.md)
-MEASURED = ("displacements 0.09 % (press) and 0.17 % (pull) RMS of range, pull reaction embedded 635.5 N, ccx 631.7 N (-0.60 %; "
-            "ccx's own sum mu_i N_i 636.3 N: its penalty friction stays 0.7 % under Coulomb's force)")
+MEASURED = ("displacements 0.09 % (press) and 0.17 % (pull) RMS of range, pull reaction embedded 635.5 N, "
+            "ccx 631.7 N (-0.60 %; ccx's own sum mu_i N_i 636.3 N: its penalty friction stays 0.7 % under "
+            "Coulomb's force)")
 
 
 def test_separately_meshed_block_and_plate_against_calculix(tmp_path):
