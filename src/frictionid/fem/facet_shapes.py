@@ -81,16 +81,20 @@ def triangle_quadrature():
 
 
 def geometry(coords: np.ndarray, rs, facet_type: str):
-    """Positions (..., 3), tangents (..., 3, 2) and unit parameter normals (..., 3) of one facet (k, 3) at rs."""
+    """Positions (q, 3), tangents (q, 3, 2) and unit parameter normals (q, 3) at parameters rs (q, 2) of one
+    facet (coords (k, 3)) or of one facet per point (coords (q, k, 3))."""
     N, dN = shape_functions(rs, facet_type)
-    x = N @ coords
-    tangents = np.einsum("...kp,kd->...dp", dN, coords)
+    if coords.ndim == 2:
+        x, tangents = N @ coords, np.einsum("qkp,kd->qdp", dN, coords)
+    else:
+        x, tangents = np.einsum("qk,qkd->qd", N, coords), np.einsum("qkp,qkd->qdp", dN, coords)
     normal = np.cross(tangents[..., 0], tangents[..., 1])
     return x, tangents, normal / np.linalg.norm(normal, axis=-1, keepdims=True)
 
 
 def project_along(coords: np.ndarray, facet_type: str, points: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) cut the facet (k, 3).
+    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) cut the facet (coords (k, 3))
+    or each point's facet (coords (q, k, 3)).
 
     Newton on x(r, s) - t direction = point; NaN where it does not converge (the line misses a curved facet's
     extension). The parameters may lie outside the reference facet (the caller decides).

@@ -155,31 +155,51 @@ def _pieces(polygon: np.ndarray):
     return np.concatenate(points), np.concatenate(weights)
 
 
-def _segment(slave: _Side, s: int, dual: np.ndarray, master: _Side, m: int, axes, polygon, search_distance):
-    """Mortar block (k_s, k_m) and gap integrals (k_s,) of slave facet s on master facet m, or None."""
-    x0, n0 = slave.centre[s], slave.normal[s]
-    window = (master.coords[m, :CORNERS[master.facet_type]] - x0) @ axes.T
-    piece = clip(counter_clockwise(window), polygon, tol=1e-10 * slave.radius[s])
-    if len(piece) == 0 or signed_area(piece) < _SLIVER * signed_area(polygon):
-        return None
-    plane_points, weight = _pieces(piece)
-    points = x0 + plane_points @ axes
+def _clipped(slave: _Side, s: int, master: _Side, candidates: np.ndarray):
+    """Integration points (q, 3) [mm] on slave facet s's plane, weights (q,) [mm^2] and the master facet (q,) of
+    each: the pieces of the candidates' projections that the slave facet's projection clips."""
+    x0, axes = slave.centre[s], _plane(slave.normal[s])
+    polygon = counter_clockwise((slave.coords[s, :CORNERS[slave.facet_type]] - x0) @ axes.T)
+    points, weights, owners = [np.zeros((0, 2))], [np.zeros(0)], [np.zeros(0, int)]
+    for m in candidates:
+        window = (master.coords[m, :CORNERS[master.facet_type]] - x0) @ axes.T
+        piece = clip(counter_clockwise(window), polygon, tol=1e-10 * slave.radius[s])
+        if len(piece) == 0 or signed_area(piece) < _SLIVER * signed_area(polygon):
+            continue
+        plane_points, weight = _pieces(piece)
+        points.append(plane_points)
+        weights.append(weight)
+        owners.append(np.full(len(weight), m))
+    return x0 + np.concatenate(points) @ axes, np.concatenate(weights), np.concatenate(owners)
+
+
+def _facet_blocks(slave: _Side, s: int, dual: np.ndarray, master: _Side, candidates: np.ndarray,
+                  search_distance: float):
+    """The master facets coupled to slave facet s, their mortar blocks (n, k_s, k_m) and the gap integrals
+    (k_s,) of the slave facet's nodes. A master facet is dropped where a point does not project onto it or its
+    gap exceeds search_distance."""
+    points, weight, owner = _clipped(slave, s, master, candidates)
+    n0 = slave.normal[s]
     xi = project_along(slave.coords[s], slave.facet_type, points, n0)
-    eta = project_along(master.coords[m], master.facet_type, points, n0)
-    if np.isnan(xi).any() or np.isnan(eta).any():
-        logger.debug("mortar: no projection between slave facet %d and master facet %d", s, m)
-        return None
-    x_slave, _, n_facet = geometry(slave.coords[s], xi, slave.facet_type)
-    N_slave, _ = shape_functions(xi, slave.facet_type)
-    N_master, _ = shape_functions(eta, master.facet_type)
+    eta = project_along(master.coords[owner], master.facet_type, points, n0)
+    x_slave, _, n_facet = geometry(slave.coords[s], np.nan_to_num(xi), slave.facet_type)
+    N_slave, _ = shape_functions(np.nan_to_num(xi), slave.facet_type)
+    N_master, _ = shape_functions(np.nan_to_num(eta), master.facet_type)
     normal = N_slave @ slave.node_normal[slave.facets[s]]
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    gap = np.einsum("qd,qd->q", N_master @ master.coords[m] - x_slave, normal)
-    if np.max(np.abs(gap)) > search_distance:
-        return None
+    gap = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", N_master, master.coords[owner]) - x_slave, normal)
+    facets, local = np.unique(owner, return_inverse=True)
+    bad = np.isnan(xi).any(axis=1) | np.isnan(eta).any(axis=1) | (np.abs(gap) > search_distance)
+    if bad.any():
+        logger.debug("mortar: slave facet %d: master facets %s not projected or too far", s,
+                     np.unique(owner[bad]).tolist())
+    kept = ~np.isin(local, np.unique(local[bad]))
     psi = N_slave @ local_transform(slave.facet_type).T @ dual[s].T
-    psi *= (weight / np.abs(n_facet @ n0))[:, None]
-    return psi.T @ N_master, psi.T @ gap
+    psi *= (weight / np.abs(n_facet @ n0) * kept)[:, None]
+    blocks = np.zeros((len(facets), psi.shape[1], N_master.shape[1]))
+    np.add.at(blocks, local, psi[:, :, None] * N_master[:, None, :])
+    used = np.isin(np.arange(len(facets)), local[kept])
+    return facets[used], blocks[used], psi.T @ np.where(kept, gap, 0.0)
 
 
 def _candidates(slave: _Side, master: _Side, search_distance: float) -> list[np.ndarray]:
@@ -206,16 +226,11 @@ def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float
     gap = np.zeros(n_nodes)
     k_s, k_m = slave.facets.shape[1], master.facets.shape[1]
     for s, candidates in enumerate(_candidates(slave, master, search_distance)):
-        axes = _plane(slave.normal[s])
-        polygon = counter_clockwise((slave.coords[s, :CORNERS[slave.facet_type]] - slave.centre[s]) @ axes.T)
-        for m in candidates:
-            block = _segment(slave, s, dual, master, m, axes, polygon, search_distance)
-            if block is None:
-                continue
-            rows.append(np.repeat(slave.facets[s], k_m))
-            cols.append(np.tile(master.facets[m], k_s))
-            values.append(block[0].ravel())
-            np.add.at(gap, slave.facets[s], block[1])
+        facets, blocks, gap_integral = _facet_blocks(slave, s, dual, master, candidates, search_distance)
+        rows.append(np.tile(np.repeat(slave.facets[s], k_m), len(facets)))
+        cols.append(np.tile(master.facets[facets], (1, k_s)).ravel())
+        values.append(blocks.ravel())
+        np.add.at(gap, slave.facets[s], gap_integral)
     mortar = sp.csr_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
                            shape=(n_nodes, n_nodes))
     by_zone = np.zeros((n_nodes, n_zones))
