@@ -25,6 +25,7 @@ check: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/forward_block2d.py
 	$(PY) benchmarks/forward_block3d.py
+	$(PY) benchmarks/mortar_block3d.py
 	$(PY) benchmarks/condensation.py
 	$(PY) benchmarks/identify_block.py
 	$(PY) benchmarks/bolt.py

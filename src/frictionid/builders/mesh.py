@@ -149,7 +149,7 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     interfaces : list of { name, zones, contact, zone_rules, target, discretisation, gap_tolerance }
         Contact-side boundaries (``zones``, one per friction zone) and/or contact-side boundaries (``contact``)
         split into zones by ``zone_rules`` (see :mod:`frictionid.builders.zone_rules`), and the target boundary
-        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D);
+        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar";
         ``gap_tolerance`` [mm] the largest initial gap of a contact pair (default half the contact facet size).
     element : "standard" | "incompatible" | None
         Element technology (incompatible modes need linear hexahedra); None (default): as the file says, i.e.

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Model
 from .contact_map import InterfaceMap, contact_map
-from .node_to_node import node_to_node_pairs
+from .node_to_node import MeshesDoNotMatch, node_to_node_pairs
 from .pairs import ContactPairs
 from .space import Space
 
@@ -34,14 +34,16 @@ def model_space(model: Model) -> Space:
 
 
 def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
-    if space.dim != 2:
-        raise InputError(f"interface {model.interfaces[index].name!r}: mortar is available for 2-D models only")
+    if space.dim == 3:
+        from .mortar3d import mortar_pairs_3d
+        return mortar_pairs_3d(space, model, index)
     from .mortar import mortar_pairs
     return mortar_pairs(space, model, index)
 
 
 def contact_pairs(space: Space, model: Model) -> ContactPairs:
-    """Pairs of every interface in model order (:func:`interface_pairs`).
+    """Pairs of every interface in model order (:func:`interface_pairs`: "auto" tries node-to-node and falls
+    back to mortar where the meshes do not match, 2-D and 3-D).
 
     "axisymmetric_twist": the pairs of the (r, y) section with the circumferential tangent added, normals of
     helical interfaces tilted by their lead (:func:`frictionid.fem.twist.with_circumferential_tangent`).
@@ -61,15 +63,15 @@ def contact_pairs(space: Space, model: Model) -> ContactPairs:
 
 def interface_pairs(space: Space, model: Model, index: int) -> tuple[ContactPairs, str]:
     """The pairs of interface ``index`` and the discretisation used ("node-to-node" or "mortar"): "auto" tries
-    node-to-node and falls back to mortar in 2-D. Either refuses a pairing that fails the set-up checks of
+    node-to-node and falls back to mortar where the meshes do not match (2-D and 3-D). Either refuses a pairing that fails the set-up checks of
     :mod:`frictionid.fem.contact_map` (a contact node facing no target, an initial gap beyond gap_tolerance)."""
     interface = model.interfaces[index]
     if interface.discretisation == "mortar":
         return _mortar(space, model, index), "mortar"
     try:
         return node_to_node_pairs(space, model, index), "node-to-node"
-    except InputError:
-        if interface.discretisation == "node-to-node" or space.dim != 2:
+    except MeshesDoNotMatch:
+        if interface.discretisation == "node-to-node":
             raise
     return _mortar(space, model, index), "mortar"
 

@@ -19,6 +19,11 @@ from .pairs import ContactPairs, relative_operator, tangent_frames
 from .space import Space
 
 
+class MeshesDoNotMatch(InputError):
+    """Contact nodes without a target node facing them: the interface is not conforming (``discretisation =
+    "auto"`` then takes mortar; a failed set-up check, e.g. a gap beyond the tolerance, is not this)."""
+
+
 def facet_integral(space: Space, boundary: str, vector: bool = False) -> np.ndarray:
     """Per-node integrals over a boundary: int N_i dS (n_nodes,) or int N_i n dS (n_nodes, dim) [mm^2].
 
@@ -119,10 +124,10 @@ def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal:
         i = int(np.argmax(miss))
         faced = "no target node facing it" if facing[i].any() else \
             f"no target node whose surface faces it (normals opposed within {FACING_DEG:g} deg)"
-        raise InputError(f"[[model.interfaces]] {name!r}: {int(miss.sum())} of {len(contact)} contact nodes have "
-                         f"no partner, e.g. the node at {np.round(points[contact[i]], 6).tolist()}: {faced} (within "
-                         f"{0.05 * h:.3g} mm across the normal); the meshes do not match: use discretisation = "
-                         "'mortar' (2-D) or make the meshes conforming")
+        raise MeshesDoNotMatch(f"[[model.interfaces]] {name!r}: {int(miss.sum())} of {len(contact)} contact nodes "
+                               f"have no partner, e.g. the node at {np.round(points[contact[i]], 6).tolist()}: {faced} "
+                               f"(within {0.05 * h:.3g} mm across the normal); the meshes do not match: use "
+                               "discretisation = 'mortar' or make the meshes conforming")
     return near[pick], np.degrees(np.arccos(np.clip(cosine[pick], -1.0, 1.0)))
 
 

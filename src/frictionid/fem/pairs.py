@@ -1,6 +1,6 @@
 """ContactPairs: the discretised contact constraints of a model (frames, weights, gaps, zone shares, B).
 
-Every interface discretisation (node-to-node for conforming meshes, mortar for non-matching 2-D meshes)
+Every interface discretisation (node-to-node for conforming meshes, mortar for non-matching meshes)
 produces this one object; the solver only ever sees it.
 
 Convention: for pair i with frame rows (n, t1[, t2]), n the outward normal of the target side,

@@ -148,7 +148,7 @@ class ContactInterface:
 
     Each zone carries its own Coulomb coefficient. ``target`` is the named boundary on the other body.
     ``discretisation``: "node-to-node" (conforming meshes: every contact node has a target node at the same
-    place, up to an initial gap), "mortar" (non-matching 2-D meshes) or "auto" (node-to-node when conforming).
+    place, up to an initial gap), "mortar" (non-matching meshes, 2-D and 3-D) or "auto" (node-to-node when conforming, else mortar).
     ``lead`` [mm]: axial advance per turn of a helical interface (a thread: the pitch times the number of starts),
     positive for a right-hand helix; "axisymmetric_twist" models only. Its rings stand for the helix: each pair's
     normal is tilted by the local lead angle (:func:`frictionid.fem.twist.helical_normals`), so that turning one
