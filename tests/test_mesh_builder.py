@@ -400,3 +400,22 @@ def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(fa
     builder = predict(block_model(mesh_size=2.5))
     assert abs(user[-1, -1] - builder[-1, -1]) <= BUILDER_RANGE_TOL * abs(builder[-1, -1])
     assert abs(builder[-1, -1]) > 500.0                                     # the pull slides: sum mu_i N_i
+
+
+def test_a_file_gmsh_cannot_parse_leaves_later_files_readable(tmp_path):
+    """gmsh's script parser keeps a failed file's unread tokens: without the reset the next .geo of the process
+    failed ("Unknown variable", "syntax error" at line 0); a .msh that is not one is refused before gmsh."""
+    from frictionid.builders.gmsh_mesh import read_gmsh_file
+    square = tmp_path / "square.geo"
+    square.write_text("h = 0.5;\nPoint(1) = {0, 0, 0, h}; Point(2) = {1, 0, 0, h}; Point(3) = {1, 1, 0, h};\n"
+                      "Point(4) = {0, 1, 0, h}; Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4};\n"
+                      "Line(4) = {4, 1}; Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};\n"
+                      'Physical Surface("plate") = {1};\n')
+    (tmp_path / "bad.geo").write_text("Point(1) = {0, 0, 0, 1};\nthis is not a script ; with tokens left over\n")
+    (tmp_path / "bad.msh").write_text("this is not a mesh\n")
+    n_nodes = read_gmsh_file(square)[0].n_nodes
+    with pytest.raises(InputError, match="not a gmsh mesh file"):
+        read_gmsh_file(tmp_path / "bad.msh")
+    with pytest.raises(InputError, match="bad.geo: gmsh could not mesh it"):
+        read_gmsh_file(tmp_path / "bad.geo")
+    assert read_gmsh_file(square)[0].n_nodes == n_nodes

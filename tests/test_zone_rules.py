@@ -238,7 +238,8 @@ def _run_bad(folder, capsys, text: str, expected: list[str]):
         assert part in str(error.value), (part, str(error.value))
     assert main(["simulate", str(folder / "bad.toml"), "--out", str(folder / "out.csv")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("frictionid: error: [[model.interfaces]] 1") and expected[0] in err
+    assert err.startswith(f"frictionid: error: {folder / 'bad.toml'}: [model]: [[model.interfaces]] 1")
+    assert expected[0] in err
     assert "Traceback" not in err
 
 

@@ -173,8 +173,7 @@ def _check_subtables(tables: dict, path: Path) -> None:
 
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive"),
-           "data.coordinates": ("reference", "deformed")}
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive")}
 
 
 #: lowest value of numeric keys, and whether the bound itself is allowed (the keys' meaning is in TYPES)
@@ -185,7 +184,7 @@ RANGES = {"solver.timeout": (0, False), "solver.threads": (1, True), "solver.loa
           "identify.penalty": (0, True), "identify.refine_target": (0, True), "identify.refine_budget": (1, True),
           "identify.profile_points": (3, True), "run.workers": (1, True), "run.retries": (0, True),
           "design.points": (1, True), "design.n_candidates": (1, True), "design.tolerance": (0, False),
-          "data.strain_window": (0, False), "data.plane_tolerance": (0, True)}
+          "data.strain_window": (0, False)}
 
 
 def _check_ranges(tables: dict, path: Path) -> None:

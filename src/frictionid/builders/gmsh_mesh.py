@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import tempfile
 from pathlib import Path
 
 import gmsh
@@ -164,6 +165,8 @@ def read_gmsh_file(path: str | Path, size_factor: float = 1.0) -> tuple[Mesh, di
     geo = path.suffix.lower() == ".geo"
     if not path.is_file():
         raise InputError(f"{path}: {'geometry' if geo else 'mesh'} file not found")
+    if not geo and not _starts_like_msh(path):
+        raise InputError(f"{path}: not a gmsh mesh file (a .msh starts with $MeshFormat)")
     with gmsh_session():
         try:
             gmsh.open(str(path))
@@ -172,5 +175,31 @@ def read_gmsh_file(path: str | Path, size_factor: float = 1.0) -> tuple[Mesh, di
                 gmsh.option.setNumber("Mesh.MeshSizeFactor", factor * size_factor)
                 gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:  # gmsh raises a bare Exception with its own message
-            raise InputError(f"{path}: gmsh could not {'mesh' if geo else 'read'} it ({exc})") from None
-        return mesh_and_node_sets_from_gmsh(str(path))
+            failed = InputError(f"{path}: gmsh could not {'mesh' if geo else 'read'} it ({exc})")
+        else:
+            return mesh_and_node_sets_from_gmsh(str(path))
+    _reset_parser()
+    raise failed
+
+
+def _starts_like_msh(path: Path) -> bool:
+    """Whether the file begins with a .msh section header: gmsh reads anything else as a script."""
+    with open(path, "rb") as handle:
+        return handle.read(64).lstrip().startswith(b"$MeshFormat")
+
+
+def _reset_parser(attempts: int = 100) -> None:
+    """After a syntax error gmsh's script parser (4.15) keeps the failed file's unread tokens, and the next
+    files of the process fail on them ("Unknown variable", "syntax error" at line 0): parse a one-line script
+    until it reads cleanly. Each failed attempt uses up some of the leftovers."""
+    with tempfile.TemporaryDirectory() as folder:
+        probe = Path(folder) / "reset.geo"
+        probe.write_text("frictionid_parser_reset = 1;\n")
+        for _ in range(attempts):
+            with gmsh_session():
+                try:
+                    gmsh.open(str(probe))
+                    return
+                except Exception:  # noqa: BLE001 - the leftovers' own syntax errors
+                    continue
+    log.warning("gmsh's script parser did not recover after a syntax error; later .geo files may fail")

@@ -109,7 +109,7 @@ class StuckInverses:
             self._kept[key] = self._kept.pop(key)                   # most recently used last
             return self._kept[key]
         n = self.Wfull.shape[1]
-        keep = min(KEEP, 1 + int(KEEP_BYTES // (8.0 * n * n)))
+        keep = min(KEEP, 1 + int(KEEP_BYTES // (8.0 * max(n, 1) ** 2)))
         while self._kept and len(self._kept) >= keep:
             self._kept.pop(next(iter(self._kept)))
         stuck = StuckInverse.build(self.Wfull, self.Wa_T, self.r, self.free_T, open_pairs)
