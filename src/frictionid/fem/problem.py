@@ -23,6 +23,8 @@ from .space import Space
 from .threads import one_blas_thread
 
 log = logging.getLogger(__name__)
+#: values of [solver] sliding
+SLIDING = ("small", "finite")
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
@@ -122,6 +124,10 @@ class Problem:
     #: (n_obs, n_kept) observation rows on the kept dofs when the condensation observes those dofs instead of the
     #: rows (see :func:`compressed`); None: it observes the rows themselves
     expand: sp.csr_matrix | None = None
+    #: "small" (pairs fixed in the undeformed configuration) or "finite" (fem/sliding.py: condensed on the
+    #: interface dofs ``interface_dofs``, the coupling re-evaluated in the deformed configuration)
+    sliding: str = "small"
+    interface_dofs: np.ndarray | None = None
 
     def __repr__(self) -> str:
         return (f"Problem({self.model!r}, {self.pairs.n_pairs} contact pairs, "
@@ -130,7 +136,7 @@ class Problem:
     @classmethod
     def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
               points=None, quantities=("ux", "uy"), regions=None, compress: bool = True,
-              window: float | None = None, factorisation: str = "auto") -> "Problem":
+              window: float | None = None, factorisation: str = "auto", sliding: str = "small") -> "Problem":
         """Assemble, discretise the interfaces and condense.
 
         Parameters
@@ -148,6 +154,9 @@ class Problem:
         factorisation : "auto" | "cholmod" | "superlu"
             How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
             [solver] factorisation).
+        sliding : "small" | "finite"
+            Contact pairs fixed in the undeformed configuration, or re-coupled in the deformed configuration at
+            every increment (:mod:`frictionid.fem.sliding`; 2-D, dual mortar on every interface).
         """
         space = Space.build(model.mesh, model.kind, model.element)
         if points is not None and observe is not None:
@@ -157,7 +166,15 @@ class Problem:
             observe = point_operator(space, points, quantities, regions, model.materials, window)
             observation_labels = PointLabels(len(points), quantities)
         observe, expand = compressed(observe) if compress else (observe, None)
-        pairs = contact_pairs(space, model)
+        if sliding not in SLIDING:
+            raise InputError(f"[solver] sliding must be one of {', '.join(map(repr, SLIDING))}, got {sliding!r}")
+        dofs = None
+        if sliding == "finite":
+            from .sliding import interface_dofs, mortar_builder, selection
+            pairs = mortar_builder(space, model)(model.mesh.points)
+            dofs = interface_dofs(model, space.n_components)
+        else:
+            pairs = contact_pairs(space, model)
         channels = load_channels(space, model)
         modes = free_rigid_modes(model.mesh, model.kind, channels.prescribed)
         sums, labels = _reaction_sums(model, channels.prescribed)
@@ -167,14 +184,20 @@ class Problem:
         n_rows = observe.shape[0] if expand is None else expand.shape[0]
         labels_obs = observation_labels if isinstance(observation_labels, PointLabels) else \
             tuple(observation_labels) or tuple(f"obs{i}" for i in range(n_rows))
-        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.n_components,
+        coupled = pairs.B if dofs is None else selection(dofs, space.n_dofs)
+        condensed = condense(stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
                              factorisation=factorisation)
-        return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand)
+        return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
         """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem."""
-        x = np.concatenate([solution.lam[increment].ravel(), solution.alpha[increment]])
-        u = self.condensed.displacement(self.pairs.B, self.channels.displacements,
+        if solution.interface_forces is not None:
+            from .sliding import selection
+            B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[increment]
+        else:
+            B, x = self.pairs.B, solution.lam[increment].ravel()
+        x = np.concatenate([x, solution.alpha[increment]])
+        u = self.condensed.displacement(B, self.channels.displacements,
                                         solution.amplitude[increment], x)
         return u.reshape(-1, self.space.n_components)
 
@@ -222,7 +245,7 @@ class Problem:
         """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value).
 
         ``max_slip``: small-sliding limit in local element lengths (None: no check), see
-        :meth:`check_small_sliding`.
+        :meth:`check_small_sliding`; not checked with finite sliding.
         """
         # one BLAS thread for the whole solve, its set-up and outputs included: the Newton steps' dense solves (a
         # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
@@ -232,6 +255,9 @@ class Problem:
             return self._solve(self.model.coefficients(mu), sensitivities, max_slip)
 
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None) -> Solution:
+        if self.sliding == "finite":
+            from .sliding import solve_finite
+            return solve_finite(self, mu, sensitivities)
         solver = LoadPathSolver(self.condensed, self.pairs)
         path = solver.start()
         stages, amps = self.amplitudes()

@@ -1,0 +1,116 @@
+"""Finite sliding (fem/sliding.py): a plane-strain block slid 2 mm over a long base at constant normal force."""
+
+import numpy as np
+import pytest
+
+from frictionid.errors import InputError
+from frictionid.fem.problem import Problem
+from sliding_case import block_on_base
+
+MU = np.array([0.3, 0.2])          # zones "left", "right" of the block's bottom
+PULL, FORCE = 2.0, 1000.0          # [mm], [N/mm]: 2 mm = 20 % of the block, about 3 base facets
+#: observation points: two in the block, two in the base [mm]
+POINTS = np.array([[0.5, 1.5], [9.5, 2.5], [15.0, -1.0], [-3.0, -1.5]])
+
+
+@pytest.fixture(scope="module")
+def slid():
+    model = block_on_base(n_block=10, n_base=41, force=FORCE, pull=PULL, n_pull=5)
+    finite, small = Problem.build(model, points=POINTS, sliding="finite"), Problem.build(model)
+    return model, finite, finite.solve(MU, sensitivities=True), small.solve(MU, max_slip=None), small
+
+
+def _base_force_centroid(model, nodal_forces) -> float:
+    """x [mm] of the centroid of the normal contact forces on the base's top nodes (undeformed positions)."""
+    target = np.unique(model.mesh.boundary("target"))
+    fy = nodal_forces.reshape(-1, 2)[target, 1]
+    return float(model.mesh.points[target, 0] @ fy / fy.sum())
+
+
+def test_gross_slip_reaction_is_mu_times_normal_force(slid):
+    model, problem, solution, _, _ = slid
+    assert np.all(solution.state[-1] == 2)                                      # the whole bottom slips
+    pull_reaction = solution.reactions[-1, problem.reaction_labels.index("block_top.x")]
+    normal = solution.zone_normal_force[-1]
+    # normal forces in the pair frames of the deformed base, whose normals tilt a little: measured 1.4e-5
+    np.testing.assert_allclose(normal.sum(), FORCE, rtol=1e-4)
+    # Coulomb in gross slip: T = sum_z mu_z N_z (NUMERICS.md 5.1); 0.5 % asked by issue 26
+    np.testing.assert_allclose(pull_reaction, MU @ normal, rtol=5e-3)
+
+
+def test_base_pressure_moves_with_the_block(slid):
+    model, problem, solution, small_solution, small = slid
+    f = np.zeros(problem.space.n_dofs)
+    f[problem.interface_dofs] = solution.interface_forces[-1]
+    centroid = _base_force_centroid(model, f)
+    u = problem.displacement(solution, -1)
+    nodes, lam_N = solution.pairs.nodes, solution.lam[-1, :, 0]
+    block_centroid = (model.mesh.points[nodes, 0] + u[nodes, 0]) @ lam_N / lam_N.sum()
+    # the base carries the block's pressure where the block is now: measured 4e-4 of the pull apart
+    assert abs(centroid - block_centroid) < 1e-3 * PULL
+    # small sliding leaves it at the undeformed partners: the two differ by the block's slide (the couple of
+    # friction and pull shifts both centroids alike); measured 3e-4 of the pull apart
+    small_centroid = _base_force_centroid(model, small.pairs.B.T @ small_solution.lam[-1].ravel())
+    slide = u[nodes, 0].mean()
+    assert slide > 0.99 * PULL
+    assert abs((centroid - small_centroid) - slide) < 5e-3 * PULL
+
+
+def test_tiny_pull_finite_equals_small_sliding():
+    model = block_on_base(n_block=10, n_base=41, force=1e-6, pull=1e-9, n_pull=3)
+    finite, small = Problem.build(model, sliding="finite"), Problem.build(model)
+    a, b = finite.solve(MU), small.solve(MU)
+    for got, expected in ((a.reactions, b.reactions), (a.lam, b.lam), (a.w, b.w)):
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-8 * np.abs(expected).max())
+    np.testing.assert_allclose(finite.displacement(a), small.displacement(b), rtol=0,
+                               atol=1e-8 * np.abs(small.displacement(b)).max())
+
+
+def test_frictionless_sliding_carries_no_tangential_force(slid):
+    model, problem, _, _, _ = slid
+    solution = problem.solve([0.0, 0.0])
+    assert np.abs(solution.lam[:, :, 1]).max() <= 1e-12 * FORCE
+    # the deformed base's tilt gives the normal force a small x component: measured 9e-7 N per 1000 N
+    assert abs(solution.reactions[-1, problem.reaction_labels.index("block_top.x")]) < 1e-5 * FORCE
+
+
+@pytest.fixture(scope="module")
+def partly_slipping():
+    """Pressed in two increments, pulled 4 um in four: stick, partial slip, then gross slip."""
+    model = block_on_base(n_block=10, n_base=41, force=FORCE, pull=0.004, n_press=2, n_pull=4)
+    problem = Problem.build(model, points=POINTS, sliding="finite")
+    return model, problem, problem.solve(MU, sensitivities=True)
+
+
+@pytest.mark.parametrize("case", ["slid", "partly_slipping"])
+def test_sensitivities_against_central_differences_of_the_finite_sliding_solve(case, request):
+    model, problem, solution = request.getfixturevalue(case)[:3]
+    if case == "partly_slipping":
+        assert np.any(solution.state == 1) and np.any(solution.state[-2] == 2)
+    step = 1e-6
+    for z in range(len(MU)):
+        shift = np.eye(len(MU))[z] * step
+        plus, minus = problem.solve(MU + shift), problem.solve(MU - shift)
+        for got, fd, tolerance in (
+                (solution.d_reactions[:, :, z], (plus.reactions - minus.reactions) / (2 * step), 1e-3),
+                (np.asarray(solution.d_observations)[:, :, z],
+                 (np.asarray(plus.observations) - np.asarray(minus.observations)) / (2 * step), 3e-3)):
+            # each increment's derivative holds its coupling (dB/du du/dmu left out): measured 2.4e-4 (reactions)
+            # and 1.3e-3 (displacements at the points) of the largest derivative (docs/solver.md)
+            np.testing.assert_allclose(got, fd, rtol=0, atol=tolerance * np.abs(fd).max())
+
+
+def test_observations_are_the_displacements_at_the_points(slid):
+    model, problem, solution, _, _ = slid
+    u = problem.displacement(solution, -1)
+    # the observation rows at nodes of the mesh would be exact; at interior points they interpolate u: compare
+    # against the same interpolation from the nodal displacements
+    from frictionid.fem.points import point_operator
+    rows = point_operator(problem.space, POINTS, ("ux", "uy"), None, model.materials, None)
+    np.testing.assert_allclose(np.asarray(solution.observations)[-1], rows @ u.ravel(), rtol=1e-9,
+                               atol=1e-12)
+
+
+def test_unknown_sliding_value_is_refused(slid):
+    with pytest.raises(InputError, match="sliding"):
+        Problem.build(slid[0], sliding="large")
