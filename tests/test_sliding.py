@@ -114,3 +114,35 @@ def test_observations_are_the_displacements_at_the_points(slid):
 def test_unknown_sliding_value_is_refused(slid):
     with pytest.raises(InputError, match="sliding"):
         Problem.build(slid[0], sliding="large")
+
+
+def _simulate(folder, solver: str) -> int:
+    from block2d_case import MODEL, POINTS, REGIONS, TRUE
+    from frictionid.cli import main
+    (folder / "points.csv").write_text(POINTS)
+    config = folder / "sliding.toml"
+    config.write_text(MODEL + "[friction]\nzones = { " + ", ".join(f"{k} = {v}" for k, v in TRUE.items())
+                      + ' }\n[data]\nfile = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n' + REGIONS
+                      + solver + '[run]\ndir = "runs"\nfields = false\n')
+    return main(["simulate", str(config), "--out", str(folder / "simulated.csv")])
+
+
+def test_simulate_with_finite_sliding_agrees_with_small_sliding_on_a_short_slide(tmp_path):
+    def read():
+        lines = [line for line in (tmp_path / "simulated.csv").read_text().splitlines() if line[:1] == "P"]
+        return np.array([[float(v) for v in line.split(",")[-2:]] for line in lines])
+
+    assert _simulate(tmp_path, '[solver]\nsliding = "finite"\n') == 0
+    finite = read()
+    assert _simulate(tmp_path, "") == 0
+    small = read()
+    assert finite.shape == small.shape and len(finite) >= 6
+    # block2d slides less than a facet: the updated coupling changes the displacements a little, not nothing
+    difference = np.abs(finite - small).max()
+    assert 0 < difference < 1e-2 * np.ptp(small)
+
+
+def test_a_bad_sliding_value_exits_2_naming_file_and_key(tmp_path, capsys):
+    assert _simulate(tmp_path, '[solver]\nsliding = "large"\n') == 2
+    err = capsys.readouterr().err
+    assert "sliding.toml" in err and "solver.sliding" in err and "finite" in err and "Traceback" not in err

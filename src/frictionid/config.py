@@ -23,7 +23,7 @@ SCHEMA = {
              "plane_tolerance": None, "coordinates": None},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
-               "load_scale": 1.0, "factorisation": "auto"},
+               "load_scale": 1.0, "factorisation": "auto", "sliding": "small"},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
@@ -70,6 +70,7 @@ TYPES = {
     "solver.stick_slope": ((int, float), "a number [N/mm^3]"),
     "solver.load_scale": ((int, float), "a number > 0"),
     "solver.factorisation": (str, '"auto", "cholmod" or "superlu"'),
+    "solver.sliding": (str, '"small" or "finite"'),
     "identify.method": (str, "a method name"),
     "identify.jacobian": (str, '"analytic", "forward" or "central"'),
     "identify.max_iterations": (int, "a whole number"),
@@ -125,7 +126,7 @@ def _check_types(tables: dict, path: Path) -> None:
 
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu")}
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.sliding": ("small", "finite")}
 
 
 def _check_choices(tables: dict, path: Path) -> None:
