@@ -143,6 +143,7 @@ class _State:
 
     def __init__(self, n_dofs: int, pairs: ContactPairs, n_modes: int):
         self.u = np.zeros(n_dofs)
+        self.du = np.zeros(n_dofs)           # displacement increment of the last increment [mm]
         self.x = np.zeros(pairs.n_pairs * pairs.dim + n_modes)
         self.contact = None
         self.slip = np.zeros((pairs.n_pairs, pairs.dim - 1))
@@ -150,9 +151,10 @@ class _State:
 
 
 def _increment(problem, builder, state: _State, start, end, mu_pair, sensitivities, where):
-    """Solve one nominal increment by fixed-point re-coupling; (coupling, step result, path, u)."""
+    """Solve one nominal increment by fixed-point re-coupling, the first coupling at the configuration the last
+    increment's displacement increment extrapolates to; (coupling, path, u, (Newton iterations, cuts, passes))."""
     T = selection(problem.interface_dofs, len(state.u))
-    u_ref, dofs = state.u, problem.interface_dofs
+    u_ref, dofs = state.u + state.du, problem.interface_dofs
     n_newton = n_cuts = 0
     for n_pass in range(1, MAX_PASSES + 1):
         coupling = Coupling(problem, builder, u_ref)
@@ -218,7 +220,7 @@ def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
             rec["d_obs"].append(ops.obs_ops.full @ path.S)
             rec["d_reac"].append(ops.reac_ops.full @ path.S)
             state.dx_I = np.vstack([coupling.B_I.T @ path.S[:n_w], path.S[n_w:]])
-        state.u, state.x, state.contact = u, path.x, path.state
+        state.u, state.du, state.x, state.contact = u, u - state.u, path.x, path.state
         previous = amp
     out = {k: np.array(v) for k, v in rec.items()}
     d_obs = out["d_obs"] if sensitivities else None
