@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 
 #: re-coupling stops when the interface displacements move by at most this share of the increment's
 #: largest interface displacement increment
-FIXED_POINT_RTOL = 1e-6
+FIXED_POINT_RTOL = 1e-4
 MAX_PASSES = 12
 #: gap [mm] given to a pair whose node the target no longer covers: it stays open
 UNCOVERED_GAP = 1e12
