@@ -146,3 +146,28 @@ def test_a_bad_sliding_value_exits_2_naming_file_and_key(tmp_path, capsys):
     assert _simulate(tmp_path, '[solver]\nsliding = "large"\n') == 2
     err = capsys.readouterr().err
     assert "sliding.toml" in err and "solver.sliding" in err and "finite" in err and "Traceback" not in err
+
+
+def test_a_node_the_target_no_longer_covers_stays_paired_and_open(slid):
+    from frictionid.fem.pairs import ContactPairs
+    from frictionid.fem.sliding import UNCOVERED_GAP, aligned
+    pairs = slid[1].pairs
+    dim, lost = pairs.dim, 3
+    keep = np.setdiff1d(np.arange(pairs.n_pairs), [lost])[::-1]              # another order, one node less
+    rows = (dim * keep[:, None] + np.arange(dim)).ravel()
+    current = ContactPairs(pairs.nodes[keep], pairs.position[keep], pairs.frames[keep, ::-1], pairs.weight[keep],
+                           pairs.zone_share[keep], pairs.gap[keep] + 0.5, pairs.B[rows], pairs.interface[keep])
+    got = aligned(pairs, current)
+    others = np.setdiff1d(np.arange(pairs.n_pairs), [lost])
+    np.testing.assert_array_equal(got.nodes, pairs.nodes)
+    np.testing.assert_array_equal(got.gap[others], pairs.gap[others] + 0.5)
+    assert got.gap[lost] == UNCOVERED_GAP
+    np.testing.assert_array_equal(got.frames[others], pairs.frames[others, ::-1])     # the current frames
+    np.testing.assert_array_equal(got.frames[lost], pairs.frames[lost])
+    full = (dim * others[:, None] + np.arange(dim)).ravel()
+    assert abs(got.B[full] - pairs.B[full]).max() == 0
+    # the lost node's rows: its frame on its own displacement only, no target
+    row = got.B[dim * lost:dim * lost + dim].tocoo()
+    assert set(row.col // dim) == {pairs.nodes[lost]}
+    np.testing.assert_array_equal(row.toarray()[:, dim * pairs.nodes[lost]:dim * pairs.nodes[lost] + dim],
+                                  pairs.frames[lost])
