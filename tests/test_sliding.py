@@ -171,3 +171,14 @@ def test_a_node_the_target_no_longer_covers_stays_paired_and_open(slid):
     assert set(row.col // dim) == {pairs.nodes[lost]}
     np.testing.assert_array_equal(row.toarray()[:, dim * pairs.nodes[lost]:dim * pairs.nodes[lost] + dim],
                                   pairs.frames[lost])
+
+
+def test_a_slide_past_the_end_of_the_target_is_reported_with_the_node():
+    from frictionid.builders.benchmarks import sleeve_model
+    from frictionid.errors import SolverError
+    # the sleeve's target is the shaft's surface along the sleeve's initial bore only (y = 0 to 10 mm): pushed
+    # down, the sleeve's lowest bore node leaves it, the coupling drops the node, the node comes back, ...
+    problem = Problem.build(sleeve_model(push=2.0, size=1.0, n_push=5), sliding="finite")
+    with pytest.raises(SolverError, match=r"contact node\(s\) \[\d+\] \(first at \[10.0, 0.0\]\) move on and off "
+                                          "the end of the target"):
+        problem.solve([0.2, 0.3])

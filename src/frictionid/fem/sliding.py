@@ -119,6 +119,8 @@ class Coupling:
     def __init__(self, problem, builder: CouplingBuilder, u_ref: np.ndarray):
         points = problem.model.mesh.points
         current = aligned(problem.pairs, builder(points + u_ref.reshape(points.shape)))
+        #: pairs whose node the target does not cover in this configuration
+        self.lost = frozenset(np.flatnonzero(current.gap >= UNCOVERED_GAP).tolist())
         self.B_I = current.B[:, problem.interface_dofs].tocsr()
         self.pairs = replace(current, gap=current.gap - (current.B @ u_ref)[::current.dim])
         self.condensed = coupled_operators(problem.condensed, self.B_I)
@@ -156,8 +158,10 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
     T = selection(problem.interface_dofs, len(state.u))
     u_ref, dofs = state.u + state.du, problem.interface_dofs
     n_newton = n_cuts = 0
+    lost = []                            # per pass: the pairs the target does not cover
     for n_pass in range(1, MAX_PASSES + 1):
         coupling = Coupling(problem, builder, u_ref)
+        lost.append(coupling.lost)
         solver, pairs = coupling.solver, coupling.pairs
         path = solver.start()
         path.x, path.state = state.x.copy(), state.contact
@@ -173,8 +177,13 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
         u_ref = u
         if change <= FIXED_POINT_RTOL * scale:
             return coupling, path, u, (n_newton, n_cuts, n_pass)
+    toggled = sorted(frozenset().union(*lost) - frozenset.intersection(*lost))
+    cause = "" if not toggled else (
+        f"; contact node(s) {problem.pairs.nodes[toggled].tolist()} (first at "
+        f"{np.round(problem.pairs.position[toggled[0]], 4).tolist()}) move on and off the end of the target: extend "
+        "the target surface over the whole slide")
     raise SolverError(f"finite sliding did not converge in {where}: the re-coupled interface displacements "
-                      f"still moved {change:.3g} mm after {MAX_PASSES} passes")
+                      f"still moved {change:.3g} mm after {MAX_PASSES} passes" + cause)
 
 
 def _interface_x(coupling: Coupling, x: np.ndarray) -> np.ndarray:
