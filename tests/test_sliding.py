@@ -82,6 +82,7 @@ def partly_slipping():
     return model, problem, problem.solve(MU, sensitivities=True)
 
 
+@pytest.mark.slow     # four finite-sliding solves per case: 20-40 s each here
 @pytest.mark.parametrize("case", ["slid", "partly_slipping"])
 def test_sensitivities_against_central_differences_of_the_finite_sliding_solve(case, request):
     model, problem, solution = request.getfixturevalue(case)[:3]

@@ -16,6 +16,7 @@ POINTS = np.array([[0.5, 1.5], [9.5, 2.5], [15.0, -1.0], [-3.0, -1.5], [2.0, -0.
 MU = np.array([0.3, 0.2])
 
 
+@pytest.mark.ccx
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
 def test_block_slid_2_mm_against_calculix():
     model = block_on_base(n_block=10, n_base=41, pull=2.0, n_pull=5)
