@@ -65,8 +65,8 @@ def selection(dofs: np.ndarray, n_dofs: int) -> sp.csr_matrix:
 def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
     """Coupling builder of a 2-D model: dual mortar on every interface (fem/mortar.py) at the given coordinates."""
     if space.dim != 2 or space.n_components != 2:
-        raise InputError(f"[solver] sliding: 'finite' needs a plane-strain or axisymmetric model for now, got "
-                         f"kind {model.kind!r}")
+        raise InputError(f"[solver] sliding = 'finite' needs a plane-strain or axisymmetric model (3-D waits for "
+                         f"the 3-D mortar coupling), got kind {model.kind!r}; use sliding = 'small'")
     from .mortar import mortar_pairs
 
     def build(points: np.ndarray) -> ContactPairs:
@@ -125,18 +125,6 @@ class Coupling:
         self.pairs = replace(current, gap=current.gap - (current.B @ u_ref)[::current.dim])
         self.condensed = coupled_operators(problem.condensed, self.B_I)
         self.solver = LoadPathSolver(self.condensed, self.pairs)
-
-    def w(self, u: np.ndarray) -> np.ndarray:
-        """(n_pairs, dim) [mm] w = B u in this coupling."""
-        return (self.pairs.B @ u).reshape(-1, self.pairs.dim)
-
-
-def _check_supported(problem) -> None:
-    if problem.model.kind not in ("plane_strain", "axisymmetric"):
-        raise InputError(f"[solver] sliding: 'finite' is available for plane-strain and axisymmetric models, "
-                         f"not kind {problem.model.kind!r} (3-D needs the 3-D mortar coupling)")
-    if problem.pairs.n_pairs == 0:
-        raise SolverError("finite sliding: the model has no contact pairs")
 
 
 class _State:
@@ -201,7 +189,8 @@ def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
     """
     from .solution import ExpandedRows, Solution
 
-    _check_supported(problem)
+    if problem.pairs.n_pairs == 0:
+        raise SolverError("finite sliding: the model has no contact pairs")
     builder = mortar_builder(problem.space, problem.model)
     ref, c = problem.pairs, problem.condensed
     state = _State(problem.space.n_dofs, ref, c.n_modes)
