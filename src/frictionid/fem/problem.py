@@ -170,8 +170,8 @@ class Problem:
             raise InputError(f"[solver] sliding must be one of {', '.join(map(repr, SLIDING))}, got {sliding!r}")
         dofs = None
         if sliding == "finite":
-            from .sliding import interface_dofs, mortar_builder, selection
-            pairs = mortar_builder(space, model)(model.mesh.points)
+            from .sliding import coupling_builder, interface_dofs, selection
+            pairs = coupling_builder(space, model)(model.mesh.points)
             dofs = interface_dofs(model, space.n_components)
         else:
             pairs = contact_pairs(space, model)

@@ -62,11 +62,20 @@ def selection(dofs: np.ndarray, n_dofs: int) -> sp.csr_matrix:
     return sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), n_dofs))
 
 
-def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
-    """Coupling builder of a 2-D model: dual mortar on every interface (fem/mortar.py) at the given coordinates."""
+def coupling_builder(space: Space, model: Model) -> CouplingBuilder:
+    """The coupling builder of a model: :func:`mortar_builder` for plane-strain and axisymmetric models.
+
+    The hook for 3-D: a builder ``points (n_nodes, 3) -> ContactPairs`` of every interface (the 3-D mortar) is
+    returned here for ``space.dim == 3``; nothing else in this module depends on the dimension.
+    """
     if space.dim != 2 or space.n_components != 2:
         raise InputError(f"[solver] sliding = 'finite' needs a plane-strain or axisymmetric model (3-D waits for "
                          f"the 3-D mortar coupling), got kind {model.kind!r}; use sliding = 'small'")
+    return mortar_builder(space, model)
+
+
+def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
+    """Coupling builder of a 2-D model: dual mortar on every interface (fem/mortar.py) at the given coordinates."""
     from .mortar import mortar_pairs
 
     def build(points: np.ndarray) -> ContactPairs:
@@ -191,7 +200,7 @@ def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
 
     if problem.pairs.n_pairs == 0:
         raise SolverError("finite sliding: the model has no contact pairs")
-    builder = mortar_builder(problem.space, problem.model)
+    builder = coupling_builder(problem.space, problem.model)
     ref, c = problem.pairs, problem.condensed
     state = _State(problem.space.n_dofs, ref, c.n_modes)
     stages, amps = problem.amplitudes()
