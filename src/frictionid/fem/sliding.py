@@ -10,7 +10,7 @@ which does not depend on the coupling. A coupling builder maps deformed nodal co
 products only, ``W = Bhat S Bhat^T`` (:func:`coupled_operators`): no factorisation per increment.
 
 Increment n (fixed point, docs/solver.md, finite sliding): the coupling B_n and the gap g_n are evaluated at the
-configuration X + u_ref, first u_ref = u_{n-1}; the increment is solved with
+configuration X + u_ref, first u_ref = u_{n-1} + (u_{n-1} - u_{n-2}); the increment is solved with
 
     g = g_n + B_N,n (u - u_ref),     ds = B_T,n (u - u_{n-1})     (slip increment in the current frame)
 
