@@ -25,6 +25,7 @@ check: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/forward_block2d.py
 	$(PY) benchmarks/forward_block3d.py
+	$(PY) benchmarks/mortar_block3d.py
 	$(PY) benchmarks/condensation.py
 	$(PY) benchmarks/identify_block.py
 	$(PY) benchmarks/bolt.py
@@ -36,6 +37,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/frame_fit.py
 	$(PY) benchmarks/tightening.py
 	$(PY) benchmarks/dask_overhead.py
+	$(PY) benchmarks/contact_solves.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info

@@ -54,7 +54,7 @@ def test_model_and_measurements_as_objects_give_the_table_and_file_results(first
     for zone in ("A", "B"):
         assert result.coefficients[zone] == pytest.approx(from_files.coefficients[zone], abs=1e-12)
         assert result.stderr[zone] == pytest.approx(from_files.stderr[zone], rel=1e-9)
-    assert result["model"] == {}                              # a model object has no [model] table
+    assert set(result["model"]) == {"contact"}               # a model object has no [model] table, only the map
 
 
 def test_the_result_object_reads_like_result_json_and_cannot_be_changed(cli_run):
@@ -155,14 +155,16 @@ def test_the_api_is_quiet_unless_asked_and_the_cli_shows_each_phase(first, cli_r
     lines = []
     identify(model, first / "measured.csv", {"A": 0.1, "B": 0.1}, progress=lines.append, **common)
     assert lines[0].startswith("model: builder 'block2d', plane_strain, ") and "zones A, B" in lines[0]
-    assert lines[1].startswith("embedded backend ready: 40 observations at 20 points")
-    assert lines[2].startswith("[[Resolution before fitting]]")
+    assert lines[1].startswith("contact 'block_base': 21 pairs node-to-node")
+    assert lines[2].startswith("embedded backend ready: 40 observations at 20 points")
+    assert lines[3].startswith("[[Resolution before fitting]]")
     iterations = [line for line in lines if line.startswith("iter ")]
     assert iterations[0].startswith("iter   0  J=") and "step=" not in iterations[0]
     assert all("step=" in line and "A=" in line for line in iterations[1:]) and len(iterations) >= 3
     assert main(["identify", str(first / "identify.toml"), "--resume"]) == 0          # replays cli_run's store
     out = capsys.readouterr().out.splitlines()
-    assert out[0].startswith("model: ") and out[1].startswith("embedded backend ready") and "[[Variables]]" in out
+    assert out[0].startswith("model: ") and out[1].startswith("contact 'block_base'")
+    assert out[2].startswith("embedded backend ready") and "[[Variables]]" in out
 
 
 def test_observations_csv_holds_measured_against_fitted(cli_run):

@@ -136,7 +136,7 @@ def test_force_observable_reads_the_force_column_and_needs_its_noise(tmp_path):
     np.testing.assert_array_equal(obs.y[forces], [512.5, 630.0])
     np.testing.assert_array_equal(obs.row[forces], [2, 2])          # after the 2 points x 1 quantity rows
     np.testing.assert_array_equal(obs.sigma[forces], [2.0, 2.0])
-    with pytest.raises(InputError, match="standard deviations"):
+    with pytest.raises(InputError, match="force is observed with uy but without a standard deviation"):
         observations_from(read_measurements(path), model, ["uy", "force"], [2, 3], {"u": 5e-4})
     no_force = tmp_path / "n.csv"
     no_force.write_text("point,x,y,z,stage,uy\nP1,5,0,2,2,0.01\n")

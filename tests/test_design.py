@@ -152,3 +152,29 @@ def test_bad_design_or_merge_input_exits_2_naming_the_key(tmp_path, capsys, extr
     path = _config(tmp_path, zones, extra, design, "" if noise == "" else "noise = { u = 0.0005 }\n")
     assert main(["design", str(path)]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_design_takes_a_plain_points_file_and_prints_regions_as_valid_toml(tmp_path, capsys):
+    """A points file of point,x,y,z only (no stage, no values: a plan has none), points on the block's sides
+    (region from [data] regions) and on the base (no region given); the printed regions suggestion is TOML whose
+    values are the model's regions, and no chosen point is labelled after a missing region."""
+    import tomllib
+
+    points = {"L1": (-5.0, 0.5), "L2": (-5.0, 1.5), "R1": (5.0, 0.5), "R2": (5.0, 1.5), "B1": (-12.0, 0.0),
+              "B2": (12.0, 0.0), "B3": (-16.0, -2.0), "B4": (16.0, -2.0)}
+    (tmp_path / "points.csv").write_text("# planned DIC points [mm]\npoint,x,y,z\n"
+                                         + "".join(f"{p},{x},{y},0.0\n" for p, (x, y) in points.items()))
+    (tmp_path / "plan.toml").write_text(
+        '[model]\nbuilder = "block2d"\nmesh_size = 2.0\n[friction]\nzones = { A = 0.3, B = 0.3 }\n'
+        '[data]\nfile = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = { u = 0.0005 }\n'
+        'regions = { "L*" = "block", "R*" = "block" }\n[design]\nn_candidates = 8\n[run]\ndir = "runs"\n')
+    assert main(["design", str(tmp_path / "plan.toml"), "--points", "8"]) == 0
+    out = capsys.readouterr().out
+    suggestion = out.split("[data] regions = ", 1)[1].split("), sensitivity.png")[0]
+    regions = tomllib.loads(f"regions = {suggestion}")["regions"]
+    assert regions and set(regions.values()) <= {"block", "base"}
+    chosen = (tmp_path / "runs/design/chosen_points.csv").read_text()
+    assert "None" not in chosen and "null" not in suggestion
+    labels = [line.split(",")[0] for line in chosen.splitlines()[2:]]
+    assert set(labels) & set(points)                      # planned points chosen keep their labels
+    assert json.loads((tmp_path / "runs/design/design.json").read_text())["chosen"]["regions"] == regions

@@ -282,14 +282,10 @@ def test_inp_element_type_without_a_cell_is_refused_by_name(tmp_path):
         mesh_model(path, kind="plane_strain", materials={"left": {"E": 1, "nu": 0.3}})
 
 
-def test_a_user_mesh_cannot_be_refined_and_identify_says_so(folder, capsys):
-    with pytest.raises(InputError, match="cannot be refined"):
-        refined(options("plane_identify.toml"))
-    text = (folder / "plane_identify.toml").read_text().replace("[run]", '[identify]\nmodel_error = "estimate"\n[run]')
-    (folder / "estimate.toml").write_text(text)
-    assert main(["identify", str(folder / "estimate.toml")]) == 2
-    err = capsys.readouterr().err
-    assert "need a model frictionid can refine" in err and "'mesh'" in err and "Traceback" not in err
+def test_a_user_mesh_is_refined_by_subdivision(folder):
+    """tests/test_subdivide.py has the geometry, the groups and the convergence; here: the option it raises."""
+    table = options("plane_identify.toml")
+    assert refined(table)["refine"] == 1 and refined(refined(table))["refine"] == 2
 
 
 def test_relative_file_is_resolved_against_the_config_folder(folder, monkeypatch, tmp_path):

@@ -56,7 +56,8 @@ def test_the_refined_model_has_the_coarse_ones_zones_and_stages_and_more_nodes(o
 
 
 @pytest.mark.parametrize("options, factor, key", [
-    ({"builder": "mesh", "file": "part.msh"}, 2, "builder = 'mesh'"),
+    ({"builder": "mesh", "file": "part.msh"}, 3, "power of 2"),
+    ({"builder": "mesh", "file": "part.msh", "refine": -1}, 2, "refine = -1"),
     ({"mesh_size": 1.0}, 2, "builder = None"),
     ({"builder": "block", "mesh_size": "fine"}, 2, "mesh_size"),
     ({"builder": "block"}, 1, "factor"),
@@ -173,8 +174,8 @@ def test_inflated_sigma_adds_the_error_as_variance(block2d):
 
 
 def test_an_unrefinable_builder_is_refused_before_anything_is_built():
-    with pytest.raises(InputError, match="builder = 'mesh': the model cannot be refined"):
-        estimate_model_error({"builder": "mesh", "file": "part.msh"}, block2d_observations(), MU)
+    with pytest.raises(InputError, match="builder = None: the model cannot be refined"):
+        estimate_model_error({"mesh_size": 1.0}, block2d_observations(), MU)
 
 
 def test_a_refined_model_with_other_zones_is_refused(monkeypatch):

@@ -7,7 +7,7 @@ import pytest
 
 from block2d_case import points_csv
 from frictionid.cli import main
-from frictionid.run.profile import CHI2_95, grid, interval
+from frictionid.run.profile import CHI2_95, CHI2_BOUND_95, bound_verdict, grid, interval
 
 POINTS = points_csv(stage=2, quantities=("ux", "uy"))
 REGIONS = 'regions = { "P[1-4]" = "block", "P[56]" = "base" }\n'
@@ -99,3 +99,65 @@ def test_grid_and_interval_helpers():
 def test_bad_profile_keys_exit_2(folder, capsys, identify, message):
     assert main(["identify", _config(folder, "bad", "A = 0.2, B = 0.2", "points.csv", identify)]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.slow                                               # identification and 7 refits: 25 s
+def test_a_zone_claimed_on_its_bound_carries_its_profile_check(folder, capsys):
+    """B's true value is 0 and the fit is consistent: B is claimed on its bound only with the profile's proof,
+    stored in result.json: chi-square refitted at held values from the bound, the one-sided 95 % level with the
+    misfit's scale, and the interval it gives."""
+    data = _measured(folder, "claim", "A = 0.3, B = 0.0", seed=5)
+    assert main(["identify", _config(folder, "claim", "A = 0.2, B = 0.2", data, "profile_points = 7\nresolution = 0.05\n")]) == 0
+    out = capsys.readouterr().out
+    result = json.loads((folder / "runs/claim/result.json").read_text())
+    b = result["parameters"]["B"]
+    assert result["fit"]["consistent"] is True and b["at_bound"] and b["value"] == pytest.approx(0.0, abs=1e-6)
+    check = b["bound_check"]
+    assert b["identifiable"] and check["passed"] and check["level"] == 0.95
+    assert check["threshold"] == pytest.approx(CHI2_BOUND_95 * result["fit"]["error_scale"] ** 2)
+    assert check["values"][0] == 0.0 and len(check["values"]) == 7
+    # the bound's refit is the fit itself; chi-square rises into the interior past the threshold
+    assert check["chi2"][0] == pytest.approx(result["fit"]["chi2"], rel=1e-6)
+    assert max(check["chi2"]) - check["chi2"][0] > check["threshold"]
+    assert b["ci95"] == check["interval"] and 0.0 == b["ci95"][0] < b["ci95"][1] <= 1.645 * 0.05
+    assert "bound check of B" in out and "on its bound: the profile excludes values beyond" in out
+    assert "bound_check" not in result["parameters"]["A"]
+
+
+def test_the_bound_verdict_refuses_a_dip_a_flat_profile_and_a_wide_one():
+    values = np.linspace(0.0, 0.08, 9)
+    parabola = 50.0 + (values / 0.01) ** 2                      # one-sided 95 % end at sqrt(2.706) 0.01
+    assert bound_verdict(values, parabola, 0.0, CHI2_BOUND_95, 0.02)["passed"]
+    dip = bound_verdict(values, parabola - 30.0 * np.sin(values / 0.08 * np.pi), 0.0, CHI2_BOUND_95, 0.02)
+    assert not dip["passed"] and "falls into the interior" in dip["why"]
+    flat = bound_verdict(values, 50.0 + values, 0.0, CHI2_BOUND_95, 0.02)
+    assert not flat["passed"] and "do not exclude the interior" in flat["why"]
+    wide = bound_verdict(values, 50.0 + (values / 0.03) ** 2, 0.0, CHI2_BOUND_95, 0.02)   # end 0.049 > 0.033
+    assert not wide["passed"] and "only beyond" in wide["why"]
+    # the threshold scales with the misfit's s^2: the same profile with s^2 = 4 is twice as wide
+    scaled = bound_verdict(values, parabola, 0.0, 4 * CHI2_BOUND_95, 0.02)
+    assert scaled["interval"][1] == pytest.approx(2 * np.sqrt(CHI2_BOUND_95) * 0.01, rel=0.05)
+    # from an upper bound the interval runs downwards
+    upper = bound_verdict(1.0 - values, parabola, 1.0, CHI2_BOUND_95, 0.02)
+    assert upper["passed"] and upper["interval"][1] == 1.0 and upper["interval"][0] < 1.0
+
+
+@pytest.mark.slow                                               # identification and 7 refits: 25 s
+def test_a_zone_that_fails_its_bound_check_is_not_claimed_and_says_why(folder, monkeypatch):
+    """The identification acts on a failed check: the zone is not claimed, its why names the check's reason, and
+    the check (with its values) stays in result.json."""
+    from frictionid.run import profile as module
+    checks = module.bound_checks
+
+    def failing(*args, **kwargs):
+        out = checks(*args, **kwargs)
+        return {zone: {**check, "passed": False, "why": "made to fail"} for zone, check in out.items()}
+
+    monkeypatch.setattr(module, "bound_checks", failing)
+    data = _measured(folder, "fail", "A = 0.3, B = 0.0", seed=5)
+    assert main(["identify", _config(folder, "fail", "A = 0.2, B = 0.2", data,
+                                     "profile_points = 7\nresolution = 0.05\n")]) == 0
+    b = json.loads((folder / "runs/fail/result.json").read_text())["parameters"]["B"]
+    assert b["at_bound"] and not b["identifiable"] and b["why"] == "on its bound, but made to fail"
+    assert len(b["bound_check"]["chi2"]) == 7                            # the interval stays the linearised one
+    assert b["ci95"][1] == pytest.approx(b["ci95"][0] + 1.6448536 * b["stderr"], rel=1e-6)

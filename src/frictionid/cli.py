@@ -161,12 +161,17 @@ def _add_crosscheck(sub):
 def _run_crosscheck(args) -> int:
     from .config import read_config
     from .crosscheck import cross_check_config
+    from .paths import check_file, input_files
     from .report.crosscheck import cross_check_table
 
-    table = cross_check_table(*cross_check_config(read_config(args.config, need=("model", "friction"))))
+    config = read_config(args.config, need=("model", "friction"))
+    out = check_file(args.out, input_files(config), "--out") if args.out else None
+    with config.naming_keys():
+        table = cross_check_table(*cross_check_config(config))
     print(table, end="")
-    if args.out:
-        Path(args.out).write_text(table)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(table)
     return 0
 
 

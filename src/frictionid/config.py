@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import difflib
+import logging
+import re
 import tomllib
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 import tomli_w
 
+from .data.table import CHANNELS, QUANTITIES
 from .errors import InputError
+
+log = logging.getLogger(__name__)
 
 REQUIRED = object()   # marks a key without a default
 
@@ -23,7 +29,7 @@ SCHEMA = {
              "plane_tolerance": None, "coordinates": None},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
-               "load_scale": 1.0, "factorisation": "auto", "sliding": "small"},
+               "load_scale": 1.0, "factorisation": "auto", "increments": "fixed", "sliding": "small"},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
@@ -34,6 +40,8 @@ SCHEMA = {
                "tolerance": None},
 }
 OPEN_TABLES = {"model"}
+#: a message about a config key: it starts with a table's name ("data.noise.u: ...", "[friction] zones: ...")
+_KEY_LED = re.compile(r"\[?(" + "|".join(SCHEMA) + r")\b")
 
 #: expected type of each value (key -> (types, what to say)); checked before anything is built
 TYPES = {
@@ -70,6 +78,7 @@ TYPES = {
     "solver.stick_slope": ((int, float), "a number [N/mm^3]"),
     "solver.load_scale": ((int, float), "a number > 0"),
     "solver.factorisation": (str, '"auto", "cholmod" or "superlu"'),
+    "solver.increments": (str, '"fixed" or "adaptive"'),
     "solver.sliding": (str, '"small" or "finite"'),
     "identify.method": (str, "a method name"),
     "identify.jacobian": (str, '"analytic", "forward" or "central"'),
@@ -125,8 +134,68 @@ def _check_types(tables: dict, path: Path) -> None:
                 raise InputError(f"{path}: {dotted} has {item!r}; expected {TYPES[dotted][1]}")
 
 
+#: the observables a [data] table can name: point quantities and the per-stage reaction sums
+OBSERVABLES = QUANTITIES + ("force",) + tuple(CHANNELS)
+#: keys of the tables inside tables (table.key -> allowed keys); the values are checked by :data:`ENTRY_CHECKS`
+SUBKEYS = {"data.noise": ("u", "e") + OBSERVABLES, "data.reactions": tuple(CHANNELS)}
+
+
+def _positive(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 and value != float("inf")
+
+
+#: what each entry of a table inside a table must be: (test, what to say)
+ENTRY_CHECKS = {"data.noise": (_positive, "a positive number (a standard deviation in the quantity's unit: mm, "
+                                          "strain, N, N m)"),
+                 "data.reactions": (lambda value: isinstance(value, str) and bool(value),
+                                    'a reaction label of the model, e.g. "plate1_rim.y"')}
+
+
+def _check_subtables(tables: dict, path: Path) -> None:
+    for dotted, known in SUBKEYS.items():
+        table, key = dotted.split(".")
+        for entry, value in (tables[table].get(key) or {}).items():
+            if entry not in known:
+                raise InputError(f"{path}: unknown key {dotted}.{entry}{_suggest(entry, known)}; known keys are "
+                                 f"{list(known)}")
+            test, what = ENTRY_CHECKS[dotted]
+            if not test(value):
+                raise InputError(f"{path}: {dotted}.{entry} must be {what}, got {value!r}")
+    observed = tables["data"].get("observables") or []
+    for name in observed:
+        if name not in OBSERVABLES:
+            raise InputError(f"{path}: data.observables has {name!r}{_suggest(name, OBSERVABLES)}; observables are "
+                             f"{list(OBSERVABLES)}")
+    kinds = set(observed) | {q[0] for q in observed if q in QUANTITIES}
+    unused = [key for key in tables["data"].get("noise") or {} if observed and key not in kinds]
+    if unused:                  # legal, but likely a slip: the noise meant for an observable is not where it acts
+        log.warning("%s: data.noise gives %s, but no observed quantity (data.observables = %s) uses %s", path,
+                    ", ".join(unused), observed, "it" if len(unused) == 1 else "them")
+
+
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.sliding": ("small", "finite")}
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive"),
+           "solver.sliding": ("small", "finite"), "data.coordinates": ("reference", "deformed")}
+
+
+#: lowest value of numeric keys, and whether the bound itself is allowed (the keys' meaning is in TYPES)
+RANGES = {"solver.timeout": (0, False), "solver.threads": (1, True), "solver.load_scale": (0, False),
+          "solver.normal_stiffness": (0, False), "solver.stick_slope": (0, False),
+          "identify.max_iterations": (0, True), "identify.step": (0, False), "identify.resolution": (0, False),
+          "identify.suggestions": (0, True), "identify.loss_scale": (0, False), "identify.tikhonov": (0, True),
+          "identify.penalty": (0, True), "identify.refine_target": (0, True), "identify.refine_budget": (1, True),
+          "identify.profile_points": (3, True), "run.workers": (1, True), "run.retries": (0, True),
+          "design.points": (1, True), "design.n_candidates": (1, True), "design.tolerance": (0, False),
+          "data.strain_window": (0, False), "data.plane_tolerance": (0, True)}
+
+
+def _check_ranges(tables: dict, path: Path) -> None:
+    for dotted, (low, inclusive) in RANGES.items():
+        table, key = dotted.split(".")
+        value = tables[table].get(key)
+        if value is not None and not (value >= low if inclusive else value > low):
+            raise InputError(f"{path}: {dotted} must be {'>=' if inclusive else '>'} {low}, got {value!r} "
+                             f"(expected {TYPES[dotted][1]})")
 
 
 def _check_choices(tables: dict, path: Path) -> None:
@@ -165,6 +234,19 @@ class Config:
         """How messages name the config: its file, or the name given to :func:`config_from_dict`."""
         return self.name if self.name is not None else str(self.path)
 
+    @contextmanager
+    def naming_keys(self):
+        """Checks made later (against the model, the data) raise messages that start with the config key they
+        are about ("data.stages: ..."); inside this block those get the config's file in front, as config.py's
+        own messages have."""
+        try:
+            yield
+        except InputError as exc:
+            message = str(exc)
+            if not _KEY_LED.match(message):
+                raise
+            raise InputError(f"{self.where}: {message}") from None
+
     def resolve(self, value: str) -> Path:
         """A path from the config, relative to the config file's folder."""
         path = Path(value)
@@ -172,7 +254,8 @@ class Config:
 
 
 def _suggest(key: str, known) -> str:
-    close = difflib.get_close_matches(key, list(known), n=1)
+    """" (did you mean 'x'?)" for the known name closest to ``key``, or the one it abbreviates ("f": "force")."""
+    close = difflib.get_close_matches(key, list(known), n=1) or [k for k in known if k.startswith(key)][:1]
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
@@ -243,6 +326,8 @@ def _validated(raw: dict, path: Path, text: str, need: tuple[str, ...], name: st
     tables = {table: _table(raw, table, where) for table in SCHEMA}
     _check_types(tables, where)
     _check_choices(tables, where)
+    _check_ranges(tables, where)
+    _check_subtables(tables, where)
     if isinstance(tables["model"].get("file"), str):      # a builder's mesh file: relative to the config's folder
         tables["model"]["file"] = str(path.resolve().parent / tables["model"]["file"])
     for table, key in (("model", "builder"), ("friction", "zones")):

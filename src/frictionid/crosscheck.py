@@ -73,7 +73,7 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     Otherwise the shift counts every observable at every point and [data] stage (default: all), weighted by
     [data] noise. Returns (check, shift or None, a note saying why there is no shift).
     """
-    model = build_model(config.model_options)
+    model = build_model(config.model_options, f"{config.where}: [model]")
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     data, noise = config.data, config.data.get("noise")

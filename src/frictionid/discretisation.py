@@ -10,7 +10,9 @@
   is taken from the misfit (:func:`error_scale`: chi-square equal to its degrees of freedom, k = 0 when the
   noise explains the misfit). The chi-square test then passes by construction unless the pattern cannot
   explain the misfit: when the observations where the estimate sees no error hold more misfit than the noise
-  explains, k cannot help and the fit stays inconsistent.
+  explains, k cannot help and the fit stays inconsistent. The fit before the refit is kept
+  (``ModelError.before``): how far the refit moved is part of the coefficients' systematic error
+  (:func:`frictionid.inverse.uncertainty.systematic_error`).
 
 ``identify.refine_target`` > 0 refines the model (element sizes halved, up to ``identify.refine_budget``
 times) before fitting until the estimated error at the start values is below that many noise levels RMS; a
@@ -92,7 +94,7 @@ def with_model_error(evaluator, parameters, model_options: dict, model, outcome,
     if mode != "include":
         return error, outcome
     scale = error_scale(evaluator.model_values(outcome.x) - obs.y, obs.sigma, error.estimate, len(outcome.x))
-    error = replace(error, scale=scale)
+    error = replace(error, scale=scale, before=np.array(outcome.x, dtype=float))
     evaluator.reweigh(inflated_sigma(obs, error))
     second = refit(outcome.x, outcome.n_iterations + 1)
     return error, replace(second, n_iterations=outcome.n_iterations + 1 + second.n_iterations,

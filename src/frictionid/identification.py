@@ -30,18 +30,24 @@ from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
 from .discretisation import check_options, refine_until, with_model_error
 from .inverse.adequacy import Adequacy, assess, bias_shift
-from .inverse.uncertainty import Uncertainty, at_bounds, estimate
+from .inverse.uncertainty import Uncertainty, at_bounds, estimate, systematic_error
 from .model import Model
+from .paths import check_folder, input_files
+from .model_checks import checked_contact, model_line
 from .prefit import Prefit, prefit
 from .report.outputs import write_outputs
 from .report.vtu import export_fields
 from .report.tables import prefit_summary
 from .result import IdentificationResult
-from .run import multistart, profile
+from .run import multistart, profile, refits
 from .run.executor import check_scheduler, make_executor
 from .run.store import RunStore
 
 log = logging.getLogger(__name__)
+
+#: the files an identification writes into its run.dir (with its store and the fields/ folder)
+RUN_FILES = ("result.json", "history.csv", "convergence.png", "residuals.png", "observations.csv", "report.html",
+             "store.sqlite")
 
 
 @dataclass(frozen=True)
@@ -61,6 +67,8 @@ class Setup:
     window: object = None
     #: how each DIC export was read (format, coordinates, strain measure, points): result.json's ``data.files``
     files: tuple = ()
+    #: the contact map checked at model build (:func:`~frictionid.fem.interface.contact_setup`)
+    contact: tuple = ()
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -80,25 +88,24 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
             parameters: Parameters | None = None, echo=lambda text: None) -> Setup:
     """Build the model, read and map the data, validate the parameters and options; a model, measurements or
     parameters given as objects are used instead of the config's [model], data.file and [friction]."""
+    with config.naming_keys():
+        return _prepare(config, model, measurements, parameters, echo)
+
+
+def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     ident, where = config.identify, config.where
+    # types and ranges of every key are config.py's (TYPES, RANGES); the names a key takes, their owners'
     if ident["jacobian"] not in JACOBIANS:
         raise InputError(f"{where}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
     check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{where}: [solver]",
                   float(ident["step"]))
-    if not float(ident["resolution"]) > 0 or int(ident["suggestions"]) < 0:
-        raise InputError(f"{where}: identify.resolution must be > 0 and identify.suggestions >= 0, got "
-                         f"{ident['resolution']!r} and {ident['suggestions']!r}")
-    if int(config.run["workers"]) < 1:
-        raise InputError(f"{where}: run.workers must be at least 1, got {config.run['workers']}")
     check_scheduler(config.run.get("scheduler"), f"{where}:")
-    if int(config.run["retries"]) < 0:
-        raise InputError(f"{where}: run.retries must be 0 or more, got {config.run['retries']}")
     given_model, model_options = model, config.model_options if model is None else {}
     if model is None:
         start = time.perf_counter()
-        model = build_model(model_options)
-        echo(f"model: builder {config.model.get('builder')!r}, {model.kind}, {model.mesh.n_nodes:,} nodes, "
-             f"zones {', '.join(model.zone_names)} ({time.perf_counter() - start:.1f} s)")
+        model = build_model(model_options, f"{where}: [model]")
+        echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
+    contact = checked_contact(model, where, echo)
     if parameters is None:
         parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                             config.friction.get("fixed"))
@@ -108,9 +115,6 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
     multistart.start_points(ident["starts"], parameters.x0, parameters.lower, parameters.upper, int(ident["seed"]),
                             parameters.free_names, f"{where}:")
     profile.profiled_zones(ident["profile"], parameters.free_names, f"{where}:")
-    if isinstance(ident["profile_points"], bool) or int(ident["profile_points"]) < 3:
-        raise InputError(f"{where}: identify.profile_points must be a whole number >= 3, got "
-                         f"{ident['profile_points']!r}")
     check_options(ident, model_options, f"{where}:")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
@@ -136,7 +140,7 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
                                      config.data.get("noise"), config.data.get("regions"), relative, specimens,
                                      config.data.get("reactions"))
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
-                 data_file, tuple(frames), window, tuple(files))
+                 data_file, tuple(frames), window, tuple(files), contact)
 
 
 def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
@@ -150,8 +154,6 @@ def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -
     if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
         raise InputError(f"{where}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
                          " (a robust loss only with method = \"trf\")")
-    if not float(ident["loss_scale"]) > 0:
-        raise InputError(f"{where}: identify.loss_scale must be > 0, got {ident['loss_scale']!r}")
     try:
         check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"], n_free)
     except InputError as exc:
@@ -257,14 +259,16 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     evaluator)`` after each iteration with all zones' coefficients mu; ``setup`` is :func:`prepare`'s
     (built here when not given); ``write_files=False`` keeps only the store (no result.json, plots, report).
     """
+    run_dir = check_folder(config.resolve(config.run["dir"]), f"{config.where}: run.dir",
+                           input_files(config), RUN_FILES if write_files else ())
     setup = setup or prepare(config, echo=echo)
-    run_dir = config.resolve(config.run["dir"])
     start = time.perf_counter()
     obs = setup.observations
     if float(config.identify["refine_target"]) > 0:
         options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                                          float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
-        setup = replace(setup, model=model, model_options=options)
+        contact = setup.contact if model is setup.model else checked_contact(model, config.where, echo)
+        setup = replace(setup, model=model, model_options=options, contact=contact)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
@@ -344,12 +348,15 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                  write_files)
         raise
     result = _result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
+    held = refits.HeldRefits(evaluator, setup.parameters, store, config.identify,
+                             lambda problem: _optimise(problem, config))
+    held.check_bounds(result, echo)
     if starts:
         result["starts"] = starts
     zones = profile.profiled_zones(config.identify["profile"], setup.parameters.free_names, f"{config.where}:")
     if zones:
         echo(f"profiles of {', '.join(zones)}: {int(config.identify['profile_points'])} refits each ...")
-        result["profiles"] = _profiles(config, setup, evaluator, store, result, zones)
+        result["profiles"] = held.profiles(zones, result)
     result["timings"] = solve_timings(store, backend_s)
     store.put_result(result)
     store.set_status(result["status"])
@@ -409,35 +416,6 @@ def _optimise_starts(problem: LeastSquares, config: Config, setup, evaluator: Ev
     return chosen.outcome, multistart.summary(runs, chosen, params.full, params.names)
 
 
-def _profiles(config, setup, evaluator: Evaluator, store: RunStore, result: dict, zones) -> dict:
-    """identify.profile: each zone held on a grid and the others refitted (:mod:`frictionid.run.profile`), on
-    the identification's store and executor; the refits' iterations are not the run's history."""
-    ident, params, obs = config.identify, setup.parameters, evaluator.obs
-    names = list(params.free_names)
-    fitted = np.array([result["parameters"][z]["value"] for z in names])
-    stderr = [result["parameters"][z]["stderr"] for z in names]
-
-    def refit(zone, value, x0):
-        k = names.index(zone)
-        held = profile.held(params, zone, value, x0)
-        sub = Evaluator(evaluator.backend, obs, held, profile.HeldStore(store, held), ident["jacobian"],
-                        float(ident["step"]), float(ident["tikhonov"]), np.delete(evaluator.prior, k),
-                        float(ident["penalty"]), executor=evaluator.executor)
-        problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
-                               float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
-                               float(ident["loss_scale"]))
-        x = _optimise(problem, config).x
-        evaluator.count(sub)                                   # the refits' solves count as the run's work
-        return x
-
-    def chi2_of(x):
-        r = evaluator.residuals(x)[:obs.n_obs]
-        return float(r @ r)
-
-    return profile.profiles(zones, names, params, fitted, stderr, chi2_of, refit, evaluator.executor.parallel,
-                            int(ident["profile_points"]), float(result["fit"]["error_scale"]) ** 2)
-
-
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
     """The discretisation error along the fit, and with "include" the refit (:func:`~.discretisation.
     with_model_error`); the refit's iterations are stored after the fit's."""
@@ -487,6 +465,8 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                          at_bound=bool(unc.at_bound[k]), identifiable=bool(unc.identifiable[k]))
             if why[k]:
                 entry["why"] = why[k]
+            if stats.systematic is not None:
+                entry["stderr_systematic"] = float(stats.systematic[k])
         parameters[p.name] = entry
     return {
         "status": outcome.status, "message": outcome.message, "method": config.identify["method"],
@@ -504,7 +484,7 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "mode": config.identify["model_error"], **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
-        "model": setup.model_options,
+        "model": {**setup.model_options, "contact": [entry.as_dict() for entry in setup.contact]},
         "data": data_section(setup.frames, obs, setup.window, setup.files),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
@@ -547,6 +527,8 @@ class FitStatistics:
     adequacy: Adequacy
     uncertainty: Uncertainty
     model_shift: np.ndarray | None = None
+    #: (n_free,) systematic standard error in the uncertainty (model error included), None otherwise
+    systematic: np.ndarray | None = None
 
 
 def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float,
@@ -561,13 +543,18 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     weights = robust_weights(r, problem.loss, problem.loss_scale)
     r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     inner = ~at_bounds(x, params.lower, params.upper)
-    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner)
-    shift = None
+    model = getattr(evaluator.backend, "model", None)
+    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner,
+                      sigma=obs.sigma, regions=dict(zip(obs.point_labels, obs.point_regions)),
+                      model_kind=getattr(model, "kind", None))
+    shift = systematic = None
     if error is not None and error.signed is not None:
         shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
+        if error.before is not None:                   # "include": the error's effect is part of the interval
+            systematic = systematic_error(shift, error.scale, error.before, x)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
-                   shift)
-    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift)
+                   shift, systematic)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:

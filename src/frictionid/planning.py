@@ -25,16 +25,22 @@ from pathlib import Path
 import numpy as np
 
 from .backends.embedded import EmbeddedBackend
+from .builders.registry import build_model
 from .config import Config
+from .data.sources import read_data
+from .data.table import CHANNELS, QUANTITIES, Measurements
 from .errors import InputError
 from .identification import prepare
 from .inverse.design import CRITERIA, finest_partition, information_of, select_points
 from .inverse.observations import noise_of
 from .inverse.resolution import predicted_stderr, resolution
 from .model import Model
+from .paths import check_folder, input_files
 from .prefit import candidate_points, spread_points
 
 KINDS = ("surface", "section")
+#: the files a design writes into its folder
+DESIGN_FILES = ("design.json", "chosen_points.csv", "sensitivity.png")
 
 
 @dataclass(frozen=True)
@@ -82,9 +88,14 @@ def weighted_rows(model: Model, points, regions, quantities, stages, sigma, mu, 
 
 
 def _zone_relations(model: Model, names) -> tuple[set, list]:
-    """Pairs of the named zones that share a node, and each zone's interface."""
-    nodes = {z: set(model.mesh.boundary_nodes(z).tolist()) for z in names}
-    interface = {z: i.name for i in model.interfaces for z in i.zones}
+    """Pairs of the named zones (coefficients) that share a node, and each zone's interface (a coefficient zones of
+    several interfaces share: their names joined by "+")."""
+    zones_of: dict[str, list] = {}
+    for i in model.interfaces:
+        for zone, coefficient in zip(i.zones, i.coefficients):
+            zones_of.setdefault(coefficient, []).append((zone, i.name))
+    nodes = {c: {int(n) for zone, _ in zones_of[c] for n in model.mesh.boundary_nodes(zone)} for c in names}
+    interface = {c: "+".join(dict.fromkeys(name for _, name in zones_of[c])) for c in names}
     neighbours = {frozenset((a, b)) for a in range(len(names)) for b in range(a + 1, len(names))
                   if nodes[names[a]] & nodes[names[b]]}
     return neighbours, [interface[z] for z in names]
@@ -139,17 +150,22 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
     """Run the design a config describes (module docstring); writes design.json, chosen_points.csv and
     sensitivity.png to ``out`` (default <run.dir>/design) and returns design.json's content."""
     where, table = config.where, config.design
-    setup = prepare(config, echo=echo)
-    model, params, obs = setup.model, setup.parameters, setup.observations
+    folder = check_folder(out if out is not None else config.resolve(config.run["dir"]) / "design",
+                          "design --out" if out is not None else f"{where}: run.dir", input_files(config),
+                          DESIGN_FILES)
     n_points = int(table["points"] if n_points is None else n_points)
-    kind = table["candidates"] or ("surface" if model.dim == 3 else "section")
-    if kind not in KINDS:
-        raise InputError(f"{where}: design.candidates = {kind!r} is not one of {list(KINDS)}")
+    if table["candidates"] not in (None, *KINDS):
+        raise InputError(f"{where}: design.candidates = {table['candidates']!r} is not one of {list(KINDS)}")
     if table["criterion"] not in CRITERIA:
         raise InputError(f"{where}: design.criterion = {table['criterion']!r} is not one of {list(CRITERIA)}")
     if int(table["n_candidates"]) < n_points:
         raise InputError(f"{where}: design.n_candidates = {table['n_candidates']} is fewer than the "
                          f"{n_points} points to choose")
+    with config.naming_keys():
+        model = build_model(config.model_options, f"{where}: [model]")
+        setup = prepare(config, model, planned_measurements(config, model), echo=echo)
+    params, obs = setup.parameters, setup.observations
+    kind = table["candidates"] or ("surface" if model.dim == 3 else "section")
     quantities = tuple(q for q in config.data["observables"] if q != "force")
     noise = config.data.get("noise") or {}
     sigma = [noise_of(q, noise) for q in quantities]
@@ -181,10 +197,11 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
         partitions[label] = finest_partition(info, names, tolerance, neighbours, interface_of)
         echo(_partition_line(label, partitions[label]))
 
-    folder = out or config.resolve(config.run["dir"]) / "design"
     folder.mkdir(parents=True, exist_ok=True)
-    labels = [f"{regions[k]}-{i + 1}" for i, k in enumerate(chosen)]
-    region_table = {f"{r}-*": r for r in dict.fromkeys(regions[k] for k in chosen)}
+    n_planned = len(obs.points)
+    labels = [obs.point_labels[k] if k < n_planned else f"{regions[k]}-{i + 1}" for i, k in enumerate(chosen)]
+    region_table = {**{obs.point_labels[k]: regions[k] for k in chosen if k < n_planned and regions[k]},
+                    **{f"{regions[k]}-*": regions[k] for k in chosen if k >= n_planned}}
     _write_points(folder / "chosen_points.csv", points[chosen], labels, stages, quantities)
     _plot(folder / "sensitivity.png", candidates, names, chosen, obs.points)
 
@@ -205,6 +222,76 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
     echo(f"written: {folder / 'design.json'}, chosen_points.csv (a points file for `frictionid simulate`, with "
          f"[data] regions = {_toml(region_table)}), sensitivity.png")
     return result
+
+
+def planned_measurements(config: Config, model: Model) -> Measurements:
+    """The planned points of ``[data] file`` at every ``[data] stages`` with placeholder values (zeros) of every
+    observable: a plan needs where the points are, not what they measured. A CSV whose header has point, x, y, z
+    is read as a points file (other columns, stage included, are not used); any other file as identify reads it."""
+    files = config.data["file"]
+    path = config.resolve(files) if isinstance(files, str) else None
+    if path is not None and _points_header(path) is not None:
+        labels, xyz = read_points(path)
+    else:
+        measured = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
+        first = dict(zip(reversed(measured.points), range(len(measured.points) - 1, -1, -1)))
+        labels, xyz = list(first), measured.coordinates[list(first.values())]
+    stages = [int(s) for s in config.data["stages"]]
+    n = len(labels)
+    observed = config.data["observables"]
+    zeros = np.zeros(n * len(stages))
+    return Measurements(points=tuple(labels) * len(stages), coordinates=np.tile(xyz, (len(stages), 1)),
+                        stage=np.repeat(stages, n), force=zeros.copy(),
+                        values={q: zeros.copy() for q in observed if q in QUANTITIES},
+                        channels={c: zeros.copy() for c in observed if c in CHANNELS},
+                        source=str(path or config.data["file"]))
+
+
+def _points_header(path: Path) -> list[str] | None:
+    """The header of a CSV naming point, x, y and z (None: another file, or none at all)."""
+    try:
+        with path.open() as handle:
+            for line in handle:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    names = [n.strip() for n in line.split(",")]
+                    return names if {"point", "x", "y", "z"} <= set(names) else None
+    except (OSError, UnicodeDecodeError):
+        return None
+    return None
+
+
+def read_points(path: Path) -> tuple[list[str], np.ndarray]:
+    """Point labels and (n, 3) coordinates [mm] of a points file: ``#`` comments, a header with point, x, y, z
+    (other columns are not read), one row per point (a point repeated, e.g. once per stage, must repeat its
+    coordinates). Errors name the file, the line and the column."""
+    header, rows = None, {}
+    with path.open() as handle:
+        for number, line in enumerate(handle, start=1):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            fields = [f.strip() for f in line.rstrip("\n").split(",")]
+            if header is None:
+                header = fields
+                continue
+            if len(fields) != len(header):
+                raise InputError(f"{path}:{number}: {len(fields)} fields, but the header has {len(header)}")
+            cells = dict(zip(header, fields))
+            xyz = []
+            for axis in "xyz":
+                try:
+                    xyz.append(float(cells[axis]))
+                except ValueError:
+                    raise InputError(f"{path}:{number}: column {axis!r}: {cells[axis]!r} is not a number") from None
+                if not np.isfinite(xyz[-1]):
+                    raise InputError(f"{path}:{number}: column {axis!r}: {cells[axis]!r} is not a finite number")
+            label = cells["point"]
+            if label in rows and rows[label] != xyz:
+                raise InputError(f"{path}:{number}: point {label!r} again with other coordinates {xyz} (first "
+                                 f"{rows[label]})")
+            rows[label] = xyz
+    if not rows:
+        raise InputError(f"{path}: no points (a header point,x,y,z and one row per point)")
+    return list(rows), np.array(list(rows.values()))
 
 
 def _partition_line(label: str, p) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -13,10 +14,12 @@ from .data.measurements import Measurements, write_measurements
 from .data.table import PLANE_TOL
 from .data.sources import read_data
 from .errors import InputError
+from .model_checks import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
 from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
 from .inverse.parameters import Parameters
+from .paths import check_file, check_folder, input_files
 from .report.vtu import export_fields
 
 DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
@@ -33,8 +36,20 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
     fields of the solve go to :func:`fields_folder` of ``out`` for ParaView (docs/results.md); ``echo(text)``
     gets a line about them.
     """
+    with config.naming_keys():
+        return _simulate(config, out, echo)
+
+
+def _simulate(config: Config, out, echo) -> Path:
+    inputs = input_files(config)
+    out = check_file(out, inputs, "output file")
+    if config.run["fields"]:
+        check_folder(fields_folder(out), "output fields folder", inputs)
     check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
-    model = build_model(config.model_options)
+    start = time.perf_counter()
+    model = build_model(config.model_options, f"{config.where}: [model]")
+    echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
+    checked_contact(model, config.where, echo)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
@@ -78,6 +93,7 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
                   *(f"{c}: {CHANNELS[c][0]} [{CHANNELS[c][1]}], reaction {channels[c]}" for c in CHANNELS
                     if c in channels)),
         source=str(out), channels={c: np.repeat(sums[c] / CHANNELS[c][2], n_points) for c in CHANNELS if c in sums})
+    out.parent.mkdir(parents=True, exist_ok=True)
     write_measurements(out, measurements)
     if config.run["fields"]:
         export_fields(backend, mu.full(mu.x0), fields_folder(out), echo)

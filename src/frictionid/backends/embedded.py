@@ -138,6 +138,7 @@ class EmbeddedBackend:
     kept for reuse by later backends of the same session (see :func:`_built`). ``window`` [mm]: the DIC strain
     window the model's strains are filtered with ([data] strain_window; :func:`frictionid.fem.points.point_operator`).
     ``factorisation``: "auto", "cholmod" or "superlu", the condensation's factorisation ([solver] factorisation).
+    ``increments``: "fixed" or "adaptive", how each solve steps through the stages ([solver] increments).
     ``sliding``: "small" or "finite" ([solver] sliding, :meth:`Problem.build`).
     """
 
@@ -146,8 +147,9 @@ class EmbeddedBackend:
 
     def __init__(self, model: Model, points: np.ndarray, quantities: tuple[str, ...], regions=None,
                  reactions: tuple[str, ...] = (), keep: bool = True, window: float | None = None,
-                 factorisation: str = "auto", sliding: str = "small"):
+                 factorisation: str = "auto", increments: str = "fixed", sliding: str = "small"):
         self.model = model
+        self.increments = increments
         points = None if points is None or len(points) == 0 or not quantities else points
         self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation, sliding)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
@@ -156,8 +158,8 @@ class EmbeddedBackend:
                              f"{list(self.problem.reaction_labels)}")
         self.reactions = tuple(reactions)
         self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
-        self._key = _key(model, points, tuple(quantities), regions, window, factorisation,
-                         sliding) if _CACHE else None
+        self._key = _key(model, points, tuple(quantities), regions, window, factorisation, sliding) \
+            + ((increments,) if increments != "fixed" else ()) if _CACHE else None
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
         """The observation rows at ``mu``; with :func:`use_cache` read from (or written to) the cache folder."""
@@ -167,7 +169,7 @@ class EmbeddedBackend:
         if path is not None and path.exists():
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
-        solution = self.problem.solve(mu, sensitivities=sensitivities)
+        solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
         derivatives = None
@@ -182,7 +184,7 @@ class EmbeddedBackend:
 
     def contact_states(self, mu: np.ndarray) -> list[dict[str, dict[str, float]]]:
         """Per stage end: each zone's area fractions open / stick / slip and its normal force [N] at ``mu``."""
-        solution = self.problem.solve(mu)
+        solution = self.problem.solve(mu, increments=self.increments)
         out = []
         for stage in range(self.model.n_stages):
             end = solution.stage_end(stage)
@@ -197,4 +199,4 @@ class EmbeddedBackend:
         :func:`frictionid.fields.solution_fields`)."""
         from ..fields import solution_fields
 
-        return solution_fields(self.problem, self.problem.solve(mu))
+        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments))

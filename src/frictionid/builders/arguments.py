@@ -48,7 +48,8 @@ def checked_table(table, allowed: dict, where: str) -> dict:
         raise InputError(f"{where}: must be a table, got {table!r}")
     for key in table:
         if key not in allowed:
-            close = difflib.get_close_matches(key, list(allowed), n=1)
+            close = difflib.get_close_matches(key, list(allowed), n=1) or \
+                [k for k in allowed if k.lower() == str(key).lower()]
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise InputError(f"{where}: unknown key {key!r}{hint}; keys are {list(allowed)}")
     missing = [k for k, v in allowed.items() if v is ... and k not in table]

@@ -24,8 +24,10 @@ def _cylinders(R_upper: float, R_lower: float, half_width: float, contact_size: 
     return cylinders_mesh(R_upper, R_lower, half_width, positive("contact_size", contact_size),
                           positive("size", size))
 
-def _cylinder_interface() -> ContactInterface:
-    return ContactInterface("contact", ("left", "right"), "lower_contact", discretisation="node-to-node")
+def _cylinder_interface(R_upper: float, R_lower: float, half_width: float) -> ContactInterface:
+    """The arcs' interface; its gap tolerance is the geometry's: twice the gap at the zones' ends (x = half_width)."""
+    return ContactInterface("contact", ("left", "right"), "lower_contact", discretisation="node-to-node",
+                            gap_tolerance=2.0 * float(hertz_gap(half_width, R_upper, R_lower)))
 
 
 def hertz_model(E1: float = 30000.0, nu1: float = 0.25, R1: float = 10.0, E2: float = 29120.0, nu2: float = 0.3,
@@ -55,7 +57,7 @@ def hertz_model(E1: float = 30000.0, nu1: float = 0.25, R1: float = 10.0, E2: fl
                  supports=(Support("lower_flat", (0, 1)), Support("upper_axis", (0,))),
                  loads=(SurfaceForce("upper_flat", 1, (-positive("force", force),)),),
                  stages=(Stage("load", count("n_increments", n_increments)),),
-                 interfaces=(_cylinder_interface(),))
+                 interfaces=(_cylinder_interface(R1, R2, half_width_refined),))
 
 
 def hertz_gap(x, R1: float, R2: float):
@@ -119,7 +121,7 @@ def mindlin_model(R: float = 8.0, E: float = 200.0, nu: float = 0.3, P: float = 
                  loads=loads + (Displacement("upper_flat", 0, (0.0, positive("shift", shift))),),
                  stages=(Stage("press", count("n_press", n_press)),
                          Stage("shift", count("n_tangential", n_tangential))),
-                 interfaces=(_cylinder_interface(),))
+                 interfaces=(_cylinder_interface(R, R, half_width_refined),))
 
 
 def mindlin_reference(mu: float, R: float = 8.0, E: float = 200.0, nu: float = 0.3, P: float = 10.0,

@@ -156,9 +156,10 @@ def read_geo(path: str | Path) -> Mesh:
     return read_gmsh_file(path)[0]
 
 
-def read_gmsh_file(path: str | Path) -> tuple[Mesh, dict[str, np.ndarray]]:
+def read_gmsh_file(path: str | Path, size_factor: float = 1.0) -> tuple[Mesh, dict[str, np.ndarray]]:
     """A .msh read or a .geo meshed (see :func:`read_msh`, :func:`read_geo`): the mesh and its node sets
-    (:func:`mesh_and_node_sets_from_gmsh`)."""
+    (:func:`mesh_and_node_sets_from_gmsh`); a .geo's element sizes are multiplied by ``size_factor`` (on top of
+    its own ``Mesh.MeshSizeFactor``)."""
     path = Path(path)
     geo = path.suffix.lower() == ".geo"
     if not path.is_file():
@@ -167,6 +168,8 @@ def read_gmsh_file(path: str | Path) -> tuple[Mesh, dict[str, np.ndarray]]:
         try:
             gmsh.open(str(path))
             if geo:
+                factor = gmsh.option.getNumber("Mesh.MeshSizeFactor")
+                gmsh.option.setNumber("Mesh.MeshSizeFactor", factor * size_factor)
                 gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:  # gmsh raises a bare Exception with its own message
             raise InputError(f"{path}: gmsh could not {'mesh' if geo else 'read'} it ({exc})") from None

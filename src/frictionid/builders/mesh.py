@@ -15,11 +15,12 @@ import numpy as np
 from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, SurfaceForce, Support
 from ..model.mesh import FACET_NODES, FACET_TYPE
-from ..model.model import KINDS
+from ..model.model import ELEMENTS, KINDS
 from .arguments import checked_table
 from .gmsh_mesh import read_gmsh_file
 from .mesh_checks import check_contact_sides, check_held
-from .mesh_inp import read_inp
+from .mesh_inp import element_meaning, read_inp
+from .subdivide import subdivided
 from .zone_rules import split_facets, zone_rules
 
 logger = logging.getLogger(__name__)
@@ -39,6 +40,7 @@ class MeshFile:
     node_sets : name -> node indices (*NSET, gmsh groups of points or, in 3-D, curves; supports and
         displacements only)
     case_insensitive : names match whatever their case (.inp)
+    element_type : the element type an .inp names (e.g. "C3D8I"); "" for gmsh files
     """
 
     path: Path
@@ -49,6 +51,7 @@ class MeshFile:
     boundaries: dict
     node_sets: dict
     case_insensitive: bool = False
+    element_type: str = ""
 
     def find(self, name, kinds: tuple[str, ...], where: str) -> tuple[str, str]:
         """(kind, the file's spelling) of a configured name among the given kinds of set, else an
@@ -99,22 +102,29 @@ def source_files(path: str | Path) -> list[Path]:
     return found
 
 
-def read_mesh_file(path: Path) -> MeshFile:
-    """The named sets of a .msh, .geo or .inp file."""
+def read_mesh_file(path: Path, refine: int = 0) -> MeshFile:
+    """The named sets of a .msh, .geo or .inp file, refined ``refine`` times: a .msh or .inp by uniform
+    subdivision (:mod:`.subdivide`), a .geo meshed by gmsh with its element sizes divided by 2^refine."""
     suffix = path.suffix.lower()
+    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 0:
+        raise InputError(f"[model] refine = {refine!r}: must be a whole number >= 0 (uniform subdivisions of the "
+                         "mesh, each halving its element size)")
     if suffix == ".inp":
         sets = read_inp(path)
-        return MeshFile(path, sets.points, sets.cell_type, sets.cells, sets.elsets, sets.surfaces, sets.nsets, True)
+        return subdivided(MeshFile(path, sets.points, sets.cell_type, sets.cells, sets.elsets, sets.surfaces,
+                                   sets.nsets, True, sets.element_type), refine)
     if suffix not in (".msh", ".geo"):
         raise InputError(f"[model] file = {str(path)!r}: a mesh file must be a gmsh .msh or .geo or an "
                          "Abaqus / CalculiX .inp")
-    mesh, node_sets = read_gmsh_file(path)
-    return MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries),
-                    node_sets)
+    geo = suffix == ".geo"
+    mesh, node_sets = read_gmsh_file(path, 0.5 ** refine if geo else 1.0)
+    source = MeshFile(path, mesh.points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries),
+                      node_sets)
+    return source if geo else subdivided(source, refine)
 
 
 def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials=None, supports=(), loads=(),
-               interfaces=(), element: str = "standard") -> Model:
+               interfaces=(), element: str | None = None, refine: int = 0) -> Model:
     """A model on a user's mesh file; every name is a region, boundary or node set of the file.
 
     Parameters
@@ -136,12 +146,20 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
     loads : list of { type, boundary, component, values }
         ``type`` "pressure" [MPa, positive pushing into the body], "force" [N, total over the boundary, spread
         uniformly; ``component``] or "displacement" [mm; ``component``]; ``values`` one per stage.
-    interfaces : list of { name, zones, contact, zone_rules, target, discretisation }
+    interfaces : list of { name, zones, contact, zone_rules, target, discretisation, gap_tolerance }
         Contact-side boundaries (``zones``, one per friction zone) and/or contact-side boundaries (``contact``)
         split into zones by ``zone_rules`` (see :mod:`frictionid.builders.zone_rules`), and the target boundary
-        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar" (2-D).
-    element : "standard" | "incompatible"
-        Element technology (incompatible modes need linear hexahedra).
+        on the other body; ``discretisation`` "auto" (default), "node-to-node" or "mortar";
+        ``gap_tolerance`` [mm] the largest initial gap of a contact pair (default half the contact facet size).
+    element : "standard" | "incompatible" | None
+        Element technology (incompatible modes need linear hexahedra); None (default): as the file says, i.e.
+        "incompatible" for an .inp of C3D8I, else "standard" (:func:`~frictionid.builders.mesh_inp.element_meaning`;
+        what frictionid computes differently from the deck's type, e.g. reduced integration, is a warning, as is
+        an ``element`` that contradicts the deck).
+    refine : int
+        Refinements of the file's mesh, each halving the element size: a .msh or .inp by uniform subdivision
+        of every cell (groups carried over), a .geo meshed with gmsh's sizes divided by 2^refine
+        (``identify.model_error`` and ``refine_target`` raise it).
 
     Raises
     ------
@@ -165,13 +183,14 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
         raise InputError("[model] kind = 'axisymmetric_twist': not available for a user's mesh yet (no rotation "
                          "load, no checks of its rigid modes); builder 'bolt' with load = \"tightening\" has it")
     stages = _stages(stages, increments)
-    source = read_mesh_file(path)
+    source = read_mesh_file(path, refine)
     dim = source.points.shape[1]
     if (kind == "3d") != (dim == 3):
         raise InputError(f"[model] kind = {kind!r} does not fit {path.name}, a {dim}-D mesh "
                          f"({source.cell_type} cells)")
     if kind == "axisymmetric" and source.points[:, 0].min() < -1e-9 * np.ptp(source.points):
         raise InputError(f"[model] kind = 'axisymmetric': {path.name} has nodes at x < 0 (x is the radius)")
+    element = _element(source, element, kind)
     regions, material_of = _materials(source, materials)
     used: dict[str, tuple[str, str]] = {}            # configured name -> (kind of set, file's name)
     ruled: dict[str, np.ndarray] = {}                # zone by rule -> its facets
@@ -195,6 +214,23 @@ def mesh_model(file, kind: str = "3d", stages=("load",), increments=1, materials
 
 
 # ---------------------------------------------------------------------------------------------- the [model] keys
+
+def _element(source: MeshFile, element, kind: str) -> str:
+    """The element technology: ``element`` if given, else the deck's (:func:`element_meaning`); warnings where the
+    deck's element type means something frictionid computes otherwise, or ``element`` contradicts it."""
+    if element is not None and element not in ELEMENTS:
+        raise InputError(f"[model] element = {element!r}: must be one of {list(ELEMENTS)}")
+    if not source.element_type:
+        return element or "standard"
+    meaning, notes = element_meaning(source.element_type, kind)
+    for note in notes:
+        logger.warning("%s: %s", source.path.name, note)
+    if element is not None and element != meaning:
+        logger.warning("[model] element = %r contradicts %s, whose %s elements mean element %r; computing with "
+                       "element %r as the config says (leave element out to follow the deck)", element,
+                       source.path.name, source.element_type, meaning, element)
+    return element or meaning
+
 
 def _list(value, key: str) -> list:
     if isinstance(value, dict) or not isinstance(value, (list, tuple)):
@@ -279,7 +315,7 @@ def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict, ruled:
 def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> ContactInterface:
     where = f"[[model.interfaces]] {index}"
     entry = checked_table(entry, {"name": f"interface {index}", "zones": None, "contact": None, "zone_rules": None,
-                                  "target": ..., "discretisation": "auto"}, where)
+                                  "target": ..., "discretisation": "auto", "gap_tolerance": None}, where)
     zones = entry["zones"]
     if zones is None and entry["zone_rules"] is None and entry["contact"] is None:
         raise InputError(f"{where}: needs zones (boundaries on the contact side, one per friction zone) or contact "
@@ -289,7 +325,12 @@ def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> 
     zones = tuple(_name(source, z, ("boundaries",), f"{where} zones", used) for z in zones or ())
     zones += _ruled_zones(source, entry, where, used, ruled, zones)
     target = _name(source, entry["target"], ("boundaries",), f"{where} target", used)
-    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"])
+    tolerance = entry["gap_tolerance"]
+    if tolerance is not None and (isinstance(tolerance, bool) or not isinstance(tolerance, (int, float))
+                                  or not math.isfinite(tolerance) or tolerance <= 0):
+        raise InputError(f"{where} gap_tolerance: must be a positive number of mm (the largest initial gap of a "
+                         f"contact pair), got {tolerance!r}")
+    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"], gap_tolerance=tolerance)
 
 
 def _ruled_zones(source: MeshFile, entry: dict, where: str, used: dict, ruled: dict, zones: tuple) -> tuple:

@@ -21,7 +21,7 @@ MOTIONS = {"3d": ("translation in x", "translation in y", "translation in z", "r
 
 def check_contact_sides(mesh: Mesh, interfaces: tuple[ContactInterface, ...]) -> None:
     """Each interface's zones and target lie on different bodies with their own nodes, and each zone faces the
-    target (its nearest node within one target facet size)."""
+    target (its nearest node within one target facet size, or the interface's gap_tolerance if larger)."""
     label = bodies(mesh)
     for interface in interfaces:
         where = f"[[model.interfaces]] {interface.name!r}"
@@ -41,9 +41,10 @@ def check_contact_sides(mesh: Mesh, interfaces: tuple[ContactInterface, ...]) ->
                 raise InputError(f"{where} zones: {zone!r} is not on the contact side: it lies on the same body as "
                                  f"target {interface.target!r}; a zone is a boundary of the other body")
             distance = float(tree.query(mesh.points[nodes])[0].min())
-            if distance > size:
+            if distance > max(size, interface.gap_tolerance or 0.0):
                 raise InputError(f"{where} zones: {zone!r} is not on the contact side: its nearest node is "
-                                 f"{distance:.3g} mm from target {interface.target!r} (facet size {size:.3g} mm)")
+                                 f"{distance:.3g} mm from target {interface.target!r} (facet size {size:.3g} mm, "
+                                 f"gap_tolerance {interface.gap_tolerance or 'not given'})")
 
 
 def _prescribed(model: Model) -> np.ndarray:

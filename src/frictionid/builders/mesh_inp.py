@@ -21,14 +21,16 @@ from ..errors import InputError
 
 logger = logging.getLogger(__name__)
 
-#: meshio cell type of each Abaqus / CalculiX element type read (the formulation, e.g. plane strain or
-#: axisymmetric, full or reduced integration, comes from the [model] table, not from the deck)
+#: meshio cell type of each Abaqus / CalculiX element type read (the formulation comes from the [model] table's
+#: kind and element; :func:`element_meaning` says what a type's letters mean there)
 CELL_TYPE = {
     "C3D4": "tetra", "C3D10": "tetra10", "C3D8": "hexahedron", "C3D8I": "hexahedron", "C3D8R": "hexahedron",
     **{f"{family}3": "triangle" for family in ("CPE", "CPS", "CAX")},
     **{f"{family}6": "triangle6" for family in ("CPE", "CPS", "CAX")},
     **{f"{family}4{suffix}": "quad" for family in ("CPE", "CPS", "CAX") for suffix in ("", "R", "I")},
 }
+#: the [model] kind each element family of a deck is made for (plane stress has no counterpart here)
+FAMILY_KIND = {"C3D": "3d", "CPE": "plane_strain", "CAX": "axisymmetric", "CPS": "plane stress"}
 N_NODES = {"tetra": 4, "tetra10": 10, "hexahedron": 8, "triangle": 3, "triangle6": 6, "quad": 4}
 #: mid-node of each edge (pair of local corners) of the quadratic cells, meshio (= Abaqus) order
 _MID = {"tetra10": {(0, 1): 4, (1, 2): 5, (0, 2): 6, (0, 3): 7, (1, 3): 8, (2, 3): 9},
@@ -44,6 +46,7 @@ class InpSets:
     points : (n_nodes, dim) [mm]; cell_type : meshio name; cells : (n_cells, n_cell_nodes)
     elsets : name -> cell indices; nsets : name -> node indices; surfaces : name -> facets (meshio order)
     ignored : keywords skipped (each once, in the order met)
+    element_type : the deck's element type (e.g. "C3D8I"), the first one met of its cell type
     """
 
     points: np.ndarray
@@ -53,6 +56,40 @@ class InpSets:
     nsets: dict[str, np.ndarray] = field(default_factory=dict)
     surfaces: dict[str, np.ndarray] = field(default_factory=dict)
     ignored: tuple[str, ...] = ()
+    element_type: str = ""
+
+
+def element_meaning(element_type: str, kind: str) -> tuple[str, list[str]]:
+    """(frictionid's element technology, notes on what differs) for a deck's element type under [model] ``kind``.
+
+    C3D8I is a hexahedron with incompatible modes ("incompatible"); every other type is read as the full-integration
+    Lagrange element of its cell ("standard"): reduced integration (the R types: one point, hourglass control) and
+    the incompatible modes of 4-node quads (CPE4I, CPS4I, CAX4I) are not available, a plane-stress deck (CPS) or a
+    family made for another kind (CAX under "plane_strain", ...) is computed as ``kind`` says; each such
+    difference is a note.
+
+    >>> element_meaning("C3D8I", "3d")
+    ('incompatible', [])
+    >>> element, (note,) = element_meaning("CPE4R", "plane_strain")
+    >>> element, note.endswith("read as full-integration CPE4")
+    ('standard', True)
+    """
+    name = element_type.upper()
+    if name == "C3D8I":
+        return "incompatible", []
+    notes = []
+    base = name[:-1] if name[-1:] in ("R", "I") and name[:-1] in CELL_TYPE else name
+    if name.endswith("R") and base != name:
+        notes.append(f"{name} has reduced integration (one point, hourglass control), which frictionid does not "
+                     f"have: read as full-integration {base}")
+    elif name.endswith("I") and base != name:
+        notes.append(f"{name} has incompatible modes, which frictionid has for 8-node hexahedra (C3D8I) only: read "
+                     f"as plain {base}")
+    family = FAMILY_KIND.get(name[:3])
+    if family is not None and family != kind:
+        notes.append(f"{name} is a{'n' if family[0] in 'a' else ''} {family} element, [model] kind = {kind!r}: "
+                     f"computed as {kind}")
+    return "standard", notes
 
 
 class _Names:
@@ -249,7 +286,7 @@ def _assemble(deck: _Deck) -> InpSets:
         raise InputError(f"{path}: has no elements (*ELEMENT)")
     if len(deck.element_types) > 1:
         raise InputError(f"{path}: needs one cell type, the deck mixes {sorted(deck.element_types.values())}")
-    (cell_type, _), = deck.element_types.items()
+    (cell_type, element_type), = deck.element_types.items()
     _index(deck.node_ids, "node", path)
     cells = np.array([nodes for _, nodes in deck.connectivity], dtype=np.int64)
     if np.any(~np.isin(cells, deck.node_ids)):
@@ -275,7 +312,7 @@ def _assemble(deck: _Deck) -> InpSets:
     surfaces = {name: _faces(cell_type, cells, element_index, faces, name, path)
                 for name, faces in deck.surfaces.as_dict().items()}
     return InpSets(points=points, cell_type=cell_type, cells=cells, elsets=elsets, nsets=nsets,
-                   surfaces=surfaces, ignored=tuple(deck.ignored))
+                   surfaces=surfaces, ignored=tuple(deck.ignored), element_type=element_type)
 
 
 def _index(ids: list[int], what: str, path: Path) -> dict[int, int]:

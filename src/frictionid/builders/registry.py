@@ -73,6 +73,25 @@ def _built(options: dict, where: str) -> Model:
         return builder(**options)
     except TypeError as exc:
         raise InputError(f"{where}: {exc}") from None
+    except InputError as exc:           # the builder names the option; the config's file and table go first
+        message = str(exc)
+        raise InputError(message if message.startswith(where) else f"{where}: {message}") from None
+
+
+def _refined_mesh(options: dict, factor: int, where: str) -> dict:
+    """A user's mesh refined by ``factor`` (a power of 2): its ``refine`` raised by log2(factor).
+
+    >>> _refined_mesh({"builder": "mesh", "file": "joint.msh"}, 4, "[model]")["refine"]
+    2
+    """
+    steps = factor.bit_length() - 1
+    if factor != 1 << steps:
+        raise InputError(f"{where} builder = 'mesh' is refined by subdivision, halving its element sizes: the "
+                         f"refinement factor must be a power of 2, got {factor}")
+    refine = options.get("refine", 0)
+    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 0:
+        raise InputError(f"{where} refine = {refine!r}: must be a whole number >= 0")
+    return {**options, "refine": refine + steps}
 
 
 def _default(name: str, options: dict, key: str):
@@ -100,8 +119,9 @@ def refined(options: dict, factor: int = 2, where: str = "[model]") -> dict:
     Raises
     ------
     InputError
-        For ``factor`` not an integer >= 2, a size that is not a number, or a builder without size options
-        (a user's own mesh cannot be refined automatically).
+        For ``factor`` not an integer >= 2, a size that is not a number, or a builder without size options.
+        A user's mesh (builder "mesh") is refined by uniform subdivision: its ``refine`` option is raised by
+        log2(factor), which must be a whole number.
 
     Examples
     --------
@@ -113,10 +133,12 @@ def refined(options: dict, factor: int = 2, where: str = "[model]") -> dict:
     if isinstance(factor, bool) or not isinstance(factor, int) or factor < 2:
         raise InputError(f"refinement `factor` must be an integer >= 2, got {factor!r}")
     name = options.get("builder")
+    if name == "mesh":
+        return _refined_mesh(options, factor, where)
     if name not in SIZE_OPTIONS:
         raise InputError(f"{where} builder = {name!r}: the model cannot be refined automatically (only the "
-                         f"builders {sorted(SIZE_OPTIONS)} have element-size options); refine the mesh yourself "
-                         "and compare")
+                         f"builders {sorted(SIZE_OPTIONS)} have element-size options, and builder 'mesh' is "
+                         "subdivided)")
     out = dict(options)
     for key in SIZE_OPTIONS[name]:
         value = options.get(key, _default(name, options, key))

@@ -4,6 +4,7 @@ frame (docs/data.md)."""
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import json
 import logging
@@ -79,8 +80,10 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
                          f"{{ path = \"...\", stage = ..., force = ... }}, got {item!r}")
     unknown = [k for k in item if k not in ENTRY_KEYS]
     if unknown:
-        raise InputError(f"{where}: [data] file entry {position}: unknown key {', '.join(map(repr, unknown))}; "
-                         f"known: {', '.join(ENTRY_KEYS)}")
+        close = difflib.get_close_matches(unknown[0], ENTRY_KEYS, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise InputError(f"{where}: [data] file entry {position}: unknown key {', '.join(map(repr, unknown))}"
+                         f"{hint}; known: {', '.join(ENTRY_KEYS)}")
     stage = item.get("stage", position)
     if isinstance(stage, bool) or not isinstance(stage, int) or stage < 1:
         raise InputError(f"{where}: [data] file entry {position}: stage must be a positive whole number, "

@@ -95,30 +95,44 @@ class LoadChannels:
 
 
 def _prescribed_dofs(space: Space, model: Model) -> dict[int, object]:
-    """Prescribed dof -> owner (None for a zero support, the Displacement load for a driven one)."""
-    dim, owner = space.n_components, {}
+    """Prescribed dof -> owner (None for a zero support, the Displacement load for a driven one).
+
+    Prescriptions of one dof by several boundaries must agree: a support and a displacement that stays zero
+    (the dof stays held at zero), two displacements of equal values (the later one drives it); others are an
+    :class:`InputError` naming both boundaries and the node.
+    """
+    dim, owner, named = space.n_components, {}, {}
     for support in model.supports:
         nodes = model.mesh.boundary_nodes(support.boundary)
         for c in support.components:
             for dof in dim * nodes + component_index(c, dim, f"support on {support.boundary!r}"):
                 owner[int(dof)] = None
+                named.setdefault(int(dof), f"support {support.boundary!r}")
     if model.kind in AXISYMMETRIC_KINDS:
         points = model.mesh.points
         scale = np.ptp(points[:, 1]) or 1.0
         for node in np.flatnonzero(np.abs(points[:, 0]) <= 1e-9 * scale):
             owner[int(dim * node)] = None
+            named.setdefault(int(dim * node), "the axis (u_r = 0)")
     for load in model.loads:
         if not isinstance(load, (Displacement, Rotation)):
             continue
         c = component_index(load.component, dim, f"{type(load).__name__} on {load.boundary!r}")
+        zero = not np.any(np.asarray(load.values, dtype=float))
         for dof in dim * model.mesh.boundary_nodes(load.boundary) + c:
-            previous = owner.get(int(dof), load)
-            if previous is not load and (previous is None or type(previous) is not type(load)
-                                           or previous.values != load.values):
-                raise InputError(f"model: dof {int(dof)} (node {int(dof) // dim}, component {c}) on boundary "
-                                 f"{load.boundary!r} is also held by another support or displacement with "
-                                 "different values")
-            owner[int(dof)] = load
+            dof = int(dof)
+            if dof not in owner:
+                owner[dof], named[dof] = load, f"{type(load).__name__.lower()} on {load.boundary!r}"
+            elif owner[dof] is None and zero:
+                continue                                      # held at zero either way
+            elif owner[dof] is None or type(owner[dof]) is not type(load) or owner[dof].values != load.values:
+                held = "at zero" if owner[dof] is None else f"at {list(owner[dof].values)}"
+                raise InputError(f"model: node {dof // dim} at {np.round(model.mesh.points[dof // dim], 6).tolist()}"
+                                 f", component {'xyz'[c] if c < 3 else c}: {named[dof]} holds it {held}, the "
+                                 f"{type(load).__name__.lower()} on {load.boundary!r} prescribes "
+                                 f"{list(load.values)}; boundaries that share nodes must prescribe the same values")
+            else:
+                owner[dof] = load
     return owner
 
 

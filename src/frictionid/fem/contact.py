@@ -94,8 +94,8 @@ class Linearisation:
     """Residual and generalised Jacobian of one increment at a point x."""
 
     F: np.ndarray          # (n_w + m,)
-    J: np.ndarray          # (n_w + m, n_w + m)
     state: np.ndarray      # (n_pairs,) OPEN | STICK | SLIP
+    P: np.ndarray          # (n_pairs, dim, dim) derivative of the pair rows with respect to the pair's lam
     Q: np.ndarray          # (n_pairs, dim, dim) derivative of the pair rows with respect to w
     lam_hat: np.ndarray    # (n_pairs,) augmented normal force of closed pairs [N]
     direction: np.ndarray  # (n_pairs, dim - 1) unit slip direction tau/|tau| (0 where undefined)
@@ -152,16 +152,28 @@ def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r, free_T=None) -> Linear
     Q[slip, 1:, 0] = r * mu[slip, None] * t[slip]
     Q[slip, 1:, 1:] = r * kappa[slip, None, None] * proj[slip]
 
-    m = Wa_T.shape[0]
+    h = inc.h0 + Wa_T @ x[:n_w]
+    state = np.where(slip, SLIP, np.where(stick, STICK, OPEN)).astype(np.int8)
+    return Linearisation(np.concatenate([F.ravel(), h]), state, P, Q, lam_hat, t)
+
+
+def jacobian(P, Q, Wfull, Wa_T) -> np.ndarray:
+    """(n_w + m, n_w + m) dense generalised Jacobian: pair rows P dlam_i + Q dw_i with dw = Wfull dx, then the
+    equilibrium rows [Wa_T, 0]."""
+    n_pairs, dim = P.shape[:2]
+    n_w, m = n_pairs * dim, Wa_T.shape[0]
     J = np.zeros((n_w + m, n_w + m))
     J[:n_w] = np.einsum("nij,njk->nik", Q, Wfull.reshape(n_pairs, dim, Wfull.shape[1])).reshape(n_w, Wfull.shape[1])
     blocks = J[:n_w, :n_w].reshape(n_pairs, dim, n_pairs, dim)
     index = np.arange(n_pairs)
     blocks[index, :, index, :] += P
     J[n_w:, :n_w] = Wa_T
-    h = inc.h0 + Wa_T @ x[:n_w]
-    state = np.where(slip, SLIP, np.where(stick, STICK, OPEN)).astype(np.int8)
-    return Linearisation(np.concatenate([F.ravel(), h]), J, state, Q, lam_hat, t)
+    return J
+
+
+def dense_solve(lin: Linearisation, rhs, Wfull, Wa_T) -> np.ndarray:
+    """J^-1 rhs by a fresh LU factorisation of the dense Jacobian (the reference path)."""
+    return la.solve(jacobian(lin.P, lin.Q, Wfull, Wa_T), rhs, check_finite=False)
 
 
 @dataclass(frozen=True)
@@ -174,8 +186,13 @@ class NewtonResult:
     cycling: bool
 
 
-def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50, free_T=None) -> NewtonResult:
-    """Semi-smooth Newton with Armijo backtracking on 0.5 |F|^2 from x0."""
+def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50, free_T=None,
+           solve=None) -> NewtonResult:
+    """Semi-smooth Newton with Armijo backtracking on 0.5 |F|^2 from x0; ``solve(lin, rhs)`` gives J^-1 rhs
+    (default :func:`dense_solve`)."""
+    if solve is None:
+        def solve(lin, rhs):
+            return dense_solve(lin, rhs, Wfull, Wa_T)
     x = x0.copy()
     lin = linearise(x, inc, Wfull, Wa_T, gap, mu, r, free_T)
     seen: list[bytes] = []
@@ -190,7 +207,7 @@ def newton(x0, inc: Increment, Wfull, Wa_T, gap, mu, r, atol, max_iterations=50,
         cycling = cycling or (key in seen[:-1])
         seen.append(key)
         try:
-            dx = la.solve(lin.J, -lin.F, check_finite=False)
+            dx = solve(lin, -lin.F)
         except la.LinAlgError:
             break
         if not np.all(np.isfinite(dx)):

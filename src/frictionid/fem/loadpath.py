@@ -20,12 +20,31 @@ import scipy.linalg as la
 
 from ..errors import SolverError
 from .condense import Condensed
-from .contact import (OPEN, SLIP, Increment, Linearisation, NewtonResult, free_tangents, held_normals, newton,
-                      stick_predictor)
+from .contact import (OPEN, SLIP, Increment, Linearisation, NewtonResult, free_tangents, held_normals, jacobian,
+                      newton, stick_predictor)
 from .pairs import ContactPairs
+from .updated_jacobian import StuckInverses, UpdatedSolver
 
 log = logging.getLogger(__name__)
 MAX_CUTS = 8
+#: how the Newton steps and sensitivities solve with the Jacobian: "updated" (corrections of the model's stuck
+#: inverse, fem/updated_jacobian.py) or "dense" (a fresh LU factorisation each time: the previous path, kept for
+#: the equality tests and benchmarks/contact_solves.py)
+_LINEAR = "updated"
+
+
+def contact_scale(condensed: Condensed) -> float:
+    """r = 1 / mean(diag W) [N/mm], the scale of the Alart-Curnier equations."""
+    diag = np.diag(condensed.gap_ops.on_lam)
+    return 1.0 / np.mean(diag) if diag.size else 1.0
+
+
+def stuck_inverses(condensed: Condensed, pairs: ContactPairs) -> StuckInverses:
+    """The model's :class:`~frictionid.fem.updated_jacobian.StuckInverses` (its ``base`` None: J0 unusable,
+    dense solves)."""
+    return StuckInverses(condensed.gap_ops.full, condensed.equilibrium.on_lam, contact_scale(condensed),
+                         free_tangents(pairs.B, condensed.free, pairs.dim),
+                         held_normals(pairs.B, condensed.free, pairs.dim))
 
 
 @dataclass
@@ -36,6 +55,7 @@ class _Path:
     w_T: np.ndarray
     S: np.ndarray | None
     state: np.ndarray | None = None   # contact state of the last converged increment
+    direction: np.ndarray | None = None   # (n_pairs, dim - 1) its slip directions
     #: (n_pairs, dim - 1, n_z) derivative of w_T; None: W S (a caller that changes the coupling between
     #: increments sets it, fem/sliding.py)
     dw_T: np.ndarray | None = None
@@ -53,21 +73,63 @@ class StepResult:
 class LoadPathSolver:
     """Solves a condensed problem along the load path for one vector of zone coefficients."""
 
-    def __init__(self, condensed: Condensed, pairs: ContactPairs, rtol: float = 1e-10):
+    def __init__(self, condensed: Condensed, pairs: ContactPairs, rtol: float = 1e-10,
+                 stuck: StuckInverses | None = None):
         self.c, self.pairs = condensed, pairs
-        ops = condensed.gap_ops
-        self.Wfull = ops.full
+        self.Wfull = condensed.gap_ops.full
         self.Wa_T = condensed.equilibrium.on_lam
-        diag = np.diag(ops.on_lam)
-        self.r = 1.0 / np.mean(diag) if diag.size else 1.0
+        self.r = contact_scale(condensed)
         self.rtol = rtol
         #: projectors onto the tangential directions the supports leave free (None: all free)
         self.free_T = free_tangents(pairs.B, condensed.free, pairs.dim)
+        #: J^-1 by corrections of the inverses ``stuck`` (:func:`stuck_inverses`); None: dense solves
+        self.updated = UpdatedSolver(stuck) if stuck is not None and stuck.base is not None \
+            and _LINEAR == "updated" else None
 
     def start(self) -> _Path:
         """The unloaded state the load path starts from."""
         n_x = self.pairs.n_pairs * self.pairs.dim + self.c.n_modes
         return _Path(np.zeros(n_x), np.zeros((self.pairs.n_pairs, self.pairs.dim - 1)), None)
+
+    def _solve(self, lin: Linearisation, rhs, check: bool = True) -> np.ndarray:
+        """J^-1 rhs for the Jacobian of ``lin`` (``check``: see :class:`UpdatedSolver`)."""
+        if self.updated is not None:
+            return self.updated(lin.P, lin.Q, rhs, check)
+        return la.lu_solve(la.lu_factor(jacobian(lin.P, lin.Q, self.Wfull, self.Wa_T), check_finite=False), rhs,
+                           check_finite=False)
+
+    def _step(self, lin: Linearisation, rhs) -> np.ndarray:
+        """A Newton step: Newton checks the residual it reaches itself."""
+        return self._solve(lin, rhs, check=False)
+
+    def _predictor(self, inc: Increment, held: np.ndarray, mu=None, path: _Path | None = None) -> np.ndarray | None:
+        """:func:`~frictionid.fem.contact.stick_predictor` as the Jacobian system of ``held`` pairs stuck and the
+        others open (rows scaled by r), solved by the updated solver; None when that system is singular.
+
+        With ``path``: the state predictor instead, the contact states of its last increment held: its slipping
+        pairs closed (g = 0) and slipping in their last direction t (lam_T = mu lam_N t), the others as above. Where the
+        states and (in 2-D) the slip directions stay, as in gross slip, it is the increment's solution."""
+        n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
+        s = self.updated.inverses.base                  # its stuck rows (held gaps: open rows)
+        P = np.where(held[:, None, None], s.P0, np.eye(dim))
+        Q = np.where(held[:, None, None], s.Q0, 0.0)
+        slip = np.zeros(n_pairs, dtype=bool) if path is None else path.state == SLIP
+        if slip.any():
+            # the rows linearise makes for slip at lam_hat = lam_N, tau along t: the same rows as Newton's, so
+            # the same factorisation serves both while the states stay (gross slip)
+            P[slip, 1:, 0] = -mu[slip, None] * path.direction[slip]
+            P[slip, 1:, 1:] = np.eye(dim - 1)
+            Q[slip, 1:, 0] = self.r * mu[slip, None] * path.direction[slip]
+            Q[slip, 1:, 1:] = 0.0
+        if self.updated.rcond(P, Q) < np.finfo(float).eps:
+            return None
+        target = (np.column_stack([-self.pairs.gap, inc.w_prev_T]).ravel() - inc.w0).reshape(n_pairs, dim)
+        if self.free_T is not None:
+            target[:, 1:] = np.einsum("nij,nj->ni", self.free_T, target[:, 1:])
+        target[slip, 1:] = (mu[slip] * target[slip, 0])[:, None] * path.direction[slip] if slip.any() else 0.0
+        rhs = np.concatenate([np.where(held[:, None], self.r * target, 0.0).ravel(), -inc.h0])
+        x = self.updated(P, Q, rhs, check=False)           # a start: Newton checks where it leads
+        return x if np.all(np.isfinite(x)) else None
 
     def _increment(self, amplitude, w_prev_T) -> Increment:
         return Increment(self.c.gap_ops.channels.T @ amplitude, w_prev_T,
@@ -80,24 +142,37 @@ class LoadPathSolver:
         return self.rtol * scale
 
     def _newton(self, path: _Path, amplitude, mu) -> NewtonResult:
-        """Newton from the stick predictor; from the previous solution if that fails."""
+        """Newton from the predictors of :meth:`_starts`, each tried when the one before failed."""
         inc = self._increment(amplitude, path.w_T)
         if path.state is None:
             extent = np.ptp(self.pairs.position) if self.pairs.n_pairs else 1.0
             held = self.pairs.gap <= 1e-9 * (extent or 1.0)
         else:
             held = path.state != OPEN
-        predictor = stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held, self.free_T)
-        starts = [x for x in (predictor, path.x) if x is not None]
-        for x0 in starts:
+        for x0 in self._starts(path, inc, held, mu):
             result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0),
-                            free_T=self.free_T)
+                            free_T=self.free_T, solve=self._step)
             if not result.converged and result.residual <= self._atol(inc, result.x):
                 # the tolerance scales with the solution, which may have grown during the iterations
                 result = NewtonResult(result.x, result.lin, True, result.n_iterations, result.residual, False)
             if result.converged:
                 return result
         return result
+
+    def _starts(self, path: _Path, inc: Increment, held: np.ndarray, mu):
+        """Newton's starts, each made when the one before failed: the state predictor (updated solves, after
+        the first increment), the stick predictor, the previous solution."""
+        if self.updated is None:
+            starts = [lambda: stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held,
+                                              self.free_T)]
+        else:
+            starts = [lambda: self._predictor(inc, held, mu, path)] if path.state is not None else []
+            starts.append(lambda: self._predictor(inc, held))
+        for start in starts:
+            x0 = start()
+            if x0 is not None:
+                yield x0
+        yield path.x
 
     def _sensitivity(self, path: _Path, lin: Linearisation, zone_share) -> np.ndarray:
         n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
@@ -111,7 +186,7 @@ class LoadPathSolver:
             dw_prev = path.dw_T if path.dw_T is not None else \
                 (self.Wfull @ path.S).reshape(n_pairs, dim, n_z)[:, 1:, :]
             top[:, 1:, :] -= np.einsum("nij,njz->niz", lin.Q[:, 1:, 1:], dw_prev)
-        return la.lu_solve(la.lu_factor(lin.J, check_finite=False), -rhs, check_finite=False)
+        return self._solve(lin, -rhs)
 
     def _overlap_held(self, amplitude) -> str:
         """The failure's likely cause where pairs that overlap at ``amplitude`` have their gap held by the
@@ -151,4 +226,5 @@ class LoadPathSolver:
                 path.S, path.dw_T = self._sensitivity(path, result.lin, self.pairs.zone_share), None
             w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
             path.x, path.w_T, path.state = result.x, w[:, 1:], result.lin.state
+            path.direction = result.lin.direction
         return StepResult(path.state, n_newton, n_cuts)

@@ -28,6 +28,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import Model
+from .contact_map import FACING_DEG, check_gaps, coefficient_columns, gap_tolerance
 from .pairs import ContactPairs, relative_operator, tangent_frames
 from .space import Space
 
@@ -217,26 +218,32 @@ def _segment(space, slave, s, dual, master, m, search_distance):
 
 
 def _candidates(slave, master, search_distance):
-    """For each slave facet, master facets that face it and whose bounding boxes are within search_distance."""
+    """For each slave facet, master facets that face it (chord normals opposed within
+    :data:`~frictionid.fem.contact_map.FACING_DEG`) and whose bounding boxes are within search_distance."""
     low_s, high_s = slave.coords.min(axis=1), slave.coords.max(axis=1)
     low_m, high_m = master.coords.min(axis=1), master.coords.max(axis=1)
     near = np.all((low_m[None] <= high_s[:, None] + search_distance)
                   & (high_m[None] >= low_s[:, None] - search_distance), axis=2)
-    facing = slave.chord_normal() @ master.chord_normal().T < 0
+    facing = slave.chord_normal() @ master.chord_normal().T <= -np.cos(np.radians(FACING_DEG))
     return [np.flatnonzero(row) for row in near & facing]
 
 
 def _integrate(space, slave, master, search_distance, n_zones):
-    """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,) and D split by zone (n_nodes, n_zones)."""
+    """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,), D split by zone (n_nodes, n_zones) and the
+    largest angle [deg] between the chords of a slave node's facets and the reversed chords of the master facets
+    they couple to (n_nodes,; NaN where none)."""
     n_nodes = space.mesh.n_nodes
     dual, integral = dual_coefficients(space, slave.coords)
     rows, cols, values = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
-    gap = np.zeros(n_nodes)
+    gap, facing = np.zeros(n_nodes), np.full(n_nodes, np.nan)
+    slave_normal, master_normal = slave.chord_normal(), master.chord_normal()
     for s, candidates in enumerate(_candidates(slave, master, search_distance)):
         for m in candidates:
             block = _segment(space, slave, s, dual, master, m, search_distance)
             if block is None:
                 continue
+            angle = np.degrees(np.arccos(np.clip(-slave_normal[s] @ master_normal[m], -1.0, 1.0)))
+            facing[slave.facets[s]] = np.fmax(facing[slave.facets[s]], angle)
             rows.append(np.repeat(slave.facets[s], master.n_facet_nodes))
             cols.append(np.tile(master.facets[m], slave.n_facet_nodes))
             values.append(block[0].ravel())
@@ -245,7 +252,7 @@ def _integrate(space, slave, master, search_distance, n_zones):
                            shape=(n_nodes, n_nodes))
     by_zone = np.zeros((n_nodes, n_zones))
     np.add.at(by_zone, (slave.facets, slave.zone[:, None]), integral)
-    return mortar, gap, by_zone
+    return mortar, gap, by_zone, facing
 
 
 def _surfaces(model: Model, interface_index: int):
@@ -262,7 +269,7 @@ def _surfaces(model: Model, interface_index: int):
     slave = _Surface(mesh, np.vstack(facets), zone)
     target = mesh.boundary(interface.target)
     master = _Surface(mesh, target, np.zeros(len(target), dtype=int))
-    return slave, master, [model.zone_names.index(z) for z in interface.zones]
+    return slave, master, coefficient_columns(model, interface)
 
 
 def _padded_rows(mortar: sp.csr_matrix, nodes: np.ndarray, scale: np.ndarray):
@@ -306,30 +313,37 @@ def mortar_pairs(space: Space, model: Model, interface_index: int, *, search_dis
     >>> pairs = mortar_pairs(Space.build(model.mesh, model.kind), model, 0)  # doctest: +SKIP
     >>> pairs.weight.sum()  # interface length [mm] (plane strain) or area [mm^2] (axisymmetric)  # doctest: +SKIP
     """
-    slave, master, zone_columns = _surfaces(model, interface_index)
+    slave, master, columns = _surfaces(model, interface_index)
     if search_distance is None:
         search_distance = float(max(slave.chord_length().max(), master.chord_length().max()))
-    mortar, gap_integral, by_zone = _integrate(space, slave, master, search_distance, len(zone_columns))
+    mortar, gap_integral, by_zone, facing = _integrate(space, slave, master, search_distance, len(columns))
     weight_all = by_zone.sum(axis=1)
     covered = np.asarray(mortar.sum(axis=1)).ravel()
     nodes = np.unique(slave.facets)
     keep = ((weight_all[nodes] > 1e-12 * weight_all.max()) & (covered[nodes] > 0)
             & (covered[nodes] >= (min_coverage - 1e-9) * weight_all[nodes]))
+    if not keep.any():
+        raise InputError(f"[[model.interfaces]] {model.interfaces[interface_index].name!r}: none of its "
+                         f"{len(nodes)} contact nodes (mortar) has a target facet facing it (normals opposed within "
+                         f"{FACING_DEG:g} deg) within {search_distance:.3g} mm; check that the target "
+                         f"{model.interfaces[interface_index].target!r} is the surface the zones face")
     if not keep.all():
         logger.info("mortar: interface %d: %d of %d contact nodes left out (not covered by the target)",
                     interface_index, int((~keep).sum()), len(nodes))
     nodes = nodes[keep]
     frames = tangent_frames(-slave.node_normal[nodes])
     target_nodes, target_weights = _padded_rows(mortar, nodes, covered[nodes])
-    zone_share = np.zeros((len(nodes), model.n_zones))
-    zone_share[:, zone_columns] = by_zone[nodes] / weight_all[nodes, None]
+    gap = gap_integral[nodes] / covered[nodes]
+    interface = model.interfaces[interface_index]
+    check_gaps(interface, gap, model.mesh.points[nodes], gap_tolerance(model.mesh, interface), "mortar")
     return ContactPairs(
         nodes=nodes,
         position=np.array(model.mesh.points[nodes]),
         frames=frames,
         weight=weight_all[nodes],
-        zone_share=zone_share,
-        gap=gap_integral[nodes] / covered[nodes],
+        zone_share=(by_zone[nodes] / weight_all[nodes, None]) @ columns,
+        gap=gap,
         B=relative_operator(frames, nodes, target_nodes, target_weights, space.n_dofs),
         interface=np.full(len(nodes), interface_index, dtype=np.int64),
+        facing=facing[nodes],
     )

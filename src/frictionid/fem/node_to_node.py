@@ -14,8 +14,14 @@ from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from ..model import Model
+from .contact_map import FACING_DEG, check_gaps, coefficient_columns, gap_tolerance
 from .pairs import ContactPairs, relative_operator, tangent_frames
 from .space import Space
+
+
+class MeshesDoNotMatch(InputError):
+    """Contact nodes without a target node facing them: the interface is not conforming (``discretisation =
+    "auto"`` then takes mortar; a failed set-up check, e.g. a gap beyond the tolerance, is not this)."""
 
 
 def facet_integral(space: Space, boundary: str, vector: bool = False) -> np.ndarray:
@@ -86,33 +92,57 @@ def _transformed(transform, nodal: np.ndarray) -> np.ndarray:
 
 
 def _pair_targets(space: Space, contact: np.ndarray, target: np.ndarray, normal: np.ndarray,
-                  contact_normal: np.ndarray, h: float, name: str) -> np.ndarray:
-    """Index into ``target`` of the node facing each contact node (an initial gap is allowed).
+                  contact_normal: np.ndarray, h: float, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Index into ``target`` of the node facing each contact node (an initial gap is allowed), and the angle
+    [deg] between the contact normal and the reversed target normal there.
 
-    Among the 32 nearest target nodes, the one closest to the contact node across the bisector of the target
-    normal and the reversed contact normal is taken. Along the target normal alone, curved surfaces that gape
-    apart (Hertz: gap x^2 / 2R, tilt x / R) picked the neighbour once gap * tilt exceeded half the node
-    spacing, inside the contact on fine meshes. The pick must lie within 5 % of the facet size ``h`` [mm]
-    plus the initial gap across that direction.
+    Among the 32 nearest target nodes, those whose outward normal opposes the contact node's within
+    :data:`~frictionid.fem.contact_map.FACING_DEG` are candidates (a target spanning two bodies, e.g. the pads
+    above and below a clamped strip, offers the far body's face too, facing the same way as the contact node: it
+    is never a partner); of these, the one closest to the contact node across the bisector of the target normal
+    and the reversed contact normal is taken. Along the target normal alone, curved surfaces that gape apart
+    (Hertz: gap x^2 / 2R, tilt x / R) picked the neighbour once gap * tilt exceeded half the node spacing, inside
+    the contact on fine meshes. The pick must lie within 5 % of the facet size ``h`` [mm] plus the initial gap
+    across that direction.
     """
     points = space.mesh.points
     k = min(32, len(target))
     _, near = cKDTree(points[target]).query(points[contact], k=k)
     near = near.reshape(len(contact), k)
     offset = points[contact][:, None, :] - points[target][near]              # (n_contact, k, dim)
-    n = normal[near] - contact_normal[:, None, :]
-    n /= np.linalg.norm(n, axis=2)[:, :, None]
+    cosine = -np.sum(normal[near] * contact_normal[:, None, :], axis=2)       # 1: facing exactly
+    facing = cosine >= np.cos(np.radians(FACING_DEG))
+    n = normal[near] - contact_normal[:, None, :]                             # |n| >= 2 sin(67.5 deg) if facing
+    n = np.divide(n, np.linalg.norm(n, axis=2)[:, :, None], out=np.zeros_like(n), where=facing[:, :, None])
     tangential = np.linalg.norm(offset - np.sum(offset * n, axis=2)[:, :, None] * n, axis=2)
+    tangential[~facing] = np.inf
     best = np.argmin(tangential, axis=1)
     pick = np.arange(len(contact)), best
     gap = np.abs(np.sum(offset * n, axis=2))[pick]
-    miss = tangential[pick] > 0.05 * h + gap
+    miss = ~(tangential[pick] <= 0.05 * h + gap)
     if np.any(miss):
         i = int(np.argmax(miss))
-        raise InputError(f"interface {name!r}: contact node at {np.round(points[contact[i]], 6).tolist()} has no "
-                         f"target node facing it (within {0.05 * h:.3g} mm across the normal); the meshes do not "
-                         "match: use discretisation = 'mortar' (2-D) or make the meshes conforming")
-    return near[np.arange(len(contact)), best]
+        faced = "no target node facing it" if facing[i].any() else \
+            f"no target node whose surface faces it (normals opposed within {FACING_DEG:g} deg)"
+        raise MeshesDoNotMatch(f"[[model.interfaces]] {name!r}: {int(miss.sum())} of {len(contact)} contact nodes "
+                               f"have no partner, e.g. the node at {np.round(points[contact[i]], 6).tolist()}: {faced} "
+                               f"(within {0.05 * h:.3g} mm across the normal); the meshes do not match: use "
+                               "discretisation = 'mortar' or make the meshes conforming")
+    return near[pick], np.degrees(np.arccos(np.clip(cosine[pick], -1.0, 1.0)))
+
+
+def _unit_normals(integrals: np.ndarray, nodes: np.ndarray, points: np.ndarray, what: str) -> np.ndarray:
+    """Unit normals (len(nodes), dim) at ``nodes`` from the nodal integrals int N n dS (n_nodes, dim); an
+    :class:`InputError` where they cancel (facets of opposite normals meeting at a node: a surface folded back)."""
+    normal = integrals[nodes]
+    length = np.linalg.norm(normal, axis=1)
+    cancel = length <= 1e-9 * np.abs(integrals).max(initial=0.0)
+    if cancel.any():
+        node = int(nodes[np.argmax(cancel)])
+        raise InputError(f"[[model.interfaces]]: {int(cancel.sum())} node(s) of {what} have no normal (the normals "
+                         f"of their facets cancel), e.g. the node at {np.round(points[node], 6).tolist()}: a surface "
+                         "folded back on itself; give each side of a thin part its own boundary")
+    return normal / length[:, None]
 
 
 def _pair_normals(offset: np.ndarray, target_normal: np.ndarray, h: float) -> np.ndarray:
@@ -145,7 +175,6 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     """
     interface = model.interfaces[interface_index]
     mesh = space.mesh
-    zone_offset = model.zone_names.index(interface.zones[0])
     contact = np.unique(np.concatenate([mesh.boundary_nodes(zone) for zone in interface.zones]))
     transform = surface_transform(mesh, np.vstack([mesh.boundary(zone) for zone in interface.zones]))
     target_transform = surface_transform(mesh, mesh.boundary(interface.target))
@@ -161,14 +190,14 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     if np.intersect1d(target_all, contact).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
-    normal_all = _transformed(target_transform, facet_integral(space, interface.target, vector=True))[target_all]
-    normal_all /= np.linalg.norm(normal_all, axis=1)[:, None]
-    contact_normal = _transformed(transform, sum(facet_integral(space, zone, vector=True)
-                                                 for zone in interface.zones))[contact]
-    contact_normal /= np.linalg.norm(contact_normal, axis=1)[:, None]
+    normal_all = _unit_normals(_transformed(target_transform, facet_integral(space, interface.target, vector=True)),
+                               target_all, mesh.points, f"target {interface.target!r} of interface {interface.name!r}")
+    contact_normal = _unit_normals(_transformed(transform, sum(facet_integral(space, zone, vector=True)
+                                                               for zone in interface.zones)),
+                                   contact, mesh.points, f"the zones of interface {interface.name!r}")
     facets = mesh.boundary(interface.target)
     h = np.median(np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1))
-    index = _pair_targets(space, contact, target_all, normal_all, contact_normal, h, interface.target)
+    index, facing = _pair_targets(space, contact, target_all, normal_all, contact_normal, h, interface.name)
     target = target_all[index]
     points = mesh.points
     # pair j couples the contact nodes k with P[j, k] and their targets with -P[j, k] (identity if untransformed)
@@ -178,12 +207,14 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
         offset = mix @ offset
     normal = _pair_normals(offset, normal_all[index], h)
     frames = tangent_frames(normal)
-    share = np.zeros((len(contact), model.n_zones))
-    share[:, zone_offset:zone_offset + len(interface.zones)] = area[contact] / weight[:, None]
+    gap = np.sum(offset * normal, axis=1)
+    check_gaps(interface, gap, points[contact], gap_tolerance(mesh, interface), "node-to-node")
     return ContactPairs(
-        nodes=contact, position=points[contact].copy(), frames=frames, weight=weight, zone_share=share,
-        gap=np.sum(offset * normal, axis=1), B=_pair_operator(frames, contact, target, mix, space.n_dofs),
-        interface=np.full(len(contact), interface_index))
+        nodes=contact, position=points[contact].copy(), frames=frames, weight=weight,
+        zone_share=(area[contact] / weight[:, None]) @ coefficient_columns(model, interface), gap=gap,
+        B=_pair_operator(frames, contact, target, mix, space.n_dofs), interface=np.full(len(contact), interface_index),
+        facing=facing)
+
 
 
 def _pair_operator(frames: np.ndarray, contact: np.ndarray, target: np.ndarray, mix: sp.csr_matrix | None,

@@ -1,6 +1,6 @@
 """ContactPairs: the discretised contact constraints of a model (frames, weights, gaps, zone shares, B).
 
-Every interface discretisation (node-to-node for conforming meshes, mortar for non-matching 2-D meshes)
+Every interface discretisation (node-to-node for conforming meshes, mortar for non-matching meshes)
 produces this one object; the solver only ever sees it.
 
 Convention: for pair i with frame rows (n, t1[, t2]), n the outward normal of the target side,
@@ -39,6 +39,9 @@ class ContactPairs:
         Relative displacement operator, ``w = B u``.
     interface : (n_pairs,) int
         Index of the model interface each pair belongs to.
+    facing : (n_pairs,) [deg] or None
+        Angle between the contact side's outward normal and the reversed outward normal of the target where the
+        pair couples (0: the surfaces face each other exactly); NaN where the discretisation does not give it.
     """
 
     nodes: np.ndarray
@@ -49,6 +52,7 @@ class ContactPairs:
     gap: np.ndarray
     B: sp.csr_matrix
     interface: np.ndarray
+    facing: np.ndarray | None = None
 
     @property
     def n_pairs(self) -> int:
@@ -67,7 +71,8 @@ class ContactPairs:
         """All interfaces' pairs as one object (pairs in the order of ``parts``)."""
         if not parts:
             return ContactPairs(np.zeros(0, int), np.zeros((0, dim)), np.zeros((0, dim, dim)), np.zeros(0),
-                                np.zeros((0, n_zones)), np.zeros(0), sp.csr_matrix((0, n_dofs)), np.zeros(0, int))
+                                np.zeros((0, n_zones)), np.zeros(0), sp.csr_matrix((0, n_dofs)), np.zeros(0, int),
+                                np.zeros(0))
         return ContactPairs(
             nodes=np.concatenate([p.nodes for p in parts]),
             position=np.vstack([p.position for p in parts]),
@@ -77,6 +82,7 @@ class ContactPairs:
             gap=np.concatenate([p.gap for p in parts]),
             B=sp.vstack([p.B for p in parts]).tocsr(),
             interface=np.concatenate([p.interface for p in parts]),
+            facing=np.concatenate([np.full(p.n_pairs, np.nan) if p.facing is None else p.facing for p in parts]),
         )
 
 

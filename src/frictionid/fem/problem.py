@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import operator
 from collections.abc import Sequence
@@ -14,8 +15,9 @@ from ..errors import InputError, SolverError
 from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
-from .interface import contact_pairs
-from .loadpath import LoadPathSolver
+from .interface import contact_pairs, model_space
+from . import loadpath
+from .loadpath import LoadPathSolver, stuck_inverses
 from .pairs import ContactPairs
 from .rigid import free_rigid_modes
 from .solution import ExpandedRows, Solution
@@ -110,6 +112,52 @@ class PointLabels(Sequence):
         return f"PointLabels({self.n_points}, {self.quantities})"
 
 
+#: how :meth:`Problem.solve` steps through each stage
+INCREMENTS = ("fixed", "adaptive")
+#: adaptive increments: the step doubles after an increment Newton solved in at most this many iterations, no cut,
+#: that left every pair's state as it was and turned no slip direction by more than SETTLED_DIRECTION
+EASY_NEWTON = 3
+SETTLED_DIRECTION = 1e-3
+#: adaptive increments: a step spans at most this many nominal increments of its stage
+MAX_GROWTH = 8
+
+
+class _AdaptiveSteps:
+    """The (stage, amplitude) of each step of adaptive increments; :meth:`went` reports how the last one went."""
+
+    def __init__(self, problem: "Problem"):
+        self.ends = problem.channels.amplitudes
+        self.counts = [stage.n_increments for stage in problem.model.stages]
+        self.stage, self.done, self.step = 0, 0.0, 1.0 / self.counts[0]
+        self.start = np.zeros(self.ends.shape[1])
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        if self.stage >= len(self.counts):
+            raise StopIteration
+        self.step = min(self.step, 1.0 - self.done)
+        self.done += self.step
+        if self.done >= 1.0 - 1e-12:                         # the stage's end exactly
+            self.done = 1.0
+        end = self.ends[self.stage]
+        return self.stage, end.copy() if self.done == 1.0 else self.start + (end - self.start) * self.done
+
+    def went(self, n_newton: int, n_cuts: int, settled: bool) -> None:
+        nominal = 1.0 / self.counts[self.stage]
+        if n_cuts:
+            self.step /= 2
+        elif n_newton <= EASY_NEWTON and settled:
+            self.step = min(2 * self.step, MAX_GROWTH * nominal)
+        if self.done == 1.0:
+            self.start = self.ends[self.stage]
+            self.stage += 1
+            self.done = 0.0
+            if self.stage < len(self.counts):                # a new stage may load another way: nominal again
+                self.step = 1.0 / self.counts[self.stage]
+
+
 @dataclass(frozen=True)
 class Problem:
     """A model's condensed operators; :meth:`solve` runs the load path for given zone coefficients."""
@@ -158,7 +206,7 @@ class Problem:
             Contact pairs fixed in the undeformed configuration, or re-coupled in the deformed configuration at
             every increment (:mod:`frictionid.fem.sliding`; 2-D, dual mortar on every interface).
         """
-        space = Space.build(model.mesh, model.kind, model.element)
+        space = model_space(model)
         if points is not None and observe is not None:
             raise InputError("observation: give either observe rows or points, not both")
         if points is not None:
@@ -216,7 +264,7 @@ class Problem:
         """(n_pairs,) [mm] size of the largest contact facet at each pair (corner-to-corner edge length)."""
         mesh = self.model.mesh
         length = np.zeros(mesh.n_nodes)
-        for zone in self.model.zone_names:
+        for zone in (z for interface in self.model.interfaces for z in interface.zones):
             facets = mesh.boundary(zone)
             edge = np.linalg.norm(mesh.points[facets[:, 1]] - mesh.points[facets[:, 0]], axis=1)
             np.maximum.at(length, facets, np.repeat(edge[:, None], facets.shape[1], axis=1))
@@ -239,39 +287,67 @@ class Problem:
                 f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
                 f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds the "
                 f"small-sliding range ({limit:g} x the local element length {self.pair_length()[pair]:.3g} mm); "
-                "reduce the imposed sliding or coarsen the contact mesh; finite sliding is not supported")
+                "reduce the imposed sliding, coarsen the contact mesh or, in 2-D, set [solver] sliding = \"finite\"")
 
-    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0) -> Solution:
+    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0,
+              increments: str = "fixed") -> Solution:
         """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value).
 
         ``max_slip``: small-sliding limit in local element lengths (None: no check), see
-        :meth:`check_small_sliding`; not checked with finite sliding.
+        :meth:`check_small_sliding`. ``increments``: "fixed" (each stage's n_increments equal steps) or
+        "adaptive" (each stage starts with its nominal step, doubles it after an increment Newton solved in at
+        most :data:`EASY_NEWTON` iterations without a cut and without changing a pair's state or turning a slip
+        direction by more than :data:`SETTLED_DIRECTION`, up to :data:`MAX_GROWTH` nominal steps, and halves it
+        after a cut; the solution then has one row per step taken, every stage's end among them). With finite
+        sliding the slip is not checked and the increments are fixed.
         """
+        if increments not in INCREMENTS:
+            raise InputError(f"`increments` must be one of {', '.join(map(repr, INCREMENTS))}, got {increments!r}")
         # one BLAS thread for the whole solve, its set-up and outputs included: the Newton steps' dense solves (a
         # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
         # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
         # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py)
         with one_blas_thread():
-            return self._solve(self.model.coefficients(mu), sensitivities, max_slip)
+            return self._solve(self.model.coefficients(mu), sensitivities, max_slip, increments == "adaptive")
 
-    def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None) -> Solution:
+    @functools.cached_property
+    def _stuck_inverses(self):
+        """The inverses of the stuck contact Jacobian the load path's solves correct (fem/updated_jacobian.py),
+        made at the first solve and kept: they depend on the model only."""
+        return stuck_inverses(self.condensed, self.pairs)
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_stuck_inverses", None)                 # made again where needed, not shipped
+        return state
+
+    def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None, adaptive: bool = False) -> Solution:
         if self.sliding == "finite":
             from .sliding import solve_finite
             return solve_finite(self, mu, sensitivities)
-        solver = LoadPathSolver(self.condensed, self.pairs)
+        stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
+        solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck)
         path = solver.start()
-        stages, amps = self.amplitudes()
         mu_pair = self.pairs.mu(mu)
-        records = []
-        previous = np.zeros(amps.shape[1])
-        for i, (stage, amp) in enumerate(zip(stages, amps)):
+        records, stages, amps = [], [], []
+        schedule = _AdaptiveSteps(self) if adaptive else iter(zip(*self.amplitudes()))
+        previous = np.zeros(self.channels.amplitudes.shape[1])
+        direction = None
+        for i, (stage, amp) in enumerate(schedule):
             where = f"stage {stage + 1} ({self.model.stages[stage].name}), increment {i + 1}"
             step = solver.step(path, previous, amp, mu_pair, sensitivities, where)
             records.append((path.x.copy(), step.state, None if path.S is None else path.S.copy(),
                             step.n_newton, step.n_cuts))
             log.debug("%s: %d Newton iterations, %d cuts", where, step.n_newton, step.n_cuts)
+            if adaptive:
+                settled = len(records) > 1 and np.array_equal(step.state, records[-2][1]) and \
+                    np.max(np.abs(path.direction - direction), initial=0.0) <= SETTLED_DIRECTION
+                schedule.went(step.n_newton, step.n_cuts, settled)
+                direction = path.direction.copy()
             previous = amp
-        solution = self._solution(mu, stages, amps, records, sensitivities)
+            stages.append(stage)
+            amps.append(amp)
+        solution = self._solution(mu, np.array(stages), np.array(amps), records, sensitivities)
         if max_slip is not None:
             self.check_small_sliding(solution, max_slip)
         return solution

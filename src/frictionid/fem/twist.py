@@ -71,4 +71,4 @@ def with_circumferential_tangent(pairs: ContactPairs, n_nodes: int, lead: np.nda
     lifted.eliminate_zeros()
     return ContactPairs(nodes=pairs.nodes, position=pairs.position, frames=frames, weight=pairs.weight,
                         zone_share=pairs.zone_share, gap=pairs.gap * np.sum(normal[:, :2] * pairs.frames[:, 0], axis=1),
-                        B=lifted, interface=pairs.interface)
+                        B=lifted, interface=pairs.interface, facing=pairs.facing)

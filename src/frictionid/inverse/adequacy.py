@@ -21,8 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from .mistakes import noise_hint, scale_hints, swap_hints
+
 #: chi-square quantile above which the stated noise does not explain the misfit
 CONFIDENCE = 0.99
+#: chi-square quantile below which the misfit is too small for the stated noise (noise overstated, data smoothed)
+LOW = 0.01
 #: standard deviations (under the stated noise) a leave-group-out refit may move a zone before it counts as
 #: contradicted by the data
 SHIFT_LIMIT = 3.0
@@ -58,6 +62,9 @@ class Adequacy:
     threshold : the 99 % quantile of chi2 / dof under the stated noise
     p_value : probability of a chi2 at least this large if the model were right
     consistent : chi2 within its 99 % quantile; None when no noise was stated (nothing to test against)
+    low_threshold : the 1 % quantile of chi2 / dof
+    too_small : chi2 below its 1 % quantile: the stated noise is too large or the data were smoothed (the
+        standard errors stay those of the stated noise: too wide, never too narrow)
     by_quantity, by_stage, by_group : {name: GroupMisfit}
     worst : [(label, weighted residual, measured, model)] largest |residual| first
     shifts : leave-group-out moves per group (only for an inconsistent fit)
@@ -78,6 +85,8 @@ class Adequacy:
     shifts: tuple[Shift, ...]
     affected: np.ndarray
     hint: str
+    low_threshold: float = 0.0
+    too_small: bool = False
 
     def why_affected(self, k: int, names) -> str:
         """A zone's reason for being contradicted by the data: the group whose omission moves it most."""
@@ -89,8 +98,8 @@ class Adequacy:
         """JSON-ready summary; names are the free zones, in the order of the Jacobian's columns."""
         def groups(table):
             return {key: {"n": g.n, "rms": g.rms, "share": g.share} for key, g in table.items()}
-        return {"reduced_chi2": self.reduced_chi2, "chi2_99": self.threshold, "p_value": self.p_value,
-                "consistent": self.consistent,
+        return {"reduced_chi2": self.reduced_chi2, "chi2_99": self.threshold, "chi2_01": self.low_threshold,
+                "p_value": self.p_value, "consistent": self.consistent, "too_small": self.too_small,
                 "misfit": {"by_quantity": groups(self.by_quantity), "by_stage": groups(self.by_stage),
                            "by_group": groups(self.by_group)},
                 "worst": [{"observation": label, "residual": float(r), "measured": float(y), "model": float(f)}
@@ -124,11 +133,31 @@ def _table(keys: list[str], r: np.ndarray, chi2: float) -> dict:
     return out
 
 
-def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inner=None) -> Adequacy:
+def point_group(label: str, regions: dict | None = None) -> str:
+    """The group of an observation's point in the misfit tables: the label without its trailing number ("F12":
+    "F", a view's "front/12": "front/"); a label that is only a number (a DIC subset id) has no such prefix and
+    is grouped by its region ("region block"), else with the other numbered points.
+
+    >>> point_group("F12:exx@2"), point_group("823:ux@2", {"823": "block"}), point_group("force@2")
+    ('F', 'region block', 'force')
+    """
+    group, _, _ = parts(label)
+    point = label.rpartition("@")[0].rpartition(":")[0]
+    if group != point or not point.isdigit():
+        return group
+    region = (regions or {}).get(point)
+    return f"region {region}" if region else "numbered points"
+
+
+def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inner=None, sigma=None,
+           regions: dict | None = None, model_kind: str | None = None) -> Adequacy:
     """Adequacy of a fit from its weighted residuals r (n_obs,) and weighted Jacobian (n_obs, n_free).
 
     ``labels``, ``y``, ``f``: observation labels, measured and fitted values; ``inner``: (n_free,) bool, the
-    zones not held at a bound (the leave-group-out refits move only these; default all).
+    zones not held at a bound (the leave-group-out refits move only these; default all); ``sigma`` (n_obs,): the
+    stated standard deviations (for the unit and column hints; default |f - y| / |r|); ``regions``: point label ->
+    region, grouping points whose labels are plain numbers (:func:`point_group`); ``model_kind``: the model's
+    kind ("plane_strain": a force per mm of thickness).
     """
     r, jac = np.asarray(r, dtype=float), np.asarray(jac, dtype=float)
     n_obs, n_free = jac.shape
@@ -136,10 +165,12 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
     chi2 = float(r @ r)
     reduced = chi2 / dof
     threshold = float(stats.chi2.ppf(CONFIDENCE, dof) / dof)
+    low_threshold = float(stats.chi2.ppf(LOW, dof) / dof)
     p_value = float(stats.chi2.sf(chi2, dof))
     consistent = None if not noise_known else bool(reduced <= threshold)
+    too_small = bool(noise_known and reduced < low_threshold)
     split = [parts(label) for label in labels]
-    by_group = _table([g for g, _, _ in split], r, chi2)
+    by_group = _table([point_group(label, regions) for label in labels], r, chi2)
     by_quantity = _table([q for _, q, _ in split], r, chi2)
     by_stage = _table([s for _, _, s in split], r, chi2)
     order = np.argsort(-np.abs(r))[:N_WORST]
@@ -147,17 +178,35 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
     inner = np.ones(n_free, dtype=bool) if inner is None else np.asarray(inner, dtype=bool)
     shifts: tuple[Shift, ...] = ()
     if consistent is False:
+        of_group = [point_group(label, regions) for label in labels]
         groups = {**{f"the {q} values": [s[1] == q for s in split] for q in by_quantity},
                   **{f"stage {s}": [t[2] == s for t in split] for s in by_stage},
-                  **{f"the points {g}*": [t[0] == g for t in split] for g in by_group if g not in by_quantity}}
+                  **{_group_name(g): [t == g for t in of_group] for g in by_group if g not in by_quantity}}
         shifts = tuple(Shift(name, _shift(jac, r, np.array(rows), inner))
                        for name, rows in groups.items() if 0 < sum(rows) < n_obs)
     affected = np.zeros(n_free, dtype=bool)
     for shift in shifts:
         affected |= np.nan_to_num(shift.z, nan=0.0) > SHIFT_LIMIT
-    hint = "" if consistent is not False else _hint(by_quantity, by_group, r)
+    hint = ""
+    if consistent is False:
+        y, f = np.asarray(y, dtype=float), np.asarray(f, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sigma = np.where(r != 0, np.abs(f - y) / np.abs(r), 1.0) if sigma is None else np.asarray(sigma, float)
+        quantities = [q for _, q, _ in split]
+        swapped = swap_hints(labels, quantities, y, f, sigma, chi2)
+        mistakes = list(swapped.values()) + scale_hints(quantities, y, f, sigma,
+                                                        {q: g.share for q, g in by_quantity.items()}, model_kind,
+                                                        {q for pair in swapped for q in pair})
+        hint = "; ".join(mistakes + [_hint(by_quantity, by_group, r, bool(mistakes))])
+    elif too_small:
+        hint = noise_hint({q: g.rms for q, g in by_quantity.items()})
     return Adequacy(chi2, dof, reduced, threshold, p_value, consistent, by_quantity, by_stage, by_group, worst,
-                    shifts, affected, hint)
+                    shifts, affected, hint, low_threshold, too_small)
+
+
+def _group_name(group: str) -> str:
+    return f"the points of {group}" if group.startswith("region ") or group == "numbered points" \
+        else f"the points {group}*"
 
 
 def _shift(jac: np.ndarray, r: np.ndarray, out: np.ndarray, inner: np.ndarray) -> np.ndarray:
@@ -199,9 +248,12 @@ def bias_shift(jac: np.ndarray, bias: np.ndarray, inner=None) -> np.ndarray:
     return dx
 
 
-def _hint(by_quantity: dict, by_group: dict, r: np.ndarray) -> str:
-    """What to try when the stated noise does not explain the misfit."""
+def _hint(by_quantity: dict, by_group: dict, r: np.ndarray, mistaken: bool = False) -> str:
+    """What to try when the stated noise does not explain the misfit; ``mistaken``: an input mistake was
+    named (then refining the mesh is not advised)."""
     advice = []
+    if mistaken:
+        return "correct the input and fit again; until then the coefficients are not meaningful"
     strains = {q: g for q, g in by_quantity.items() if q.startswith("e")}
     others = {q: g for q, g in by_quantity.items() if not q.startswith("e")}
     if strains and others and sum(g.share for g in strains.values()) > 0.7:
@@ -210,7 +262,7 @@ def _hint(by_quantity: dict, by_group: dict, r: np.ndarray) -> str:
                       "the model can reproduce")
     worst_group = max(by_group, key=lambda g: by_group[g].share)
     if len(by_group) > 1 and by_group[worst_group].share > 0.6:
-        advice.append(f"the points {worst_group}* carry {by_group[worst_group].share:.0%} of the misfit: refine "
+        advice.append(f"{_group_name(worst_group)} carry {by_group[worst_group].share:.0%} of the misfit: refine "
                       "the mesh near them or leave them out")
     top = np.sort(r ** 2)[::-1]
     n_top = max(1, len(r) // 20)

@@ -135,6 +135,9 @@ class ModelError:
         coefficient set (an identification's fitted point): what the coarse model's values would be corrected
         by; it moves the fitted coefficients along the sensitivities, which the misfit alone cannot show
         (:func:`frictionid.inverse.adequacy.bias_shift`)
+    before : (n_free,) the fitted free coefficients before the error was included in the weights (mode
+        "include"; None otherwise): how far including it moves the fit is part of the coefficients' systematic
+        error (:func:`frictionid.inverse.uncertainty.systematic_error`)
     """
 
     estimate: np.ndarray
@@ -148,6 +151,7 @@ class ModelError:
     seconds: float
     scale: float = 1.0
     signed: np.ndarray | None = None
+    before: np.ndarray | None = None
     summary: dict = field(init=False)
 
     def __post_init__(self):
@@ -161,7 +165,8 @@ class ModelError:
         return {"estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(), "orders": dict(self.orders),
                 "factor": self.factor, "refined_options": dict(self.refined_options), "n_points": self.n_points,
                 "seconds": self.seconds, "scale": self.scale, "summary": self.summary,
-                "signed": None if self.signed is None else self.signed.tolist()}
+                "signed": None if self.signed is None else self.signed.tolist(),
+                "before_include": None if self.before is None else self.before.tolist()}
 
 
 def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:

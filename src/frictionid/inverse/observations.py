@@ -380,14 +380,33 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     noise_known = not np.any(np.isnan(sigma))
     kinds = {_kind(q) for q in quantities} | set(channels)
     if not noise_known and len(kinds) > 1:
-        raise InputError("data: displacements and strains are observed together without standard deviations; "
-                         "give sigma_<column> columns or data.noise (e.g. noise = { u = 0.0005, e = 1e-5, "
-                         "force = 1.0 }; torque [N m] and clamp [N] by their names)")
+        raise InputError(_unweighted(labels, sigma))
     return Observations(points=points, point_regions=tuple(map(region_of.__getitem__, labels_of)),
                         quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
                         sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
                         reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source),
                         minus_row=np.array(minus, dtype=np.int64) if relative else None)
+
+
+#: what a data.noise key of each kind of observable is, for messages
+_NOISE_EXAMPLES = {"u": ("u = 0.0005", "mm"), "e": ("e = 1e-5", "strain"), FORCE: ("force = 1.0", "N"),
+                   "torque": ("torque = 0.1", "N m"), "clamp": ("clamp = 10.0", "N")}
+
+
+def _unweighted(labels, sigma: np.ndarray) -> str:
+    """The message for observables of different kinds (units) fitted together where some have no stated noise:
+    it names those."""
+    quantities = [label.rpartition("@")[0].rpartition(":")[2].rpartition("/")[2] for label in labels]
+    missing = list(dict.fromkeys(q for q, s in zip(quantities, sigma) if np.isnan(s)))
+    given = list(dict.fromkeys(q for q, s in zip(quantities, sigma) if not np.isnan(s)))
+    keys = list(dict.fromkeys(_kind(q) for q in missing))
+    what = (f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} observed with {', '.join(given)} but "
+            "without a standard deviation" if given else
+            f"{', '.join(missing)} are observed together without standard deviations")
+    example = ", ".join(_NOISE_EXAMPLES[k][0] for k in keys)
+    units = ", ".join(f"{k} in {_NOISE_EXAMPLES[k][1]}" for k in keys)
+    return (f"data.noise: {what}; quantities of different units are weighted by their noise: give e.g. "
+            f"noise = {{ {example} }} ({units}) or sigma_<column> columns")
 
 
 def _reference_value(measurements, at: dict, reference: str, quantity: str, i: int) -> float:

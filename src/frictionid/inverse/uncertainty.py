@@ -11,9 +11,12 @@ Intervals never leave the bounds: an inner parameter's 95 % interval is x +- q s
 interval [b, b + 1.645 s] (or [b - 1.645 s, b] at an upper bound), never a symmetric one through the bound.
 
 A parameter is reported identifiable when its standard error is within a tolerance (by default a quarter of
-its bound interval), the data do not contradict each other about it (:attr:`.Adequacy.affected`) and, where the
-discretisation error was estimated, that error does not move it by more than SHIFT_LIMIT standard errors; every
-other one gets a reason (``why``).
+its bound interval), the data do not contradict each other about it (:attr:`.Adequacy.affected`), it is not on
+a bound in a fit the stated noise does not explain and, where the discretisation error was estimated, that
+error does not move it by more than SHIFT_LIMIT standard errors; every other one gets a reason (``why``). With
+the model error included in the weights, a systematic part (:func:`systematic_error`) is added to the standard
+error in quadrature. A parameter claimed on a bound still needs its profile-likelihood check
+(:func:`frictionid.run.profile.bound_verdict`), made by the identification.
 """
 
 from __future__ import annotations
@@ -59,14 +62,17 @@ def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
 
 
 def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
-             tolerance: float | None = None, names=None, adequacy=None, model_shift=None) -> Uncertainty:
+             tolerance: float | None = None, names=None, adequacy=None, model_shift=None,
+             systematic=None) -> Uncertainty:
     """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x.
 
     ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds);
     ``names``: parameter names for the reasons; ``adequacy``: the fit's :class:`~.adequacy.Adequacy` (its
     consistency decides s^2, its ``affected`` zones are not identifiable); ``model_shift``: (n_free,) how far
     the estimated discretisation error moved each coefficient (:func:`~.adequacy.bias_shift`; nan unknown): a
-    zone moved by more than SHIFT_LIMIT standard errors is not identifiable.
+    zone moved by more than SHIFT_LIMIT standard errors is not identifiable; ``systematic``: (n_free,) standard
+    error of a systematic part (the model error's effect on each coefficient, :func:`systematic_error`), added
+    in quadrature to the statistical one.
 
     Examples
     --------
@@ -89,6 +95,8 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
         message = "the Jacobian of the free parameters is singular: some combination is not resolved by the data"
     information = jac.T @ jac
     se = np.sqrt(scale) * predicted_stderr(information)
+    systematic = np.zeros(n_free) if systematic is None else np.nan_to_num(np.asarray(systematic, dtype=float))
+    statistical, se = se, np.hypot(se, systematic)
     stderr = np.where(np.isfinite(se), se, np.nan)
     correlation = np.full((n_free, n_free), np.nan)
     seen = np.isfinite(se)
@@ -103,14 +111,48 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
     shift = np.full(n_free, np.nan) if model_shift is None else np.asarray(model_shift, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         moved = np.nan_to_num(np.abs(shift) / se, nan=0.0) > SHIFT_LIMIT
-    identifiable = (se <= limit) & ~affected & ~moved
+    unexplained = bound & (adequacy is not None and adequacy.consistent is False)
+    identifiable = (se <= limit) & ~affected & ~moved & ~unexplained
+    model_made = (se > limit) & (systematic > statistical)
     why = tuple("" if identifiable[k] else
                 adequacy.why_affected(k, names) if affected[k] else
+                _why_bound(lower[k] if x[k] - lower[k] <= upper[k] - x[k] else upper[k], adequacy)
+                if unexplained[k] else
+                f"standard error {se[k]:.3g} > {limit[k]:g}, {systematic[k]:.3g} of it systematic: the mesh's "
+                "estimated discretisation error moves it (by the estimate's coefficient shift or by including the "
+                "error in the weights): refine the mesh (identify.refine_target) or observe where the model "
+                "converges" if model_made[k] else
                 _why_unresolved(k, jac, se, limit[k], correlation, vt, s, names) if not moved[k] else
                 f"the mesh's estimated discretisation error moves it by {shift[k]:+.3g} ({abs(shift[k]) / se[k]:.1f} "
                 "standard errors): refine the mesh (identify.refine_target) or observe where the model converges"
                 for k in range(n_free))
     return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message, scale, why)
+
+
+def _why_bound(value: float, adequacy) -> str:
+    """Why a zone on a bound is not claimed in a fit the stated noise does not explain."""
+    return (f"on its bound ({value:g}) in a fit the stated noise does not explain (reduced chi-square "
+            f"{adequacy.reduced_chi2:.3g} > {adequacy.threshold:.3g}): the misfit, not the data, may hold it there; "
+            "a value on a bound is claimed only in a consistent fit (include the model error: identify.model_error "
+            "= \"include\")")
+
+
+def systematic_error(shift, scale: float, before, after) -> np.ndarray:
+    """(n_free,) standard error of the part of a coefficient's error a model error makes (include mode).
+
+    The error included as variance is a fixed vector, not noise: it does not average out over many
+    observations, so the statistical standard error understates its effect. Two measures of that effect,
+    the larger kept: ``shift`` (n_free,), the linearised move of the coefficients were the model corrected by
+    its estimated error (:func:`~.adequacy.bias_shift`), times ``scale`` (the size of the error the misfit shows
+    relative to the estimate, at least 1); and how far including the error in the weights moved the fit
+    (``after`` - ``before``): under a right model both weightings estimate the same coefficients.
+
+    >>> systematic_error(np.array([0.01, np.nan]), 0.5, np.array([0.1, 0.2]), np.array([0.13, 0.2])).tolist()
+    [0.03, 0.0]
+    """
+    moved = np.abs(np.asarray(after, dtype=float) - np.asarray(before, dtype=float))
+    corrected = max(float(scale), 1.0) * np.nan_to_num(np.abs(np.asarray(shift, dtype=float)), nan=0.0)
+    return np.maximum(moved, corrected)
 
 
 def _intervals(x, lower, upper, stderr, bound, two_sided: float, one_sided: float) -> np.ndarray:

@@ -1,8 +1,10 @@
-"""Merged zones: several friction zones of one interface that share one coefficient (``[friction] merge``).
+"""Merged zones: several friction zones that share one coefficient (``[friction] merge``), on one interface or
+across interfaces (a two-sided clamp, a bolt head's and nut's bearing faces of the same finish).
 
-A merged zone is the union of its members' facets under a new name; the model is otherwise unchanged, so every
-solver, the CalculiX deck and the reports treat it as one zone. This is how an identification runs on a coarser
-partition than the mesh was made with, e.g. the one ``frictionid design`` reports as resolvable.
+Members on one interface become one zone, the union of their facets; zones on different interfaces keep their own
+pairs and share the coefficient (:attr:`~frictionid.model.ContactInterface.coefficients`). This is how an
+identification runs on a coarser partition than the mesh was made with, e.g. the one ``frictionid design``
+reports as resolvable.
 """
 
 from __future__ import annotations
@@ -59,20 +61,52 @@ def merged_names(zone_names, groups: dict) -> tuple[str, ...]:
 
 
 def merge_zones(model: Model, groups, where: str = "friction.merge") -> Model:
-    """The model with each group of zones (merged name -> zones of one interface) made one zone."""
+    """The model with each group of zones (merged name -> zones) sharing one coefficient.
+
+    The members of a group on one interface become one zone, the union of their facets: under the group's name
+    when the group lies on that one interface, else (a group spanning several interfaces) under the one member's
+    name, or ``<group>@<interface>`` for several members there. Zones on different interfaces share the
+    coefficient through :attr:`ContactInterface.coefficients`: each keeps its own contact pairs (and CalculiX
+    contact pair and friction card), their sensitivities add up in the one coefficient's column.
+
+    >>> from frictionid.builders.block import block_model_2d
+    >>> merge_zones(block_model_2d(mesh_size=4.0, n_zones=3), {"AC": ["A", "C"]}).zone_names
+    ('AC', 'B')
+    """
     groups = check_groups(groups, model.zone_names, where)
     if not groups:
         return model
-    interface_of = {z: i.name for i in model.interfaces for z in i.zones}
-    for name, members in groups.items():
-        apart = sorted({interface_of[m] for m in members})
-        if len(apart) > 1:
-            raise InputError(f"{where}.{name}: zones {list(members)} lie on different interfaces {apart}; only "
-                             "zones of one interface can share a coefficient")
+    interfaces_of: dict[str, set] = {}
+    for interface in model.interfaces:
+        for coefficient in interface.coefficients:
+            interfaces_of.setdefault(coefficient, set()).add(interface.name)
+    member_of = {m: name for name, members in groups.items() for m in members}
     mesh = model.mesh
     boundaries = dict(mesh.boundaries)
-    for name, members in groups.items():
-        boundaries[name] = np.concatenate([mesh.boundary(m) for m in members])
+    interfaces = []
+    for interface in model.interfaces:
+        zones: dict[str, str] = {}                                   # zone (boundary) -> coefficient
+        for zone, coefficient in zip(interface.zones, interface.coefficients):
+            name = member_of.get(coefficient)
+            if name is None:
+                zones[zone] = coefficient
+                continue
+            here = [z for z, c in zip(interface.zones, interface.coefficients) if c in groups[name]]
+            spans = len(set().union(*(interfaces_of[m] for m in groups[name]))) > 1
+            boundary = (here[0] if len(here) == 1 else f"{name}@{interface.name}") if spans else name
+            if boundary not in zones:
+                if len(here) > 1:
+                    boundaries[_new_boundary(boundary, here, mesh, where)] = \
+                        np.concatenate([mesh.boundary(z) for z in here])
+                zones[boundary] = name
+        interfaces.append(replace(interface, zones=tuple(zones), coefficients=tuple(zones.values())))
     merged_mesh = Mesh(**{**init_arguments(mesh), "boundaries": boundaries})
-    interfaces = tuple(replace(i, zones=merged_names(i.zones, groups)) for i in model.interfaces)
-    return replace(model, mesh=merged_mesh, interfaces=interfaces)
+    return replace(model, mesh=merged_mesh, interfaces=tuple(interfaces))
+
+
+def _new_boundary(name: str, members: list[str], mesh: Mesh, where: str) -> str:
+    """The name of a merged zone's boundary: refused where the mesh has another boundary of that name."""
+    if name in mesh.boundaries and name not in members:
+        raise InputError(f"{where}: the merged zone {name!r} would replace the mesh's boundary of that name; "
+                         "name the merged zone otherwise")
+    return name

@@ -148,11 +148,15 @@ class ContactInterface:
 
     Each zone carries its own Coulomb coefficient. ``target`` is the named boundary on the other body.
     ``discretisation``: "node-to-node" (conforming meshes: every contact node has a target node at the same
-    place, up to an initial gap), "mortar" (non-matching 2-D meshes) or "auto" (node-to-node when conforming).
+    place, up to an initial gap), "mortar" (non-matching meshes, 2-D and 3-D) or "auto" (node-to-node when conforming, else mortar).
     ``lead`` [mm]: axial advance per turn of a helical interface (a thread: the pitch times the number of starts),
     positive for a right-hand helix; "axisymmetric_twist" models only. Its rings stand for the helix: each pair's
     normal is tilted by the local lead angle (:func:`frictionid.fem.twist.helical_normals`), so that turning one
     side advances it along the axis and the normal force carries torque.
+    ``gap_tolerance`` [mm]: the largest initial |gap| a pair may have (default None: half the median contact facet
+    size, :func:`frictionid.fem.contact_map.gap_tolerance`); a larger one is refused before any solve.
+    ``coefficients``: the name of the friction coefficient of each zone (default: the zone's own name); zones of
+    several interfaces that share a coefficient name share one coefficient (``[friction] merge``).
     """
 
     name: str
@@ -160,9 +164,20 @@ class ContactInterface:
     target: str
     discretisation: str = "auto"
     lead: float = 0.0
+    gap_tolerance: float | None = None
+    coefficients: tuple[str, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "zones", tuple(self.zones))
+        object.__setattr__(self, "coefficients", tuple(self.coefficients) or self.zones)
+        if len(self.coefficients) != len(self.zones):
+            raise InputError(f"interface {self.name!r}: {len(self.coefficients)} coefficient names for "
+                             f"{len(self.zones)} zones {list(self.zones)}")
+        tolerance = self.gap_tolerance
+        if tolerance is not None and (isinstance(tolerance, bool) or not isinstance(tolerance, (int, float))
+                                      or not np.isfinite(tolerance) or tolerance <= 0):
+            raise InputError(f"[[model.interfaces]] {self.name!r} gap_tolerance: must be a positive number of mm, "
+                             f"got {tolerance!r}")
         if isinstance(self.lead, bool) or not isinstance(self.lead, (int, float)) or not np.isfinite(self.lead):
             raise InputError(f"interface {self.name!r}: lead must be a number of mm, got {self.lead!r}")
         if self.discretisation not in ("auto", "node-to-node", "mortar"):
@@ -189,6 +204,8 @@ class Model:
     loads : Displacement, Pressure and SurfaceForce entries, each with one value per stage.
     stages : the load path.
     interfaces : contact interfaces with their friction zones.
+    zone_names : (derived) the names of the friction coefficients, in interface and zone order: the zones' own
+        names, or the coefficient several zones share (:attr:`ContactInterface.coefficients`).
     element : "standard" | "incompatible"
         Element technology on the mesh: the cell type's Lagrange element, or (linear hexahedra only) hex8 with
         incompatible modes (Wilson-Taylor, as CalculiX's C3D8I), which does not lock in bending.
@@ -213,7 +230,8 @@ class Model:
         object.__setattr__(self, "loads", tuple(self.loads))
         object.__setattr__(self, "stages", tuple(self.stages))
         object.__setattr__(self, "interfaces", tuple(self.interfaces))
-        object.__setattr__(self, "zone_names", tuple(z for i in self.interfaces for z in i.zones))
+        object.__setattr__(self, "zone_names", tuple(dict.fromkeys(c for i in self.interfaces
+                                                                    for c in i.coefficients)))
         self._validate()
 
     @property
@@ -329,8 +347,14 @@ class Model:
 
     def _validate_zones(self):
         seen: dict[frozenset, str] = {}
-        if len(set(self.zone_names)) != len(self.zone_names):
-            raise InputError(f"model: a zone name is used twice in {self.zone_names}")
+        zones = [z for i in self.interfaces for z in i.zones]
+        if len(set(zones)) != len(zones):
+            raise InputError(f"model: a zone name is used twice in {zones}")
+        coefficient_of = {z: c for i in self.interfaces for z, c in zip(i.zones, i.coefficients)}
+        for zone, coefficient in coefficient_of.items():
+            if coefficient in coefficient_of and coefficient_of[coefficient] != coefficient:
+                raise InputError(f"model: zone {zone!r} takes coefficient {coefficient!r}, which is also the name of "
+                                 f"zone {coefficient!r} with coefficient {coefficient_of[coefficient]!r}")
         for interface in self.interfaces:
             self.mesh.boundary(interface.target)
             if interface.lead and self.kind != "axisymmetric_twist":

@@ -49,7 +49,8 @@ def report_html(result: dict, figures: dict[str, bytes], config_text: str | None
                 _fit(result.get("fit"), figures.get("fit")),
                 _figure("Residual map", figures.get("residuals"),
                         "each measurement point at its model position, coloured by its RMS residual / noise"),
-                _identifiability(result), _statistics(result), _provenance(config_text, data_file)]
+                _identifiability(result), _contact(result.get("model")), _statistics(result),
+                _provenance(config_text, data_file)]
     head = f"frictionid report: {title}" if title else "frictionid report"
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>{_e(head)}</title><style>{_CSS}</style></head>\n<body>\n<h1>{_e(head)}</h1>\n"
@@ -162,9 +163,12 @@ def _adequacy(fit: dict | None) -> str:
     verdict = {True: ("good", "the stated noise explains the misfit"),
                False: ("bad", "THE MODEL DOES NOT EXPLAIN THE DATA at the stated noise"),
                None: ("note", "no stated noise: whether the model explains the data cannot be tested")}
-    css, text = verdict[fit.get("consistent")]
+    css, text = verdict[fit.get("consistent")] if not fit.get("too_small") else \
+        ("bad", "THE MISFIT IS SMALLER THAN THE STATED NOISE ALLOWS: the stated noise is too large or the data "
+                "were smoothed")
     rows = [["observations", str(fit["n_obs"])], ["chi-square", f"{fit['chi2']:.4g}"], ["dof", str(fit["dof"])],
             ["reduced chi-square", _num(fit.get("reduced_chi2"))], ["its 99 % quantile", _num(fit.get("chi2_99"))],
+            ["its 1 % quantile", _num(fit.get("chi2_01"))],
             ["p-value", _num(fit.get("p_value"))], ["error scale", _num(fit.get("error_scale"))],
             ["loss", _e(fit.get("loss", "linear"))], ["down-weighted", str(fit.get("n_downweighted", 0))],
             ["RMS residual (data units)", _num(fit.get("rms_residual"))]]
@@ -178,7 +182,7 @@ def _adequacy(fit: dict | None) -> str:
             ["observation", "residual / noise", "measured", "model"],
             [[_e(w["observation"]), f"{w['residual']:+.3g}", f"{w['measured']:.5g}", f"{w['model']:.5g}"]
              for w in fit["worst"]], (0,)))
-    if fit.get("hint") and fit.get("consistent") is False:
+    if fit.get("hint") and (fit.get("consistent") is False or fit.get("too_small")):
         parts.append(f"<p>What to try: {_e(fit['hint'])}</p>")
     parts.append(_model_error(fit.get("model_error")))
     return _section("Fit adequacy", "\n".join(parts))
@@ -238,6 +242,26 @@ def _identifiability(result: dict) -> str:
         parts.append("<h3>Resolution before fitting (at the start values)</h3>"
                      + _table(["zone", "predicted stderr", "resolved"], rows, (0,)))
     return _section("Identifiability", "\n".join(parts))
+
+
+def _contact(model: dict | None) -> str:
+    """The contact map checked at model build (result.json ``model.contact``): per interface its pairs, initial
+    gaps, facing check and state, then its zones."""
+    interfaces = (model or {}).get("contact")
+    if not interfaces:
+        return _section("Contact set-up", _missing("no contact map in this result"))
+    rows = [[_e(c["name"]), _e(c["target"]), _e(c["discretisation"]), c["n_pairs"], c["n_left_out"],
+             f"{_num(c['gap'][0], '.3g')} to {_num(c['gap'][1], '.3g')}", _num(c["gap_tolerance"], ".3g"),
+             _num(c["facing_deg"], ".3g"), _e(", ".join(f"{n} {k}" for k, n in c["state"].items() if n))]
+            for c in interfaces]
+    zones = [[_e(c["name"]), _e(zone), _e(z["coefficient"]), z["pairs"], _num(z["area"], ".4g"),
+              "&ndash;" if z["gap"] is None else f"{z['gap'][0]:.3g} to {z['gap'][1]:.3g}"]
+             for c in interfaces for zone, z in c["zones"].items()]
+    return _section("Contact set-up", "<p>Checked at model build, before any solve.</p>" + _table(
+        ["interface", "target", "discretisation", "pairs", "nodes not covered", "initial gap [mm]",
+         "gap tolerance [mm]", "facing within [deg]", "initial state"], rows, (0, 1, 2, 8))
+        + _table(["interface", "zone", "coefficient", "pairs", "area [mm&sup2;]", "initial gap [mm]"], zones,
+                 (0, 1, 2)))
 
 
 def _statistics(result: dict) -> str:

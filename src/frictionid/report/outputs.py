@@ -136,7 +136,8 @@ def residual_plot(result: dict, path: Path) -> None:
     fit = result["fit"]
     verdict = {True: "explained by the noise", False: "NOT explained by the noise", None: "no stated noise"}
     axes.set_title(f"RMS residual / noise per point; reduced chi-square {fit['reduced_chi2']:.3g} "
-                   f"({verdict[fit.get('consistent')]})", fontsize=9)
+                   f"({'below the stated noise' if fit.get('too_small') else verdict[fit.get('consistent')]})",
+                   fontsize=9)
     fig.colorbar(shown, ax=axes, label="RMS residual / noise", shrink=0.8)
     fig.tight_layout()
     save(fig, path)

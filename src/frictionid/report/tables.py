@@ -62,6 +62,14 @@ def result_summary(result: dict) -> str:
         lines.append(f"    {name:<10} {p['value']:.6f} {spread}{interval} (init = {p['initial']:.4f}){flags}")
         if p.get("why"):
             lines.append(f"               why: {p['why']}")
+        if p.get("bound_check", {}).get("passed"):
+            lines.append(f"               on its bound: the profile excludes values beyond {p['ci95'][1]:.4f} "
+                         "(one-sided 95 %)" if p["ci95"][0] == p["bounds"][0] else
+                         f"               on its bound: the profile excludes values below {p['ci95'][0]:.4f} "
+                         "(one-sided 95 %)")
+        if p.get("stderr_systematic"):
+            lines.append(f"               includes {p['stderr_systematic']:.4f} systematic (the model error's "
+                         "effect on it)")
     ident = result["identifiability"]
     lines.append("[[Identifiability]]")
     lines.append("    singular values of the weighted Jacobian: "
@@ -115,7 +123,11 @@ def _adequacy_lines(fit: dict) -> list[str]:
     if fit.get("consistent") is None:
         return lines + ["    no stated noise: whether the model explains the data cannot be tested; standard "
                         "errors are scaled by the residual"]
-    if fit["consistent"]:
+    if fit.get("too_small"):
+        lines.append(f"    THE MISFIT IS SMALLER THAN THE STATED NOISE ALLOWS: reduced chi-square "
+                     f"{fit['reduced_chi2']:.3g} < {fit['chi2_01']:.3g} (1 % quantile). The stated noise is too large or the data were "
+                     "smoothed (or carry none); standard errors below use the stated noise, so they are too wide.")
+    elif fit["consistent"]:
         lines.append(f"    the stated noise explains the misfit (reduced chi-square {fit['reduced_chi2']:.3g} "
                      f"<= {fit['chi2_99']:.3g}, its 99 % quantile)")
     else:
@@ -154,6 +166,8 @@ def _adequacy_lines(fit: dict) -> list[str]:
         lines.append("    worst observations (residual / noise, measured, model): "
                      + "; ".join(f"{w['observation']} {w['residual']:+.3g} ({w['measured']:.4g}, {w['model']:.4g})"
                                  for w in fit["worst"][:5]))
+        lines.append(f"    what to try: {fit['hint']}")
+    elif fit.get("too_small"):
         lines.append(f"    what to try: {fit['hint']}")
     return lines
 

@@ -39,14 +39,19 @@ def contact_mesh(fields: Fields, stage: StageFields) -> meshio.Mesh:
     """The contact side's facets (every zone of every interface) with the pair values at their nodes.
 
     Point data: ``pressure_MPa``, ``traction_MPa`` and ``slip_mm`` (tangential vectors, global frame), ``gap_mm``,
-    ``state``, ``area_mm2`` (tributary area: sum(pressure_MPa * area_mm2) is the normal force [N]) and ``mu_pair``
-    (the pair's coefficient, area-weighted at zone borders); NaN (state -1) at a node without a pair.
-    Cell data: ``zone`` (index into the model's zone names) and ``mu`` (that zone's coefficient).
+    ``state``, ``area_mm2`` (tributary area: sum(pressure_MPa * area_mm2) is the normal force [N]), ``mu_pair``
+    (the pair's coefficient, area-weighted at zone borders) and the contact map checked at model build:
+    ``initial_gap_mm`` (negative: an interference) and ``facing_deg`` (angle between the contact normal and the
+    reversed target normal of the pair); NaN (state -1) at a node without a pair.
+    Cell data: ``zone`` (index into the model's zone names, i.e. coefficients), ``mu`` (that zone's coefficient)
+    and ``interface`` (index into the model's interfaces).
     """
     model, pairs = fields.model, fields.pairs
-    facets = [model.mesh.boundary(zone) for zone in model.zone_names]
-    zone = np.concatenate([np.full(len(f), z, dtype=np.int32) for z, f in enumerate(facets)])
-    facets = np.concatenate(facets)
+    owners = [(i, model.zone_names.index(c), model.mesh.boundary(z))
+              for i, interface in enumerate(model.interfaces) for z, c in zip(interface.zones, interface.coefficients)]
+    zone = np.concatenate([np.full(len(f), z, dtype=np.int32) for _, z, f in owners])
+    interface = np.concatenate([np.full(len(f), i, dtype=np.int32) for i, _, f in owners])
+    facets = np.concatenate([f for _, _, f in owners])
     nodes = np.unique(facets)
     at = np.searchsorted(nodes, pairs.nodes)               # every pair's contact node is a node of a zone facet
 
@@ -56,13 +61,16 @@ def contact_mesh(fields: Fields, stage: StageFields) -> meshio.Mesh:
         out[at] = values
         return out
 
+    facing = np.full(pairs.n_pairs, np.nan) if pairs.facing is None else pairs.facing
     point_data = {"pressure_MPa": on_nodes(stage.pressure), "traction_MPa": _xyz(on_nodes(stage.traction)),
                   "slip_mm": _xyz(on_nodes(stage.slip)), "gap_mm": on_nodes(stage.gap),
                   "state": on_nodes(stage.state.astype(np.int32), -1), "area_mm2": on_nodes(pairs.weight),
-                  "mu_pair": on_nodes(pairs.mu(fields.mu))}
+                  "mu_pair": on_nodes(pairs.mu(fields.mu)), "initial_gap_mm": on_nodes(pairs.gap),
+                  "facing_deg": on_nodes(facing)}
     return meshio.Mesh(_xyz(model.mesh.points[nodes]), [(model.mesh.facet_type, np.searchsorted(nodes, facets))],
                        point_data=point_data,
-                       cell_data={"zone": [zone], "mu": [np.asarray(fields.mu, dtype=float)[zone]]})
+                       cell_data={"zone": [zone], "mu": [np.asarray(fields.mu, dtype=float)[zone]],
+                                  "interface": [interface]})
 
 
 def write_fields(folder: str | Path, fields: Fields) -> list[Path]:
@@ -126,9 +134,13 @@ def fields_readme(fields: Fields) -> str:
         "(tangential vectors in the global frame; slip accumulated since the start), gap_mm (current normal gap), "
         f"state ({STATE_CODES}), area_mm2 (tributary area{', whole ring' if axisymmetric else ''}"
         f"{', per mm thickness' if model.kind == 'plane_strain' else ''}; sum(pressure_MPa * area_mm2) = normal "
-        "force [N]), mu_pair (the coefficient at the node, area-weighted at zone borders); cell data zone and "
-        "mu (the zone's coefficient):",
-        *(f"  {z} {name} mu = {mu:.6g}" for z, (name, mu) in enumerate(zip(model.zone_names, fields.mu))), ""]
+        "force [N]), mu_pair (the coefficient at the node, area-weighted at zone borders), initial_gap_mm and "
+        "facing_deg (the contact map checked at model build: initial normal gap, negative for an interference, "
+        "and the angle between the contact normal and the reversed target normal); cell data zone and mu (the "
+        "zone's coefficient):",
+        *(f"  {z} {name} mu = {mu:.6g}" for z, (name, mu) in enumerate(zip(model.zone_names, fields.mu))),
+        "and interface:", *(f"  {i} {interface.name} (target {interface.target})"
+                            for i, interface in enumerate(model.interfaces)), ""]
     return "\n".join(lines)
 
 

@@ -21,6 +21,9 @@ from .multistart import run_starts
 
 #: chi-square quantile of one degree of freedom at 95 %
 CHI2_95 = 3.841458820694124
+#: 95 % quantile of the likelihood ratio of a parameter on a bound: a 50:50 mixture of 0 and chi-square with one
+#: degree of freedom (Self & Liang, JASA 82 (1987) 605-610), i.e. chi2_1(0.90): the one-sided 95 % level
+CHI2_BOUND_95 = 2.705543454095404
 #: the grid spans the fitted value +- this many standard errors (within the bounds)
 SPAN = 4.0
 
@@ -98,21 +101,86 @@ def profiles(zones, names, params, fitted_x, stderr, chi2_of, refit, parallel: b
     threshold = CHI2_95 * s2
     for zone in zones:
         k = names.index(zone)
-        values = grid(float(fitted_x[k]), stderr[k], float(params.lower[k]), float(params.upper[k]), n_points)
-        x0 = np.delete(fitted_x, k)
-
-        def optimise_from(j, point, zone=zone, k=k, x0=x0):
-            others = refit(zone, float(point[0]), x0)
-            return np.insert(others, k, point[0])
-
-        runs = run_starts(values[:, None], optimise_from, parallel)
-        chi2 = np.array([chi2_of(r.outcome) if r.outcome is not None else np.inf for r in runs])
+        values, chi2, others = _profile(zone, names, params, fitted_x, stderr, chi2_of, refit, parallel, n_points)
         found = interval(values, chi2, threshold, float(params.lower[k]), float(params.upper[k]))
         out[zone] = {"values": values.tolist(), "chi2": [None if not np.isfinite(c) else float(c) for c in chi2],
-                     "others": {names[i]: [None if r.outcome is None else float(r.outcome[i]) for r in runs]
-                                for i in range(len(names)) if i != k},
-                     "threshold": threshold, **found}
+                     "others": others, "threshold": threshold, **found}
     return out
+
+
+def _profile(zone, names, params, fitted_x, stderr, chi2_of, refit, parallel: bool, n_points: int):
+    """The grid of ``zone``'s held values, the refitted chi-square at each (inf where the refit failed) and
+    the others' refitted values ({name: [value or None]})."""
+    k = names.index(zone)
+    values = grid(float(fitted_x[k]), stderr[k], float(params.lower[k]), float(params.upper[k]), n_points)
+    x0 = np.delete(fitted_x, k)
+
+    def optimise_from(j, point):
+        return np.insert(refit(zone, float(point[0]), x0), k, point[0])
+
+    runs = run_starts(values[:, None], optimise_from, parallel)
+    chi2 = np.array([chi2_of(r.outcome) if r.outcome is not None else np.inf for r in runs])
+    others = {names[i]: [None if r.outcome is None else float(r.outcome[i]) for r in runs]
+              for i in range(len(names)) if i != k}
+    return values, chi2, others
+
+
+def bound_checks(zones, names, params, fitted_x, stderr, limit: float, chi2_of, refit, parallel: bool,
+                 n_points: int, s2: float) -> dict:
+    """The profile-likelihood check of each zone in ``zones`` (claimed on a bound): {zone: :func:`bound_verdict`}.
+
+    Arguments as for :func:`profiles`; ``limit`` is the largest standard error of a claimed zone
+    (identify.resolution).
+    """
+    out = {}
+    for zone in zones:
+        k = names.index(zone)
+        lower, upper = float(params.lower[k]), float(params.upper[k])
+        on = np.array(fitted_x, dtype=float)
+        on[k] = lower if abs(on[k] - lower) <= abs(upper - on[k]) else upper       # the grid starts on it
+        values, chi2, _ = _profile(zone, names, params, on, stderr, chi2_of, refit, parallel, n_points)
+        out[zone] = bound_verdict(values, chi2, float(on[k]), CHI2_BOUND_95 * s2, limit)
+    return out
+
+
+def bound_verdict(values: np.ndarray, chi2: np.ndarray, bound: float, threshold: float, limit: float) -> dict:
+    """Does the profile from a bound exclude the interior? (result.json ``parameters.<zone>.bound_check``)
+
+    A zone fitted on its bound is claimed when (1) no held value refits to a lower chi-square than the bound's
+    (by more than 1e-6 of it: else the bound is not the data's best value), (2) the refitted chi-square rises
+    by ``threshold`` (the one-sided 95 % level CHI2_BOUND_95 times s^2) within the grid, and (3) where it does,
+    the one-sided interval [bound, end] is no wider than that of a zone with standard error ``limit``
+    (1.645 limit). ``passed`` says whether all hold, ``why`` which did not.
+
+    >>> v = np.linspace(0.0, 0.08, 9)
+    >>> check = bound_verdict(v, 100 + (v / 0.01) ** 2, 0.0, CHI2_BOUND_95, 0.02)
+    >>> round(check["interval"][1], 4), check["passed"]          # exact: sqrt(2.706) 0.01 = 0.0164
+    (0.0157, True)
+    >>> bound_verdict(v, 100 - v, 0.0, CHI2_BOUND_95, 0.02)["why"][:45]
+    'the profile falls into the interior: chi-squa'
+    """
+    order = np.argsort(values)
+    values, chi2 = np.asarray(values, dtype=float)[order], np.asarray(chi2, dtype=float)[order]
+    ok = np.isfinite(chi2)
+    side = 1 if abs(values[0] - bound) <= abs(values[-1] - bound) else 0        # the interior's side of the list
+    at = int(np.argmin(np.abs(values - bound)))
+    base = chi2[at]
+    width = float(np.max(np.abs(values - bound)))
+    found = interval(values[ok], chi2[ok], threshold, -np.inf, np.inf)      # the grid's far end: still open
+    end, inward = found["interval"][side], found["open"][side]
+    lowest = int(np.argmin(np.where(ok, chi2, np.inf)))
+    dips = bool(chi2[lowest] < base - 1e-6 * max(abs(base), 1.0))
+    half = float(abs(end - bound))
+    why = (f"the profile falls into the interior: chi-square {chi2[lowest]:.6g} at {values[lowest]:.4g} < "
+           f"{base:.6g} on the bound" if dips else
+           f"the profile does not rise by {threshold:.3g} within {width:.3g} of the bound: the data do not exclude "
+           "the interior" if inward else
+           f"the profile excludes the interior only beyond {half:.3g} from the bound (> 1.645 x {limit:g})"
+           if half > 1.645 * limit else "")
+    return {"level": 0.95, "threshold": float(threshold), "values": values.tolist(),
+            "chi2": [None if not np.isfinite(c) else float(c) for c in chi2],
+            "interval": sorted([float(bound), float(end)]), "passed": not why, "why": why}
+
 
 
 def held(params, zone: str, value: float, others_start: np.ndarray):

@@ -17,7 +17,7 @@ from ...fem.points import point_operator
 from ...fem.space import Space
 from ...model import Model
 from ..embedded import Prediction
-from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck
+from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck, zone_columns
 from .elements import calculix_cells, fill_dropped_nodes
 from .parse import DatFile, read_dat, read_frd
 from .runner import JOB, find_ccx, remove_work, run_ccx
@@ -70,11 +70,12 @@ class CalculixSettings:
     @classmethod
     def from_options(cls, options: dict, where: str = "[solver]") -> "CalculixSettings":
         """Settings from a dict of [solver] keys (``backend`` and the embedded backend's ``factorisation`` and
-        ``sliding`` ignored: CalculiX's contact follows the deformation), each checked with a clear message."""
+        ``increments`` and ``sliding`` ignored: CalculiX's contact follows the deformation), each checked with a
+        clear message."""
         known = {f.name for f in fields(cls)}
         values = {}
         for key, value in options.items():
-            if key in ("backend", "factorisation", "sliding"):
+            if key in ("backend", "factorisation", "increments", "sliding"):
                 continue
             if key not in known:
                 raise InputError(f"{where} {key}: not an option of the calculix backend; options are {sorted(known)}")
@@ -309,13 +310,14 @@ class CalculixBackend:
             return np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape + (3,), np.nan)
         scale = AXISYMMETRIC_SEGMENTS if self.model.kind == "axisymmetric" else 1.0
         normal, tangential, force = np.zeros(shape), np.zeros(shape), np.zeros(shape + (3,))
-        for z, pair in enumerate(contact_pairs(self.model)):
+        for z, pair in zip(zone_columns(self.model), contact_pairs(self.model)):     # zones sharing z: summed
             for s, t in enumerate(self._stage_times()):
                 entry = _at_time(dat.contact, pair, t, required=False)
                 # a zone out of contact prints nothing or zero area with NaN forces
                 if entry and entry.get("area", 0.0) > 0:
-                    normal[s, z], tangential[s, z] = -scale * entry["normal"], scale * entry["shear"]
-                    force[s, z] = scale * entry["force"]
+                    normal[s, z] -= scale * entry["normal"]
+                    tangential[s, z] += scale * entry["shear"]
+                    force[s, z] += scale * entry["force"]
         return normal, tangential, force
 
     def _field(self, work: Path) -> np.ndarray:

@@ -125,10 +125,11 @@ def _contact(model: Model, mu: np.ndarray, contact: ContactSettings) -> list[str
     zone_index = 0
     for interface in model.interfaces:
         target = f"ST{model.interfaces.index(interface) + 1}"
-        for zone in interface.zones:
+        for zone, coefficient in zip(interface.zones, interface.coefficients):
             zone_index += 1
-            value = float(mu[zone_index - 1])
-            out += [f"** zone {zone} of interface {interface.name}, mu = {value:.13g}",
+            value = float(mu[model.zone_names.index(coefficient)])
+            shared = f" (coefficient {coefficient})" if coefficient != zone else ""
+            out += [f"** zone {zone} of interface {interface.name}{shared}, mu = {value:.13g}",
                     f"*SURFACE INTERACTION, NAME=I{zone_index}",
                     "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{contact.normal_stiffness:.13g}"]
             if value > 0:
@@ -199,9 +200,15 @@ def _step(model: Model, stage: int, forces: np.ndarray, loaded: np.ndarray, reac
 
 
 def contact_pairs(model: Model) -> list[tuple[str, str]]:
-    """(slave, master) surface names of the contact pair of each zone, in ``model.zone_names`` order."""
+    """(slave, master) surface names of the contact pair of each zone, zones in interface order (one pair and one
+    friction per zone, also where zones share a coefficient: :func:`zone_columns`)."""
     return [(f"SZ{z + 1}", f"ST{model.interfaces.index(i) + 1}")
             for z, i in enumerate(i for i in model.interfaces for _ in i.zones)]
+
+
+def zone_columns(model: Model) -> list[int]:
+    """Index into ``model.zone_names`` (the coefficients) of each zone's contact pair of :func:`contact_pairs`."""
+    return [model.zone_names.index(c) for i in model.interfaces for c in i.coefficients]
 
 
 def reaction_boundaries(model: Model) -> list[str]:

@@ -1,0 +1,115 @@
+"""Shape functions, quadrature and point projection of 3-D contact facets (triangle, triangle6, quad, quad9).
+
+Facets are in meshio order: corners first (counter-clockwise seen from the side their parameter normal
+``dx/dr x dx/ds`` points to), then the mid-side nodes of edges 0-1, 1-2, ..., then (quad9) the centre.
+Parameters: triangles (r, s) in {r, s >= 0, r + s <= 1}; quadrilaterals (r, s) in [-1, 1]^2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from skfem.quadrature import get_quadrature
+from skfem.refdom import RefTri
+
+#: number of corners of each facet type
+CORNERS = {"triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}
+#: parameters (n_facet_nodes, 2) of each facet type's nodes
+NODE_PARAMETERS = {
+    "triangle": np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+    "triangle6": np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]]),
+    "quad": np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]),
+    "quad9": np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0],
+                       [0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, 0.0]]),
+}
+#: parameter of each facet type's centre
+CENTRE = {"triangle": (1 / 3, 1 / 3), "triangle6": (1 / 3, 1 / 3), "quad": (0.0, 0.0), "quad9": (0.0, 0.0)}
+_NEWTON_STEPS = 30
+_NEWTON_TOL = 1e-12
+
+
+def _line3(x):
+    """1-D quadratic Lagrange functions at -1, 1, 0 and their derivatives, each (..., 3)."""
+    return (np.stack([x * (x - 1) / 2, x * (x + 1) / 2, 1 - x * x], -1),
+            np.stack([x - 0.5, x + 0.5, -2 * x], -1))
+
+
+def shape_functions(rs, facet_type: str):
+    """Values (..., k) and derivatives (..., k, 2) of the shape functions of facet_type at parameters rs (..., 2)."""
+    rs = np.asarray(rs, dtype=float)
+    r, s = rs[..., 0], rs[..., 1]
+    one, zero = np.ones_like(r), np.zeros_like(r)
+    if facet_type == "triangle":
+        N = np.stack([1 - r - s, r, s], -1)
+        dN = np.stack([np.stack([-one, -one], -1), np.stack([one, zero], -1), np.stack([zero, one], -1)], -2)
+        return N, dN
+    if facet_type == "triangle6":
+        L = np.stack([1 - r - s, r, s], -1)
+        dL = np.stack([np.stack([-one, -one], -1), np.stack([one, zero], -1), np.stack([zero, one], -1)], -2)
+        edges = ((0, 1), (1, 2), (2, 0))
+        N = [L[..., i] * (2 * L[..., i] - 1) for i in range(3)] + [4 * L[..., a] * L[..., b] for a, b in edges]
+        dN = [(4 * L[..., i] - 1)[..., None] * dL[..., i, :] for i in range(3)]
+        dN += [4 * (L[..., a, None] * dL[..., b, :] + L[..., b, None] * dL[..., a, :]) for a, b in edges]
+        return np.stack(N, -1), np.stack(dN, -2)
+    nodes = NODE_PARAMETERS[facet_type]
+    if facet_type == "quad":
+        N = (1 + r[..., None] * nodes[:, 0]) * (1 + s[..., None] * nodes[:, 1]) / 4
+        dN = np.stack([nodes[:, 0] * (1 + s[..., None] * nodes[:, 1]) / 4,
+                       nodes[:, 1] * (1 + r[..., None] * nodes[:, 0]) / 4], -1)
+        return N, dN
+    index = {-1.0: 0, 1.0: 1, 0.0: 2}
+    (lr, dlr), (ls, dls) = _line3(r), _line3(s)
+    i = [index[a] for a in nodes[:, 0]]
+    j = [index[b] for b in nodes[:, 1]]
+    N = lr[..., i] * ls[..., j]
+    return N, np.stack([dlr[..., i] * ls[..., j], lr[..., i] * dls[..., j]], -1)
+
+
+def facet_quadrature(facet_type: str):
+    """Points (q, 2) and weights (q,) on the reference facet, exact for polynomials of degree 10 (triangles) or
+    11 in each parameter (quadrilaterals)."""
+    if CORNERS[facet_type] == 3:
+        points, weights = get_quadrature(RefTri, 10)
+        return points.T, weights
+    x, w = np.polynomial.legendre.leggauss(6)
+    return np.column_stack([np.repeat(x, 6), np.tile(x, 6)]), np.repeat(w, 6) * np.tile(w, 6)
+
+
+def triangle_quadrature():
+    """Points (q, 3) as barycentric weights and weights (q,) summing to 1 on a triangle, degree 10."""
+    points, weights = get_quadrature(RefTri, 10)
+    return np.column_stack([1 - points[0] - points[1], points[0], points[1]]), 2 * weights
+
+
+def geometry(coords: np.ndarray, rs, facet_type: str):
+    """Positions (q, 3), tangents (q, 3, 2) and unit parameter normals (q, 3) at parameters rs (q, 2) of one
+    facet (coords (k, 3)) or of one facet per point (coords (q, k, 3))."""
+    N, dN = shape_functions(rs, facet_type)
+    if coords.ndim == 2:
+        x, tangents = N @ coords, np.einsum("qkp,kd->qdp", dN, coords)
+    else:
+        x, tangents = np.einsum("qk,qkd->qd", N, coords), np.einsum("qkp,qkd->qdp", dN, coords)
+    normal = np.cross(tangents[..., 0], tangents[..., 1])
+    return x, tangents, normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+
+
+def project_along(coords: np.ndarray, facet_type: str, points: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) cut the facet (coords (k, 3))
+    or each point's facet (coords (q, k, 3)).
+
+    Newton on x(r, s) - t direction = point; NaN where it does not converge (the line misses a curved facet's
+    extension). The parameters may lie outside the reference facet (the caller decides).
+    """
+    rs = np.tile(CENTRE[facet_type], (len(points), 1))
+    t = np.zeros(len(points))
+    converged = np.zeros(len(points), bool)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for _ in range(_NEWTON_STEPS):
+            x, tangents, _ = geometry(coords, rs, facet_type)
+            residual = x - t[:, None] * direction - points
+            jacobian = np.concatenate([tangents, np.broadcast_to(-direction[:, None], (len(points), 3, 1))], axis=2)
+            step = np.linalg.solve(jacobian, -residual[..., None])[..., 0]
+            rs, t = rs + step[:, :2], t + step[:, 2]
+            converged = np.abs(step[:, :2]).max(axis=1) < _NEWTON_TOL
+            if converged.all():
+                return rs
+    return np.where(converged[:, None], rs, np.nan)

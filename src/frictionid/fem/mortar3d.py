@@ -1,0 +1,324 @@
+"""Segment-based dual-Lagrange mortar coupling of non-matching 3-D contact interfaces (triangle, triangle6, quad and
+quad9 facets).
+
+The contact side of an interface (the union of its zones) is the slave side and carries the multipliers; the
+target is the master side. Slave facet by slave facet (Puso & Laursen 2004; Popp, Gee & Wall 2010):
+
+1. an auxiliary plane through the slave facet's centre, normal n0 its outward normal there;
+2. the corner polygons of the slave facet and of each facing master facet nearby projected onto it along n0,
+   the master polygon clipped by the slave one (:func:`frictionid.fem.clipping.clip`);
+3. the clipped polygon split into triangles, integrated with a degree-10 rule; each integration point projected
+   back along n0 onto the slave facet (parameter xi) and the master facet (eta), its weight divided by
+   ``|n_slave(xi) . n0|`` so that it measures slave surface area (exact on flat facets).
+
+With the element-wise dual basis ``psi_i = sum_k A_ik N^_k`` (``A_e = D_e M_e^-1``, ``M_e`` the mass matrix of
+the slave facet's basis N^, ``D_e`` its row sums) the pair quantities are those of :mod:`frictionid.fem.mortar`::
+
+    D_i  = int N^_i dA                        (slave tributary area, the pair weight)
+    M_ij = int psi_i N_j^master(eta) dA       (mortar matrix)
+    w_i  = frame_i . (u^_i - sum_j (M_ij / S_i) u_j^master),        S_i = sum_j M_ij
+    gap_i = (1 / S_i) int psi_i g dA,         g = (x_master(eta) - x_slave(xi)) . n(xi)
+
+n(xi) is the interpolated averaged nodal normal of the slave side (outward of the contact body); the pair frame
+normal is ``-n`` at the node. On 6-node triangles N^ is the transformed basis of dual quadratic mortar
+(:func:`frictionid.fem.node_to_node.surface_transform`, corner areas positive) and u^ = P u the transformed slave
+values; on the other facet types N^ = N, u^ = u. The corner polygons stand for quadratic facets in the clipping
+only: on curved quadratic facets the pieces' outlines are chords (a second-order error in the facet size).
+
+References: Puso & Laursen, CMAME 193 (2004) 601-629; Popp, Gee & Wall, IJNME 79 (2009) 1354-1391;
+Popp, Gitterle, Gee & Wall, IJNME 83 (2010) 1428-1465 (3-D dual mortar, segment-based integration);
+Popp, Wohlmuth, Gee & Wall, SIAM J. Sci. Comput. 34 (2012) B421-B446 (quadratic dual mortar).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from ..errors import InputError
+from ..model import Model
+from ..model.mesh import CELL_FACETS
+from .clipping import clip, counter_clockwise, signed_area
+from .facet_shapes import CENTRE, CORNERS, NODE_PARAMETERS, facet_quadrature, geometry, project_along, \
+    shape_functions, triangle_quadrature
+from .node_to_node import TRI6_ALPHA, surface_transform
+from .pairs import ContactPairs, tangent_frames
+from .space import Space
+
+logger = logging.getLogger(__name__)
+
+#: clipped pieces smaller than this fraction of the slave facet's area are dropped
+_SLIVER = 1e-12
+_TRI_POINTS, _TRI_WEIGHTS = triangle_quadrature()
+
+
+def local_transform(facet_type: str, alpha: float = TRI6_ALPHA) -> np.ndarray:
+    """(k, k) T with N^ = T N on one facet: the triangle6 transformation of dual quadratic mortar, else I."""
+    k = len(NODE_PARAMETERS[facet_type])
+    T = np.eye(k)
+    if facet_type == "triangle6":
+        for corner, mids in ((0, (3, 5)), (1, (3, 4)), (2, (4, 5))):
+            T[corner, list(mids)] = alpha
+        T[3:, 3:] *= 1 - 2 * alpha
+    return T
+
+
+def _outward_sign(mesh, facets: np.ndarray) -> np.ndarray:
+    """(n_facets,) +1 where a facet's parameter normal points out of its adjacent cell, else -1."""
+    n_corners = CORNERS[mesh.facet_type]
+    cell_corners = mesh.cells[:, :4 if mesh.cell_type.startswith("tetra") else 8]
+    on = np.zeros(mesh.n_nodes, bool)
+    on[facets[:, :n_corners]] = True
+    near = np.flatnonzero(on[cell_corners].sum(axis=1) >= n_corners)
+    cell_of_face = {}
+    for local in CELL_FACETS[mesh.cell_type]:
+        for cell, face in zip(near, np.sort(cell_corners[near][:, list(local)], axis=1).tolist()):
+            cell_of_face[tuple(face)] = cell
+    try:
+        cells = np.array([cell_of_face[tuple(f)] for f in np.sort(facets[:, :n_corners], axis=1).tolist()])
+    except KeyError:
+        raise InputError("mortar: a contact or target facet is not a face of any cell") from None
+    centre, _, normal = geometry_many(mesh.points[facets], mesh.facet_type, CENTRE[mesh.facet_type])
+    inward = mesh.points[cell_corners[cells]].mean(axis=1) - centre
+    return np.where(np.einsum("fd,fd->f", normal, inward) < 0, 1.0, -1.0)
+
+
+def geometry_many(coords: np.ndarray, facet_type: str, rs):
+    """Positions, tangents and unit normals of many facets (n, k, 3) at one parameter rs (2,)."""
+    N, dN = shape_functions(np.asarray(rs, float), facet_type)
+    x = np.einsum("k,fkd->fd", N, coords)
+    tangents = np.einsum("kp,fkd->fdp", dN, coords)
+    normal = np.cross(tangents[..., 0], tangents[..., 1])
+    with np.errstate(invalid="ignore"):
+        return x, tangents, normal / np.linalg.norm(normal, axis=1, keepdims=True)
+
+
+class _Side:
+    """One side of an interface: facets (n, k), coords (n, k, 3) [mm], sign (n,) (+1: parameter normal outward),
+    zone (n,), node_normal (n_nodes, 3) averaged unit outward normals (zero off the side)."""
+
+    def __init__(self, mesh, facets: np.ndarray, zone: np.ndarray):
+        self.facet_type = mesh.facet_type
+        self.facets, self.zone = facets, zone
+        self.coords = mesh.points[facets]
+        self.sign = _outward_sign(mesh, facets)
+        self.centre, _, normal = geometry_many(self.coords, self.facet_type, CENTRE[self.facet_type])
+        if not np.all(np.isfinite(normal)):
+            bad = int(np.flatnonzero(~np.isfinite(normal).all(axis=1))[0])
+            raise InputError(f"mortar: facet with nodes {facets[bad].tolist()} has zero area")
+        self.normal = self.sign[:, None] * normal
+        total = np.zeros((mesh.n_nodes, 3))
+        for node, rs in enumerate(NODE_PARAMETERS[self.facet_type]):
+            at_node = geometry_many(self.coords, self.facet_type, rs)[2]
+            at_node = np.where(np.isfinite(at_node), at_node, normal)     # a 180-degree corner: no normal there
+            np.add.at(total, facets[:, node], self.sign[:, None] * at_node)
+        on = np.linalg.norm(total, axis=1) > 0
+        total[on] /= np.linalg.norm(total[on], axis=1)[:, None]
+        self.node_normal = total
+        corners = self.coords[:, :CORNERS[self.facet_type]]
+        self.radius = np.linalg.norm(corners - self.centre[:, None], axis=2).max(axis=1)
+
+
+def dual_coefficients(coords: np.ndarray, facet_type: str):
+    """Dual coefficients A (n, k, k) and integrals ``int N^_k dA`` (n, k) of slave facets (n, k, 3).
+
+    ``psi_i = sum_k A[e, i, k] N^_k`` satisfies ``int_e psi_i N^_j dA = delta_ij int_e N^_i dA``.
+    """
+    rs, w = facet_quadrature(facet_type)
+    N, dN = shape_functions(rs, facet_type)
+    N = N @ local_transform(facet_type).T
+    tangents = np.einsum("qkp,fkd->fqdp", dN, coords)
+    area = np.linalg.norm(np.cross(tangents[..., 0], tangents[..., 1]), axis=-1)       # (n, q)
+    mass = np.einsum("q,fq,qk,ql->fkl", w, area, N, N)
+    integral = mass.sum(axis=2)
+    return integral[:, :, None] * np.linalg.inv(mass), integral
+
+
+def _plane(normal: np.ndarray) -> np.ndarray:
+    """(2, 3) orthonormal in-plane axes e1, e2 with e1 x e2 = normal."""
+    e1 = np.eye(3)[np.argmin(np.abs(normal))]
+    e1 = e1 - (e1 @ normal) * normal
+    e1 /= np.linalg.norm(e1)
+    return np.array([e1, np.cross(normal, e1)])
+
+
+def _pieces(polygon: np.ndarray):
+    """Integration points (q, 2) and weights (q,) [mm^2] on a convex plane polygon (fan of triangles)."""
+    points, weights = [], []
+    for i in range(1, len(polygon) - 1):
+        triangle = polygon[[0, i, i + 1]]
+        points.append(_TRI_POINTS @ triangle)
+        weights.append(_TRI_WEIGHTS * abs(signed_area(triangle)))
+    return np.concatenate(points), np.concatenate(weights)
+
+
+def _clipped(slave: _Side, s: int, master: _Side, candidates: np.ndarray):
+    """Integration points (q, 3) [mm] on slave facet s's plane, weights (q,) [mm^2] and the master facet (q,) of
+    each: the pieces of the candidates' projections that the slave facet's projection clips."""
+    x0, axes = slave.centre[s], _plane(slave.normal[s])
+    polygon = counter_clockwise((slave.coords[s, :CORNERS[slave.facet_type]] - x0) @ axes.T)
+    points, weights, owners = [np.zeros((0, 2))], [np.zeros(0)], [np.zeros(0, int)]
+    for m in candidates:
+        window = (master.coords[m, :CORNERS[master.facet_type]] - x0) @ axes.T
+        piece = clip(counter_clockwise(window), polygon, tol=1e-10 * slave.radius[s])
+        if len(piece) == 0 or signed_area(piece) < _SLIVER * signed_area(polygon):
+            continue
+        plane_points, weight = _pieces(piece)
+        points.append(plane_points)
+        weights.append(weight)
+        owners.append(np.full(len(weight), m))
+    return x0 + np.concatenate(points) @ axes, np.concatenate(weights), np.concatenate(owners)
+
+
+def _facet_blocks(slave: _Side, s: int, dual: np.ndarray, master: _Side, candidates: np.ndarray,
+                  search_distance: float):
+    """The master facets coupled to slave facet s, their mortar blocks (n, k_s, k_m) and the gap integrals
+    (k_s,) of the slave facet's nodes. A master facet is dropped where a point does not project onto it or its
+    gap exceeds search_distance."""
+    points, weight, owner = _clipped(slave, s, master, candidates)
+    n0 = slave.normal[s]
+    xi = project_along(slave.coords[s], slave.facet_type, points, n0)
+    eta = project_along(master.coords[owner], master.facet_type, points, n0)
+    x_slave, _, n_facet = geometry(slave.coords[s], np.nan_to_num(xi), slave.facet_type)
+    N_slave, _ = shape_functions(np.nan_to_num(xi), slave.facet_type)
+    N_master, _ = shape_functions(np.nan_to_num(eta), master.facet_type)
+    normal = N_slave @ slave.node_normal[slave.facets[s]]
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    gap = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", N_master, master.coords[owner]) - x_slave, normal)
+    facets, local = np.unique(owner, return_inverse=True)
+    bad = np.isnan(xi).any(axis=1) | np.isnan(eta).any(axis=1) | (np.abs(gap) > search_distance)
+    if bad.any():
+        logger.debug("mortar: slave facet %d: master facets %s not projected or too far", s,
+                     np.unique(owner[bad]).tolist())
+    kept = ~np.isin(local, np.unique(local[bad]))
+    psi = N_slave @ local_transform(slave.facet_type).T @ dual[s].T
+    psi *= (weight / np.abs(n_facet @ n0) * kept)[:, None]
+    blocks = np.zeros((len(facets), psi.shape[1], N_master.shape[1]))
+    np.add.at(blocks, local, psi[:, :, None] * N_master[:, None, :])
+    used = np.isin(np.arange(len(facets)), local[kept])
+    return facets[used], blocks[used], psi.T @ np.where(kept, gap, 0.0)
+
+
+def _candidates(slave: _Side, master: _Side, search_distance: float) -> list[np.ndarray]:
+    """For each slave facet, the facing master facets whose projections onto its plane can overlap it (centres
+    within the sum of the facets' radii in the plane) within search_distance across it."""
+    tree = cKDTree(master.centre)
+    reach = slave.radius + master.radius.max() + search_distance
+    out = []
+    for s, found in enumerate(tree.query_ball_point(slave.centre, reach)):
+        found = np.asarray(found, dtype=int)
+        offset = master.centre[found] - slave.centre[s]
+        across = offset @ slave.normal[s]
+        along = np.linalg.norm(offset - across[:, None] * slave.normal[s], axis=1)
+        near = (along <= (slave.radius[s] + master.radius[found]) * (1 + 1e-9)) \
+            & (np.abs(across) <= search_distance + master.radius[found])
+        out.append(found[near & (master.normal[found] @ slave.normal[s] < 0)])
+    return out
+
+
+def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float, n_zones: int):
+    """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,) and int N^_i split by zone (n_nodes, n_zones)."""
+    dual, integral = dual_coefficients(slave.coords, slave.facet_type)
+    rows, cols, values = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
+    gap = np.zeros(n_nodes)
+    k_s, k_m = slave.facets.shape[1], master.facets.shape[1]
+    for s, candidates in enumerate(_candidates(slave, master, search_distance)):
+        facets, blocks, gap_integral = _facet_blocks(slave, s, dual, master, candidates, search_distance)
+        rows.append(np.tile(np.repeat(slave.facets[s], k_m), len(facets)))
+        cols.append(np.tile(master.facets[facets], (1, k_s)).ravel())
+        values.append(blocks.ravel())
+        np.add.at(gap, slave.facets[s], gap_integral)
+    mortar = sp.csr_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
+                           shape=(n_nodes, n_nodes))
+    by_zone = np.zeros((n_nodes, n_zones))
+    np.add.at(by_zone, (slave.facets, np.broadcast_to(slave.zone[:, None], slave.facets.shape)), integral)
+    return mortar, gap, by_zone
+
+
+def _sides(model: Model, interface_index: int):
+    """Slave (contact zones) and master (target) sides of an interface, and the model zone index per zone."""
+    if not 0 <= interface_index < len(model.interfaces):
+        raise InputError(f"mortar: interface_index {interface_index} is out of range; the model has "
+                         f"{len(model.interfaces)} interface(s)")
+    if model.kind != "3d":
+        raise InputError(f"mortar3d: only 3-D models are supported, got kind {model.kind!r}")
+    interface = model.interfaces[interface_index]
+    mesh = model.mesh
+    facets = [mesh.boundary(zone) for zone in interface.zones]
+    zone = np.concatenate([np.full(len(f), z) for z, f in enumerate(facets)])
+    slave = _Side(mesh, np.vstack(facets), zone)
+    target = mesh.boundary(interface.target)
+    if np.intersect1d(np.unique(target), slave.facets).size:
+        raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
+                         "the two bodies must have separate nodes at the interface")
+    master = _Side(mesh, target, np.zeros(len(target), dtype=int))
+    return slave, master, [model.zone_names.index(z) for z in interface.zones]
+
+
+def _operator(frames: np.ndarray, rows: sp.csr_matrix, dim: int) -> sp.csr_matrix:
+    """B = blockdiag(frames) (rows (x) I): ``w[dim*i+k] = frames[i, k] . sum_j rows[i, j] u_j``."""
+    n = len(frames)
+    rotate = sp.bsr_matrix((frames, np.arange(n), np.arange(n + 1)), shape=(dim * n, dim * n))
+    return (rotate @ sp.kron(rows, sp.eye(dim), format="csr")).tocsr()
+
+
+def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_distance: float | None = None,
+                    min_coverage: float = 0.5) -> ContactPairs:
+    """Dual mortar contact pairs of one interface of a 3-D model (any of the supported facet types).
+
+    Parameters
+    ----------
+    space : Space
+    model : Model
+    interface_index : int
+        Index into ``model.interfaces``; its zones are the slave side, its target the master side.
+    search_distance : float [mm], optional
+        A slave facet is coupled to a facing master facet only where the normal gap over their overlap stays
+        within this distance. Default: the largest facet diameter of either side.
+    min_coverage : float
+        Slave nodes with ``S_i / D_i`` below this (the share of their support the master covers) are left out.
+
+    Returns
+    -------
+    ContactPairs
+        One pair per kept slave node, in increasing node order (see :mod:`frictionid.fem.mortar` for the
+        treatment of partly covered nodes).
+
+    Examples
+    --------
+    >>> pairs = mortar_pairs_3d(Space.build(model.mesh, "3d"), model, 0)  # doctest: +SKIP
+    >>> pairs.weight.sum()   # interface area [mm^2]  # doctest: +SKIP
+    """
+    slave, master, zone_columns = _sides(model, interface_index)
+    if search_distance is None:
+        search_distance = float(2 * max(slave.radius.max(), master.radius.max()))
+    mesh = model.mesh
+    mortar, gap_integral, by_zone = _integrate(slave, master, mesh.n_nodes, search_distance, len(zone_columns))
+    weight_all = by_zone.sum(axis=1)
+    covered = np.asarray(mortar.sum(axis=1)).ravel()
+    nodes = np.unique(slave.facets)
+    keep = ((weight_all[nodes] > 1e-12 * weight_all.max()) & (covered[nodes] > 0)
+            & (covered[nodes] >= (min_coverage - 1e-9) * weight_all[nodes]))
+    if not keep.all():
+        logger.info("mortar: interface %d: %d of %d contact nodes left out (not covered by the target)",
+                    interface_index, int((~keep).sum()), len(nodes))
+    nodes = nodes[keep]
+    if not len(nodes):
+        interface = model.interfaces[interface_index]
+        raise InputError(f"interface {interface.name!r}: no contact facet of zones {list(interface.zones)} faces "
+                         f"the target {interface.target!r} within {search_distance:.3g} mm (mortar); check that "
+                         "the two boundaries touch and their bodies lie on opposite sides")
+    transform = surface_transform(mesh, slave.facets)
+    slave_rows = sp.identity(mesh.n_nodes, format="csr")[nodes] if transform is None else transform[1][nodes]
+    rows = slave_rows - sp.diags(1.0 / covered[nodes]) @ mortar[nodes]
+    frames = tangent_frames(-slave.node_normal[nodes])
+    zone_share = np.zeros((len(nodes), model.n_zones))
+    zone_share[:, zone_columns] = by_zone[nodes] / weight_all[nodes, None]
+    return ContactPairs(
+        nodes=nodes, position=np.array(mesh.points[nodes]), frames=frames, weight=weight_all[nodes],
+        zone_share=zone_share, gap=gap_integral[nodes] / covered[nodes],
+        B=_operator(frames, sp.csr_matrix(rows), space.dim),
+        interface=np.full(len(nodes), interface_index, dtype=np.int64))

@@ -1,0 +1,254 @@
+"""The contact Jacobian solved by low-rank corrections of one inverse per model: that of the stuck Jacobian.
+
+The generalised Jacobian of an increment (:mod:`frictionid.fem.contact`) has, per pair, the rows
+P_i dlam_i + Q_i dw_i with dw = Wfull dx, and the floating bodies' equilibrium rows [Wa_T, 0]. With every pair
+closed and stuck it is J0: rows r W_N and r E W_T + (I - E) lam_T (pairs whose gap the supports hold: open rows,
+identity), which depends on the model only, so its inverse A = J0^-1 is computed once per model. Any other
+Jacobian differs from J0 in the rows of open and slipping pairs only (the set K of k rows, R those rows of J), and
+by the Woodbury identity for replaced rows
+
+    J^-1 b = y - A[:, K] C^-1 (R y - b_K),   y = A b,   C = R A[:, K]   (k x k).
+
+No product with W is needed to form C: J0 A = I gives r E W_i A = e_i - (I - E) A[lam_i], and every row
+:func:`~frictionid.fem.contact.linearise` makes has Q_i = Q_i diag(1, E), so R A[:, K] = P A[lam, K] + Q e_K / r
+(pairs with held gaps, whose J0 rows are identity rows: W A from a product, made once). A Newton step then costs a
+product with A (n^2) and, when the replaced rows differ from the last ones, an LU factorisation of C (k^3): in 2-D
+a slipping pair's rows depend on the sign of its slip direction only, so in gross slip C stays the same from
+iteration to iteration and increment to increment. Each solve checks its residual with J and falls back to a
+fresh LU factorisation of J where the correction lost accuracy.
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as la
+
+from .contact import jacobian
+
+log = logging.getLogger(__name__)
+
+#: a solve is refined once, then redone densely, where |J x - b| exceeds this fraction of |b| + |J| |x|
+RESIDUAL_RTOL = 1e-11
+#: J0 is not used where its reciprocal condition number is below this (the dense path solves instead)
+RCOND_MIN = 1e-13
+#: a solver takes the inverse with the Jacobian's open pairs held open when the rows of pairs open in one and
+#: closed in the other are more than this fraction of the unknowns (their rows would all be replaced)
+SWITCH_FRACTION = 0.2
+#: stuck inverses kept per model, by their open pairs, and capacitance factorisations per solver, by their rows
+#: (a predictor, Newton's last steps and the sensitivities meet the same few)
+KEEP = 4
+#: the stuck inverses kept per model take at most this many bytes besides the base one (n^2 x 8 bytes each: 288 MB
+#: at 6,000 unknowns)
+KEEP_BYTES = 400e6
+
+
+@dataclass(frozen=True)
+class StuckInverse:
+    """A = J0^-1 of a model (see the module docstring) with what the corrections need; immutable.
+
+    J0 holds ``open_pairs`` open (the pairs whose gap the supports hold, and optionally others: the open pairs
+    of a state, whose rows then need no correction) and the others closed and stuck."""
+
+    open_pairs: np.ndarray  # (n_pairs,) bool
+    A: np.ndarray          # (n, n) inverse of the stuck Jacobian
+    P0: np.ndarray         # (n_pairs, dim, dim) J0's pair rows on the pair's lam
+    Q0: np.ndarray         # (n_pairs, dim, dim) J0's pair rows on w
+    W_open: np.ndarray     # (n_open_rows, n) rows of Wfull of the pairs J0 holds open
+    WA_open: np.ndarray    # (n_open_rows, n) the same rows times A
+    open_rows: np.ndarray  # (n_w,) index of a pair row in W_open, -1 for pairs J0 holds closed
+    r: float
+
+    @classmethod
+    def build(cls, Wfull, Wa_T, r: float, free_T, open_pairs: np.ndarray) -> "StuckInverse | None":
+        """The inverse for operators ``Wfull`` (n_w, n), ``Wa_T`` (m, n_w), the pairs' tangential projectors
+        ``free_T`` (None: all free) and the pairs J0 holds open ``open_pairs`` (n_pairs,); None where J0 is
+        singular or too ill-conditioned to correct from."""
+        held_gap = open_pairs
+        n_pairs = len(held_gap)
+        dim = Wfull.shape[0] // n_pairs if n_pairs else 1
+        eye_T = np.eye(dim - 1)
+        E = np.broadcast_to(eye_T, (n_pairs, dim - 1, dim - 1)) if free_T is None else free_T
+        P0, Q0 = np.zeros((n_pairs, dim, dim)), np.zeros((n_pairs, dim, dim))
+        Q0[:, 0, 0] = r
+        P0[:, 1:, 1:] = eye_T - E
+        Q0[:, 1:, 1:] = r * E
+        P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
+        J0 = jacobian(P0, Q0, Wfull, Wa_T)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", la.LinAlgWarning)
+            lu = la.lu_factor(J0, check_finite=False)
+        rcond = la.lapack.dgecon(lu[0], np.linalg.norm(J0, 1), norm="1")[0] if len(J0) else 1.0
+        if not rcond >= RCOND_MIN:
+            log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
+            return None
+        A = la.lu_solve(lu, np.eye(len(J0)), check_finite=False)
+        rows = np.flatnonzero(np.repeat(held_gap, dim))
+        open_rows = np.full(n_pairs * dim, -1)
+        open_rows[rows] = np.arange(len(rows))
+        return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
+
+
+class StuckInverses:
+    """The stuck inverses of one model by their open pairs, made when first asked for, the last :data:`KEEP`
+    kept (a fit's solves meet the same states again)."""
+
+    def __init__(self, Wfull, Wa_T, r: float, free_T, held_gap: np.ndarray):
+        self.Wfull, self.Wa_T, self.r, self.free_T, self.held_gap = Wfull, Wa_T, r, free_T, held_gap
+        self._kept: dict[bytes, StuckInverse | None] = {}
+        self.base = self.get(held_gap)
+
+    def get(self, open_pairs: np.ndarray) -> StuckInverse | None:
+        """The inverse holding ``open_pairs`` and the held gaps open (None: J0 singular)."""
+        open_pairs = open_pairs | self.held_gap
+        key = np.packbits(open_pairs).tobytes()
+        if key in self._kept:
+            self._kept[key] = self._kept.pop(key)                   # most recently used last
+            return self._kept[key]
+        n = self.Wfull.shape[1]
+        keep = min(KEEP, 1 + int(KEEP_BYTES // (8.0 * n * n)))
+        while self._kept and len(self._kept) >= keep:
+            self._kept.pop(next(iter(self._kept)))
+        stuck = StuckInverse.build(self.Wfull, self.Wa_T, self.r, self.free_T, open_pairs)
+        self._kept[key] = stuck
+        return stuck
+
+
+class UpdatedSolver:
+    """Solves J x = b for the Jacobians of one load path by corrections of a :class:`StuckInverse`, keeping the
+    LU factorisations of the last few capacitance matrices C for the next Jacobians with the same replaced rows."""
+
+    def __init__(self, inverses: StuckInverses):
+        self.inverses, self.stuck = inverses, inverses.base
+        Wfull, Wa_T = inverses.Wfull, inverses.Wa_T
+        self.Wfull, self.Wa_T = Wfull, Wa_T
+        self._W_max = np.max(np.abs(Wfull), initial=0.0)
+        #: the last few factorisations by their rows: (K, P rows, Q rows, (LU, pivots) of C, 1-norm of C)
+        self._kept: dict[bytes, tuple] = {}
+        self.n_factorisations = self.n_dense = self.n_switches = 0
+
+    def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
+        """J^-1 b, b (n,) or (n, n_rhs), J from pair rows ``P``, ``Q`` (n_pairs, dim, dim). ``check``: the
+        residual checked (a product with W), refined once and the solve redone densely if still above
+        :data:`RESIDUAL_RTOL`; a Newton step, which checks its residual itself, may do without."""
+        x = self._corrected(P, Q, b)
+        if not check:
+            return x
+        for refined in (False, True):
+            residual = b - self.product(P, Q, x)
+            scale = np.max(np.abs(b), initial=0.0) + self._norm(P, Q) * np.max(np.abs(x), initial=0.0)
+            if np.max(np.abs(residual), initial=0.0) <= RESIDUAL_RTOL * scale:
+                return x
+            if not refined:
+                x = x + self._corrected(P, Q, residual)
+        self.n_dense += 1
+        log.debug("corrected solve lost accuracy: a dense solve instead")
+        return la.solve(jacobian(P, Q, self.Wfull, self.Wa_T), b, check_finite=False)
+
+    def rcond(self, P, Q) -> float:
+        """Reciprocal condition number of the capacitance matrix of J (1 when J = J0): near zero, J is singular."""
+        K, _, _, (lu, _), norm = self._factorised(P, Q)
+        if not len(K):
+            return 1.0
+        return la.lapack.dgecon(lu, norm, norm="1")[0] if np.all(np.isfinite(lu)) else 0.0
+
+    def product(self, P, Q, x) -> np.ndarray:
+        """J x, x (n,) or (n, n_rhs)."""
+        n_pairs, dim = P.shape[:2]
+        n_w = n_pairs * dim
+        lam = x[:n_w].reshape((n_pairs, dim) + x.shape[1:])
+        w = (self.Wfull @ x).reshape(lam.shape)
+        top = np.einsum("nij,nj...->ni...", P, lam) + np.einsum("nij,nj...->ni...", Q, w)
+        return np.concatenate([top.reshape((n_w,) + x.shape[1:]), self.Wa_T @ x[:n_w]])
+
+    def _norm(self, P, Q) -> float:
+        return max(np.max(np.abs(P), initial=0.0), np.max(np.abs(Q), initial=0.0) * self._W_max)
+
+    def _corrected(self, P, Q, b) -> np.ndarray:
+        K, P_K, Q_K, (lu, pivots), _ = self._factorised(P, Q)          # may switch to another inverse
+        A = self.stuck.A
+        y = A @ b
+        if not len(K):
+            return y
+        if not np.isfinite(lu[0, 0]):
+            return np.full_like(y, np.nan)
+        Ry = self._rows_times(K, P_K, Q_K, y, b)
+        z = b.copy()
+        z[K] -= la.lapack.dgetrs(lu, pivots, Ry - b[K])[0]
+        return A @ z                                            # y - A[:, K] u without gathering A's columns
+
+    def _factorised(self, P, Q):
+        """(K, P rows, Q rows, (LU, pivots) of C, 1-norm of C) of the rows where J differs from J0, kept from an
+        earlier call with the same rows."""
+        self._switch(P, Q)
+        s = self.stuck
+        changed = np.any((P != s.P0) | (Q != s.Q0), axis=2).ravel()
+        K = np.flatnonzero(changed)
+        dim = P.shape[1]
+        P_K, Q_K = P.reshape(-1, dim)[K], Q.reshape(-1, dim)[K]
+        key = K.tobytes() + P_K.tobytes() + Q_K.tobytes()
+        if key in self._kept:
+            return self._kept[key]
+        if not len(K):
+            factorised = (K, P_K, Q_K, (None, None), 0.0)
+        else:
+            C = self._rows_times(K, P_K, Q_K, None, None)
+            self.n_factorisations += 1
+            norm = np.abs(C).sum(axis=0).max(initial=0.0)
+            lu, pivots, info = la.lapack.dgetrf(C, overwrite_a=True)   # LAPACK directly: no wrapper cost per call
+            if info > 0:                                                  # exactly singular: J is
+                lu[:] = np.nan
+            factorised = (K, P_K, Q_K, (lu, pivots), norm)
+        while len(self._kept) >= KEEP:
+            self._kept.pop(next(iter(self._kept)))
+        self._kept[key] = factorised
+        return factorised
+
+    def _switch(self, P, Q) -> None:
+        """Take the inverse holding the Jacobian's open pairs open where the pairs open in one of J and J0 and
+        closed in the other have more than :data:`SWITCH_FRACTION` of the rows."""
+        n_pairs, dim = P.shape[:2]
+        opened = np.all(P == np.eye(dim), axis=(1, 2)) & np.all(Q == 0.0, axis=(1, 2))
+        differ = np.count_nonzero(opened != self.stuck.open_pairs)
+        if dim * differ <= SWITCH_FRACTION * len(self.stuck.A):
+            return
+        stuck = self.inverses.get(opened)
+        if stuck is not None and stuck is not self.stuck:
+            self.stuck = stuck
+            self._kept.clear()
+            self.n_switches += 1
+
+    def _rows_times(self, K, P_K, Q_K, z, b) -> np.ndarray:
+        """R z for the replaced rows R (rows K of J) and z = A v (n, ...): P z[lam] + Q (W z), with W z = v / r
+        on the pairs J0 holds closed (``b`` = v) and from W_open on the others; z = b = None: v = I[:, K], i.e.
+        C = R A[:, K], gathering only the rows of A it needs."""
+        s = self.stuck
+        dim = P_K.shape[1]
+        pair = K // dim
+        lam_rows = pair[:, None] * dim + np.arange(dim)                           # (k, dim)
+        if z is not None:
+            out = np.einsum("ac,ac...->a...", P_K, z[lam_rows])
+        else:
+            # A's rows of each pair once (a slipping pair in 3-D has two rows in K, which is sorted), then K's
+            # columns of them
+            first = np.r_[True, pair[1:] != pair[:-1]]
+            rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
+            A_K = s.A.take(rows, axis=0).take(K, axis=1).reshape(-1, dim, len(K))
+            out = np.einsum("ac,ack->ak", P_K, A_K[np.cumsum(first) - 1])
+        closed = s.open_rows[lam_rows[:, 0]] < 0
+        if b is not None:
+            out[closed] += np.einsum("ac,ac...->a...", Q_K[closed], b[lam_rows[closed]]) / s.r
+        else:
+            position = np.full(s.A.shape[0], -1)
+            position[K] = np.arange(len(K))
+            columns = position[lam_rows]                                        # (k, dim) column in C or -1
+            a, c = np.nonzero(closed[:, None] & (columns >= 0))
+            out[a, columns[a, c]] += Q_K[a, c] / s.r             # (a, column) pairs are distinct
+        if not closed.all():
+            held = np.flatnonzero(~closed)
+            Wz = s.W_open @ z if b is not None else s.WA_open[:, K]
+            out[held] += np.einsum("ac,ac...->a...", Q_K[held], Wz[s.open_rows[lam_rows[held]]])
+        return out

@@ -1,0 +1,178 @@
+"""Contact solves by corrections of the model's stuck inverse (fem/updated_jacobian.py) against the previous path,
+a fresh dense LU factorisation of the whole Jacobian every Newton step (fem/loadpath.py ``_LINEAR = "dense"``).
+
+The linear solves are checked on their own (any state, held gaps, held tangential directions: J x = b to round-off
+of cond(J)), and whole load paths in stick, partial slip, gross slip and lift-off, 2-D and 3-D, sensitivities
+included: both paths solve the same equations to the same tolerance, so their results agree to the Newton
+tolerance (rtol 1e-10 of the contact forces; in 2-D, where the equations of a state are linear and Newton ends
+exactly, to round-off).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from frictionid.builders.block import block_model, block_model_2d
+from frictionid.builders.registry import build_model
+from frictionid.config import read_config
+from frictionid.fem import loadpath
+from frictionid.fem.contact import OPEN, SLIP, STICK, Increment, jacobian, linearise
+from frictionid.fem.problem import Problem
+from frictionid.fem.updated_jacobian import StuckInverses, UpdatedSolver
+
+from test_held_pairs import symmetric_model
+CLAMP = Path(__file__).parent / "fixtures" / "clamp" / "clamp.toml"
+
+
+def _both(problem, mu, monkeypatch):
+    """(dense, updated) solutions with sensitivities."""
+    out = []
+    for path in ("dense", "updated"):
+        monkeypatch.setattr(loadpath, "_LINEAR", path)
+        out.append(problem.solve(mu, sensitivities=True))
+    return out
+
+
+def _assert_same(dense, updated, rtol):
+    """Every field within ``rtol`` of its largest value; the same contact states."""
+    assert np.array_equal(dense.state, updated.state)
+    for name in ("lam", "w", "reactions", "d_reactions", "observations", "d_observations"):
+        a, b = np.asarray(getattr(dense, name)), np.asarray(getattr(updated, name))
+        scale = np.max(np.abs(a), initial=0.0)
+        assert np.max(np.abs(a - b), initial=0.0) <= rtol * scale, name
+
+
+def _phases(state) -> set[str]:
+    """The contact phases a solution passes through: stick, partial slip, gross slip, lift-off."""
+    seen = set()
+    for s in state:
+        closed = s != OPEN
+        seen |= {"lift-off"} if (~closed).any() else set()
+        if np.all(s[closed] == STICK):
+            seen.add("stick")
+        elif np.all(s[closed] == SLIP):
+            seen.add("gross slip")
+        else:
+            seen.add("partial slip")
+    return seen
+
+
+def _points_2d():
+    return np.array([[-5.0, 0.5], [5.0, 1.5], [-7.0, 0.0], [7.0, 0.0]])
+
+
+@pytest.fixture(scope="module")
+def plane_strain():
+    model = block_model_2d(pull=0.1, height=4.0, mesh_size=2.0, contact_size=1.0, n_zones=2, n_press=2, n_pull=8)
+    return Problem.build(model, points=_points_2d(), quantities=("ux", "uy"),
+                         regions=["block", "block", "base", "base"])
+
+
+def test_plane_strain_path_stick_partial_and_gross_slip_same_as_dense(plane_strain, monkeypatch):
+    dense, updated = _both(plane_strain, [0.3, 0.2], monkeypatch)
+    assert {"stick", "partial slip", "gross slip"} <= _phases(dense.state)
+    _assert_same(dense, updated, rtol=1e-12)        # piecewise linear in 2-D: Newton ends exactly
+    assert updated.n_newton.sum() < dense.n_newton.sum()     # the state predictor starts gross slip right
+
+
+def test_block_3d_with_lift_off_same_as_dense(monkeypatch):
+    problem = Problem.build(block_model(mesh_size=2.5), points=np.array([[-5.0, 0.0, 0.5], [0.0, -5.0, 1.5]]),
+                            quantities=("ux", "uy", "uz"), regions=["block", "block"])
+    dense, updated = _both(problem, [0.3, 0.2, 0.4, 0.25], monkeypatch)
+    assert {"stick", "partial slip", "lift-off"} <= _phases(dense.state)
+    assert np.any((dense.state == SLIP).sum(axis=1) == (dense.state != OPEN).sum(axis=1))   # gross slip too
+    _assert_same(dense, updated, rtol=1e-9)         # 3-D slip is nonlinear: Newton stops at rtol 1e-10
+
+
+def test_held_tangential_directions_same_as_dense(monkeypatch):
+    """The quarter block: pairs on its symmetry planes have held tangential directions (projectors E)."""
+    problem = Problem.build(symmetric_model(3, False))
+    dense, updated = _both(problem, [0.3, 0.45], monkeypatch)
+    assert problem.pairs.n_pairs and _has_held_directions(problem)
+    _assert_same(dense, updated, rtol=1e-9)
+
+
+def _has_held_directions(problem) -> bool:
+    """Whether some pair of ``problem`` has a held tangential direction."""
+    return loadpath.LoadPathSolver(problem.condensed, problem.pairs).free_T is not None
+
+
+def _random_states(problem, seed, n_states=6):
+    """(P, Q, state) of linearisations at random contact forces: open, stick and slip pairs mixed (the load
+    offsets w so that w is about zero: a pair sticks where |lam_T| < mu lam_N, |lam_T| chosen below and above)."""
+    rng = np.random.default_rng(seed)
+    solver = loadpath.LoadPathSolver(problem.condensed, problem.pairs)
+    n_pairs, dim = problem.pairs.n_pairs, problem.pairs.dim
+    mu = np.full(n_pairs, 0.3)
+    while n_states:
+        x = rng.normal(scale=10.0, size=solver.Wfull.shape[1])
+        lam = x[:n_pairs * dim].reshape(n_pairs, dim)
+        lam[:, 0] = np.abs(lam[:, 0]) * rng.choice([-0.2, 1.0], n_pairs, p=[0.3, 0.7])     # some open
+        lam[:, 1:] *= rng.choice([0.01, 1.0], (n_pairs, 1))                                 # some stuck
+        inc = Increment(rng.normal(scale=1e-6, size=n_pairs * dim) - solver.Wfull @ x,
+                        np.zeros((n_pairs, dim - 1)), np.zeros(problem.condensed.n_modes))
+        lin = linearise(x, inc, solver.Wfull, solver.Wa_T, problem.pairs.gap, mu, solver.r, solver.free_T)
+        if np.linalg.cond(jacobian(lin.P, lin.Q, solver.Wfull, solver.Wa_T)) < 1e8:     # J regular
+            n_states -= 1
+            yield lin.P, lin.Q, lin.state
+
+
+@pytest.mark.parametrize("case", ["plane strain", "quarter 3-D"])
+def test_corrected_solves_satisfy_the_jacobian(case, plane_strain):
+    problem = plane_strain if case == "plane strain" else Problem.build(symmetric_model(3, False))
+    solver = loadpath.LoadPathSolver(problem.condensed, problem.pairs)
+    inverses = loadpath.stuck_inverses(problem.condensed, problem.pairs)
+    rng = np.random.default_rng(1)
+    # J0 holding a random third of the pairs open: the branch of pairs whose J0 rows are identity rows
+    some_open = StuckInverses(solver.Wfull, solver.Wa_T, solver.r, solver.free_T,
+                              rng.random(problem.pairs.n_pairs) < 0.3)
+    seen = set()
+    for source in (inverses, some_open):
+        updated = UpdatedSolver(source)
+        for P, Q, state in _random_states(problem, seed=2):
+            seen |= set(np.unique(state).tolist())
+            J = jacobian(P, Q, solver.Wfull, solver.Wa_T)
+            b = rng.normal(size=(len(J), 3))
+            x = updated(P, Q, b, check=False)
+            scale = np.abs(J).max() * np.abs(x).max()
+            assert np.abs(J @ x - b).max() <= 1e-11 * scale
+            assert np.allclose(updated.product(P, Q, x), J @ x, rtol=0, atol=1e-12 * scale)
+    assert seen == {OPEN, STICK, SLIP}
+    assert updated.n_dense == 0
+
+
+def test_the_capacitance_factorisation_is_reused_for_the_same_rows(plane_strain):
+    solver = loadpath.LoadPathSolver(plane_strain.condensed, plane_strain.pairs)
+    updated = UpdatedSolver(loadpath.stuck_inverses(plane_strain.condensed, plane_strain.pairs))
+    P, Q, _ = next(_random_states(plane_strain, seed=3))
+    b = np.arange(len(solver.Wfull) + plane_strain.condensed.n_modes, dtype=float)
+    first = updated(P, Q, b)
+    again = updated(P.copy(), Q.copy(), b)
+    assert updated.n_factorisations == 1
+    assert np.array_equal(first, again)
+
+
+@pytest.fixture(scope="module")
+def clamp():
+    return Problem.build(build_model(read_config(CLAMP).model_options))
+
+
+def test_clamp_fixture_gross_slip_pull_force_is_sum_mu_n(clamp):
+    """The benchmark's clamp (builder "mesh", gmsh .geo): at the end every pair slips or is open, and the strip's
+    pull force equals sum mu_z N_z over the six zones (NUMERICS.md 5.1)."""
+    mu = np.array([0.15, 0.2, 0.25, 0.18, 0.22, 0.3])
+    solution = clamp.solve(mu)
+    assert clamp.model.mesh.n_nodes > 6000 and len(clamp.model.zone_names) == 6
+    last = solution.state[-1]
+    assert np.all(last[last != OPEN] == SLIP)
+    pull = solution.reactions[-1][list(solution.reaction_labels).index("strip_end.x")]
+    expected = mu @ solution.zone_normal_force[-1]
+    assert abs(abs(pull) - expected) <= 1e-8 * expected
+
+
+def test_clamp_same_as_dense(clamp, monkeypatch):
+    """cond(J0) is 1e6 here, so the contact forces are determined to about 1e-16 x 1e6 of their largest value."""
+    dense, updated = _both(clamp, np.array([0.15, 0.2, 0.25, 0.18, 0.22, 0.3]), monkeypatch)
+    assert {"partial slip", "gross slip", "lift-off"} <= _phases(dense.state)     # the press already slips at the pad edges
+    _assert_same(dense, updated, rtol=1e-9)
