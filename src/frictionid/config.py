@@ -29,7 +29,7 @@ SCHEMA = {
              "plane_tolerance": None, "coordinates": None},
     "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
                "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
-               "load_scale": 1.0, "factorisation": "auto", "increments": "fixed"},
+               "load_scale": 1.0, "factorisation": "auto", "increments": "fixed", "sliding": "small"},
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
@@ -79,6 +79,7 @@ TYPES = {
     "solver.load_scale": ((int, float), "a number > 0"),
     "solver.factorisation": (str, '"auto", "cholmod" or "superlu"'),
     "solver.increments": (str, '"fixed" or "adaptive"'),
+    "solver.sliding": (str, '"small" or "finite"'),
     "identify.method": (str, "a method name"),
     "identify.jacobian": (str, '"analytic", "forward" or "central"'),
     "identify.max_iterations": (int, "a whole number"),
@@ -173,7 +174,8 @@ def _check_subtables(tables: dict, path: Path) -> None:
 
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive")}
+CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive"),
+           "solver.sliding": ("small", "finite")}
 
 
 #: lowest value of numeric keys, and whether the bound itself is allowed (the keys' meaning is in TYPES)

@@ -29,8 +29,8 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
         ``normal_stiffness``, ``stick_slope``, ``load_scale``: see
         :class:`~frictionid.backends.calculix.backend.CalculixSettings`); the embedded backend reads
         ``factorisation`` ("auto", "cholmod", "superlu": how the condensation factorises the stiffness) and
-        ``increments`` ("fixed", "adaptive": :meth:`~frictionid.fem.problem.Problem.solve`) and ignores the
-        others.
+        ``increments`` ("fixed", "adaptive": :meth:`~frictionid.fem.problem.Problem.solve`) and ``sliding``
+        ("small", "finite": contact pairs fixed or re-coupled in the deformed configuration) and ignores the others.
     where : how messages name the options' origin
     reactions : labels of reaction sums ("boundary.axis") appended as rows after the point rows
     window : DIC strain window [mm] of the strains ([data] strain_window), embedded backend only
@@ -45,7 +45,8 @@ def make_backend(name: str, model, points, quantities, regions=None, options: di
 
         return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions), window=window,
                                factorisation=(options or {}).get("factorisation", "auto"),
-                               increments=(options or {}).get("increments", "fixed"))
+                               increments=(options or {}).get("increments", "fixed"),
+                               sliding=(options or {}).get("sliding", "small"))
     if name == "calculix":
         if window is not None:
             raise InputError("data.strain_window needs the embedded backend: the calculix backend reads strains "

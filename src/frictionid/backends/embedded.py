@@ -76,13 +76,15 @@ def _cached(key, kind: str = "condensed", *extra) -> Path | None:
     return _CACHE[0] / f"{kind}-{digest}.{'pkl' if kind == 'condensed' else 'npz'}"
 
 
-def _key(model: Model, points, quantities: tuple[str, ...], regions, window=None, factorisation="auto") -> tuple:
+def _key(model: Model, points, quantities: tuple[str, ...], regions, window=None, factorisation="auto",
+         sliding="small") -> tuple:
     return ((model.fingerprint(), None if points is None else np.asarray(points, dtype=float).tobytes(),
              quantities, None if regions is None else tuple(regions)) + (() if window is None else (window,))
-            + (() if factorisation == "auto" else (factorisation,)))
+            + (() if factorisation == "auto" else (factorisation,)) + (() if sliding == "small" else (sliding,)))
 
 
-def _load_or_build(key, model: Model, points, quantities, regions, window=None, factorisation="auto") -> Problem:
+def _load_or_build(key, model: Model, points, quantities, regions, window=None, factorisation="auto",
+                   sliding="small") -> Problem:
     path = _cached(key)
     if path is not None and path.exists():
         try:
@@ -94,7 +96,7 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None, 
         except Exception as exc:                              # a truncated or stale file: build anew
             log.warning("condensation cache %s unreadable (%s); building it again", path, exc)
     problem = Problem.build(model, points=points, quantities=quantities, regions=regions, window=window,
-                            factorisation=factorisation)
+                            factorisation=factorisation, sliding=sliding)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_suffix(f".{os.getpid()}.part")
@@ -105,7 +107,7 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None, 
 
 
 def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: bool = True,
-           window: float | None = None, factorisation: str = "auto") -> Problem:
+           window: float | None = None, factorisation: str = "auto", sliding: str = "small") -> Problem:
     """Problem.build, reusing a recent build when model and observation points are the same in content.
 
     Runs of one session (a study's several identifications, an example's methods) share the condensation;
@@ -113,17 +115,18 @@ def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: boo
     ``keep=False``: a one-off build (e.g. a refined mesh for an error estimate) that uses a kept build if there
     is one but neither stores itself nor pushes a kept build out. With :func:`use_cache` the builds are also
     stored on disk and read back in later sessions. ``factorisation``: how the condensation factorises the
-    stiffness (:meth:`Problem.build`); builds with another factorisation are not reused.
+    stiffness (:meth:`Problem.build`); builds with another factorisation are not reused; nor with another
+    ``sliding`` ("small" or "finite", :meth:`Problem.build`).
     """
-    key = _key(model, points, quantities, regions, window, factorisation)
+    key = _key(model, points, quantities, regions, window, factorisation, sliding)
     if key in _RECENT:
         _RECENT[key] = _RECENT.pop(key)                        # most recently used last
         return _RECENT[key]
     if not keep:
-        return _load_or_build(key, model, points, quantities, regions, window, factorisation)
+        return _load_or_build(key, model, points, quantities, regions, window, factorisation, sliding)
     while len(_RECENT) >= N_KEPT:
         _RECENT.pop(next(iter(_RECENT)))
-    _RECENT[key] = _load_or_build(key, model, points, quantities, regions, window, factorisation)
+    _RECENT[key] = _load_or_build(key, model, points, quantities, regions, window, factorisation, sliding)
     return _RECENT[key]
 
 
@@ -136,6 +139,7 @@ class EmbeddedBackend:
     window the model's strains are filtered with ([data] strain_window; :func:`frictionid.fem.points.point_operator`).
     ``factorisation``: "auto", "cholmod" or "superlu", the condensation's factorisation ([solver] factorisation).
     ``increments``: "fixed" or "adaptive", how each solve steps through the stages ([solver] increments).
+    ``sliding``: "small" or "finite" ([solver] sliding, :meth:`Problem.build`).
     """
 
     name = "embedded"
@@ -143,18 +147,18 @@ class EmbeddedBackend:
 
     def __init__(self, model: Model, points: np.ndarray, quantities: tuple[str, ...], regions=None,
                  reactions: tuple[str, ...] = (), keep: bool = True, window: float | None = None,
-                 factorisation: str = "auto", increments: str = "fixed"):
+                 factorisation: str = "auto", increments: str = "fixed", sliding: str = "small"):
         self.model = model
         self.increments = increments
         points = None if points is None or len(points) == 0 or not quantities else points
-        self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation)
+        self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation, sliding)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
         if unknown:
             raise InputError(f"model: no reaction {unknown}; the model's reactions are "
                              f"{list(self.problem.reaction_labels)}")
         self.reactions = tuple(reactions)
         self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
-        self._key = _key(model, points, tuple(quantities), regions, window, factorisation) \
+        self._key = _key(model, points, tuple(quantities), regions, window, factorisation, sliding) \
             + ((increments,) if increments != "fixed" else ()) if _CACHE else None
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:

@@ -56,6 +56,9 @@ class _Path:
     S: np.ndarray | None
     state: np.ndarray | None = None   # contact state of the last converged increment
     direction: np.ndarray | None = None   # (n_pairs, dim - 1) its slip directions
+    #: (n_pairs, dim - 1, n_z) derivative of w_T; None: W S (a caller that changes the coupling between
+    #: increments sets it, fem/sliding.py)
+    dw_T: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -179,8 +182,9 @@ class LoadPathSolver:
         top = rhs[:n_pairs * dim].reshape(n_pairs, dim, n_z)
         top[slip, 1:, :] = -(lin.lam_hat[slip, None, None] * lin.direction[slip, :, None]
                              * zone_share[slip, None, :])
-        if path.S is not None:
-            dw_prev = (self.Wfull @ path.S).reshape(n_pairs, dim, n_z)[:, 1:, :]
+        if path.dw_T is not None or path.S is not None:
+            dw_prev = path.dw_T if path.dw_T is not None else \
+                (self.Wfull @ path.S).reshape(n_pairs, dim, n_z)[:, 1:, :]
             top[:, 1:, :] -= np.einsum("nij,njz->niz", lin.Q[:, 1:, 1:], dw_prev)
         return self._solve(lin, -rhs)
 
@@ -219,7 +223,7 @@ class LoadPathSolver:
                 pending += [(middle, b, depth + 1), (a, middle, depth + 1)]
                 continue
             if sensitivities:
-                path.S = self._sensitivity(path, result.lin, self.pairs.zone_share)
+                path.S, path.dw_T = self._sensitivity(path, result.lin, self.pairs.zone_share), None
             w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
             path.x, path.w_T, path.state = result.x, w[:, 1:], result.lin.state
             path.direction = result.lin.direction

@@ -122,8 +122,11 @@ class _Surface:
         return _unit(np.column_stack([chord[:, 1], -chord[:, 0]]))
 
 
+_LEGENDRE = np.polynomial.legendre.leggauss(N_GAUSS)     # computed once: a finite-sliding solve re-couples often
+
+
 def _gauss(a: float = -1.0, b: float = 1.0):
-    points, weights = np.polynomial.legendre.leggauss(N_GAUSS)
+    points, weights = _LEGENDRE
     return (a + b) / 2 + (b - a) / 2 * points, (b - a) / 2 * weights
 
 

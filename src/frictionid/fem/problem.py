@@ -25,6 +25,8 @@ from .space import Space
 from .threads import one_blas_thread
 
 log = logging.getLogger(__name__)
+#: values of [solver] sliding
+SLIDING = ("small", "finite")
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
@@ -170,6 +172,10 @@ class Problem:
     #: (n_obs, n_kept) observation rows on the kept dofs when the condensation observes those dofs instead of the
     #: rows (see :func:`compressed`); None: it observes the rows themselves
     expand: sp.csr_matrix | None = None
+    #: "small" (pairs fixed in the undeformed configuration) or "finite" (fem/sliding.py: condensed on the
+    #: interface dofs ``interface_dofs``, the coupling re-evaluated in the deformed configuration)
+    sliding: str = "small"
+    interface_dofs: np.ndarray | None = None
 
     def __repr__(self) -> str:
         return (f"Problem({self.model!r}, {self.pairs.n_pairs} contact pairs, "
@@ -178,7 +184,7 @@ class Problem:
     @classmethod
     def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
               points=None, quantities=("ux", "uy"), regions=None, compress: bool = True,
-              window: float | None = None, factorisation: str = "auto") -> "Problem":
+              window: float | None = None, factorisation: str = "auto", sliding: str = "small") -> "Problem":
         """Assemble, discretise the interfaces and condense.
 
         Parameters
@@ -196,6 +202,9 @@ class Problem:
         factorisation : "auto" | "cholmod" | "superlu"
             How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
             [solver] factorisation).
+        sliding : "small" | "finite"
+            Contact pairs fixed in the undeformed configuration, or re-coupled in the deformed configuration at
+            every increment (:mod:`frictionid.fem.sliding`; 2-D, dual mortar on every interface).
         """
         space = model_space(model)
         if points is not None and observe is not None:
@@ -205,7 +214,15 @@ class Problem:
             observe = point_operator(space, points, quantities, regions, model.materials, window)
             observation_labels = PointLabels(len(points), quantities)
         observe, expand = compressed(observe) if compress else (observe, None)
-        pairs = contact_pairs(space, model)
+        if sliding not in SLIDING:
+            raise InputError(f"[solver] sliding must be one of {', '.join(map(repr, SLIDING))}, got {sliding!r}")
+        dofs = None
+        if sliding == "finite":
+            from .sliding import coupling_builder, interface_dofs, selection
+            pairs = coupling_builder(space, model)(model.mesh.points)
+            dofs = interface_dofs(model, space.n_components)
+        else:
+            pairs = contact_pairs(space, model)
         channels = load_channels(space, model)
         modes = free_rigid_modes(model.mesh, model.kind, channels.prescribed)
         sums, labels = _reaction_sums(model, channels.prescribed)
@@ -215,14 +232,20 @@ class Problem:
         n_rows = observe.shape[0] if expand is None else expand.shape[0]
         labels_obs = observation_labels if isinstance(observation_labels, PointLabels) else \
             tuple(observation_labels) or tuple(f"obs{i}" for i in range(n_rows))
-        condensed = condense(stiffness(space, model), pairs.B, channels, modes, observe, sums, space.n_components,
+        coupled = pairs.B if dofs is None else selection(dofs, space.n_dofs)
+        condensed = condense(stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
                              factorisation=factorisation)
-        return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand)
+        return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
         """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem."""
-        x = np.concatenate([solution.lam[increment].ravel(), solution.alpha[increment]])
-        u = self.condensed.displacement(self.pairs.B, self.channels.displacements,
+        if solution.interface_forces is not None:
+            from .sliding import selection
+            B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[increment]
+        else:
+            B, x = self.pairs.B, solution.lam[increment].ravel()
+        x = np.concatenate([x, solution.alpha[increment]])
+        u = self.condensed.displacement(B, self.channels.displacements,
                                         solution.amplitude[increment], x)
         return u.reshape(-1, self.space.n_components)
 
@@ -264,7 +287,7 @@ class Problem:
                 f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
                 f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds the "
                 f"small-sliding range ({limit:g} x the local element length {self.pair_length()[pair]:.3g} mm); "
-                "reduce the imposed sliding or coarsen the contact mesh; finite sliding is not supported")
+                "reduce the imposed sliding, coarsen the contact mesh or, in 2-D, set [solver] sliding = \"finite\"")
 
     def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0,
               increments: str = "fixed") -> Solution:
@@ -275,7 +298,8 @@ class Problem:
         "adaptive" (each stage starts with its nominal step, doubles it after an increment Newton solved in at
         most :data:`EASY_NEWTON` iterations without a cut and without changing a pair's state or turning a slip
         direction by more than :data:`SETTLED_DIRECTION`, up to :data:`MAX_GROWTH` nominal steps, and halves it
-        after a cut; the solution then has one row per step taken, every stage's end among them).
+        after a cut; the solution then has one row per step taken, every stage's end among them). With finite
+        sliding the slip is not checked and the increments are fixed.
         """
         if increments not in INCREMENTS:
             raise InputError(f"`increments` must be one of {', '.join(map(repr, INCREMENTS))}, got {increments!r}")
@@ -298,6 +322,9 @@ class Problem:
         return state
 
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None, adaptive: bool = False) -> Solution:
+        if self.sliding == "finite":
+            from .sliding import solve_finite
+            return solve_finite(self, mu, sensitivities)
         stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
         solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck)
         path = solver.start()

@@ -66,6 +66,9 @@ class Solution:
         dofs instead of the rows: index them, e.g. ``[ends]``, or take ``np.asarray``)
     n_newton : (n_inc,) Newton iterations; n_cuts : (n_inc,) increment cuts
     pairs : the contact pairs (positions, frames, weights, zone shares)
+    interface_forces : (n_inc, n_interface_dofs) [N] or None
+        Finite sliding (fem/sliding.py): the contact forces on the interface dofs (``Problem.interface_dofs``),
+        ``lam`` being in the frames of each increment's coupling; None for small sliding.
     """
 
     mu: np.ndarray
@@ -85,6 +88,7 @@ class Solution:
     n_newton: np.ndarray
     n_cuts: np.ndarray
     pairs: ContactPairs
+    interface_forces: np.ndarray | None = None
 
     @property
     def n_increments(self) -> int:

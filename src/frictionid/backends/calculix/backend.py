@@ -70,11 +70,12 @@ class CalculixSettings:
     @classmethod
     def from_options(cls, options: dict, where: str = "[solver]") -> "CalculixSettings":
         """Settings from a dict of [solver] keys (``backend`` and the embedded backend's ``factorisation`` and
-        ``increments`` ignored), each checked with a clear message."""
+        ``increments`` and ``sliding`` ignored: CalculiX's contact follows the deformation), each checked with a
+        clear message."""
         known = {f.name for f in fields(cls)}
         values = {}
         for key, value in options.items():
-            if key in ("backend", "factorisation", "increments"):
+            if key in ("backend", "factorisation", "increments", "sliding"):
                 continue
             if key not in known:
                 raise InputError(f"{where} {key}: not an option of the calculix backend; options are {sorted(known)}")

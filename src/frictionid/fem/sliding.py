@@ -1,0 +1,243 @@
+"""Finite sliding: the contact coupling re-evaluated in the deformed configuration at every increment.
+
+The bodies stay linear elastic (small strain); only the contact coupling follows the deformation. The model is
+condensed once onto all dofs of its interface nodes (contact zones and targets), ``T`` the selection rows::
+
+    u_I = u0_I(t) + S f_I + S_a alpha,      S = T K^g T^T     (fem/condense.py with B = T)
+
+which does not depend on the coupling. A coupling builder maps deformed nodal coordinates to contact pairs
+(frames, weights, gaps, B = Bhat T); for a coupling Bhat the operators of the small-sliding solver follow by
+products only, ``W = Bhat S Bhat^T`` (:func:`coupled_operators`): no factorisation per increment.
+
+Increment n (fixed point, docs/solver.md, finite sliding): the coupling B_n and the gap g_n are evaluated at the
+configuration X + u_ref, first u_ref = u_{n-1} + (u_{n-1} - u_{n-2}); the increment is solved with
+
+    g = g_n + B_N,n (u - u_ref),     ds = B_T,n (u - u_{n-1})     (slip increment in the current frame)
+
+then u_ref = u_n and again, until the interface displacements change by at most :data:`FIXED_POINT_RTOL` of the
+increment's largest interface displacement increment. Sensitivities: the path's direct differentiation with
+the coupling of each increment held (dB/du du/dmu left out), the previous increment's displacements carried
+as interface forces ``f_I = Bhat^T lam``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import InputError, SolverError
+from ..model import Model
+from .condense import Affine, Condensed
+from .loadpath import LoadPathSolver
+from .pairs import ContactPairs, relative_operator
+from .space import Space
+
+log = logging.getLogger(__name__)
+
+#: re-coupling stops when the interface displacements move by at most this share of the increment's
+#: largest interface displacement increment
+FIXED_POINT_RTOL = 1e-4
+MAX_PASSES = 12
+#: gap [mm] given to a pair whose node the target no longer covers: it stays open
+UNCOVERED_GAP = 1e12
+
+#: deformed nodal coordinates (n_nodes, dim) [mm] -> contact pairs in that configuration
+CouplingBuilder = Callable[[np.ndarray], ContactPairs]
+
+
+def interface_dofs(model: Model, n_components: int) -> np.ndarray:
+    """Sorted dofs of every node on a contact zone or target of the model's interfaces."""
+    names = [name for i in model.interfaces for name in (*i.zones, i.target)]
+    nodes = np.unique(np.concatenate([model.mesh.boundary(n).ravel() for n in names])) if names else \
+        np.zeros(0, int)
+    return (n_components * nodes[:, None] + np.arange(n_components)).ravel()
+
+
+def selection(dofs: np.ndarray, n_dofs: int) -> sp.csr_matrix:
+    """(len(dofs), n_dofs) rows picking ``dofs`` out of the dof vector."""
+    return sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), n_dofs))
+
+
+def coupling_builder(space: Space, model: Model) -> CouplingBuilder:
+    """The coupling builder of a model: :func:`mortar_builder` for plane-strain and axisymmetric models.
+
+    The hook for 3-D: a builder ``points (n_nodes, 3) -> ContactPairs`` of every interface (the 3-D mortar) is
+    returned here for ``space.dim == 3``; nothing else in this module depends on the dimension.
+    """
+    if space.dim != 2 or space.n_components != 2:
+        raise InputError(f"[solver] sliding = 'finite' needs a plane-strain or axisymmetric model (3-D waits for "
+                         f"the 3-D mortar coupling), got kind {model.kind!r}; use sliding = 'small'")
+    return mortar_builder(space, model)
+
+
+def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
+    """Coupling builder of a 2-D model: dual mortar on every interface (fem/mortar.py) at the given coordinates."""
+    from .mortar import mortar_pairs
+
+    def build(points: np.ndarray) -> ContactPairs:
+        deformed = replace(model, mesh=replace(model.mesh, points=points))
+        parts = [mortar_pairs(space, deformed, i) for i in range(len(model.interfaces))]
+        return ContactPairs.concatenate(parts, space.n_dofs, model.n_zones, space.dim)
+
+    return build
+
+
+def aligned(reference: ContactPairs, current: ContactPairs) -> ContactPairs:
+    """``current`` with the pairs of ``reference`` in its order: a node the target no longer covers gets the
+    reference frame, no target and the gap :data:`UNCOVERED_GAP` (it stays open); new nodes are left out."""
+    dim, n_dofs = reference.dim, reference.B.shape[1]
+    index = {int(n): i for i, n in enumerate(current.nodes)}
+    found = np.array([index.get(int(n), -1) for n in reference.nodes], dtype=int)
+    if len(current.nodes) > np.count_nonzero(found >= 0):
+        log.info("finite sliding: %d newly covered contact nodes are not paired (the pairs are those of the "
+                 "undeformed configuration)", len(current.nodes) - np.count_nonzero(found >= 0))
+    lost = found < 0
+    alone = relative_operator(reference.frames, reference.nodes, reference.nodes[:, None],
+                              np.zeros((reference.n_pairs, 1)), n_dofs)
+    source = np.where(lost, current.n_pairs + np.arange(reference.n_pairs), found)
+    rows = (dim * source[:, None] + np.arange(dim)).ravel()
+    take = lambda a, b: np.concatenate([a, b])[source]                       # noqa: E731
+    return replace(reference, frames=take(current.frames, reference.frames), weight=take(current.weight,
+                   reference.weight), gap=np.where(lost, UNCOVERED_GAP, take(current.gap, reference.gap)),
+                   B=sp.vstack([current.B, alone]).tocsr()[rows])
+
+
+def coupled_operators(interface: Condensed, B_I: sp.csr_matrix) -> Condensed:
+    """The condensed operators of the coupling ``w = B_I u_I`` (B_I on the interface dofs) from those of the
+    interface dofs: products only, the factorisation is not touched."""
+    B_I = sp.csr_matrix(B_I)
+
+    def through(ops: Affine) -> Affine:
+        return Affine(ops.channels, (B_I @ ops.on_lam.T).T, ops.on_alpha)
+
+    gap = interface.gap_ops
+    return replace(interface, gap_ops=Affine((B_I @ gap.channels.T).T, B_I @ (B_I @ gap.on_lam).T,
+                                             B_I @ gap.on_alpha),
+                   obs_ops=through(interface.obs_ops), reac_ops=through(interface.reac_ops),
+                   equilibrium=through(interface.equilibrium))
+
+
+class Coupling:
+    """The coupling of one increment, evaluated at X + u_ref: pairs with their gap shifted so that
+    ``g = gap + B_N u`` (= g(u_ref) + B_N (u - u_ref)), the composed operators and their load-path solver."""
+
+    def __init__(self, problem, builder: CouplingBuilder, u_ref: np.ndarray):
+        points = problem.model.mesh.points
+        current = aligned(problem.pairs, builder(points + u_ref.reshape(points.shape)))
+        #: pairs whose node the target does not cover in this configuration
+        self.lost = frozenset(np.flatnonzero(current.gap >= UNCOVERED_GAP).tolist())
+        self.B_I = current.B[:, problem.interface_dofs].tocsr()
+        self.pairs = replace(current, gap=current.gap - (current.B @ u_ref)[::current.dim])
+        self.condensed = coupled_operators(problem.condensed, self.B_I)
+        self.solver = LoadPathSolver(self.condensed, self.pairs)
+
+
+class _State:
+    """The converged state of the last increment: displacements, multipliers, interface forces, accumulated
+    slip, and the interface forces' sensitivities."""
+
+    def __init__(self, n_dofs: int, pairs: ContactPairs, n_modes: int):
+        self.u = np.zeros(n_dofs)
+        self.du = np.zeros(n_dofs)           # displacement increment of the last increment [mm]
+        self.x = np.zeros(pairs.n_pairs * pairs.dim + n_modes)
+        self.contact = None
+        self.slip = np.zeros((pairs.n_pairs, pairs.dim - 1))
+        self.dx_I = None                     # (n_I + m, n_z) d(f_I, alpha)/dmu
+
+
+def _increment(problem, builder, state: _State, start, end, mu_pair, sensitivities, where):
+    """Solve one nominal increment by fixed-point re-coupling, the first coupling at the configuration the last
+    increment's displacement increment extrapolates to; (coupling, path, u, (Newton iterations, cuts, passes))."""
+    T = selection(problem.interface_dofs, len(state.u))
+    u_ref, dofs = state.u + state.du, problem.interface_dofs
+    n_newton = n_cuts = 0
+    lost = []                            # per pass: the pairs the target does not cover
+    for n_pass in range(1, MAX_PASSES + 1):
+        coupling = Coupling(problem, builder, u_ref)
+        lost.append(coupling.lost)
+        solver, pairs = coupling.solver, coupling.pairs
+        path = solver.start()
+        path.x, path.state = state.x.copy(), state.contact
+        path.w_T = (pairs.B @ state.u).reshape(-1, pairs.dim)[:, 1:]
+        if sensitivities and state.dx_I is not None:
+            du = coupling.B_I @ (problem.condensed.gap_ops.full @ state.dx_I)
+            path.dw_T = du.reshape(pairs.n_pairs, pairs.dim, -1)[:, 1:, :]
+        step = solver.step(path, start, end, mu_pair, sensitivities, where)
+        n_newton, n_cuts = n_newton + step.n_newton, n_cuts + step.n_cuts
+        u = problem.condensed.displacement(T, problem.channels.displacements, end, _interface_x(coupling, path.x))
+        change = np.max(np.abs(u[dofs] - u_ref[dofs]), initial=0.0)
+        scale = np.max(np.abs(u[dofs] - state.u[dofs]), initial=0.0)
+        u_ref = u
+        if change <= FIXED_POINT_RTOL * scale:
+            return coupling, path, u, (n_newton, n_cuts, n_pass)
+    toggled = sorted(frozenset().union(*lost) - frozenset.intersection(*lost))
+    cause = "" if not toggled else (
+        f"; contact node(s) {problem.pairs.nodes[toggled].tolist()} (first at "
+        f"{np.round(problem.pairs.position[toggled[0]], 4).tolist()}) move on and off the end of the target: extend "
+        "the target surface over the whole slide")
+    raise SolverError(f"finite sliding did not converge in {where}: the re-coupled interface displacements "
+                      f"still moved {change:.3g} mm after {MAX_PASSES} passes" + cause)
+
+
+def _interface_x(coupling: Coupling, x: np.ndarray) -> np.ndarray:
+    """(f_I, alpha) of x = (lam, alpha): interface forces f_I = Bhat^T lam."""
+    n_w = coupling.B_I.shape[0]
+    return np.concatenate([coupling.B_I.T @ x[:n_w], x[n_w:]])
+
+
+def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
+    """Run the load path of ``problem`` (condensed on its interface dofs) with finite sliding.
+
+    Returns a :class:`~frictionid.fem.solution.Solution` whose ``lam`` are in the frames of each increment,
+    ``w`` the change of the normal gap since the undeformed configuration and the accumulated slip,
+    ``interface_forces`` the contact forces on the interface dofs.
+    """
+    from .solution import ExpandedRows, Solution
+
+    if problem.pairs.n_pairs == 0:
+        raise SolverError("finite sliding: the model has no contact pairs")
+    builder = coupling_builder(problem.space, problem.model)
+    ref, c = problem.pairs, problem.condensed
+    state = _State(problem.space.n_dofs, ref, c.n_modes)
+    stages, amps = problem.amplitudes()
+    mu_pair, rec = ref.mu(mu), {k: [] for k in ("lam", "alpha", "w", "state", "obs", "reac", "d_obs", "d_reac",
+                                                 "n_newton", "n_cuts", "f_I")}
+    previous = np.zeros(amps.shape[1])
+    n_w = ref.n_pairs * ref.dim
+    for i, (stage, amp) in enumerate(zip(stages, amps)):
+        where = f"stage {stage + 1} ({problem.model.stages[stage].name}), increment {i + 1}"
+        coupling, path, u, (n_newton, n_cuts, n_pass) = _increment(problem, builder, state, previous, amp, mu_pair,
+                                                                   sensitivities, where)
+        log.debug("%s: %d re-coupling passes, %d Newton iterations", where, n_pass, n_newton)
+        w_new, w_old = coupling.pairs.B @ u, coupling.pairs.B @ state.u
+        state.slip = state.slip + (w_new - w_old).reshape(-1, ref.dim)[:, 1:]
+        gap = coupling.pairs.gap + w_new[::ref.dim]
+        x_I = _interface_x(coupling, path.x)
+        ops = coupling.condensed
+        for key, value in (("lam", path.x[:n_w].reshape(-1, ref.dim)), ("alpha", path.x[n_w:]),
+                           ("w", np.column_stack([gap - ref.gap, state.slip])), ("state", path.state),
+                           ("obs", ops.obs_ops(amp, path.x)), ("reac", ops.reac_ops(amp, path.x)),
+                           ("n_newton", n_newton), ("n_cuts", n_cuts), ("f_I", x_I[:len(problem.interface_dofs)])):
+            rec[key].append(value)
+        if sensitivities:
+            rec["d_obs"].append(ops.obs_ops.full @ path.S)
+            rec["d_reac"].append(ops.reac_ops.full @ path.S)
+            state.dx_I = np.vstack([coupling.B_I.T @ path.S[:n_w], path.S[n_w:]])
+        state.u, state.du, state.x, state.contact = u, u - state.u, path.x, path.state
+        previous = amp
+    out = {k: np.array(v) for k, v in rec.items()}
+    d_obs = out["d_obs"] if sensitivities else None
+    d_reac = out["d_reac"] if sensitivities else None
+    if problem.expand is not None:
+        out["obs"] = ExpandedRows(out["obs"], problem.expand)
+        d_obs = None if d_obs is None else ExpandedRows(d_obs, problem.expand)
+    return Solution(
+        mu=mu, zone_names=problem.model.zone_names, observation_labels=problem.observation_labels,
+        reaction_labels=problem.reaction_labels, stage=stages, amplitude=amps, lam=out["lam"],
+        alpha=out["alpha"], w=out["w"], state=out["state"], observations=out["obs"], reactions=out["reac"],
+        d_observations=d_obs, d_reactions=d_reac, n_newton=out["n_newton"], n_cuts=out["n_cuts"], pairs=ref,
+        interface_forces=out["f_I"])
