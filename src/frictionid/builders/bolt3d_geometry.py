@@ -55,11 +55,10 @@ def groove_section(layout: BoltLayout, z: float) -> list[tuple]:
     next one: free flank of tooth z, root arc, load flank of the next tooth (vertices at the zone splits), closed
     outside the crest at r_out = crest + H/16. ``kind`` "line" (two points) or "spline" (interpolated points).
 
-    The flanks below the lowest zone split (at most d2/2) and the root arc between them are two splines through
-    :data:`ROOT_POINTS` points of the exact profile, joined at the root's bottom: the nut's crest cylinder D1/2
-    cuts the flanks only |es|/(2 sqrt 3) above their tangent points, and an edge there would leave a helical
-    face 0.02 mm wide, too thin to mesh; the joint keeps a triangle of the root face from spanning the nut crest
-    corner to corner (it lay on the nut crest's own triangles: gmsh refused the overlapping facets)."""
+    The flanks below the lowest zone split (at most d2/2) and the root arc between them are one spline through
+    :data:`ROOT_POINTS` points of the exact profile: the nut's crest cylinder D1/2 cuts the flanks only
+    |es|/(2 sqrt 3) above their tangent points, and an edge there would leave a helical face 0.02 mm wide, too
+    thin to mesh. (Two splines joined at the root's bottom met a PLC error in gmsh's volume mesher.)"""
     s, shift = layout.size, layout.shift
     P, R = s.P, s.root_radius
     apex, r_root = s.d / 2 + s.H / 8 - shift, s.d1 / 2 - shift
@@ -74,10 +73,8 @@ def groove_section(layout: BoltLayout, z: float) -> list[tuple]:
     arc = centre + R * np.column_stack([np.cos(angles), np.sin(angles)])
     n_flank = ROOT_POINTS // 4
     lower = np.linspace(r_joint, r_root, n_flank, endpoint=False)
-    half = len(arc) // 2
     pieces = [("line", [(r_out, free(r_out)), (r_joint, free(r_joint))]),
-              ("spline", [(r, free(r)) for r in lower] + [tuple(p) for p in arc[:half + 1]]),
-              ("spline", [tuple(p) for p in arc[half:]] + [(r, load(r)) for r in lower[::-1]])]
+              ("spline", [(r, free(r)) for r in lower] + [tuple(p) for p in arc] + [(r, load(r)) for r in lower[::-1]])]
     radii = [r_joint, *sorted(r for r in layout.zone_splits if r > r_joint + 1e-9), r_out]
     pieces += [("line", [(a, load(a)), (b, load(b))]) for a, b in zip(radii[:-1], radii[1:])]
     pieces.append(("line", [(r_out, load(r_out)), (r_out, free(r_out))]))

@@ -20,6 +20,10 @@ from .thread import NUT_ROOT_CLEARANCE, SQRT3
 BODIES = ("bolt", "nut", "plate1", "plate2")
 #: element size growth per mm of distance from the refined faces
 SIZE_GROWTH = 0.3
+#: growth per mm of the size away from the bolt's roots inside the nut, which are meshed at R/2 (R = H/6 the root
+#: radius): coarser, a root face's triangles spanned the gap below the nut crest corner to corner and lay on the
+#: nut crest's own triangles (gmsh refused the overlapping facets)
+ROOT_GROWTH = 1.0
 #: a window reaching within this many pitches of the nut crest D1/2 is cut through to the bore
 THROUGH = 0.1
 _TOL = 2e-3  # [mm] distance under which a face point lies on an analytic surface (the lofts: < 1 um)
@@ -173,7 +177,16 @@ def _classify(layout: BoltLayout, options: Options3d, volumes: dict) -> dict[str
         names[f"{body}_rim"] = [f for f in faces[body]
                                 if np.allclose(np.hypot(*face_points(f)[:, [0, 2]].T), layout.r_outer, atol=_TOL)]
     names.update(_nut_faces(layout, options, faces))
+    names["bolt_root"] = [f for f in sorted(faces["bolt"] - thread) if _is_root(layout, face_points(f, 6))]
     return names
+
+
+def _is_root(layout: BoltLayout, points: np.ndarray) -> bool:
+    """Whether a face reaches a bolt thread root (below the nut crest D1/2) inside the nut: some of its points."""
+    r = np.hypot(points[:, 0], points[:, 2])
+    s = layout.size
+    root = (r < s.d1 / 2) & (r > s.d3 / 2 - layout.shift - _TOL)
+    return bool(np.any(root & (points[:, 1] > layout.y_bearing - s.P) & (points[:, 1] < layout.y_top + s.P)))
 
 
 def _nut_faces(layout: BoltLayout, options: Options3d, faces: dict) -> dict[str, list[int]]:
@@ -253,9 +266,11 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
     with gmsh_session("bolt3d"):
         volumes = _fragment(layout, options, engaged_top)
         names = _classify(layout, options, volumes)
+        root = min(options.flank_size, layout.size.root_radius / 2)
         use_size_fields(_distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
                         _distance_field(names["head_plate"] + names["nut_plate"], options.contact_size,
-                                        options.mesh_size))
+                                        options.mesh_size),
+                        _distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH))
         gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
         for body, tags in volumes.items():
             gmsh.model.addPhysicalGroup(3, tags, name=body)
