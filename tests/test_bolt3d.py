@@ -113,7 +113,9 @@ def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model):
 @pytest.mark.slow
 def test_helix_on_the_mesh_is_iso_68_1(model, layout):
     """Bolt flank nodes fitted by y = c_k + L phi / 2 pi +- t r: lead L = P, flank half-angle atan(t) = 30 deg,
-    and the radius where the tooth is P/2 thick is the 6g pitch diameter d2 + es (ISO 965-1), to 2 um."""
+    and the radius where the tooth is P/2 thick is the 6g pitch diameter d2 + es (ISO 965-1), to 5 um (es is
+    -42 um). The quadratic tets are straight-sided: mid-side nodes lie on chords of the helicoid, a few um inside
+    (0.625 mm edges on r = 9 mm: 5 um)."""
     s = layout.size
     fits = {}
     for name in ("nut_contact_bolt", "bolt_free"):
@@ -127,7 +129,7 @@ def test_helix_on_the_mesh_is_iso_68_1(model, layout):
         columns = [tooth == k for k in teeth] + [phi / (2 * math.pi), r]
         coefficients, *_ = np.linalg.lstsq(np.column_stack(columns).astype(float), y, rcond=None)
         residual = y - np.column_stack(columns).astype(float) @ coefficients
-        assert np.abs(residual).max() < 2e-3
+        assert np.abs(residual).max() < 1e-2
         fits[name] = dict(zip(teeth, coefficients[:-2])), coefficients[-2], coefficients[-1]
     (load_c, load_lead, load_t), (free_c, free_lead, free_t) = fits["nut_contact_bolt"], fits["bolt_free"]
     for lead, t in ((load_lead, load_t), (free_lead, -free_t)):
@@ -136,7 +138,7 @@ def test_helix_on_the_mesh_is_iso_68_1(model, layout):
     k = next(k for k in load_c if k - 1 in free_c)          # tooth k - 1: free flank above it, load flank below k
     # thickness of tooth k - 1 at r: load flank of tooth k - 1 is load_c[k] - P (same helix), free flank free_c
     d2 = 2 * ((free_c[k - 1] - (load_c[k] - s.P)) - s.P / 2) / (load_t - free_t)
-    assert d2 == pytest.approx(s.d2 + s.es, abs=2e-3)
+    assert d2 == pytest.approx(s.d2 + s.es, abs=5e-3)
 
 
 @pytest.mark.slow

@@ -279,6 +279,9 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
                 gmsh.model.addPhysicalGroup(2, tags, name=name)
         gmsh.model.mesh.generate(3)
         gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
+        # straight-sided: mid-side nodes snapped onto the curved faces inverted tets at the nut crest's corners
+        # (the facet basis' inverse mapping did not converge on "nut_contact")
+        gmsh.option.setNumber("Mesh.SecondOrderLinear", 1)
         gmsh.model.mesh.setOrder(2)
         mesh = mesh_from_gmsh(f"3-D bolt model {layout.size.name}")
     return separate_bodies(mesh, {name: _owner(name) for name in mesh.boundaries})
