@@ -17,7 +17,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import ContactInterface, Model, Stage, Support, SurfaceForce
-from .arguments import checked_table, count, positive
+from .arguments import checked_table, positive
+from .bolt import STEEL, measurement_points
 from .bolt3d_geometry import Window, to_xyz
 from .bolt3d_mesh import Options3d, bolt3d_mesh
 from .bolt_layout import BoltLayout
@@ -73,7 +74,6 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ..
     interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node"),
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
                   ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
-    from .bolt import STEEL
     return Model(mesh=mesh, kind="3d", materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
                  supports=tuple(supports), loads=(SurfaceForce("plate1_rim", 1, forces),),
                  stages=tuple(Stage(f"F{i + 1}", n_increments) for i in range(len(forces))),
@@ -83,6 +83,5 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ..
 def measurement_points_3d(layout: BoltLayout, flanks=(1, 2), n_per_flank: int = 5) -> np.ndarray:
     """(n, 3) [mm] the seed's P1-P5 on each listed flank: in the window's centre section, which is the
     axisymmetric section, at 1/(n+1) ... n/(n+1) of the straight part of the bolt load flank."""
-    from .bolt import measurement_points
     section = measurement_points(layout, None, flanks, n_per_flank)
     return to_xyz(section[:, 0], section[:, 1], math.radians(WINDOW_CENTRE))
