@@ -29,6 +29,11 @@ STEEL = Material(E=200000.0, nu=0.3, name="steel")
 PLATE_MU = 0.15
 #: default element sizes as divisors of the nominal diameter d: plate contacts d / 40, largest element d / 8
 SIZE_DIVISORS = {"contact_size": 40, "mesh_size": 8}
+#: default flank size [mm] of the axisymmetric model; the 3-D model takes :data:`SIZE_PITCHES_3D`
+FLANK_SIZE = 0.1
+#: default element sizes of the 3-D model in pitches: flanks P / 2 (the dense contact operator's size, docs/
+#: models.md), bearing contacts P / 2, largest element 2 P
+SIZE_PITCHES_3D = {"flank_size": 0.5, "contact_size": 0.5, "mesh_size": 2.0}
 
 
 def _forces(forces) -> tuple[float, ...]:
@@ -39,21 +44,28 @@ def _forces(forces) -> tuple[float, ...]:
     return tuple(positive(f"forces[{i}]", f) for i, f in enumerate(forces))
 
 
-def default_sizes(size: str = "M20") -> dict[str, float]:
-    """The element sizes [mm] :func:`bolt_model` takes when ``contact_size`` or ``mesh_size`` is not given.
+def default_sizes(size: str = "M20", model: str = "axisymmetric") -> dict[str, float]:
+    """The element sizes [mm] :func:`bolt_model` takes when ``flank_size``, ``contact_size`` or ``mesh_size`` is
+    not given.
 
     >>> default_sizes("M20")
-    {'contact_size': 0.5, 'mesh_size': 2.5}
+    {'contact_size': 0.5, 'mesh_size': 2.5, 'flank_size': 0.1}
+    >>> default_sizes("M20", "3d")
+    {'flank_size': 1.25, 'contact_size': 1.25, 'mesh_size': 5.0}
     """
-    d = thread_size(size).d
-    return {key: d / divisor for key, divisor in SIZE_DIVISORS.items()}
+    s = thread_size(size)
+    if model == "3d":
+        return {key: s.P * pitches for key, pitches in SIZE_PITCHES_3D.items()}
+    return {**{key: s.d / divisor for key, divisor in SIZE_DIVISORS.items()}, "flank_size": FLANK_SIZE}
 
 
-def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int = 3, flank_size: float = 0.1,
-               contact_size: float | None = None, mesh_size: float | None = None, n_radial: int = 2,
-               n_axial: int = 3, length: float | None = None, engaged_length: float | None = None,
-               clearance: float | None = None, bearing_diameter: float | str | None = None,
-               load: str = "tension", angles=(2.0, 4.0), torques=None) -> Model:
+def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int = 3,
+               flank_size: float | None = None, contact_size: float | None = None, mesh_size: float | None = None,
+               n_radial: int = 2, n_axial: int = 3, length: float | None = None,
+               engaged_length: float | None = None, clearance: float | None = None,
+               bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
+               model: str = "axisymmetric", cutout=True, jaws: bool = True,
+               thread_length: float | None = None) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -65,18 +77,22 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         plate 1's outer rim (whole ring); plate 2's outer rim is held.
     n_increments : int
         Increments per stage.
-    flank_size : float [mm]
-        Element size on the engaged thread (node spacing on the contact flanks, both sides).
+    flank_size : float [mm], optional
+        Element size on the engaged thread (node spacing on the contact flanks, both sides); default 0.1
+        (axisymmetric), P / 2 (3-D).
     contact_size : float [mm], optional
-        Node spacing on the head-plate and nut-plate contacts; default d / 40 (0.5 for M20).
+        Node spacing on the head-plate and nut-plate contacts; default d / 40 (0.5 for M20), 3-D P / 2.
     mesh_size : float [mm], optional
-        Largest element size; default d / 8.
+        Largest element size; default d / 8, 3-D 2 P.
     n_radial, n_axial : int
         Thread zones: each engaged load flank split radially into n_radial parts (2: at the pitch diameter),
         the flanks grouped axially into n_axial sections (as equal counts as possible, extra flanks near the
         bearing face). Zone letters run over sections first: outer parts A, B, C, inner parts D, E, F.
     length : float [mm], optional
         Nominal bolt length l (bolt end at y = l); default 6 d.
+    thread_length : float [mm], optional
+        Threaded length b of the bolt from its end; default ISO 4014 (2 d + 6 for l <= 125: 46 for M20). A short
+        thread (at least a pitch below the nut) makes a quick 3-D model.
     engaged_length : float [mm], optional
         Threaded length of the nut bore from the bearing face (at most the nut height m); above it the bore is
         relieved to the thread root. Default m.
@@ -94,6 +110,14 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     angles : sequence of float [deg]
         Nut rotation from the snug position at the end of each stage (``load`` = "tightening"; ``forces`` is
         then not used).
+    model : "axisymmetric" | "3d"
+        "3d": the helical thread, real hexagons, the nut's window and jaws (:mod:`frictionid.builders.bolt3d`,
+        quadratic tetrahedra, conforming node-to-node interfaces); ``load`` "tension" only.
+    cutout : bool or table, 3-D only
+        The nut's window: true (default: 60 deg wide, from the flats down to the nut crest D1/2), false (none), or
+        ``{ width = deg, depth = mm }`` (depth from the flats' radius s/2 inwards).
+    jaws : bool, 3-D only
+        True (default): the nut's two flats normal to z are held in z (jaws against rotation); false: free.
     torques : sequence of float [N m], optional
         Wrench torque at the end of each stage instead of ``angles``: a uniform circumferential traction on
         "nut_outer" (the hexagon ring, one radius) whose moment about the axis is the torque; the nut's rotation
@@ -108,11 +132,17 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         segment of engaged flank i, from the bearing face), "nut_thread_<i>", "bolt_load", "bolt_free",
         "nut_load", "nut_free", "nut_outer", "plate1_rim" (loaded), "plate2_rim" (held).
     """
-    layout = bolt_layout(size, length, engaged_length, clearance, n_radial, n_axial, bearing_diameter)
-    defaults = default_sizes(size)
-    flank_size = positive("flank_size", flank_size)
+    if model not in ("axisymmetric", "3d"):
+        raise InputError(f"`model` must be \"axisymmetric\" or \"3d\", got {model!r}")
+    layout = bolt_layout(size, length, engaged_length, clearance, n_radial, n_axial, bearing_diameter,
+                         thread_length)
+    defaults = default_sizes(size, model)
+    flank_size = defaults["flank_size"] if flank_size is None else positive("flank_size", flank_size)
     contact_size = defaults["contact_size"] if contact_size is None else positive("contact_size", contact_size)
     mesh_size = defaults["mesh_size"] if mesh_size is None else positive("mesh_size", mesh_size)
+    if model == "3d":
+        return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
+                         load, cutout, jaws)
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -137,6 +167,19 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                  loads=(SurfaceForce("plate1_rim", 1, forces),),
                  stages=tuple(Stage(f"F{i + 1}", n_increments) for i in range(len(forces))),
                  interfaces=interfaces)
+
+
+def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, load: str, cutout, jaws) -> Model:
+    from .bolt3d import bolt3d_model
+    if load != "tension":
+        raise InputError(f"`load` = {load!r}: the 3-D model has the tensile test only (load = \"tension\")")
+    flank_size, contact_size, mesh_size = sizes
+    if flank_size > layout.size.P:
+        raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name} in 3-D: expected "
+                         f"at most P = {layout.size.P:g} mm")
+    engaged = layout.size.nut_m if engaged_length is None else engaged_length
+    return bolt3d_model(layout, layout.y_bearing + engaged, _forces(forces), count("n_increments", n_increments,
+                        1, 1000), flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws)
 
 
 def _angles(values, name: str) -> tuple[float, ...]:

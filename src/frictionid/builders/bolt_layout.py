@@ -64,7 +64,7 @@ class BoltLayout:
 
 def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: float | None = None,
                 clearance: float | None = None, n_radial: int = 2, n_axial: int = 3,
-                bearing_diameter: float | str | None = None) -> BoltLayout:
+                bearing_diameter: float | str | None = None, thread_length: float | None = None) -> BoltLayout:
     """The set-up geometry of a size (see the module docstring); options as in :func:`bolt_model`.
 
     >>> layout = bolt_layout("M20")
@@ -84,8 +84,12 @@ def bolt_layout(size: str = "M20", length: float | None = None, engaged_length: 
     shift = -s.es / 2 if clearance is None else float(clearance) / 2
     y_top = length - 3 * s.P
     y_bearing = y_top - m
-    y_thread = length - s.thread_length(length)
-    if y_thread > y_bearing - s.P or y_bearing - s.d < s.d + s.P:
+    b = s.thread_length(length) if thread_length is None else positive("thread_length", thread_length)
+    y_thread = length - b
+    if y_thread > y_bearing - s.P:
+        raise InputError(f"`thread_length` = {b:g} mm is too short for {s.name}: the thread must reach a pitch "
+                         f"below the nut, expected at least {length - y_bearing + s.P:g} mm")
+    if y_bearing - s.d < s.d + s.P:
         raise InputError(f"`length` = {length:g} mm is too short for {s.name}: the plates ({s.d:g} mm thick) "
                          f"would not fit between head and nut; expected at least {2 * s.d + m + 4 * s.P:g} mm")
     nut_phase = _nut_phase(s, y_bearing, y_top, shift)

@@ -98,7 +98,9 @@ def _default(name: str, options: dict, key: str):
     """The value builder ``name`` takes for ``key`` when ``options`` do not give it (None: decided later)."""
     value = inspect.signature(BUILDERS[name]).parameters[key].default
     if value is None and name == "bolt":
-        return default_sizes(options.get("size", inspect.signature(bolt_model).parameters["size"].default))[key]
+        signature = inspect.signature(bolt_model).parameters
+        return default_sizes(options.get("size", signature["size"].default),
+                             options.get("model", signature["model"].default))[key]
     return value
 
 

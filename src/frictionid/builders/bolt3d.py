@@ -1,0 +1,87 @@
+"""Reference test 2 in 3-D: the bolt-nut tensile test with a helical thread, the nut's window and its jaws.
+
+The set-up is the axisymmetric one's (:mod:`frictionid.builders.bolt_layout`: heights, plates, 6g/6H clearance
+as a radial shift of the bolt profile) with real hexagons for head and nut. The section through the window's
+centre is the axisymmetric section (same tooth phases), so the seed's measurement points P1-P5 of flanks 1 and 2
+lie where the axisymmetric model has them. Every interface is conforming (node-to-node pairs at zero gap, the
+nodes duplicated per body, :mod:`frictionid.builders.bolt3d_mesh`); the nut's teeth are the bolt grooves'
+complement outside the nut crest D1/2, so free flanks and the nut root touch the bolt with separate nodes and
+no contact (in tension they open).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from ..model import ContactInterface, Model, Stage, Support, SurfaceForce
+from .arguments import checked_table, positive
+from .bolt import STEEL, measurement_points
+from .bolt3d_geometry import Window, to_xyz
+from .bolt3d_mesh import Options3d, bolt3d_mesh
+from .bolt_layout import BoltLayout
+
+#: the window's default angular width [deg] (the seed's Fig. 3 and 8 show a narrow slot; its text gives no size)
+WINDOW_WIDTH = 60.0
+#: angle [deg] of the window's centre: the +x direction (the camera looks along -x)
+WINDOW_CENTRE = 0.0
+#: angle [deg] of the normal of the flat the jaws hold (and of the opposite one): +-z, either side of the window;
+#: the hexagons' flats are at this angle + k 60 deg, so the window faces a corner
+JAW_ANGLE = 90.0
+
+
+def window_of(layout: BoltLayout, cutout) -> Window | None:
+    """The nut's window from the ``cutout`` option: true (defaults), false (none) or a table ``{ width = deg,
+    depth = mm }``; depth from the nut's flats inwards, default to the nut crest D1/2 so that the bolt's flanks
+    show."""
+    s = layout.size
+    default = {"width": WINDOW_WIDTH, "depth": s.nut_s / 2 - s.d1 / 2}
+    if cutout is False or cutout is None:
+        return None
+    table = default if cutout is True else checked_table(cutout, default, "[model] cutout")
+    width = positive("cutout.width", table["width"])
+    depth = positive("cutout.depth", table["depth"])
+    if width >= 180:
+        raise InputError(f"`cutout.width` = {width:g} deg: expected less than 180 deg")
+    if depth > s.nut_s / 2 - s.d1 / 2 + 1e-9:
+        raise InputError(f"`cutout.depth` = {depth:g} mm reaches into the bore: expected at most "
+                         f"{s.nut_s / 2 - s.d1 / 2:.4g} mm (flats s/2 to the nut crest D1/2)")
+    return Window(width, depth, WINDOW_CENTRE)
+
+
+def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ...], n_increments: int,
+                 flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool) -> Model:
+    """The 3-D tensile test (options as :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d").
+
+    Regions "bolt", "nut", "plate1", "plate2"; interfaces "thread" (zones on the bolt's load flanks, target
+    "nut_contact"), "head" ("head_plate" on "plate2_head"), "nut_bearing" ("nut_plate" on "plate1_nut").
+    Boundaries "thread_<i>" (bolt load flank of turn i from the bearing face, a turn running from the seam
+    opposite the window to the seam), "plate1_rim" (loaded in +y), "plate2_rim" (held), "nut_jaws" (the two
+    flats normal to z (held in z when ``jaws``)), "window_nut", "window_bolt" (the window's DIC surfaces).
+    """
+    window = window_of(layout, cutout)
+    if not isinstance(jaws, bool):
+        raise InputError(f"`jaws` must be true or false, got {jaws!r}")
+    options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
+                        math.radians(JAW_ANGLE))
+    mesh = bolt3d_mesh(layout, options, engaged_top)
+    supports = [Support("plate2_rim", (0, 1, 2))]
+    if jaws:
+        supports.append(Support("nut_jaws", (2,)))
+    zones = tuple(z for z in layout.thread_zones if z in mesh.boundaries)
+    interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node"),
+                  ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
+                  ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
+    return Model(mesh=mesh, kind="3d", materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
+                 supports=tuple(supports), loads=(SurfaceForce("plate1_rim", 1, forces),),
+                 stages=tuple(Stage(f"F{i + 1}", n_increments) for i in range(len(forces))),
+                 interfaces=interfaces)
+
+
+def measurement_points_3d(layout: BoltLayout, flanks=(1, 2), n_per_flank: int = 5) -> np.ndarray:
+    """(n, 3) [mm] the seed's P1-P5 on each listed flank: in the window's centre section, which is the
+    axisymmetric section, at 1/(n+1) ... n/(n+1) of the straight part of the bolt load flank."""
+    section = measurement_points(layout, None, flanks, n_per_flank)
+    return to_xyz(section[:, 0], section[:, 1], math.radians(WINDOW_CENTRE))

@@ -1,0 +1,287 @@
+"""Quadratic-tetrahedron mesh of the 3-D bolt-nut tensile test: the fragment of :mod:`.bolt3d_geometry` meshed
+once (touching faces shared, so every interface is conforming), faces named by what they are, then each body
+given its own copies of the nodes it shares with a body before it (node-to-node pairs at zero gap)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import gmsh
+import numpy as np
+
+from ..model import Mesh
+from .bolt3d_geometry import (Window, countersink, cylinder, direction, groove, hexagon_prism)
+from .bolt_layout import BoltLayout
+from .gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
+from .thread import NUT_ROOT_CLEARANCE, SQRT3
+
+#: bodies in the order they keep their nodes (a later body copies the nodes it shares with an earlier one)
+BODIES = ("bolt", "nut", "plate1", "plate2")
+#: element size growth per mm of distance from the refined faces
+SIZE_GROWTH = 0.3
+#: growth per mm of the size away from the bolt's roots inside the nut, which are meshed at R/2 (R = H/6 the root
+#: radius): coarser, a root face's triangles spanned the gap below the nut crest corner to corner and lay on the
+#: nut crest's own triangles (gmsh refused the overlapping facets)
+ROOT_GROWTH = 1.0
+#: a window reaching within this many pitches of the nut crest D1/2 is cut through to the bore
+THROUGH = 0.1
+_TOL = 2e-3  # [mm] distance under which a face point lies on an analytic surface (the lofts: < 1 um)
+
+
+@dataclass(frozen=True)
+class Options3d:
+    """What the 3-D mesh needs beyond the layout: sizes [mm], the window (None: no cut-out), the angle of the
+    section that equals the axisymmetric one (the window's centre) and the normal angle [rad] of the flat the jaws
+    hold (the hexagons' flats are at this angle + k 60 deg)."""
+
+    flank_size: float
+    contact_size: float
+    mesh_size: float
+    window: Window | None
+    theta_match: float
+    jaw_angle: float
+
+
+def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
+    """The bolt blank minus one groove per turn; the turns' seams lie at theta_match + pi."""
+    s, occ = layout.size, gmsh.model.occ
+    head = hexagon_prism(s.head_s, -s.head_k, 0.0, math.pi / 2)
+    blank, _ = occ.fuse([(3, head)], [(3, cylinder(layout.r_shank, 0.0, layout.length))])
+    theta0 = theta_match + math.pi
+    first = math.ceil((layout.y_thread - layout.bolt_phase) / s.P + 0.5)
+    last = math.floor((layout.length - layout.bolt_phase) / s.P + 0.5)
+    # tooth k is centred at bolt_phase + k P at theta_match, so at bolt_phase + (k - 1/2) P at the seam
+    grooves = [(3, groove(layout, layout.bolt_phase + (k - 0.5) * s.P, theta0)) for k in range(first - 1, last + 1)]
+    bolt, _ = occ.cut(blank, grooves)
+    return bolt
+
+
+def _window(layout: BoltLayout, window: Window, y0: float, y1: float) -> list[tuple[int, int]]:
+    """The window's tool: the sector |theta - centre| <= width / 2 outside r = s/2 - depth."""
+    occ, s = gmsh.model.occ, layout.size
+    far = 2 * s.nut_s
+    half, centre = math.radians(window.width) / 2, math.radians(window.centre)
+    angles = np.linspace(centre - half, centre + half, 5)
+    corners = [np.array([0.0, y0, 0.0])] + [far * direction(a) + [0.0, y0, 0.0] for a in angles]
+    points = [occ.addPoint(*c) for c in corners]
+    lines = [occ.addLine(points[i], points[(i + 1) % len(points)]) for i in range(len(points))]
+    face = occ.addPlaneSurface([occ.addCurveLoop(lines)])
+    wedge = [(d, t) for d, t in occ.extrude([(2, face)], 0.0, y1 - y0, 0.0) if d == 3]
+    if s.nut_s / 2 - window.depth <= s.d1 / 2 + THROUGH * s.P:
+        return wedge                                        # through to the bore: no sliver of the crest left
+    tool, _ = occ.cut(wedge, [(3, cylinder(s.nut_s / 2 - window.depth, y0 - 1, y1 + 1))])
+    return tool
+
+
+def _nut(layout: BoltLayout, window: Window | None, jaw_angle: float, engaged_top: float) -> list[tuple[int, int]]:
+    """Hexagon nut with its bore at the nut crest D1/2, the 120 deg countersinks, the relief above the engaged
+    length (bore at the nut root) and the window."""
+    s, occ = layout.size, gmsh.model.occ
+    y0, y1 = layout.y_bearing, layout.y_top
+    nut = hexagon_prism(s.nut_s, y0, y1, jaw_angle)
+    tools = [(3, cylinder(s.d1 / 2, y0 - 1, y1 + 1)), (3, countersink(layout, y0, 1.0)),
+             (3, countersink(layout, y1, -1.0))]
+    if engaged_top < y1 - 1e-9:
+        tools.append((3, cylinder(s.d / 2 + NUT_ROOT_CLEARANCE * s.H, engaged_top, y1 + 1)))
+    if window is not None:
+        tools += _window(layout, window, y0 - 1, y1 + 1)
+    out, _ = occ.cut([(3, nut)], tools)
+    return out
+
+
+def _plates(layout: BoltLayout) -> tuple[list, list]:
+    occ = gmsh.model.occ
+    out = []
+    for y0, y1 in (layout.plate1, layout.plate2):
+        plate, _ = occ.cut([(3, cylinder(layout.r_outer, y0, y1))], [(3, cylinder(layout.r_hole, y0 - 1, y1 + 1))])
+        out.append(plate)
+    return out[0], out[1]
+
+
+def _fragment(layout: BoltLayout, options: Options3d, engaged_top: float) -> dict[str, list[int]]:
+    """Volume tags of each body after the fragment; the bolt keeps the part of the nut blank it fills."""
+    bolt = _bolt(layout, options.theta_match)
+    nut = _nut(layout, options.window, options.jaw_angle, engaged_top)
+    plate1, plate2 = _plates(layout)
+    _, parts = gmsh.model.occ.fragment(bolt, nut + plate1 + plate2)
+    gmsh.model.occ.synchronize()
+    tags = [sorted({t for d, t in part if d == 3}) for part in parts]
+    n_bolt, n_nut = len(bolt), len(nut)
+    volumes = {"bolt": sorted({t for part in tags[:n_bolt] for t in part})}
+    volumes["nut"] = sorted({t for part in tags[n_bolt:n_bolt + n_nut] for t in part} - set(volumes["bolt"]))
+    volumes["plate1"] = sorted({t for part in tags[n_bolt + n_nut:n_bolt + n_nut + len(plate1)] for t in part})
+    volumes["plate2"] = sorted({t for part in tags[n_bolt + n_nut + len(plate1):] for t in part})
+    return volumes
+
+
+def _faces(volumes) -> set[int]:
+    return {abs(t) for _, t in gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)}
+
+
+def face_points(face: int, n: int = 3) -> np.ndarray:
+    """(m, 3) [mm] points on a face: its parametric grid's inner points that lie inside the (trimmed) face."""
+    lo, hi = (np.asarray(b) for b in gmsh.model.getParametrizationBounds(2, face))
+    u = np.linspace(0, 1, n + 2)[1:-1]
+    grid = np.array([[lo[0] + a * (hi[0] - lo[0]), lo[1] + b * (hi[1] - lo[1])] for a in u for b in u])
+    inside = [gmsh.model.isInside(2, face, list(p), parametric=True) for p in grid]
+    grid = grid[np.asarray(inside, dtype=bool)] if any(inside) else grid
+    return np.reshape(gmsh.model.getValue(2, face, grid.ravel().tolist()), (-1, 3))
+
+
+def _polar(points: np.ndarray, theta_match: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(r, y, phi) of points: phi the angle from theta_match in [-pi, pi) (the turns' seam at +-pi)."""
+    theta = np.arctan2(-points[:, 2], points[:, 0])
+    phi = np.mod(theta - theta_match + math.pi, 2 * math.pi) - math.pi
+    return np.hypot(points[:, 0], points[:, 2]), points[:, 1], phi
+
+
+def flank_tooth(layout: BoltLayout, points: np.ndarray, theta_match: float, flank: str = "load") -> int | None:
+    """Index k of the bolt tooth (centred at bolt_phase + k P at theta_match) whose helical ``flank`` ("load":
+    below the tooth, "free": above) carries all the points (m, 3) [mm], else None."""
+    s = layout.size
+    r, y, phi = _polar(points, theta_match)
+    apex = s.d / 2 + s.H / 8 - layout.shift
+    sign = 1.0 if flank == "load" else -1.0
+    k = (y - s.P * phi / (2 * math.pi) + sign * (apex - r) / SQRT3 - layout.bolt_phase) / s.P
+    if np.ptp(np.round(k)) == 0 and np.all(np.abs(k - np.round(k)) * s.P < _TOL):
+        return int(round(float(k[0])))
+    return None
+
+
+def _classify(layout: BoltLayout, options: Options3d, volumes: dict) -> dict[str, list[int]]:
+    """Named faces: zones and thread_<i> (bolt load flanks shared with the nut, by turn from the bearing face),
+    nut_contact, bolt_free (the free flanks facing the nut, touching it without contact), the bearing contacts, the plates' rims, the nut's jaw flats, the window's faces."""
+    faces = {body: _faces(tags) for body, tags in volumes.items()}
+    thread = faces["bolt"] & faces["nut"]
+    flanks: dict[int, list[tuple[int, float]]] = {}
+    names: dict[str, list[int]] = {"nut_contact": [], "thread_shared": sorted(thread), "bolt_free": []}
+    for face in sorted(thread):
+        points = face_points(face)
+        k = flank_tooth(layout, points, options.theta_match)
+        if k is None and flank_tooth(layout, points, options.theta_match, "free") is not None:
+            names["bolt_free"].append(face)
+        if k is not None:
+            flanks.setdefault(k, []).append((face, float(np.median(np.hypot(points[:, 0], points[:, 2])))))
+    turns = sorted(flanks)
+    sections = np.array_split(np.arange(len(turns)), min(len(layout.sections), len(turns)))
+    for i, k in enumerate(turns):
+        section = next(j for j, part in enumerate(sections) if i in part)
+        for face, r in flanks[k]:
+            radial = sum(split > r for split in layout.zone_splits)
+            for name in (layout.zone_name(radial, section), f"thread_{i + 1}", "nut_contact"):
+                names.setdefault(name, []).append(face)
+    names["head_plate"] = names["plate2_head"] = sorted(faces["bolt"] & faces["plate2"])
+    names["nut_plate"] = names["plate1_nut"] = sorted(faces["nut"] & faces["plate1"])
+    for body in ("plate1", "plate2"):
+        names[f"{body}_rim"] = [f for f in faces[body]
+                                if np.allclose(np.hypot(*face_points(f)[:, [0, 2]].T), layout.r_outer, atol=_TOL)]
+    names.update(_nut_faces(layout, options, faces))
+    names["bolt_root"] = [f for f in sorted(faces["bolt"] - thread) if _is_root(layout, face_points(f, 6))]
+    return names
+
+
+def _is_root(layout: BoltLayout, points: np.ndarray) -> bool:
+    """Whether a face reaches a bolt thread root (below the nut crest D1/2) inside the nut: some of its points."""
+    r = np.hypot(points[:, 0], points[:, 2])
+    s = layout.size
+    root = (r < s.d1 / 2) & (r > s.d3 / 2 - layout.shift - _TOL)
+    return bool(np.any(root & (points[:, 1] > layout.y_bearing - s.P) & (points[:, 1] < layout.y_top + s.P)))
+
+
+def _nut_faces(layout: BoltLayout, options: Options3d, faces: dict) -> dict[str, list[int]]:
+    """"nut_jaws" (the two flats whose normals are at jaw_angle and jaw_angle + pi), "window_nut" and
+    "window_bolt" (the faces inside the window's sector: the nut's cut, the bolt's thread within the nut height)."""
+    s = layout.size
+    out = {"nut_jaws": []}
+    normals = direction(np.array([options.jaw_angle, options.jaw_angle + math.pi]))
+    shared = set().union(*(faces[a] & faces[b] for a in faces for b in faces if a < b))
+    for face in faces["nut"] - shared:
+        points = face_points(face)
+        if any(np.allclose(points @ n, s.nut_s / 2, atol=_TOL) for n in normals):
+            out["nut_jaws"].append(face)
+    if options.window is None:
+        return out
+    half = math.radians(options.window.width) / 2 + 1e-6
+    centre = math.radians(options.window.centre)
+    for body in ("nut", "bolt"):
+        out[f"window_{body}"] = []
+        for face in sorted(faces[body] - shared):
+            r, y, phi = _polar(face_points(face), centre)
+            inside = np.all(np.abs(phi) <= half) and np.all((y > layout.y_bearing) & (y < layout.y_top))
+            if inside and (body == "nut" or np.all(r < s.nut_s / 2)):
+                out[f"window_{body}"].append(face)
+    return out
+
+
+def _distance_field(faces: list[int], size_min: float, size_max: float, growth: float = SIZE_GROWTH) -> int:
+    """Size ``size_min`` on the faces, growing by ``growth`` per mm up to ``size_max``."""
+    field = gmsh.model.mesh.field
+    near = field.add("Distance")
+    field.setNumbers(near, "SurfacesList", list(faces))
+    field.setNumber(near, "Sampling", 30)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", near)
+    for name, value in (("SizeMin", size_min), ("SizeMax", max(size_min, size_max)), ("DistMin", 0.0),
+                        ("DistMax", max(size_max - size_min, 1e-9) / growth)):
+        field.setNumber(threshold, name, value)
+    return threshold
+
+
+def separate_bodies(mesh: Mesh, owner: dict[str, str]) -> Mesh:
+    """The mesh with every body (region) given its own nodes: a node of a region's cells that an earlier region
+    in :data:`BODIES` order already uses is copied; the cells of the later region and the boundaries it owns
+    (``owner``: boundary name -> region) take the copy. Boundaries not in ``owner`` keep the original nodes."""
+    points, cells = list(mesh.points), mesh.cells.copy()
+    used = np.zeros(mesh.n_nodes, dtype=bool)
+    maps = {}
+    for body in (name for name in BODIES if name in mesh.regions):
+        body_cells = mesh.regions[body]
+        nodes = np.unique(mesh.cells[body_cells])
+        shared = nodes[used[nodes]]
+        renumber = np.arange(mesh.n_nodes)
+        renumber[shared] = len(points) + np.arange(len(shared))
+        points.extend(mesh.points[shared])
+        cells[body_cells] = renumber[mesh.cells[body_cells]]
+        used[nodes] = True
+        maps[body] = renumber
+    boundaries = {name: maps[owner[name]][facets] if name in owner else facets
+                  for name, facets in mesh.boundaries.items()}
+    return Mesh(points=np.array(points), cell_type=mesh.cell_type, cells=cells, regions=dict(mesh.regions),
+                boundaries=boundaries)
+
+
+def _owner(name: str) -> str:
+    """The body a named face belongs to: targets and nut faces to the nut or a plate, the rest to the bolt."""
+    for prefix, body in (("nut_contact", "nut"), ("nut_", "nut"), ("window_nut", "nut"), ("plate1_", "plate1"),
+                         ("plate2_", "plate2")):
+        if name.startswith(prefix):
+            return body
+    return "bolt"
+
+
+def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> Mesh:
+    """The tetra10 mesh of bolt, nut and plates with the named groups of :func:`frictionid.builders.bolt3d.
+    bolt3d_model`, each body with its own nodes (conforming, node-to-node interfaces)."""
+    with gmsh_session("bolt3d"):
+        volumes = _fragment(layout, options, engaged_top)
+        names = _classify(layout, options, volumes)
+        root = min(options.flank_size, layout.size.root_radius / 2)
+        use_size_fields(_distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
+                        _distance_field(names["head_plate"] + names["nut_plate"], options.contact_size,
+                                        options.mesh_size),
+                        _distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH))
+        gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
+        for body, tags in volumes.items():
+            gmsh.model.addPhysicalGroup(3, tags, name=body)
+        for name, tags in names.items():
+            if tags and name != "thread_shared":
+                gmsh.model.addPhysicalGroup(2, tags, name=name)
+        gmsh.model.mesh.generate(3)
+        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
+        # straight-sided: mid-side nodes snapped onto the curved faces inverted tets at the nut crest's corners
+        # (the facet basis' inverse mapping did not converge on "nut_contact")
+        gmsh.option.setNumber("Mesh.SecondOrderLinear", 1)
+        gmsh.model.mesh.setOrder(2)
+        mesh = mesh_from_gmsh(f"3-D bolt model {layout.size.name}")
+    return separate_bodies(mesh, {name: _owner(name) for name in mesh.boundaries})

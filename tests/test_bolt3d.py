@@ -1,0 +1,193 @@
+"""The 3-D bolt-nut model (builder "bolt", model = "3d"): the helical thread measured on the mesh against ISO 68-1
+(lead, flank angle, pitch diameter of the 6g bolt), the conforming node pairing of the thread, the contact zones'
+areas against the helicoid's, the window and the jaws, bad input.
+
+The meshed model is a short one (two engaged pitches, the bolt threaded from a pitch below the nut, coarse); its
+CAD and mesh take minutes on a shared machine, so the tests that need it are marked slow."""
+
+import math
+
+import numpy as np
+import pytest
+
+from frictionid.builders.bolt import bolt_model
+from frictionid.builders.bolt3d import WINDOW_CENTRE, WINDOW_WIDTH, measurement_points_3d
+from frictionid.builders.bolt3d_geometry import groove_section
+from frictionid.builders.bolt_layout import bolt_layout
+from frictionid.builders.registry import build_model
+from frictionid.errors import InputError
+from frictionid.fem.rigid import bodies
+from frictionid.fem.space import Space
+from frictionid.fem.node_to_node import node_to_node_pairs
+
+#: the short model: M20, threads engaged over two pitches, bolt threaded from 1.2 pitches below the nut
+SHORT = dict(size="M20", model="3d", engaged_length=5.0, thread_length=30.5, n_axial=2, flank_size=0.625,
+             forces=(10000.0,), n_increments=2)
+SQRT3 = math.sqrt(3.0)
+
+
+@pytest.fixture(scope="module")
+def model():
+    return bolt_model(**SHORT)
+
+
+@pytest.fixture(scope="module")
+def layout():
+    return bolt_layout("M20", engaged_length=5.0, n_axial=2, thread_length=30.5)
+
+
+def _polar(points):
+    """(r, y, phi) with phi the angle from the window's centre in [-pi, pi)."""
+    theta = np.arctan2(-points[:, 2], points[:, 0])
+    phi = np.mod(theta - math.radians(WINDOW_CENTRE) + math.pi, 2 * math.pi) - math.pi
+    return np.hypot(points[:, 0], points[:, 2]), points[:, 1], phi
+
+
+def test_groove_section_is_the_iso_profile(layout):
+    """The loft's section: flanks at 30 deg to the radial direction, the root spline on the exact arc (radius H/6)
+    and on the flank lines to 1e-9, the groove P - 2 (r_apex - r) / sqrt 3 wide."""
+    s, z = layout.size, 100.0
+    apex = s.d / 2 + s.H / 8 - layout.shift
+    pieces = groove_section(layout, z)
+    lines = [np.array(p) for kind, p in pieces if kind == "line"]
+    for a, b in lines[:-1]:
+        assert math.degrees(math.atan2(abs(b[1] - a[1]), abs(b[0] - a[0]))) == pytest.approx(30.0, abs=1e-9)
+    root = np.vstack([p for kind, p in pieces if kind == "spline"])
+    centre = np.array([s.d1 / 2 - layout.shift + s.root_radius / 2, z + s.P / 2])
+    on_arc = np.abs(np.linalg.norm(root - centre, axis=1) - s.root_radius) < 1e-9
+    on_free = np.abs(root[:, 1] - (z + (apex - root[:, 0]) / SQRT3)) < 1e-9
+    on_load = np.abs(root[:, 1] - (z + s.P - (apex - root[:, 0]) / SQRT3)) < 1e-9
+    assert np.all(on_arc | on_free | on_load) and on_arc.sum() > 10
+    assert root[:, 0].min() == pytest.approx(s.d3 / 2 - layout.shift, abs=1e-6)
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"model": "2d"}, "`model`"),
+    ({"model": "3d", "cutout": {"width": 200}}, "`cutout.width`"),
+    ({"model": "3d", "cutout": {"depth": 9.0}}, "`cutout.depth`"),
+    ({"model": "3d", "cutout": {"widht": 30}}, "did you mean 'width'"),
+    ({"model": "3d", "jaws": "yes"}, "`jaws`"),
+    ({"model": "3d", "load": "tightening"}, "tension"),
+    ({"model": "3d", "flank_size": 3.0}, "`flank_size`"),
+    ({"thread_length": 10.0}, "`thread_length`"),
+])
+def test_bad_options_name_the_key(options, message):
+    with pytest.raises(InputError, match=message.replace("(", r"\(")):
+        build_model({"builder": "bolt", **options})
+
+
+def test_measurement_points_are_the_axisymmetric_ones_in_the_window(layout):
+    """P1-P5 of flanks 1 and 2 lie in the window's centre section, at the axisymmetric model's (r, y)."""
+    from frictionid.builders.bolt import measurement_points
+    points = measurement_points_3d(layout)
+    r, y, phi = _polar(points)
+    section = measurement_points(layout)
+    np.testing.assert_allclose(np.column_stack([r, y]), section, atol=1e-12)
+    np.testing.assert_allclose(phi, 0.0, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_bodies_have_their_own_nodes(model):
+    """Four bodies (no node shared across the conforming interfaces), every region one body."""
+    label = bodies(model.mesh)
+    assert label.max() + 1 == 4
+    for name, cells in model.mesh.regions.items():
+        assert np.unique(label[model.mesh.cells[cells]]).size == 1, name
+
+
+@pytest.mark.slow
+def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model):
+    """Every contact node of the thread faces a nut node at its place (zero gap to round-off), on the nut."""
+    space = Space.build(model.mesh, model.kind, model.element)
+    pairs = node_to_node_pairs(space, model, 0)
+    label = bodies(model.mesh)
+    bolt, nut = (label[model.mesh.cells[model.mesh.regions[n][0]][0]] for n in ("bolt", "nut"))
+    assert np.all(label[pairs.nodes] == bolt)
+    target = model.mesh.boundary_nodes("nut_contact")
+    assert np.all(label[target] == nut) and len(target) == len(pairs.nodes)
+    assert np.abs(pairs.gap).max() < 1e-9
+    _, _, phi = _polar(model.mesh.points[pairs.nodes])
+    assert np.all(np.abs(phi) >= math.radians(WINDOW_WIDTH) / 2 - 1e-6), "a thread pair inside the window"
+
+
+@pytest.mark.slow
+def test_helix_on_the_mesh_is_iso_68_1(model, layout):
+    """Bolt flank nodes fitted by y = c_k + L phi / 2 pi +- t r: lead L = P, flank half-angle atan(t) = 30 deg,
+    and the radius where the tooth is P/2 thick is the 6g pitch diameter d2 + es (ISO 965-1), to 5 um (es is
+    -42 um). The quadratic tets are straight-sided: mid-side nodes lie on chords of the helicoid, a few um inside
+    (0.625 mm edges on r = 9 mm: 5 um)."""
+    s = layout.size
+    fits = {}
+    for name in ("nut_contact_bolt", "bolt_free"):
+        boundary = "bolt_free" if name == "bolt_free" else None
+        nodes = (model.mesh.boundary_nodes(boundary) if boundary else
+                 np.unique(np.concatenate([model.mesh.boundary_nodes(z) for z in model.interfaces[0].zones])))
+        r, y, phi = _polar(model.mesh.points[nodes])
+        eta = y - s.P * phi / (2 * math.pi)
+        tooth = np.round((eta - layout.bolt_phase) / s.P).astype(int)
+        teeth = np.unique(tooth)
+        columns = [tooth == k for k in teeth] + [phi / (2 * math.pi), r]
+        coefficients, *_ = np.linalg.lstsq(np.column_stack(columns).astype(float), y, rcond=None)
+        residual = y - np.column_stack(columns).astype(float) @ coefficients
+        assert np.abs(residual).max() < 1e-2
+        fits[name] = dict(zip(teeth, coefficients[:-2])), coefficients[-2], coefficients[-1]
+    (load_c, load_lead, load_t), (free_c, free_lead, free_t) = fits["nut_contact_bolt"], fits["bolt_free"]
+    for lead, t in ((load_lead, load_t), (free_lead, -free_t)):
+        assert lead == pytest.approx(s.P, abs=2e-3)
+        assert math.degrees(math.atan(t)) == pytest.approx(30.0, abs=0.05)
+    k = next(k for k in load_c if k - 1 in free_c)          # tooth k - 1: free flank above it, load flank below k
+    # thickness of tooth k - 1 at r: load flank of tooth k - 1 is load_c[k] - P (same helix), free flank free_c
+    d2 = 2 * ((free_c[k - 1] - (load_c[k] - s.P)) - s.P / 2) / (load_t - free_t)
+    assert d2 == pytest.approx(s.d2 + s.es, abs=5e-3)
+
+
+@pytest.mark.slow
+def test_zone_areas_are_the_helicoid_areas(model, layout):
+    """The tributary areas of the thread pairs per radial part (outer: A, B; inner: C, D) against the helicoid's
+    area integrated over the exact engaged region (nut crest D1/2 to bolt crest, above the countersink, below the
+    engaged length, outside the window), to 1 %."""
+    s = layout.size
+    space = Space.build(model.mesh, model.kind, model.element)
+    pairs = node_to_node_pairs(space, model, 0)
+    zones = model.interfaces[0].zones
+    area = (pairs.weight[:, None] * pairs.zone_share[:, [model.zone_names.index(z) for z in zones]]).sum(axis=0)
+    outer = sum(a for z, a in zip(zones, area) if z in "AB")
+    inner = sum(a for z, a in zip(zones, area) if z in "CD")
+    expected = [_helicoid_area(layout, s.d2 / 2, s.d / 2 - layout.shift),
+                _helicoid_area(layout, s.d1 / 2, s.d2 / 2)]
+    np.testing.assert_allclose([outer, inner], expected, rtol=0.01)
+
+
+def _helicoid_area(layout, r0: float, r1: float, n: int = 400) -> float:
+    """Area [mm^2] of the bolt load flanks between radii r0 and r1 where the nut's threaded bore faces them."""
+    s = layout.size
+    apex = s.d / 2 + s.H / 8 - layout.shift
+    r = r0 + (np.arange(n) + 0.5) / n * (r1 - r0)
+    phi = -math.pi + (np.arange(8 * n) + 0.5) / (8 * n) * 2 * math.pi
+    R, PHI = np.meshgrid(r, phi, indexing="ij")
+    t, lead = 1 / SQRT3, s.P
+    element = np.sqrt(R ** 2 * (1 + t ** 2) + (lead / (2 * math.pi)) ** 2) * (r1 - r0) / n * 2 * math.pi / (8 * n)
+    total = 0.0
+    for k in range(-50, 50):
+        y = layout.bolt_phase + k * s.P + lead * PHI / (2 * math.pi) - (apex - R) / SQRT3
+        inside = (y >= layout.y_bearing + (s.da / 2 - R) / SQRT3) & (y <= layout.y_bearing + 5.0)
+        inside &= np.abs(PHI) >= math.radians(WINDOW_WIDTH) / 2
+        total += element[inside].sum()
+    return total
+
+
+@pytest.mark.slow
+def test_window_and_jaw_faces(model, layout):
+    """The window's nut faces are its two walls (on the planes at +-width/2), the bolt faces in it lie in the
+    sector within the nut's height; the jaws are the two flats normal to z at s/2."""
+    s = layout.size
+    nut = model.mesh.points[model.mesh.boundary_nodes("window_nut")]
+    _, _, phi = _polar(nut)
+    np.testing.assert_allclose(np.abs(phi), math.radians(WINDOW_WIDTH) / 2, atol=1e-6)
+    bolt = model.mesh.points[model.mesh.boundary_nodes("window_bolt")]
+    _, y, phi = _polar(bolt)
+    assert np.all(np.abs(phi) <= math.radians(WINDOW_WIDTH) / 2 + 1e-6)
+    assert np.all((y >= layout.y_bearing - 1e-6) & (y <= layout.y_top + 1e-6))
+    jaws = model.mesh.points[model.mesh.boundary_nodes("nut_jaws")]
+    np.testing.assert_allclose(np.abs(jaws[:, 2]), s.nut_s / 2, atol=1e-9)
+    assert (jaws[:, 2] > 0).any() and (jaws[:, 2] < 0).any()
