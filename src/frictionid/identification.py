@@ -269,7 +269,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
                                solver_options(config), f"{config.where}: [solver]", obs.reactions,
-                               strain_window(setup.window))
+                               strain_window(setup.window, obs))
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
     backend_s = time.perf_counter() - condensed
@@ -507,9 +507,16 @@ def data_section(frames, obs, window=None, files=()) -> dict:
             **({} if window is None else {"strain_window": window.as_dict()}), "files": list(files)}
 
 
-def strain_window(window) -> StrainWindow | None:
-    """The backend's window from a setup's choice (None: strains at the points)."""
-    return None if window is None or window.size is None else StrainWindow(window.size, window.shape)
+def strain_window(window, obs=None) -> StrainWindow | None:
+    """The backend's window from a setup's choice (None: strains at the points), built for the rows ``obs``
+    (:class:`~frictionid.inverse.observations.Observations`) fits: a point observes only the strains its file
+    gives (a face's in-plane components), and only those need the window to span their gradient."""
+    if window is None or window.size is None:
+        return None
+    if obs is None:
+        return StrainWindow(window.size, window.shape)
+    relative = () if obs.minus_row is None else obs.minus_row[obs.minus_row >= 0]
+    return StrainWindow(window.size, window.shape, tuple(np.concatenate([obs.row, relative]).astype(int).tolist()))
 
 
 @dataclass(frozen=True)
