@@ -21,6 +21,7 @@ from .data.measurements import Measurements
 from .data.dic.window import choose as choose_window
 from .data.sources import data_digest, data_paths, read_sources
 from .errors import InputError, SolverError
+from .fem import memory
 from .fem.locate import PointsOutside
 from .fem.points import StrainWindow
 from .inverse.evaluator import JACOBIANS, Evaluator
@@ -112,6 +113,7 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
         raise InputError(f"{where}: identify.profile_points must be a whole number >= 3, got "
                          f"{ident['profile_points']!r}")
     check_options(ident, model_options, f"{where}:")
+    memory.limit(config.solver.get("max_memory"), f"{where}: [solver]")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
@@ -261,10 +263,16 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     run_dir = config.resolve(config.run["dir"])
     start = time.perf_counter()
     obs = setup.observations
+    max_memory = config.solver.get("max_memory")
     if float(config.identify["refine_target"]) > 0:
         options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
-                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
+                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]),
+                                         max_memory, echo)
         setup = replace(setup, model=model, model_options=options)
+    if config.solver["backend"] == "embedded":
+        log.info(memory.check(setup.model, "model", max_memory, config.solver.get("factorisation", "auto")).line())
+        if config.identify["model_error"] != "off":       # refused now rather than after the fit
+            memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
@@ -418,8 +426,11 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
     def refit(x0, offset):
         return _optimise(_least_squares(evaluator, setup.parameters, config, store, progress, offset, x0), config)
 
-    return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
-                            config.identify["model_error"], refit)
+    try:
+        return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
+                                config.identify["model_error"], refit, config.solver.get("max_memory"))
+    except InputError as exc:       # after the fit: stored as a failed run, the fit kept (_stopped)
+        raise SolverError(str(exc)) from None
 
 
 def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path, status: str, message: str,
