@@ -1,11 +1,14 @@
 """How much memory a condensation will take, and the refusal before it would take more than it may.
 
-The condensation's peak (the sparse factor of the stiffness and the dense blocks of the contact and observation
-dofs, :mod:`frictionid.fem.condense`) grows faster than the dofs: about n^1.5 in 3-D (nested dissection's fill),
-close to n in 2-D. The laws below are the condensation's measured peak above the process's memory before it
-(docs/solver.md, ``benchmarks/condensation.py``, CHOLMOD with METIS: 3-D block 24k / 56k / 114k / 185k / 305k
-dofs: 0.11 / 0.43 / 1.3 / 2.7 / 5.6 GB; plane-strain block 52k dofs: 0.37 GB), times :data:`SAFETY`; SuperLU
-(the fallback) took about three times CHOLMOD's at 24k-114k dofs.
+A condensation (:meth:`frictionid.fem.problem.Problem.build`: assembly of the stiffness, its sparse factor, the
+dense blocks of the contact and observation dofs) grows faster than the dofs: about n^1.3 over the sizes
+measured in 3-D, the factor's fill alone about n^1.5 (docs/solver.md). The law is anchored on the peak resident
+memory of processes that built and condensed the 3-D block (hex8 with incompatible modes, CHOLMOD, METIS)
+with observation points: 23,595 / 56,187 / 113,616 dofs: 0.49 / 1.36 / 3.6 GB (``benchmarks/tilt_product.py``
+at mesh 1.0 and 0.7; ``frictionid identify`` with ``refine_target = 1`` on tests/fixtures/independent_block,
+whose estimate condensed mesh 0.5; measured 2026-11-26 with /usr/bin/time), times :data:`SAFETY`; in 2-D on the
+plane-strain block's condensation (52,374 dofs: 0.37 GB, docs/solver.md) doubled for its assembly. SuperLU (the
+fallback) took about three times CHOLMOD's.
 
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 """
@@ -22,8 +25,8 @@ GB = 1024.0 ** 3
 #: the default of ``[solver] max_memory``: this fraction of the machine's physical memory
 DEFAULT_FRACTION = 0.5
 #: (dofs, peak above the process before [bytes], exponent) anchoring the law per dimension (module docstring)
-LAWS = {3: (304_845, 5.6 * GB, 1.5), 2: (52_374, 0.37 * GB, 1.2)}
-#: margin on the measured laws (their scatter against the measurements: -6 % to +14 %)
+LAWS = {3: (113_616, 3.6 * GB, 1.3), 2: (52_374, 0.74 * GB, 1.2)}
+#: margin on the measured laws (their scatter against the measurements: -13 % to +3 %)
 SAFETY = 1.25
 #: SuperLU against CHOLMOD (docs/solver.md: 4.0 against 1.9 GB at 114k dofs with the process's own)
 SUPERLU_FACTOR = 3.0
@@ -58,8 +61,8 @@ def condensation_bytes(n_dofs: int, dim: int, factorisation: str = "cholmod") ->
     """Estimated peak of condensing a model of ``n_dofs`` dofs in ``dim`` dimensions, above what the process
     holds before [bytes] (module docstring).
 
-    >>> round(condensation_bytes(304_845, 3) / GB, 2)
-    7.0
+    >>> round(condensation_bytes(113_616, 3) / GB, 2)
+    4.5
     """
     dofs, peak, exponent = LAWS[3 if dim >= 3 else 2]
     grown = SAFETY * peak * (n_dofs / dofs) ** exponent
