@@ -179,8 +179,9 @@ def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:
 
 def _sizes(options: dict) -> str:
     """The size options of a [model] table, for progress lines."""
-    keys = [k for k in options if "size" in k or "divisions" in k]
-    return ", ".join(f"{k} {options[k]:g}" for k in keys) or "the builder's defaults halved"
+    keys = [k for k in options if "size" in k or "divisions" in k or k == "refine"]
+    return ", ".join(f"{k} {options[k]:g}" if isinstance(options[k], (int, float)) else f"{k} {options[k]}"
+                     for k in keys) or "the builder's defaults halved"
 
 
 def _same_problem(coarse: Model, fine: Model, options: dict) -> None:
