@@ -52,21 +52,31 @@ def check_options(identify: dict, model_options: dict, where: str) -> None:
                              f"{exc}") from None
 
 
-def refine_until(model_options: dict, model, observations, mu, target: float, budget: int):
+def refine_until(model_options: dict, model, observations, mu, target: float, budget: int,
+                 max_memory: float | None = None, progress=None):
     """Halve the element sizes until the estimated error at ``mu`` is below ``target`` noise levels RMS.
 
     Returns the [model] options, the model and the last :class:`ModelError` (of the returned model).
+    ``max_memory`` [GB]: what each condensation may take (:mod:`frictionid.fem.memory`); ``progress`` is called
+    with one line of text per phase (level, mesh size, dofs, memory estimate, error reached).
 
     Raises
     ------
     SolverError
         When ``budget`` refinements do not reach the target; the message names the error reached.
+    InputError
+        Before a condensation that would take more than ``max_memory``, naming its size and cost.
     """
+    progress = progress or (lambda text: None)
     options = dict(model_options)
     for level in range(budget + 1):
-        error = estimate_model_error(options, observations, [mu], model=model)
+        progress(f"refinement level {level} of at most {budget}: the model has {model.mesh.n_nodes:,} nodes; "
+                 f"estimating its discretisation error")
+        error = estimate_model_error(options, observations, [mu], model=model, max_memory=max_memory,
+                                     progress=progress)
         rms = error.summary["all"]["rms"]
         log.info("model error with %s: %.3g noise levels RMS (target %g)", options, rms, target)
+        progress(f"refinement level {level}: estimated model error {rms:.3g} noise levels RMS (target {target:g})")
         if rms <= target:
             return options, model, error
         if level == budget:
@@ -79,18 +89,21 @@ def refine_until(model_options: dict, model, observations, mu, target: float, bu
                       "observe points farther from the contact edges")
 
 
-def with_model_error(evaluator, parameters, model_options: dict, model, outcome, mode: str, refit):
+def with_model_error(evaluator, parameters, model_options: dict, model, outcome, mode: str, refit,
+                     max_memory: float | None = None, progress=None):
     """The discretisation error at the start and the fitted point of ``outcome`` (one extra condensation), and
     with mode "include" the fit continued from its end with sigma_eff^2 = sigma^2 + (k e)^2, k from
     :func:`error_scale`.
 
     ``refit(x0, offset)`` runs the optimiser from x0 with the evaluator's (new) weights, numbering its
     iterations from ``offset``. Returns the :class:`ModelError` and the outcome to report (fit and refit joined).
+    ``max_memory``, ``progress``: as :func:`refine_until`.
     """
     points = [parameters.x0, outcome.x]
     obs = evaluator.obs
     error = estimate_model_error(model_options, obs, [parameters.full(x) for x in points],
-                                 coarse_values=[evaluator.model_values(x) for x in points], model=model)
+                                 coarse_values=[evaluator.model_values(x) for x in points], model=model,
+                                 max_memory=max_memory, progress=progress)
     if mode != "include":
         return error, outcome
     scale = error_scale(evaluator.model_values(outcome.x) - obs.y, obs.sigma, error.estimate, len(outcome.x))

@@ -21,6 +21,7 @@ from .data.measurements import Measurements
 from .data.dic.window import choose as choose_window
 from .data.sources import data_digest, data_paths, read_sources
 from .errors import InputError, SolverError
+from .fem import memory
 from .fem.locate import PointsOutside
 from .fem.points import StrainWindow
 from .inverse.evaluator import JACOBIANS, Evaluator
@@ -116,6 +117,7 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
                             parameters.free_names, f"{where}:")
     profile.profiled_zones(ident["profile"], parameters.free_names, f"{where}:")
     check_options(ident, model_options, f"{where}:")
+    memory.limit(config.solver.get("max_memory"), f"{where}: [solver]")
     if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
@@ -264,16 +266,22 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     setup = setup or prepare(config, echo=echo)
     start = time.perf_counter()
     obs = setup.observations
+    max_memory = config.solver.get("max_memory")
     if float(config.identify["refine_target"]) > 0:
         options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
-                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]))
+                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]),
+                                         max_memory, echo)
         contact = setup.contact if model is setup.model else checked_contact(model, config.where, echo)
         setup = replace(setup, model=model, model_options=options, contact=contact)
+    if config.solver["backend"] == "embedded":
+        log.info(memory.check(setup.model, "model", max_memory, config.solver.get("factorisation", "auto")).line())
+        if config.identify["model_error"] != "off":       # refused now rather than after the fit
+            memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
         backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
                                solver_options(config), f"{config.where}: [solver]", obs.reactions,
-                               strain_window(setup.window))
+                               strain_window(setup.window, obs))
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
     backend_s = time.perf_counter() - condensed
@@ -422,8 +430,11 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
     def refit(x0, offset):
         return _optimise(_least_squares(evaluator, setup.parameters, config, store, progress, offset, x0), config)
 
-    return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
-                            config.identify["model_error"], refit)
+    try:
+        return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
+                                config.identify["model_error"], refit, config.solver.get("max_memory"))
+    except InputError as exc:       # after the fit: stored as a failed run, the fit kept (_stopped)
+        raise SolverError(str(exc)) from None
 
 
 def _stopped(config, setup, evaluator: Evaluator, store: RunStore, run_dir: Path, status: str, message: str,
@@ -511,9 +522,16 @@ def data_section(frames, obs, window=None, files=()) -> dict:
             **({} if window is None else {"strain_window": window.as_dict()}), "files": list(files)}
 
 
-def strain_window(window) -> StrainWindow | None:
-    """The backend's window from a setup's choice (None: strains at the points)."""
-    return None if window is None or window.size is None else StrainWindow(window.size, window.shape)
+def strain_window(window, obs=None) -> StrainWindow | None:
+    """The backend's window from a setup's choice (None: strains at the points), built for the rows ``obs``
+    (:class:`~frictionid.inverse.observations.Observations`) fits: a point observes only the strains its file
+    gives (a face's in-plane components), and only those need the window to span their gradient."""
+    if window is None or window.size is None:
+        return None
+    if obs is None:
+        return StrainWindow(window.size, window.shape)
+    relative = () if obs.minus_row is None else obs.minus_row[obs.minus_row >= 0]
+    return StrainWindow(window.size, window.shape, tuple(np.concatenate([obs.row, relative]).astype(int).tolist()))
 
 
 @dataclass(frozen=True)

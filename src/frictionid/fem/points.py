@@ -31,10 +31,13 @@ SHAPES = {"square": np.inf, "circle": 2.0}
 class StrainWindow:
     """A DIC strain window in the model's frame: ``size`` [mm] the side of the square (cube) or the diameter of
     the circle (ball) centred on each point (see :func:`window_gradients`). A plain number as ``window`` is a
-    square of that side."""
+    square of that side. ``observed``: the rows (``point * n_quantities + quantity`` of :func:`point_operator`)
+    whose values are fitted; a strain the window cannot give is an error only there (a face's points observe its
+    in-plane strains). None: every row."""
 
     size: float
     shape: str = "square"
+    observed: tuple[int, ...] | None = None
 
     def __post_init__(self):
         size = self.size
@@ -43,6 +46,21 @@ class StrainWindow:
         if self.shape not in SHAPES:
             raise InputError(f"data.strain_window_shape: {self.shape!r} is not one of {', '.join(SHAPES)}")
         object.__setattr__(self, "size", float(size))
+        if self.observed is not None:
+            object.__setattr__(self, "observed", tuple(sorted({int(r) for r in self.observed})))
+
+    def with_observed(self, rows) -> "StrainWindow":
+        """This window for the observed ``rows`` only (see ``observed``)."""
+        return StrainWindow(self.size, self.shape, tuple(rows))
+
+    def needed(self, n_points: int, n_quantities: int) -> np.ndarray:
+        """(n_points, n_quantities) bool: the rows whose values are fitted."""
+        if self.observed is None:
+            return np.ones((n_points, n_quantities), dtype=bool)
+        mask = np.zeros(n_points * n_quantities, dtype=bool)
+        rows = np.asarray(self.observed, dtype=np.int64)
+        mask[rows[rows < mask.size]] = True
+        return mask.reshape(n_points, n_quantities)
 
     def describe(self) -> str:
         return f"{self.size:g} mm" + ("" if self.shape == "square" else " (a circle's diameter)")
@@ -83,8 +101,9 @@ def point_operator(space: Space, points, quantities: Sequence[str],
         DIC strain window (virtual strain gauge): each strain component at point i is the one of the
         least-squares plane fit of the model's displacements at the points themselves within the window,
         filtered as DIC filters the measured strains (see :func:`window_gradients`); displacements stay
-        pointwise. A number is a square of that side; :class:`StrainWindow` also gives a circle. None: strains
-        at the points.
+        pointwise. A number is a square of that side; :class:`StrainWindow` also gives a circle and the rows
+        observed: a strain row that is not observed and whose gradient the window does not span is taken at
+        the point (pointwise), not refused. None: strains at the points.
 
     Returns
     -------
@@ -122,13 +141,15 @@ def point_operator(space: Space, points, quantities: Sequence[str],
     rows = [moved[k::space.dim] for k in range(space.dim)]                     # (n, n_dofs) per component
     groups = None if regions is None else [str(r) for r in regions]
     gradient, spanned = window_gradients(points, window.size, groups, window.shape)
+    needed = window.needed(len(points), len(quantities))
     parts = []
     for q, name in enumerate(quantities):
         if name not in strains:
             parts.append(pointwise[q::len(quantities)])
             continue
         a, b = _AXIS[name[1]], _AXIS[name[2]]
-        missing = np.flatnonzero(~(spanned[:, a] & spanned[:, b]))
+        given = spanned[:, a] & spanned[:, b]
+        missing = np.flatnonzero(~given & needed[:, q])
         if missing.size:
             i = missing[0]
             raise InputError(f"data.strain_window = {window.describe()}: {name} at point {i} "
@@ -136,7 +157,11 @@ def point_operator(space: Space, points, quantities: Sequence[str],
                              f"{'xyz'[a]}{'' if a == b else ' and ' + 'xyz'[b]}, which the "
                              f"{len(gradient[0][i].indices)} point(s) within its window do not span "
                              f"({missing.size} point(s) like it); a wider window or other strain components")
-        parts.append(0.5 * (gradient[b] @ rows[a] + gradient[a] @ rows[b]))
+        windowed = 0.5 * (gradient[b] @ rows[a] + gradient[a] @ rows[b])
+        if not given.all():                       # rows not observed: at the point where the window cannot give them
+            windowed = sp.diags(given.astype(float)) @ windowed \
+                + sp.diags((~given).astype(float)) @ pointwise[q::len(quantities)]
+        parts.append(windowed)
     stacked = sp.vstack(parts, format="csr")                                    # quantity-major
     n = len(points)
     order = (np.arange(len(quantities))[None, :] * n + np.arange(n)[:, None]).ravel()

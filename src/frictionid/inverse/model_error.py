@@ -56,6 +56,7 @@ import numpy as np
 from ..backends.embedded import EmbeddedBackend
 from ..builders.registry import build_model, refined
 from ..errors import InputError
+from ..fem import memory
 from ..fem.locate import PointsOutside
 from ..model import Model
 from .observations import FORCE, Observations, _kind
@@ -176,6 +177,13 @@ def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:
     return np.hypot(observations.sigma, error.scale * error.estimate)
 
 
+def _sizes(options: dict) -> str:
+    """The size options of a [model] table, for progress lines."""
+    keys = [k for k in options if "size" in k or "divisions" in k or k == "refine"]
+    return ", ".join(f"{k} {options[k]:g}" if isinstance(options[k], (int, float)) else f"{k} {options[k]}"
+                     for k in keys) or "the builder's defaults halved"
+
+
 def _same_problem(coarse: Model, fine: Model, options: dict) -> None:
     """Refuse a refined model whose zones or stages differ from the coarse one's (they would not compare)."""
     stages = [(s.name, s.n_increments) for s in coarse.stages], [(s.name, s.n_increments) for s in fine.stages]
@@ -220,7 +228,8 @@ def _checked_orders(orders: dict, kinds: np.ndarray) -> dict:
 
 
 def estimate_model_error(model_options: dict, observations: Observations, mu_points, coarse_values=None,
-                         factor: int = 2, model: Model | None = None, orders: dict | None = None) -> ModelError:
+                         factor: int = 2, model: Model | None = None, orders: dict | None = None,
+                         max_memory: float | None = None, progress=None) -> ModelError:
     """Richardson estimate of the model's discretisation error at each observation (module docstring).
 
     Parameters
@@ -236,6 +245,10 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
     model : the model ``model_options`` build, if already built (to check zones and stages without rebuilding)
     orders : convergence order p per quantity kind ("u", "e", "force"); default :func:`convergence_orders` of
         the model's element order
+    max_memory : [GB] what the refined model's condensation may take ([solver] max_memory; default a fraction of
+        the machine's, :mod:`frictionid.fem.memory`): checked before its mesh is built (from the model's size)
+        and before it is condensed (from its own)
+    progress : called with one line of text per phase (refined model's size, memory estimate, time taken)
 
     Returns
     -------
@@ -245,7 +258,8 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
     Raises
     ------
     InputError
-        When the model cannot be refined (builder without size options), or refines into other zones or stages.
+        When the model cannot be refined (builder without size options), refines into other zones or stages, or
+        its condensation would take more memory than ``max_memory``.
     """
     fine_options = refined(model_options, factor)
     coarse_model = model if model is not None else build_model(model_options)
@@ -254,13 +268,19 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
     kinds = observation_kinds(observations)
     orders = _checked_orders({**convergence_orders(ELEMENT_ORDER[coarse_model.mesh.cell_type]), **(orders or {})},
                              kinds)
+    progress = progress or (lambda text: None)
+    what = f"model error: the model refined by {factor} ({_sizes(fine_options)})"
+    memory.check_growth(coarse_model, factor, what, max_memory)
     start = time.perf_counter()
+    progress(f"{what}: building its mesh")
     fine_model = build_model(fine_options, "[model] (refined)")
     _same_problem(coarse_model, fine_model, fine_options)
+    progress(memory.check(fine_model, what, max_memory).line() + "; condensing")
     fine = _predictions(fine_model, observations, mu_points, keep=False)
     seconds = time.perf_counter() - start
     log.info("model error: refined model %s built, condensed and solved %d times in %.1f s", fine_options,
              len(mu_points), seconds)
+    progress(f"{what}: built, condensed and solved {len(mu_points)} time(s) in {seconds:.1f} s")
     if coarse is None:
         coarse = _predictions(coarse_model, observations, mu_points, keep=True)
     p = np.array([orders[k] for k in kinds], dtype=float)

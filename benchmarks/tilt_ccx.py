@@ -1,0 +1,144 @@
+"""The block's tilt at the truth in CalculiX on its own graded, non-matching meshes (issue 31): mesh, penalty, slide.
+
+Reference test 1 (block on a plate, A 0.35, B 0.20, C 0.45, D 0.15, 20 MPa, pull 0.2 mm) written as a ccx deck by
+tests/fixtures/independent_block/generate.py's deck writer (no frictionid mesh or deck), on tensor-product meshes
+made here: every half side of the footprint divided by ``1 - cos`` spacing (elements smallest at the footprint's
+edges and at the zone borders x, y = 0), the block with ``n`` and the plate under it with ``n + 1`` divisions
+per half side (so the interface does not match, except on the lines x, y = 0, +-5); the plate outside the
+footprint growing by 1.5 per element; both bodies' layers smallest at the interface.
+
+Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
+end of the pull
+
+- tilt: uz(x = 0, y = -5, z = 5) - uz(x = 0, y = +5, z = 5) [um] (linear in z between the two nearest layers);
+- N_A, N_B: normal contact force of the rear zones [N] (``*CONTACT PRINT`` CF);
+- uy at (x = +-5, y = 0, z = 1) [um], and the machine force [N].
+
+``--scale 0.01`` runs ccx at 1 % of the pressure and the pull and multiplies its results by 100: ccx's
+small-sliding limit (docs/calculix.md). Run (one thread, niced):
+
+    OMP_NUM_THREADS=1 nice .venv/bin/python benchmarks/tilt_ccx.py --level 1 --scale 0.01 --work /tmp/tilt/l1s
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from frictionid.backends.calculix.parse import read_dat, read_frd
+
+FIXTURE = Path(__file__).parents[1] / "tests" / "fixtures" / "independent_block" / "generate.py"
+_spec = importlib.util.spec_from_file_location("independent_generate", FIXTURE)
+gen = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(gen)
+
+#: mesh levels: divisions per half side (block; the plate gets one more), block layers, plate layers, the
+#: first block / plate layer [mm]
+LEVELS = {1: (4, 8, 5, 0.4, 0.3), 2: (5, 10, 6, 0.3, 0.25), 3: (6, 12, 7, 0.25, 0.2)}
+GROWTH = 1.5
+
+
+def half_side(n: int) -> np.ndarray:
+    """Node positions on [0, 5] with ``1 - cos`` spacing: smallest elements at 0 and at 5."""
+    return 2.5 * (1.0 - np.cos(np.pi * np.arange(n + 1) / n))
+
+
+def footprint_lines(n: int) -> np.ndarray:
+    s = half_side(n)
+    return np.unique(np.round(np.concatenate([-s[::-1], s]), 12))
+
+
+def plate_lines(n: int) -> np.ndarray:
+    inner = footprint_lines(n)
+    edge = inner[-1] - inner[-2]
+    grow = gen.geometric(edge * GROWTH, GROWTH, 20.0 - 5.0)
+    right = 5.0 + np.cumsum(grow)
+    return np.unique(np.round(np.concatenate([-right[::-1], inner, right]), 12))
+
+
+def meshes(level: int):
+    n, nbz, npz, hb, hp = LEVELS[level]
+    block_z = np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hb, nbz, 10.0))])
+    plate_z = -np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hp, npz, 5.0))])[::-1]
+    plate = gen.Grid(plate_lines(n + 1), plate_lines(n + 1), plate_z, first_node=1, first_element=1)
+    block = gen.Grid(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
+                     first_element=len(plate.cells) + 1)
+    h = float(np.median(np.diff(footprint_lines(n + 1))))
+    return plate, block, h
+
+
+def at_height(block, disp: dict, x: float, y: float, z: float) -> np.ndarray:
+    """Displacement (3,) at a block node line (x, y), linear in z between the two nearest layers."""
+    zs = block.zs
+    k = int(np.clip(np.searchsorted(zs, z) - 1, 0, len(zs) - 2))
+    t = (z - zs[k]) / (zs[k + 1] - zs[k])
+    i, j = int(np.argmin(np.abs(block.xs - x))), int(np.argmin(np.abs(block.ys - y)))
+    return (1 - t) * disp[int(block.ids[i, j, k])] + t * disp[int(block.ids[i, j, k + 1])]
+
+
+def run(level: int, scale: float, penalty: float | None, stick: float | None, element: str, work: Path,
+        n_pull: int = 10) -> dict:
+    plate, block, h = meshes(level)
+    penalty = penalty or gen.PENALTY_FACTOR * gen.E_PLATE / h
+    stick = stick or gen.STICK_FACTOR * gen.E_PLATE / h
+    gen.PRESSURE, gen.PULL = 20.0 * scale, 0.2 * scale
+    work.mkdir(parents=True, exist_ok=True)
+    (work / f"{gen.JOB}.inp").write_text(gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull,
+                                                         element=element))
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
+    start = time.perf_counter()
+    with open(work / "ccx.log", "w") as log:
+        subprocess.run(["ccx", "-i", gen.JOB], cwd=work, env=env, stdout=log, stderr=subprocess.STDOUT, check=True)
+    seconds = time.perf_counter() - start
+    frd, dat = read_frd(work / f"{gen.JOB}.frd"), read_dat(work / f"{gen.JOB}.dat")
+    last = frd.last_of_step("DISP", 2)
+    if abs(last.time - 2) > 1e-6:
+        sys.exit(f"ccx stopped at time {last.time}: {work / 'ccx.log'}")
+    disp = {int(n): v[:3] / scale for n, v in zip(last.nodes, last.values)}
+    contact = {z: next(v for (s, _), v in dat.contact.items() if s.upper() == f"S{z}") for z in gen.MU}
+    normal = {z: abs(contact[z][max(contact[z])]["force"][2]) / scale for z in gen.MU}
+    totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
+    um = lambda v: 1e3 * float(v)
+    return {"level": level, "scale": scale, "n_pull": n_pull, "penalty": penalty, "stick": stick, "element": element,
+            "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
+            "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
+            "N": {z: round(normal[z], 2) for z in gen.MU},
+            "uy_x-5_z1_um": um(at_height(block, disp, -5, 0, 1)[1]),
+            "uy_x+5_z1_um": um(at_height(block, disp, 5, 0, 1)[1]),
+            "force": totals[max(totals)][1] / scale}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--level", type=int, choices=sorted(LEVELS), default=1)
+    parser.add_argument("--scale", type=float, default=1.0, help="load scale (0.01: small-sliding limit)")
+    parser.add_argument("--penalty", type=float, help="normal penalty [N/mm^3] (default 500 E_plate / h)")
+    parser.add_argument("--stick", type=float, help="stick slope [N/mm^3] (default 50 E_plate / h)")
+    parser.add_argument("--element", default="C3D8I")
+    parser.add_argument("--pull-increments", type=int, default=10, help="least number of pull increments")
+    parser.add_argument("--work", type=Path, required=True)
+    parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
+    parser.add_argument("--count", action="store_true", help="print the node count only")
+    args = parser.parse_args(argv)
+    if args.count:
+        plate, block, h = meshes(args.level)
+        print(f"level {args.level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
+        return 0
+    result = run(args.level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments)
+    print(json.dumps(result), flush=True)
+    if args.out:
+        with open(args.out, "a") as out:
+            out.write(json.dumps(result) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

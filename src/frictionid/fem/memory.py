@@ -1,0 +1,135 @@
+"""How much memory a condensation will take, and the refusal before it would take more than it may.
+
+A condensation (:meth:`frictionid.fem.problem.Problem.build`: assembly of the stiffness, its sparse factor, the
+dense blocks of the contact and observation dofs) grows faster than the dofs: about n^1.3 over the sizes
+measured in 3-D, the factor's fill alone about n^1.5 (docs/solver.md). The law is anchored on the peak resident
+memory of processes that built and condensed the 3-D block (hex8 with incompatible modes, CHOLMOD, METIS)
+with observation points: 23,595 / 56,187 / 113,616 dofs: 0.49 / 1.36 / 3.6 GB (``benchmarks/tilt_product.py``
+at mesh 1.0 and 0.7; ``frictionid identify`` with ``refine_target = 1`` on tests/fixtures/independent_block,
+whose estimate condensed mesh 0.5; measured 2026-11-26 with /usr/bin/time), times :data:`SAFETY`; in 2-D on the
+plane-strain block's condensation (52,374 dofs: 0.37 GB, docs/solver.md) doubled for its assembly. SuperLU (the
+fallback) took about three times CHOLMOD's.
+
+``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+from dataclasses import dataclass
+
+from ..errors import InputError
+
+GB = 1024.0 ** 3
+#: the default of ``[solver] max_memory``: this fraction of the machine's physical memory
+DEFAULT_FRACTION = 0.5
+#: (dofs, peak above the process before [bytes], exponent) anchoring the law per dimension (module docstring)
+LAWS = {3: (113_616, 3.6 * GB, 1.3), 2: (52_374, 0.74 * GB, 1.2)}
+#: margin on the measured laws (their scatter against the measurements: -13 % to +3 %)
+SAFETY = 1.25
+#: SuperLU against CHOLMOD (docs/solver.md: 4.0 against 1.9 GB at 114k dofs with the process's own)
+SUPERLU_FACTOR = 3.0
+
+
+def machine_memory() -> float:
+    """Physical memory of the machine [bytes]."""
+    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def resident() -> float:
+    """This process's peak resident memory so far [bytes] (Linux ru_maxrss is in kB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0
+
+
+def limit(max_memory: float | None, where: str = "[solver]") -> float:
+    """The memory a run may take [bytes]: ``max_memory`` [GB], or the default fraction of the machine's.
+
+    Raises
+    ------
+    InputError
+        For a ``max_memory`` that is not a positive number (``where`` names its table).
+    """
+    if max_memory is None:
+        return DEFAULT_FRACTION * machine_memory()
+    if isinstance(max_memory, bool) or not isinstance(max_memory, (int, float)) or not max_memory > 0:
+        raise InputError(f"{where} max_memory must be a memory size [GB] > 0, got {max_memory!r}")
+    return float(max_memory) * GB
+
+
+def condensation_bytes(n_dofs: int, dim: int, factorisation: str = "cholmod") -> float:
+    """Estimated peak of condensing a model of ``n_dofs`` dofs in ``dim`` dimensions, above what the process
+    holds before [bytes] (module docstring).
+
+    >>> round(condensation_bytes(113_616, 3) / GB, 2)
+    4.5
+    """
+    dofs, peak, exponent = LAWS[3 if dim >= 3 else 2]
+    grown = SAFETY * peak * (n_dofs / dofs) ** exponent
+    return grown * (SUPERLU_FACTOR if factorisation == "superlu" else 1.0)
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """A condensation's estimated cost: the model's size and the memory it would reach against the limit."""
+
+    what: str
+    n_nodes: int
+    n_dofs: int
+    needed: float          # [bytes] the process's peak after it: what it holds plus the condensation's peak
+    allowed: float         # [bytes]
+
+    @property
+    def fits(self) -> bool:
+        return self.needed <= self.allowed
+
+    def line(self) -> str:
+        return (f"{self.what}: {self.n_nodes:,} nodes, {self.n_dofs:,} dofs, estimated memory "
+                f"{self.needed / GB:.1f} GB of {self.allowed / GB:.1f} GB allowed")
+
+
+def estimate(model, what: str, max_memory: float | None = None, factorisation: str = "auto",
+             n_nodes: int | None = None) -> MemoryEstimate:
+    """The memory a condensation of ``model`` (with ``n_nodes`` nodes if given: a model not built yet) would
+    reach in this process, against ``[solver] max_memory``."""
+    from .cholesky import available
+
+    n_nodes = model.mesh.n_nodes if n_nodes is None else int(n_nodes)
+    dim = 3 if model.kind == "3d" else 2                               # the mesh's dimension: the fill's law
+    n_dofs = n_nodes * (3 if model.kind in ("3d", "axisymmetric_twist") else 2)
+    method = "superlu" if factorisation == "superlu" or not available() else "cholmod"
+    return MemoryEstimate(what, n_nodes, n_dofs, resident() + condensation_bytes(n_dofs, dim, method),
+                          limit(max_memory))
+
+
+def check(model, what: str, max_memory: float | None = None, factorisation: str = "auto",
+          n_nodes: int | None = None) -> MemoryEstimate:
+    """:func:`estimate`, refused with a message naming the cost when it exceeds the limit (nothing allocated yet).
+
+    Raises
+    ------
+    InputError
+        When the estimate exceeds ``[solver] max_memory`` (or its default).
+    """
+    cost = estimate(model, what, max_memory, factorisation, n_nodes)
+    if not cost.fits:
+        origin = "[solver] max_memory" if max_memory is not None else \
+            f"the default [solver] max_memory ({DEFAULT_FRACTION:g} of this machine's {machine_memory() / GB:.1f} GB)"
+        raise InputError(f"{cost.line()}: more than {origin} allows; refused before condensing it. Use a coarser "
+                         "mesh, a lower identify.refine_budget or a higher identify.refine_target, or raise "
+                         "[solver] max_memory [GB] if the machine has the memory")
+    return cost
+
+
+def check_growth(model, factor: int, what: str, max_memory: float | None = None) -> None:
+    """Refuse, before its mesh is built, a refinement of ``model`` by ``factor`` whose condensation would exceed
+    the limit even if its nodes grew only by ``factor^(dim - 1)`` (the least a refinement of the block's and the
+    bolt's graded meshes grows by: their far field keeps its size; a uniform mesh grows by ``factor^dim``).
+
+    Raises
+    ------
+    InputError
+        As :func:`check`, naming the least size and memory the refined model would have.
+    """
+    dim = 3 if model.kind == "3d" else 2
+    check(model, what + " (at least)", max_memory, n_nodes=model.mesh.n_nodes * factor ** (dim - 1))
