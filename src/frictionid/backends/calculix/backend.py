@@ -69,13 +69,13 @@ class CalculixSettings:
 
     @classmethod
     def from_options(cls, options: dict, where: str = "[solver]") -> "CalculixSettings":
-        """Settings from a dict of [solver] keys (``backend`` and the embedded backend's ``factorisation`` and
-        ``increments`` and ``sliding`` ignored: CalculiX's contact follows the deformation), each checked with a
-        clear message."""
+        """Settings from a dict of [solver] keys (``backend`` and the embedded backend's ``factorisation``,
+        ``increments``, ``sliding`` and ``max_memory`` ignored: CalculiX's contact follows the deformation), each
+        checked with a clear message."""
         known = {f.name for f in fields(cls)}
         values = {}
         for key, value in options.items():
-            if key in ("backend", "factorisation", "increments", "sliding"):
+            if key in ("backend", "factorisation", "increments", "sliding", "max_memory"):
                 continue
             if key not in known:
                 raise InputError(f"{where} {key}: not an option of the calculix backend; options are {sorted(known)}")
