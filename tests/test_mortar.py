@@ -247,3 +247,54 @@ def test_three_dimensional_model_is_refused():
         mortar_pairs(Space.build(mesh, "3d"), model, 0)
     with pytest.raises(InputError, match="interface_index 3"):
         mortar_pairs(Space.build(mesh, "3d"), model, 3)
+
+
+def _deformed(mesh, amplitude):
+    """The mesh moved by a smooth non-affine field (a bent, sheared interface) of the given amplitude [mm]."""
+    x, y = mesh.points[:, 0], mesh.points[:, 1]
+    shift = amplitude * np.column_stack([np.sin(3 * y + 1) + 0.5 * x, np.cos(2 * x) * (1 + y)])
+    return Mesh(points=mesh.points + shift, cell_type=mesh.cell_type, cells=mesh.cells,
+                regions=dict(mesh.regions), boundaries=dict(mesh.boundaries))
+
+
+def _slid_sideways(mesh, offset):
+    """The upper block moved by offset along x: its contact side overhangs the target's end."""
+    points = mesh.points.copy()
+    upper = np.unique(mesh.cells[mesh.regions["upper"]])
+    points[upper, 0] += offset
+    return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
+                boundaries=dict(mesh.boundaries))
+
+
+@pytest.mark.parametrize("change", ["none", "bent", "overhang", "arcs"])
+@pytest.mark.parametrize("kind", ["plane_strain", "axisymmetric"])
+@pytest.mark.parametrize("order", [1, 2])
+def test_vectorised_coupling_equals_the_segment_by_segment_integration(order, kind, change):
+    """All candidate pairs integrated at once give the per-segment loop's matrices to round-off: non-matching,
+    bent (curved, non-parallel facets), overhanging (partly covered nodes, facets projecting outside) and
+    concentric arcs with an interference."""
+    from mortar2d_segments import integrate, padded_rows
+    from frictionid.fem import mortar
+
+    if change == "arcs":
+        mesh, n_zones = two_arcs(order, 10.0, -0.02, n_slave=13, n_master=17), 1
+    else:
+        mesh, n_zones = two_blocks(order, x0=0.5, **NON_MATCHING)
+        mesh = {"none": mesh, "bent": _deformed(mesh, 0.02), "overhang": _slid_sideways(mesh, 0.37)}[change]
+    model = _model(mesh, kind, n_zones)
+    space = Space.build(mesh, kind)
+    slave, master, columns = mortar._surfaces(model, 0)
+    search = float(max(slave.chord_length().max(), master.chord_length().max()))
+    got, expected = (f(space, slave, master, search, len(columns)) for f in (mortar._integrate, integrate))
+    assert expected[0].nnz > 0
+    scale = np.abs(expected[0]).max()
+    np.testing.assert_allclose(got[0].toarray(), expected[0].toarray(), rtol=0, atol=1e-13 * scale)
+    # gap integrals [mm^2]: round-off on the scale of a facet's length times the search distance
+    np.testing.assert_allclose(got[1], expected[1], rtol=0, atol=1e-13 * search * expected[2].max())
+    np.testing.assert_array_equal(got[2], expected[2])
+    np.testing.assert_allclose(got[3], expected[3], rtol=0, atol=1e-9)        # degrees; NaN where no coupling
+    nodes = np.unique(slave.facets)
+    covered = np.asarray(expected[0].sum(axis=1)).ravel()[nodes]
+    nodes, covered = nodes[covered > 0], covered[covered > 0]
+    for a, b in zip(mortar._padded_rows(expected[0], nodes, covered), padded_rows(expected[0], nodes, covered)):
+        np.testing.assert_array_equal(a, b)

@@ -73,15 +73,14 @@ def _oriented(mesh, facets: np.ndarray) -> np.ndarray:
     n_corners = 3 if mesh.cell_type.startswith("triangle") else 4
     corners = mesh.cells[:, :n_corners]
     near = np.flatnonzero(np.isin(corners, facets[:, :2]).sum(axis=1) >= 2)
-    cell_of_edge = {}
-    for cell in near:
-        cycle = corners[cell]
-        for a, b in zip(cycle, np.roll(cycle, -1)):
-            cell_of_edge[(min(a, b), max(a, b))] = cell
-    try:
-        cells = np.array([cell_of_edge[(min(a, b), max(a, b))] for a, b in facets[:, :2].tolist()], dtype=int)
-    except KeyError:
-        raise InputError("mortar: a contact or target facet is not an edge of any cell") from None
+    ends = np.stack([corners[near], np.roll(corners[near], -1, axis=1)], -1).reshape(-1, 2)
+    keys = np.sort(ends, axis=1) @ np.array([mesh.n_nodes, 1])
+    order = np.argsort(keys, kind="stable")
+    wanted = np.sort(facets[:, :2], axis=1) @ np.array([mesh.n_nodes, 1])
+    found = np.searchsorted(keys[order], wanted, side="right") - 1       # the last cell of an edge, as before
+    if np.any(found < 0) or np.any(keys[order][np.maximum(found, 0)] != wanted):
+        raise InputError("mortar: a contact or target facet is not an edge of any cell")
+    cells = near[order[found] // n_corners]
     centroid = mesh.points[corners[cells]].mean(axis=1)
     x0, x1 = mesh.points[facets[:, 0]], mesh.points[facets[:, 1]]
     chord = x1 - x0
@@ -152,104 +151,123 @@ def dual_coefficients(space: Space, coords: np.ndarray):
 
 
 def _newton(residual, start):
-    """Root of ``residual(x) -> (f, df)`` (vectorised) from start; NaN where it does not converge."""
+    """Roots of ``residual(x) -> (f, df)`` (elementwise, vectorised) from start; NaN where one does not converge.
+
+    Each entry stops at the first step below :data:`_NEWTON_TOL` (later steps would change it by round-off).
+    """
     x = np.array(start, dtype=float)
+    active = np.ones(x.shape, dtype=bool)
     with np.errstate(divide="ignore", invalid="ignore"):
         for _ in range(_NEWTON_STEPS):
             f, df = residual(x)
             step = f / df
-            x = x - step
-            if np.all(np.abs(step) < _NEWTON_TOL):
+            x = np.where(active, x - step, x)
+            active &= ~(np.abs(step) < _NEWTON_TOL)
+            if not active.any():
                 return x
-    return np.where(np.abs(step) < _NEWTON_TOL, x, np.nan)
+    return np.where(active, np.nan, x)
 
 
 def _chord_parameter(coords: np.ndarray, points: np.ndarray) -> np.ndarray:
-    chord = coords[1] - coords[0]
-    return 2 * (points - coords[0]) @ chord / (chord @ chord) - 1
+    """Parameters (n, ...) of points (n, ..., 2) projected onto the chords of facets (n, k, 2)."""
+    chord = coords[:, 1] - coords[:, 0]
+    shape = (len(coords),) + (1,) * (points.ndim - 2) + (2,)
+    along = np.sum((points - coords[:, 0].reshape(shape)) * chord.reshape(shape), axis=-1)
+    return 2 * along / np.sum(chord * chord, axis=-1).reshape(shape[:-1]) - 1
 
 
-def project_onto_slave(coords: np.ndarray, normals: np.ndarray, point: np.ndarray) -> float:
-    """Slave parameter xi whose interpolated normal line passes through point (may lie outside [-1, 1])."""
-    k = len(coords)
+def project_onto_slave(coords: np.ndarray, normals: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Slave parameters xi (n,) whose interpolated normal lines pass through points (n, 2), one per facet
+    (coords, normals (n, k, 2)); they may lie outside [-1, 1]."""
+    k = coords.shape[1]
 
     def residual(xi):
         N, dN = shape_functions(xi, k)
-        gap = point - N @ coords
-        return _cross(gap, N @ normals), _cross(-(dN @ coords), N @ normals) + _cross(gap, dN @ normals)
-
-    return float(_newton(residual, _chord_parameter(coords, point)))
-
-
-def project_onto_master(coords: np.ndarray, points: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Master parameters eta (q,) where the lines through points (q, 2) along directions (q, 2) cut the facet."""
-    k = len(coords)
-
-    def residual(eta):
-        N, dN = shape_functions(eta, k)
-        return _cross(N @ coords - points, directions), _cross(dN @ coords, directions)
+        gap = points - np.einsum("nk,nkd->nd", N, coords)
+        normal, tangent = np.einsum("nk,nkd->nd", N, normals), np.einsum("nk,nkd->nd", dN, coords)
+        return _cross(gap, normal), _cross(-tangent, normal) + _cross(gap, np.einsum("nk,nkd->nd", dN, normals))
 
     return _newton(residual, _chord_parameter(coords, points))
 
 
-def _segment(space, slave, s, dual, master, m, search_distance):
-    """Mortar block (k_s, k_m) and gap integrals (k_s,) of slave facet s on master facet m, or None."""
-    ends = [project_onto_slave(slave.coords[s], slave.normals[s], master.coords[m, c]) for c in (0, 1)]
-    if np.isnan(ends).any():
-        logger.debug("mortar: no projection of master facet %d onto slave facet %d", m, s)
-        return None
-    a, b = np.clip(min(ends), -1, 1), np.clip(max(ends), -1, 1)
-    if b - a < _SLIVER:
-        return None
-    xi, w = _gauss(a, b)
-    N, _ = shape_functions(xi, slave.n_facet_nodes)
-    x, measure = _measure(space, slave.coords[s:s + 1], xi)
-    normal = _unit(N @ slave.normals[s])
-    eta = project_onto_master(master.coords[m], x[0], normal)
-    if np.isnan(eta).any():
-        logger.debug("mortar: slave facet %d does not project onto master facet %d", s, m)
-        return None
-    N_master, _ = shape_functions(eta, master.n_facet_nodes)
-    gap = np.einsum("qd,qd->q", N_master @ master.coords[m] - x[0], normal)
-    if np.max(np.abs(gap)) > search_distance:
-        return None
-    psi = (N @ dual[s].T) * (w * measure[0])[:, None]
-    return psi.T @ N_master, psi.T @ gap
+def project_onto_master(coords: np.ndarray, points: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Master parameters eta (n, q) where the lines through points (n, q, 2) along directions (n, q, 2) cut
+    facet n (coords (n, k, 2))."""
+    k = coords.shape[1]
+
+    def residual(eta):
+        N, dN = shape_functions(eta, k)
+        x, tangent = np.einsum("nqk,nkd->nqd", N, coords), np.einsum("nqk,nkd->nqd", dN, coords)
+        return _cross(x - points, directions), _cross(tangent, directions)
+
+    return _newton(residual, _chord_parameter(coords, points))
+
+
+def _segments(space, slave, dual, master, s, m, search_distance):
+    """Mortar blocks (n, k_s, k_m) and gap integrals (n, k_s) of the candidate pairs (slave facet s[i], master
+    facet m[i]) that couple, and a mask (len(s),) of those pairs."""
+    ends = np.column_stack([project_onto_slave(slave.coords[s], slave.normals[s], master.coords[m, c])
+                            for c in (0, 1)])
+    projected = ~np.isnan(ends).any(axis=1)
+    if not projected.all():
+        logger.debug("mortar: %d master facets do not project onto their slave facets", int((~projected).sum()))
+    with np.errstate(invalid="ignore"):
+        a, b = np.clip(ends.min(axis=1), -1, 1), np.clip(ends.max(axis=1), -1, 1)
+    kept = np.flatnonzero(projected & (b - a >= _SLIVER))
+    s, m, a, b = s[kept], m[kept], a[kept], b[kept]
+    points, weights = _LEGENDRE
+    xi = (a + b)[:, None] / 2 + (b - a)[:, None] / 2 * points
+    w = (b - a)[:, None] / 2 * weights
+    N, dN = shape_functions(xi, slave.n_facet_nodes)
+    x = np.einsum("nqk,nkd->nqd", N, slave.coords[s])
+    measure = np.linalg.norm(np.einsum("nqk,nkd->nqd", dN, slave.coords[s]), axis=-1) * space.ring(
+        np.moveaxis(x, -1, 0))
+    normal = _unit(np.einsum("nqk,nkd->nqd", N, slave.normals[s]))
+    eta = project_onto_master(master.coords[m], x, normal)
+    found = ~np.isnan(eta).any(axis=1)
+    if not found.all():
+        logger.debug("mortar: %d slave facets do not project onto a master facet", int((~found).sum()))
+    N_master, _ = shape_functions(np.nan_to_num(eta), master.n_facet_nodes)
+    gap = np.einsum("nqd,nqd->nq", np.einsum("nqk,nkd->nqd", N_master, master.coords[m]) - x, normal)
+    with np.errstate(invalid="ignore"):
+        near = found & (np.max(np.abs(gap), axis=1) <= search_distance)
+    psi = np.einsum("nqk,nik->nqi", N, dual[s]) * (w * measure)[..., None]
+    coupled = np.zeros(len(ends), dtype=bool)
+    coupled[kept[near]] = True
+    return np.einsum("nqi,nqj->nij", psi[near], N_master[near]), np.einsum("nqi,nq->ni", psi[near], gap[near]), \
+        coupled
 
 
 def _candidates(slave, master, search_distance):
-    """For each slave facet, master facets that face it (chord normals opposed within
-    :data:`~frictionid.fem.contact_map.FACING_DEG`) and whose bounding boxes are within search_distance."""
+    """Candidate pairs (slave facets, master facets), slave-major: master facets that face the slave facet
+    (chord normals opposed within :data:`~frictionid.fem.contact_map.FACING_DEG`) and whose bounding boxes are
+    within search_distance."""
     low_s, high_s = slave.coords.min(axis=1), slave.coords.max(axis=1)
     low_m, high_m = master.coords.min(axis=1), master.coords.max(axis=1)
     near = np.all((low_m[None] <= high_s[:, None] + search_distance)
                   & (high_m[None] >= low_s[:, None] - search_distance), axis=2)
     facing = slave.chord_normal() @ master.chord_normal().T <= -np.cos(np.radians(FACING_DEG))
-    return [np.flatnonzero(row) for row in near & facing]
+    return np.nonzero(near & facing)
 
 
 def _integrate(space, slave, master, search_distance, n_zones):
     """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,), D split by zone (n_nodes, n_zones) and the
     largest angle [deg] between the chords of a slave node's facets and the reversed chords of the master facets
-    they couple to (n_nodes,; NaN where none)."""
+    they couple to (n_nodes,; NaN where none). All candidate pairs at once."""
     n_nodes = space.mesh.n_nodes
     dual, integral = dual_coefficients(space, slave.coords)
-    rows, cols, values = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
-    gap, facing = np.zeros(n_nodes), np.full(n_nodes, np.nan)
-    slave_normal, master_normal = slave.chord_normal(), master.chord_normal()
-    for s, candidates in enumerate(_candidates(slave, master, search_distance)):
-        for m in candidates:
-            block = _segment(space, slave, s, dual, master, m, search_distance)
-            if block is None:
-                continue
-            angle = np.degrees(np.arccos(np.clip(-slave_normal[s] @ master_normal[m], -1.0, 1.0)))
-            facing[slave.facets[s]] = np.fmax(facing[slave.facets[s]], angle)
-            rows.append(np.repeat(slave.facets[s], master.n_facet_nodes))
-            cols.append(np.tile(master.facets[m], slave.n_facet_nodes))
-            values.append(block[0].ravel())
-            np.add.at(gap, slave.facets[s], block[1])
-    mortar = sp.csr_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
-                           shape=(n_nodes, n_nodes))
+    s, m = _candidates(slave, master, search_distance)
+    blocks, gap_integrals, coupled = _segments(space, slave, dual, master, s, m, search_distance)
+    s, m = s[coupled], m[coupled]
+    k_s, k_m = slave.n_facet_nodes, master.n_facet_nodes
+    mortar = sp.csr_matrix((blocks.ravel(), (np.repeat(slave.facets[s], k_m, axis=1).ravel(),
+                                             np.tile(master.facets[m], (1, k_s)).ravel())), shape=(n_nodes, n_nodes))
+    gap = np.zeros(n_nodes)
+    np.add.at(gap, slave.facets[s], gap_integrals)
+    cosine = np.einsum("nd,nd->n", -slave.chord_normal()[s], master.chord_normal()[m])
+    facing = np.full(n_nodes, np.nan)
+    np.fmax.at(facing, slave.facets[s], np.repeat(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))[:, None],
+                                                  k_s, axis=1))
     by_zone = np.zeros((n_nodes, n_zones))
     np.add.at(by_zone, (slave.facets, slave.zone[:, None]), integral)
     return mortar, gap, by_zone, facing
@@ -274,13 +292,15 @@ def _surfaces(model: Model, interface_index: int):
 
 def _padded_rows(mortar: sp.csr_matrix, nodes: np.ndarray, scale: np.ndarray):
     """Target nodes and weights (n_pairs, m) of the mortar rows of nodes, divided by scale and padded with 0."""
-    rows = [mortar.getrow(i) for i in nodes]
-    width = max([r.nnz for r in rows], default=1) or 1
+    rows = mortar[np.asarray(nodes)]
+    counts = np.diff(rows.indptr)
+    width = max(int(counts.max(initial=0)), 1)
     target_nodes = np.repeat(np.asarray(nodes)[:, None], width, axis=1)   # padding: weight 0 on the node itself
     target_weights = np.zeros((len(nodes), width))
-    for p, (row, s) in enumerate(zip(rows, scale)):
-        target_nodes[p, :row.nnz] = row.indices
-        target_weights[p, :row.nnz] = row.data / s
+    row = np.repeat(np.arange(len(nodes)), counts)
+    column = np.arange(rows.nnz) - np.repeat(rows.indptr[:-1], counts)
+    target_nodes[row, column] = rows.indices
+    target_weights[row, column] = rows.data / np.asarray(scale)[row]
     return target_nodes, target_weights
 
 
