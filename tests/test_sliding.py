@@ -117,10 +117,12 @@ def test_unknown_sliding_value_is_refused(slid):
         Problem.build(slid[0], sliding="large")
 
 
-def test_finite_sliding_of_a_three_dimensional_model_is_refused():
-    from frictionid.builders.block import block_model
-    with pytest.raises(InputError, match="sliding = 'finite' needs a plane-strain or axisymmetric model .* '3d'"):
-        Problem.build(block_model(mesh_size=5.0), sliding="finite")
+def test_finite_sliding_with_twist_is_refused(slid):
+    import dataclasses
+    twisted = dataclasses.replace(slid[0], kind="axisymmetric_twist")
+    with pytest.raises(InputError, match="sliding = 'finite' needs a plane-strain, axisymmetric or 3-D model, got "
+                                         "kind 'axisymmetric_twist'"):
+        Problem.build(twisted, sliding="finite")
 
 
 def _simulate(folder, solver: str) -> int:

@@ -204,7 +204,8 @@ class Problem:
             [solver] factorisation).
         sliding : "small" | "finite"
             Contact pairs fixed in the undeformed configuration, or re-coupled in the deformed configuration at
-            every increment (:mod:`frictionid.fem.sliding`; 2-D, dual mortar on every interface).
+            every increment (:mod:`frictionid.fem.sliding`; plane strain, axisymmetric and 3-D, dual mortar on every
+            interface).
         """
         space = model_space(model)
         if points is not None and observe is not None:
@@ -287,7 +288,7 @@ class Problem:
                 f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
                 f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds the "
                 f"small-sliding range ({limit:g} x the local element length {self.pair_length()[pair]:.3g} mm); "
-                "reduce the imposed sliding, coarsen the contact mesh or, in 2-D, set [solver] sliding = \"finite\"")
+                "reduce the imposed sliding, coarsen the contact mesh or set [solver] sliding = \"finite\"")
 
     def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0,
               increments: str = "fixed") -> Solution:

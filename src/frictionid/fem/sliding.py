@@ -63,24 +63,26 @@ def selection(dofs: np.ndarray, n_dofs: int) -> sp.csr_matrix:
 
 
 def coupling_builder(space: Space, model: Model) -> CouplingBuilder:
-    """The coupling builder of a model: :func:`mortar_builder` for plane-strain and axisymmetric models.
-
-    The hook for 3-D: a builder ``points (n_nodes, 3) -> ContactPairs`` of every interface (the 3-D mortar) is
-    returned here for ``space.dim == 3``; nothing else in this module depends on the dimension.
-    """
-    if space.dim != 2 or space.n_components != 2:
-        raise InputError(f"[solver] sliding = 'finite' needs a plane-strain or axisymmetric model (3-D waits for "
-                         f"the 3-D mortar coupling), got kind {model.kind!r}; use sliding = 'small'")
+    """The coupling builder of a model: :func:`mortar_builder`, the dual mortar of fem/mortar.py for plane-strain
+    and axisymmetric models, of fem/mortar3d.py for 3-D ones. Nothing else in this module depends on the
+    dimension."""
+    if model.kind not in ("plane_strain", "axisymmetric", "3d"):
+        raise InputError(f"[solver] sliding = 'finite' needs a plane-strain, axisymmetric or 3-D model, got kind "
+                         f"{model.kind!r}; use sliding = 'small'")
     return mortar_builder(space, model)
 
 
 def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
-    """Coupling builder of a 2-D model: dual mortar on every interface (fem/mortar.py) at the given coordinates."""
-    from .mortar import mortar_pairs
+    """Coupling builder: dual mortar on every interface (fem/mortar.py in 2-D, fem/mortar3d.py in 3-D) at the
+    given coordinates."""
+    if model.kind == "3d":
+        from .mortar3d import mortar_pairs_3d as pairs_of
+    else:
+        from .mortar import mortar_pairs as pairs_of
 
     def build(points: np.ndarray) -> ContactPairs:
         deformed = replace(model, mesh=replace(model.mesh, points=points))
-        parts = [mortar_pairs(space, deformed, i) for i in range(len(model.interfaces))]
+        parts = [pairs_of(space, deformed, i) for i in range(len(model.interfaces))]
         return ContactPairs.concatenate(parts, space.n_dofs, model.n_zones, space.dim)
 
     return build

@@ -1,0 +1,73 @@
+"""Finite sliding in 3-D (fem/sliding.py with the 3-D dual mortar) against the CalculiX backend (surface-to-surface
+contact, which follows the deformation) on the seed's block test: 3-D block pulled 2 mm at 2000 N, four zones, at
+several mesh sizes of the block builder (default grading and elements); per mesh: pull reaction (finite and small
+sliding against ccx), displacements at the DIC points in % of ccx's range, forward-solve times and their ratio.
+
+Run: PYTHONPATH=src .venv/bin/python benchmarks/finite_sliding_3d.py [mesh_size ...]   (default 5 2.5)
+"""
+
+import os
+import resource
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
+from frictionid.builders.block import block_model
+from frictionid.fem.problem import Problem
+
+#: the 16 block-face points of examples/crosscheck/block_points.csv and 8 on the plate's top around the block [mm]
+POINTS = np.array([[sx * 5.0, sy * 3.0, z] for z in (0.5, 1.5) for sx in (-1, 1) for sy in (-1, 1)]
+                  + [[sy * 3.0, sx * 5.0, z] for z in (0.5, 1.5) for sx in (-1, 1) for sy in (-1, 1)]
+                  + [[x, y, 0.0] for x, y in ((-8, 0), (8, 0), (0, -8), (0, 8), (-7, -7), (7, 7), (-7, 7), (7, -7))])
+REGIONS = ["block"] * 16 + ["plate"] * 8
+QUANTITIES = ("ux", "uy", "uz")
+MU = np.array([0.35, 0.2, 0.45, 0.15])
+
+
+def cpu_now() -> float:
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
+def one_mesh(mesh_size: float, n_pull: int):
+    model = block_model(pull=2.0, force=2000.0, mesh_size=mesh_size, n_pull=n_pull)
+    pull = model.reaction_labels.index("block_top.y")
+    start = time.perf_counter()
+    finite = Problem.build(model, points=POINTS, quantities=QUANTITIES, regions=REGIONS, sliding="finite")
+    condensation = time.perf_counter() - start
+    wall, cpu = time.perf_counter(), cpu_now()
+    got = finite.solve(MU)
+    wall, cpu = time.perf_counter() - wall, cpu_now() - cpu
+    small = Problem.build(model, points=POINTS, quantities=QUANTITIES, regions=REGIONS).solve(MU, max_slip=None)
+    with tempfile.TemporaryDirectory() as tmp:
+        backend = CalculixBackend(model, POINTS, QUANTITIES, REGIONS, CalculixSettings(work_dir=tmp))
+        ccx_wall, ccx_cpu = time.perf_counter(), cpu_now()
+        ccx = backend.solve(MU, full_field=False)
+        ccx_wall, ccx_cpu = time.perf_counter() - ccx_wall, cpu_now() - ccx_cpu
+    reference = np.asarray(ccx.observations[-1]).reshape(-1, 3)
+    span = np.ptp(reference, axis=0)
+    print(f"mesh_size {mesh_size:g}: {model.mesh.n_nodes} nodes, {finite.pairs.n_pairs} contact pairs, "
+          f"{len(finite.interface_dofs)} interface dofs, {n_pull} pull increments")
+    for name, s in (("finite", got), ("small", small)):
+        difference = np.abs(np.asarray(s.observations[-1]).reshape(-1, 3) - reference).max(axis=0)
+        print(f"  {name:6s} pull reaction {s.reactions[-1, pull]:9.2f} N ({s.reactions[-1, pull] / ccx.reactions[-1, pull] - 1:+.2%}"
+              f" vs ccx {ccx.reactions[-1, pull]:.2f} N); sum mu N {MU @ s.zone_normal_force[-1]:9.2f} N; "
+              f"largest |difference| at the points {difference.max() / np.ptp(reference):.2%} of ccx's range of "
+              "all components; ux / uy / uz in % of their own range: "
+              + " / ".join(f"{d:.2%}" for d in difference / span))
+    print(f"  times: condensation {condensation:.2f} s; forward finite {wall:.2f} s wall {cpu:.2f} s CPU; "
+          f"ccx {ccx_wall:.2f} s wall {ccx_cpu:.2f} s CPU; ratio ccx / finite {ccx_wall / wall:.1f} wall "
+          f"{ccx_cpu / cpu:.1f} CPU", flush=True)
+
+
+def main(*mesh_sizes: float):
+    for h in mesh_sizes or (5.0, 2.5):
+        one_mesh(h, n_pull=10)
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+
+
+if __name__ == "__main__":
+    main(*(float(a) for a in sys.argv[1:]))
