@@ -11,6 +11,7 @@ import resource
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -18,13 +19,8 @@ from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettin
 from frictionid.builders.block import block_model
 from frictionid.fem.problem import Problem
 
-#: the 16 block-face points of examples/crosscheck/block_points.csv and 8 on the plate's top around the block [mm]
-POINTS = np.array([[sx * 5.0, sy * 3.0, z] for z in (0.5, 1.5) for sx in (-1, 1) for sy in (-1, 1)]
-                  + [[sy * 3.0, sx * 5.0, z] for z in (0.5, 1.5) for sx in (-1, 1) for sy in (-1, 1)]
-                  + [[x, y, 0.0] for x, y in ((-8, 0), (8, 0), (0, -8), (0, 8), (-7, -7), (7, 7), (-7, 7), (7, -7))])
-REGIONS = ["block"] * 16 + ["plate"] * 8
-QUANTITIES = ("ux", "uy", "uz")
-MU = np.array([0.35, 0.2, 0.45, 0.15])
+sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
+from sliding3d_case import MU, POINTS, QUANTITIES, REGIONS  # noqa: E402
 
 
 def cpu_now() -> float:
