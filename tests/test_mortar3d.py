@@ -223,3 +223,17 @@ def test_hertz_contact_on_separately_meshed_bodies(case, sizes):
         assert a_hertz > 2 * h                                             # the contact spans elements
     assert a == pytest.approx(a_hertz, rel=0.02)
     assert p0 == pytest.approx(p0_hertz, rel=0.02)
+
+
+
+def test_clipping_a_vertex_inside_only_by_the_tolerance_keeps_the_crossing_on_its_edge():
+    """A subject vertex within the tolerance outside a window edge counts as inside; when the next vertex lies
+    farther outside, the crossing is that vertex, not a point extrapolated off the segment (a block's facet slid
+    over the plate facet under it, edges nearly coincident, once got 2.11 mm^2 of a 1.57 mm^2 facet)."""
+    from frictionid.fem.clipping import clip, signed_area
+    tol = 1e-10
+    window = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    subject = np.array([[0.2, -0.5 * tol], [0.8, -2.0 * tol], [0.8, 0.9], [0.2, 0.9]])
+    piece = clip(subject, window, tol=tol)
+    assert np.all((piece[:, 0] >= 0.2 - 1e-12) & (piece[:, 0] <= 0.8 + 1e-12))
+    np.testing.assert_allclose(signed_area(piece), 0.6 * 0.9, atol=1e-9)

@@ -48,7 +48,9 @@ def clip(subject: np.ndarray, window: np.ndarray, tol: float = 0.0) -> np.ndarra
             if d >= -tol:
                 kept.append(p)
             if (d >= -tol) != (e >= -tol):
-                t = d / (d - e)
+                # the edge's crossing; a vertex within tol outside the edge counts as inside, and then both lie
+                # outside and the crossing is that vertex itself (unclamped, t would extrapolate off the segment)
+                t = min(max(d / (d - e), 0.0), 1.0)
                 kept.append([p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
         out = kept
     return np.array(out) if len(out) >= 3 else np.zeros((0, 2))
