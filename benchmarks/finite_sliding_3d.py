@@ -54,7 +54,8 @@ def one_mesh(mesh_size: float, n_pull: int):
               f"largest |difference| at the points {difference.max() / np.ptp(reference):.2%} of ccx's range of "
               "all components; ux / uy / uz in % of their own range: "
               + " / ".join(f"{d:.2%}" for d in difference / span))
-    print(f"  ccx: sum mu N {MU @ ccx.zone_normal_force[-1]:9.2f} N, zone normal forces "
+    print(f"  ccx: sum mu N {MU @ ccx.zone_normal_force[-1]:9.2f} N, sum of tangential forces "
+          f"{ccx.zone_tangential_force[-1].sum():9.2f} N, zone normal forces "
           + " / ".join(f"{v:.1f}" for v in ccx.zone_normal_force[-1]) + " N (finite sliding: "
           + " / ".join(f"{v:.1f}" for v in got.zone_normal_force[-1]) + " N)")
     print(f"  times: condensation {condensation:.2f} s; forward finite {wall:.2f} s wall {cpu:.2f} s CPU; "
