@@ -54,3 +54,22 @@ def test_differences_sees_a_change():
     assert differences({"a": [1.0 + 1e-11, {"b": "x"}], "c": 0.3}, old) == [".a[0]: 1.00000000001, was 1.0"]
     assert differences({"a": [1.0, {"b": "y"}], "c": 0.3}, old) == [".a[1].b: 'y', was 'x'"]
     assert differences({"a": [1.0], "c": 0.3}, old) == [".a: 1 items, was 2"]
+
+
+@pytest.mark.parametrize("name", ["first", "interrupted", "robust_starts"])
+def test_typed_fields_read_result_json(name):
+    from frictionid.result import IdentificationResult
+
+    data = json.loads((REFERENCE / f"{name}.json").read_text())
+    result = IdentificationResult.read(REFERENCE / f"{name}.json")
+    assert (result.status, result.method, result.message) == (data["status"], data["method"], data["message"])
+    assert result.n_iterations == data["n_iterations"] and isinstance(result.n_iterations, int)
+    assert result.n_solves == {"forward": data["n_forward_solves"], "sensitivities": data["n_sensitivity_solves"],
+                               "replayed": data["n_replayed"]}
+    assert result.coefficients == {zone: p["value"] for zone, p in data["parameters"].items()}
+    if "fit" in data:
+        assert (result.objective, result.chi2, result.n_obs) == (data["objective"]["final"], data["fit"]["chi2"],
+                                                                 data["fit"]["n_obs"])
+        assert result.ci95 == {z: tuple(p["ci95"]) for z, p in data["parameters"].items() if not p["fixed"]}
+    else:                                           # a stopped run has no fit to assess
+        assert (result.objective, result.chi2, result.n_obs) == (None, None, None)

@@ -30,7 +30,7 @@ from .config import Config
 from .data.sources import read_data
 from .data.table import CHANNELS, QUANTITIES, Measurements
 from .errors import InputError
-from .identification import prepare
+from .preparation import prepare
 from .inverse.design import CRITERIA, finest_partition, information_of, select_points
 from .inverse.observations import noise_of
 from .inverse.resolution import predicted_stderr, resolution

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..inverse.evaluator import Evaluator
-from ..inverse.least_squares import LeastSquares
+from ..inverse.fitting import make_evaluator, make_least_squares
 from . import profile
 
 
@@ -24,13 +24,9 @@ class HeldRefits:
         """The other free zones refitted from x0 with ``zone`` held at ``value``."""
         ident, evaluator, obs = self.ident, self.evaluator, self.evaluator.obs
         held = profile.held(self.params, zone, value, x0)
-        sub = Evaluator(evaluator.backend, obs, held, profile.HeldStore(self.store, held), ident["jacobian"],
-                        float(ident["step"]), float(ident["tikhonov"]),
-                        np.delete(evaluator.prior, self.names.index(zone)), float(ident["penalty"]),
-                        executor=evaluator.executor)
-        problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
-                               float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
-                               float(ident["loss_scale"]))
+        sub = make_evaluator(evaluator.backend, obs, held, profile.HeldStore(self.store, held), ident,
+                             evaluator.executor, np.delete(evaluator.prior, self.names.index(zone)))
+        problem = make_least_squares(sub, ident)
         x = self.optimise(problem).x
         evaluator.count(sub)
         return x
