@@ -10,7 +10,7 @@ import pytest
 
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 from frictionid.backends.embedded import EmbeddedBackend
-from frictionid.builders.benchmarks import sleeve_model
+from frictionid.builders.verification import sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.bolt import bolt_model
 from frictionid.cli import main

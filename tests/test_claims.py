@@ -15,7 +15,7 @@ import pytest
 
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
-from frictionid.discretisation import with_model_error
+from frictionid.inverse.discretisation import with_model_error
 from frictionid.inverse.statistics import fit_statistics
 from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.least_squares import LeastSquares

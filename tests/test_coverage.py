@@ -13,7 +13,7 @@ pytestmark = pytest.mark.slow            # 200 identifications, about 5 minutes
 
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model, refined
-from frictionid.discretisation import with_model_error
+from frictionid.inverse.discretisation import with_model_error
 from frictionid.inverse.statistics import fit_statistics
 from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.least_squares import LeastSquares

@@ -240,7 +240,7 @@ def test_bad_starts_exit_2_naming_the_key(measured, capsys, change, message):
 
 
 def test_start_points_are_the_configured_start_then_seeded_draws_within_the_bounds():
-    from frictionid.run.multistart import start_points
+    from frictionid.inverse.multistart import start_points
     x0, lower, upper = np.array([0.1, 0.1]), np.array([0.0, 0.05]), np.array([0.6, 0.2])
     points = start_points(5, x0, lower, upper, seed=3)
     np.testing.assert_array_equal(points[0], x0)

@@ -7,7 +7,7 @@ import pytest
 
 from block2d_case import points_csv
 from frictionid.cli import main
-from frictionid.run.profile import CHI2_95, CHI2_BOUND_95, bound_verdict, grid, interval
+from frictionid.inverse.profile import CHI2_95, CHI2_BOUND_95, bound_verdict, grid, interval
 
 POINTS = points_csv(stage=2, quantities=("ux", "uy"))
 REGIONS = 'regions = { "P[1-4]" = "block", "P[56]" = "base" }\n'
@@ -146,7 +146,7 @@ def test_the_bound_verdict_refuses_a_dip_a_flat_profile_and_a_wide_one():
 def test_a_zone_that_fails_its_bound_check_is_not_claimed_and_says_why(folder, monkeypatch):
     """The identification acts on a failed check: the zone is not claimed, its why names the check's reason, and
     the check (with its values) stays in result.json."""
-    from frictionid.run import profile as module
+    from frictionid.inverse import profile as module
     checks = module.bound_checks
 
     def failing(*args, **kwargs):

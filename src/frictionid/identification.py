@@ -14,26 +14,26 @@ from pathlib import Path
 from .backends import make_backend, solver_options
 from .config import Config, config_from_dict
 from .data.measurements import Measurements
-from .discretisation import refine_until, with_model_error
 from .errors import InputError, SolverError
 from .fem import memory
 from .fem.locate import PointsOutside
 from .inverse.evaluator import Evaluator
+from .inverse import multistart, profile, refits
+from .inverse.discretisation import refine_until, with_model_error
 from .inverse.fitting import make_evaluator, make_least_squares, recorded
 from .inverse.least_squares import LeastSquares, OptimiseResult
 from .inverse.optimisers import optimise
 from .inverse.parameters import Parameters
+from .inverse.prefit import prefit
 from .model import Model
 from .model_checks import checked_contact
 from .paths import check_folder, input_files
-from .prefit import prefit
 from .preparation import Setup, prepare, strain_window
 from .progress import iteration_lines
 from .report.outputs import write_outputs
 from .report.tables import prefit_summary
 from .report.vtu import export_fields
 from .result import IdentificationResult, fit_result, solve_timings, stopped_result
-from .run import multistart, profile, refits
 from .run.executor import make_executor
 from .run.store import RunStore
 
@@ -121,7 +121,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
 
     ``echo(text)`` gets one line per phase (model, condensation, resolution, iterations, model error);
     ``on_prefit(Prefit)`` is called once before fitting with the resolution of the planned data (see
-    :mod:`frictionid.prefit`; default: its summary goes to ``echo``), ``on_iteration(iteration, mu, objective,
+    :mod:`frictionid.inverse.prefit`; default: its summary goes to ``echo``), ``on_iteration(iteration, mu, objective,
     evaluator)`` after each iteration with all zones' coefficients mu; ``setup`` is :func:`prepare`'s
     (built here when not given); ``write_files=False`` keeps only the store (no result.json, plots, report).
     """
@@ -230,7 +230,7 @@ def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
-    """The discretisation error along the fit, and with "include" the refit (:func:`~.discretisation.
+    """The discretisation error along the fit, and with "include" the refit (:func:`~.inverse.discretisation.
     with_model_error`); the refit's iterations are stored after the fit's."""
     def refit(x0, offset):
         return _optimise(make_least_squares(evaluator, config.identify, recorded(evaluator, store, progress, offset),

@@ -36,7 +36,7 @@ from .inverse.observations import noise_of
 from .inverse.resolution import predicted_stderr, resolution
 from .model import Model
 from .paths import check_folder, input_files
-from .prefit import candidate_points, spread_points
+from .inverse.prefit import candidate_points, spread_points
 
 KINDS = ("surface", "section")
 #: the files a design writes into its folder

@@ -18,10 +18,11 @@ from .config import Config
 from .data.dic.window import choose as choose_window
 from .data.measurements import Measurements
 from .data.sources import data_digest, data_paths, read_sources
-from .discretisation import check_options
 from .errors import InputError
 from .fem import memory
 from .fem.points import StrainWindow
+from .inverse import multistart, profile
+from .inverse.discretisation import check_options
 from .inverse.evaluator import JACOBIANS
 from .inverse.least_squares import ROBUST_WEIGHTS
 from .inverse.observations import observations_from
@@ -29,7 +30,6 @@ from .inverse.optimisers import check_method
 from .inverse.parameters import Parameters
 from .model import Model
 from .model_checks import checked_contact, model_line
-from .run import multistart, profile
 from .run.executor import check_scheduler
 
 

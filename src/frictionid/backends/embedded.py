@@ -184,7 +184,7 @@ class EmbeddedBackend:
 
     def fields(self, mu):
         """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
-        :func:`frictionid.fields.solution_fields`)."""
-        from ..fields import solution_fields
+        :func:`frictionid.fem.fields.solution_fields`)."""
+        from ..fem.fields import solution_fields
 
         return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments))

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..backends.base import Backend
 from ..errors import SolverError
-from ..fields import Fields, StageFields, strain_names
+from ..fem.fields import Fields, StageFields, strain_names
 
 log = logging.getLogger(__name__)
 #: the collections written; each lists one ``<name>_<stage number>.vtu`` per stage

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .backends.base import BackendFactory
-from .inverse.observations import DISPLACEMENTS, Observations
-from .inverse.resolution import Addition, Resolution, resolution, suggest
-from .model import Model
+from ..model import Model
+from ..backends.base import BackendFactory
+from .observations import DISPLACEMENTS, Observations
+from .resolution import Addition, Resolution, resolution, suggest
 
 log = logging.getLogger(__name__)
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InputError, SolverError
-from .executor import WorkerLost
+from ..run.solve import WorkerLost
 
 log = logging.getLogger(__name__)
 #: starts optimised side by side at most (threads of the client waiting for their solves)
