@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from frictionid.builders import benchmarks as bm
+from frictionid.builders import verification as bm
 from frictionid.cli import main
 
 ROOT = Path(__file__).parents[1]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from test_verification import _check_sensitivities
 
-from frictionid.builders import benchmarks as bm
+from frictionid.builders import verification as bm
 from frictionid.builders.torsion import effective_radius, shaft_model, turned_rings_model
 from frictionid.errors import InputError
 from frictionid.fem.assembly import stiffness

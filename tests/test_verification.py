@@ -4,7 +4,7 @@ import gmsh
 import numpy as np
 import pytest
 
-from frictionid.builders import benchmarks as bm
+from frictionid.builders import verification as bm
 from frictionid.builders.block import block_model
 from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
 from frictionid.fem.contact import OPEN, SLIP, STICK
