@@ -11,6 +11,7 @@ from frictionid.cli import main
 from frictionid.inverse.design import finest_partition, information_of, merged_stderr, select_points
 from frictionid.inverse.resolution import predicted_stderr
 from frictionid.model.merge import merge_zones
+from helpers import write_config
 
 # ------------------------------------------------------------------------------------------ selection
 
@@ -99,13 +100,11 @@ CSV = "point,x,y,z,stage,ux,uy\n" + "".join(f"P{k},{x},{y},0.0,2,0.0,0.0\n" for 
 
 def _config(folder, zones="A = 0.3, B = 0.3", extra="", design="", noise="noise = { u = 0.0005 }\n"):
     (folder / "points.csv").write_text(CSV)
-    path = folder / "plan.toml"
     regions = ", ".join(f'P{k} = "{r}"' for k, r in enumerate(REGIONS))
-    path.write_text(f'[model]\nbuilder = "block2d"\nmesh_size = 2.0\n[friction]\nzones = {{ {zones} }}\n{extra}'
-                    f'[data]\nfile = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n{noise}'
-                    f"regions = {{ {regions} }}\n[design]\nn_candidates = 60\n{design}"
-                    f'[run]\ndir = "runs/plan"\n')
-    return path
+    return write_config(folder / "plan.toml", model={"builder": "block2d", "mesh_size": 2.0},
+                        friction=f"zones = {{ {zones} }}\n{extra}",
+                        data=f'file = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n{noise}'
+                        f"regions = {{ {regions} }}\n", design=f"n_candidates = 60\n{design}", run={"dir": "runs/plan"})
 
 
 def test_design_writes_the_chosen_points_and_the_partitions(tmp_path, capsys):

@@ -11,16 +11,14 @@ from pathlib import Path
 
 import pytest
 
-from block2d_case import MODEL, POINTS, REGIONS, TRUE
+from block2d_case import MODEL_TABLE, POINTS, TRUE, data_table
 from frictionid.cli import main
+from helpers import write_config
 
 
 def _config(folder: Path, name: str, zones: str, data: str, extra: str = "", run: str = "runs/r") -> Path:
-    path = folder / name
-    path.write_text(MODEL + f"[friction]\nzones = {{ {zones} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
-                    + REGIONS + extra + f'[run]\ndir = "{run}"\n')
-    return path
+    return write_config(folder / name, extra + f'[run]\ndir = "{run}"\n', model=MODEL_TABLE,
+                        friction=f"zones = {{ {zones} }}\n", data=data_table(data))
 
 
 @pytest.fixture(scope="module")

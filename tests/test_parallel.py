@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from block2d_case import MODEL, POINTS, REGIONS, TRUE
+from block2d_case import MODEL_TABLE, POINTS, TRUE, data_table
 from frictionid.cli import main
+from helpers import write_config
 
 # finite differences (each Jacobian's columns solved at once) and two starts (side by side)
 IDENTIFY = '[identify]\njacobian = "forward"\nstep = 1e-3\nstarts = 2\nseed = 3\n'
@@ -23,11 +24,8 @@ IDENTIFY = '[identify]\njacobian = "forward"\nstep = 1e-3\nstarts = 2\nseed = 3\
 
 def _config(folder: Path, name: str, run: str = "", identify: str = IDENTIFY, zones="A = 0.1, B = 0.1, C = 0.1",
             data: str = "measured.csv") -> Path:
-    path = folder / name
-    path.write_text(MODEL + f"[friction]\nzones = {{ {zones} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
-                    + REGIONS + identify + f'[run]\ndir = "runs/{path.stem}"\nfields = false\n' + run)
-    return path
+    return write_config(folder / name, identify + f'[run]\ndir = "runs/{Path(name).stem}"\nfields = false\n' + run,
+                        model=MODEL_TABLE, friction=f"zones = {{ {zones} }}\n", data=data_table(data))
 
 
 @pytest.fixture(scope="module")
