@@ -2,6 +2,7 @@
 
 import json
 
+import matplotlib.image
 import numpy as np
 import pytest
 
@@ -114,7 +115,13 @@ def test_design_writes_the_chosen_points_and_the_partitions(tmp_path, capsys):
     assert result["chosen"]["n_points"] == 6 and len(result["chosen"]["points"]) == 6
     planned, chosen = result["planned"]["stderr"], result["chosen"]["stderr"]
     assert sum(chosen[z] ** 2 for z in "AB") < sum(planned[z] ** 2 for z in "AB")
-    assert "predicted standard errors" in out and (tmp_path / "runs/plan/design/sensitivity.png").stat().st_size
+    assert "predicted standard errors" in out
+    # the plot: one panel per zone side by side, the chosen points circled red over the viridis candidates
+    image = matplotlib.image.imread(tmp_path / "runs/plan/design/sensitivity.png")[:, :, :3]
+    red = (image[:, :, 0] > 0.8) & (image[:, :, 1] < 0.3) & (image[:, :, 2] < 0.3)
+    coloured = np.ptp(image, axis=2) > 0.2                  # neither white, grey nor black
+    assert image.shape[1] > image.shape[0] and red.sum() > 6 and coloured.sum() > 20 * red.sum() / 6
+    assert red[:, : image.shape[1] // 2].any() and red[:, image.shape[1] // 2:].any()      # in both panels
     # the chosen points file is a points file `simulate` takes
     (tmp_path / "points.csv").write_text((tmp_path / "runs/plan/design/chosen_points.csv").read_text())
     regions = ", ".join(f'"{k}" = "{v}"' for k, v in result["chosen"]["regions"].items())
