@@ -15,12 +15,11 @@ import tomli_w
 from frictionid.cli import main
 from frictionid.data import read_measurements
 from frictionid.data.sources import read_sources
+from fixtures.dic import corpus
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
 CORPUS = FIXTURES / "corpus"
-sys.path.insert(0, str(FIXTURES))
-import corpus  # noqa: E402  (tests/fixtures/dic/corpus.py, the corpus's writer)
 
 #: exports carry values to 17 digits (ARAMIS's fixed-width fields fewer: the program's tolerance); a frame and
 #: unit, strain measure conversions cost a few ulp

@@ -17,11 +17,10 @@ from frictionid.data import read_measurements, write_measurements
 from frictionid.data.dic import read_export
 from frictionid.data.sources import read_data
 from frictionid.errors import InputError
+from fixtures.dic import generate
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
-sys.path.insert(0, str(FIXTURES))
-import generate  # noqa: E402  (the fixtures' generator, tests/fixtures/dic/generate.py)
 
 #: exports carry values to 17 digits; unit and strain-measure conversions cost a few ulp
 RTOL = 1e-12

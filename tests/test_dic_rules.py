@@ -17,11 +17,10 @@ from frictionid.data import read_measurements, write_measurements
 from frictionid.data.frames import Frame
 from frictionid.data.sources import read_sources
 from frictionid.errors import InputError
+from fixtures.dic import generate
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
-sys.path.insert(0, str(FIXTURES))
-import generate  # noqa: E402
 
 
 def _config(folder: Path, name: str, **data) -> Path:

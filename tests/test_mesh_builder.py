@@ -26,6 +26,7 @@ from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels
 from frictionid.fem.space import Space
+from fixtures.user_block import generate
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
@@ -370,18 +371,9 @@ def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path, cap
                    **{**options, "loads": [{"type": "pressure", "boundary": "corner", "values": [1.0]}]})
 
 
-def _fixture_generator():
-    """tests/fixtures/user_block/generate.py as a module (its mesh writer with adjustable divisions)."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("user_block_generate", FIXTURES / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("family", ["hex", "tet10"])
-def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(family, tmp_path):
+def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(family, tmp_path, monkeypatch):
     """Issue 14's "within 2 % of the block builder at a similar mesh size" where it holds on a mesh of another
     layout: the machine force at the end of the pull (gross slip). 2.5 mm: the builder's default (graded,
     incompatible modes, 800 nodes) against gmsh's uniform standard hexahedra (generate.py's layout, 632 nodes)
@@ -392,8 +384,8 @@ def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(fa
         from element_models import write_tet_block
         path = write_tet_block(tmp_path / "tet10.msh", order=2, quarter=2, outer=3, block_z=4, plate_z=2)
     else:
-        generate = _fixture_generator()
-        generate.N_QUARTER, generate.N_OUTER, generate.N_BLOCK_Z, generate.N_PLATE_Z = 2, 4, 4, 2
+        for name, value in {"N_QUARTER": 2, "N_OUTER": 4, "N_BLOCK_Z": 4, "N_PLATE_Z": 2}.items():
+            monkeypatch.setattr(generate, name, value)      # the module is shared: restored after the test
         path = tmp_path / "hex.msh"
         generate.write_block_msh(path)
     user = predict(build_model({**options(), "file": str(path)}))
