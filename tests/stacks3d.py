@@ -16,9 +16,10 @@ from __future__ import annotations
 import gmsh
 import numpy as np
 
-from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
+from frictionid.builders.gmsh_mesh import gmsh_session
 from frictionid.model import Mesh
 from fixtures.user_block import generate
+from helpers.meshes import generated, lowered
 
 SIDE, THICKNESS = 2.0, 1.0
 #: the upper body is meshed this far up [mm] and moved down after (gmsh's extrusion finds nodes by position)
@@ -65,13 +66,8 @@ def stack(upper: str, lower: str, hexes: bool, order: int = 1, layers: int = 2):
             add(2, [t for t in sides if _on(2, t, 1, 0.0)], name=f"{name}_y0")
         add(2, base, name="lower_bottom")
         add(2, top, name="contact")
-        gmsh.model.mesh.generate(3)
-        if order == 2:
-            gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-            gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh()
-    points = np.array(mesh.points)
-    points[np.unique(mesh.cells[mesh.regions["upper"]]), 2] -= _APART
+        mesh = generated(order)
+    points = lowered(mesh, 2, _APART)
     boundaries = dict(mesh.boundaries)
     contact = boundaries.pop("contact")
     left = points[contact].mean(axis=1)[:, 0] < SIDE / 2

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tomli_w
 
 from frictionid.cli import main
 from frictionid.data import read_measurements
 from frictionid.data.sources import read_sources
 from fixtures.dic import corpus
+from helpers.config import with_data
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
@@ -91,12 +91,7 @@ def test_a_matchid_2024_export_without_strain_measure_is_checked_and_the_key_nam
 
 
 def _identify(folder: Path, name: str, **data) -> dict:
-    config = tomllib.loads((folder / "identify.toml").read_text())
-    config["data"].update(data)
-    config["run"]["dir"] = f"runs/{name}"
-    path = folder / f"{name}.toml"
-    path.write_text(tomli_w.dumps(config))
-    assert main(["identify", str(path)]) == 0
+    assert main(["identify", str(with_data(folder, name, **data))]) == 0
     return json.loads((folder / "runs" / name / "result.json").read_text())
 
 

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tomli_w
 
 from frictionid.cli import main
 from frictionid.data import read_measurements, write_measurements
@@ -18,6 +17,7 @@ from frictionid.data.dic import read_export
 from frictionid.data.sources import read_data
 from frictionid.errors import InputError
 from fixtures.dic import generate
+from helpers.config import with_data
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
@@ -288,12 +288,7 @@ def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
 
 def identified(folder: Path, name: str, **data) -> dict:
     """Coefficients of examples/first's identify.toml with [data] changed, run into runs/<name>."""
-    config = tomllib.loads((folder / "identify.toml").read_text())
-    config["data"].update(data)
-    config["run"]["dir"] = f"runs/{name}"
-    path = folder / f"{name}.toml"
-    path.write_text(tomli_w.dumps(config))
-    assert main(["identify", str(path)]) == 0
+    assert main(["identify", str(with_data(folder, name, **data))]) == 0
     result = json.loads((folder / "runs" / name / "result.json").read_text())
     return {zone: p["value"] for zone, p in result["parameters"].items()}
 

@@ -5,7 +5,6 @@ the key, line or column, no traceback, nothing written."""
 import shutil
 import sys
 from dataclasses import replace
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -18,18 +17,13 @@ from frictionid.data.frames import Frame
 from frictionid.data.sources import read_sources
 from frictionid.errors import InputError
 from fixtures.dic import generate
+from helpers.config import with_data
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
 
 
-def _config(folder: Path, name: str, **data) -> Path:
-    config = tomllib.loads((folder / "identify.toml").read_text())
-    config["data"].update(data)
-    config["run"]["dir"] = f"runs/{name}"
-    path = folder / f"{name}.toml"
-    path.write_text(tomli_w.dumps(config))
-    return path
+_config = with_data
 
 
 def _scattered(first: Path, name: str, amplitude: float, at=None) -> Path:

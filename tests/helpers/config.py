@@ -58,3 +58,19 @@ def write_config(path: str | Path, extra: str = "", **tables: dict | str | None)
     path = Path(path)
     path.write_text(config_text(extra, **tables))
     return path
+
+
+def with_data(folder: str | Path, name: str, **data) -> Path:
+    """``folder``/<name>.toml: ``folder``'s identify.toml (e.g. a copy of examples/first) with the [data] keys
+    ``data`` changed and run.dir runs/<name>."""
+    import tomllib
+
+    import tomli_w
+
+    folder = Path(folder)
+    config = tomllib.loads((folder / "identify.toml").read_text())
+    config["data"].update(data)
+    config["run"]["dir"] = f"runs/{name}"
+    path = folder / f"{name}.toml"
+    path.write_text(tomli_w.dumps(config))
+    return path
