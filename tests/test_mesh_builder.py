@@ -27,6 +27,7 @@ from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels
 from frictionid.fem.space import Space
 from fixtures.user_block import generate
+from helpers.meshes import stacked_rectangles_geo
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
@@ -133,18 +134,8 @@ def test_plane_strain_user_mesh_end_to_end(folder):
         assert abs(result["parameters"][zone]["value"] - value) < TWIN_TOL, zone
 
 
-RING_GEO = """// a ring pressed on a ring, axisymmetric (x = r, y the axis)
-SetFactory("OpenCASCADE");
-Rectangle(1) = {2, -2, 0, 4, 2};
-Rectangle(2) = {2, 0, 0, 4, 2};
-Physical Surface("lower") = {1};
-Physical Surface("upper") = {2};
-Physical Curve("bottom") = {1};
-Physical Curve("lower_top") = {3};
-Physical Curve("upper_bottom") = {5};
-Physical Curve("upper_top") = {7};
-Mesh.MeshSizeMax = 0.5;
-"""
+#: a ring pressed on a ring, axisymmetric (x = r, y the axis)
+RING_GEO = stacked_rectangles_geo(2.0)
 
 
 def test_geo_file_axisymmetric_force_is_the_whole_ring_and_ctrl_c_still_works(tmp_path):
