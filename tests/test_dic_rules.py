@@ -203,7 +203,7 @@ def test_a_config_force_that_contradicts_the_nodemap_metadata_is_refused(tmp_pat
 def test_coordinates_states_what_an_exports_coordinate_columns_hold(tmp_path):
     """[data] coordinates = "deformed": a MatchID 2024.1 export written with the positions at the stage reads to
     the reference positions; "reference" reads a MatchID 2023 export's coordinates as written."""
-    import corpus
+    from fixtures.dic import corpus
     generic = read_measurements(FIXTURES / "corpus" / "generic.csv").select(stages=[2])
     u = np.column_stack([generic.values[q] for q in ("ux", "uy", "uz")])
     corpus.write_matchid_2024(tmp_path / "m2024.csv", _with_coordinates(generic, generic.coordinates + u))

@@ -78,6 +78,7 @@ def _evaluations(store: Path) -> int:
         return 0
 
 
+@pytest.mark.slow              # 92 s measured on the shared machine (two full fits and a killed process)
 def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_run_ends(measured):
     extra = '[identify]\nmethod = "gradient-descent"\njacobian = "forward"\nmax_iterations = 30\n'
     whole = _config(measured, "whole.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", extra, "runs/whole")
