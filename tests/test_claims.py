@@ -84,6 +84,7 @@ def test_with_the_model_error_included_a_claimed_interval_carries_its_systematic
         assert np.all(systematic >= 0) and np.all(se >= systematic)
 
 
+@pytest.mark.slow          # 35 s in the fast suite on the shared machine (about 1/7 idle)
 def test_with_a_discretisation_error_included_zones_are_still_claimed_and_hold():
     """Data from quadratic triangles four times finer: the model error the estimate sees. B is still claimed in
     most replicates (the statement is not vacuous) and every claimed interval holds the truth."""

@@ -100,6 +100,7 @@ def reference(first):
     return _identify(first, "corpus_generic")
 
 
+@pytest.mark.slow          # 94 s for the eight layouts in the fast suite on the shared machine (about 1/7 idle)
 @pytest.mark.parametrize("name", ["matchid2023", "aramis", "gom_correlate"])
 def test_the_new_layouts_identify_like_the_generic_csv(name, first, reference):
     """examples/first's twin (two stages) written in each layout, in a rotated camera frame, with an invalid

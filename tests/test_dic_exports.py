@@ -293,6 +293,7 @@ def identified(folder: Path, name: str, **data) -> dict:
     return {zone: p["value"] for zone, p in result["parameters"].items()}
 
 
+@pytest.mark.slow          # 62 s in the fast suite on the shared machine (about 1/7 idle)
 def test_per_stage_exports_of_two_flavours_identify_like_the_generic_csv(first):
     measured = read_measurements(first / "measured.csv")
     assert measured.stages == (1, 2)

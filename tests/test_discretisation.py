@@ -30,6 +30,7 @@ def measured(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow          # 40 s in the fast suite on the shared machine (about 1/7 idle)
 def test_the_estimate_is_reported_and_included_in_the_weights(measured, capsys):
     start = dict.fromkeys(TRUE, 0.1)
     assert main(["identify", str(_config(measured, "plain", 1.0, start, "measured.csv"))]) == 0
@@ -73,6 +74,7 @@ ABSORBED_DATA = ('observables = ["ux", "uy", "force"]\nstages = [2]\nnoise = { u
                  'R3 = "block", "*" = "base" }\n')
 
 
+@pytest.mark.slow          # 84 s for both modes in the fast suite on the shared machine (about 1/7 idle)
 @pytest.mark.parametrize("mode", ["estimate", "include"])
 def test_a_model_error_the_coefficients_absorb_is_found_by_the_estimate(tmp_path, capsys, mode):
     """Quadratic triangles of 1 mm fitted to data of a 0.5 mm mesh: the machine force's discretisation error

@@ -33,6 +33,7 @@ def measured(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow          # 35 s in the fast suite on the shared machine (about 1/7 idle)
 def test_cholmod_and_superlu_give_the_same_fit(measured, monkeypatch):
     used = []
     condense = problem_module.condense

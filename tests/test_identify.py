@@ -102,6 +102,7 @@ def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_r
     assert _evaluations(store) == reference["n_forward_solves"]   # nothing evaluated twice
 
 
+@pytest.mark.slow          # 38 s in the fast suite on the shared machine (about 1/7 idle)
 def test_ctrl_c_as_a_real_signal_stops_with_exit_1_a_result_and_the_resume_hint(measured):
     """SIGINT to the command-line process mid-run (after gmsh built the mesh: gmsh must not leave Ctrl-C killing
     the process): exit status 1, the message naming --resume, result.json "interrupted", the store kept."""

@@ -65,6 +65,7 @@ def predict(model) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------ reference test 1, 3-D
 
+@pytest.mark.slow          # 58 s in the fast suite on the shared machine (about 1/7 idle)
 def test_msh_and_inp_give_the_same_model_and_the_block_builders_results():
     """block.msh and block.inp (the same mesh, names in upper case, the plate bottom as a node set) give one
     result; the mesh has the block builder's layout at mesh_size 1.25 (8 divisions per block side, uniform), so
@@ -107,6 +108,7 @@ def test_a_users_27_node_hexahedra_of_the_builders_layout_give_the_builders_resu
     assert abs(builder[-1, -1]) > 500.0                                     # the pull slides: sum mu_i N_i
 
 
+@pytest.mark.slow          # 69 s in the fast suite on the shared machine (about 1/7 idle)
 def test_twin_on_the_user_mesh_recovers_the_four_zones(folder):
     """Data simulated from block.msh at the truth, identified on block.inp from 0.1 (noise-free, same mesh)."""
     assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0

@@ -98,6 +98,7 @@ def test_3d_gross_slip_with_four_zones(block3d):
     assert abs(reaction[1]) == pytest.approx(magnitude.sum(), rel=1e-4)
 
 
+@pytest.mark.slow          # 37 s in the fast suite on the shared machine (about 1/7 idle)
 def test_zone_tangential_forces_are_global_vectors_that_balance_the_pull():
     """Quadratic hexahedra: the pair frames' t1 is x at some pairs and y at others (any tangent will do for the
     solver), so per-zone tangential forces must be summed as global vectors; they balance the driven face."""
