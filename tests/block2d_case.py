@@ -2,6 +2,8 @@
 3-zone block2d model at 1 mm, six uy/ux observation points on the block's sides and the base top, its true
 coefficients, and the [model] / regions lines of its configs."""
 
+from helpers.config import config_text, toml_value
+
 #: the coefficients the twin data are simulated with
 TRUE = {"A": 0.32, "B": 0.18, "C": 0.41}
 #: the six observation points: four on the block's sides, two on the base top (plane strain, z = 0)
@@ -17,6 +19,15 @@ def points_csv(stage: int = 1, quantities: tuple[str, ...] = ("uy",)) -> str:
 
 
 POINTS = points_csv()
-MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
-#: the [data] regions line: P1-P4 on the block, P5, P6 on the base
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
+#: the [model] table
+MODEL_TABLE = {"builder": "block2d", "mesh_size": 1.0, "height": 4.0, "n_zones": 3}
+MODEL = config_text(model=MODEL_TABLE)
+#: [data] regions: P1-P4 on the block, P5, P6 on the base
+REGION_TABLE = {"P1": "block", "P2": "block", "P3": "block", "P4": "block", "P5": "base", "P6": "base"}
+REGIONS = f"regions = {toml_value(REGION_TABLE)}\n"
+
+
+def data_table(file: str, noise: float = 0.0005, observables=("ux", "uy")) -> dict:
+    """The [data] table of a fit of ``file`` at stage 2 with a displacement noise [mm]."""
+    return {"file": file, "observables": list(observables), "stages": [2], "noise": {"u": noise},
+            "regions": REGION_TABLE}

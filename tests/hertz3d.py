@@ -21,8 +21,9 @@ from __future__ import annotations
 import gmsh
 import numpy as np
 
-from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
+from frictionid.builders.gmsh_mesh import gmsh_session
 from frictionid.model import ContactInterface, Displacement, Material, Mesh, Model, Stage, Support
+from helpers.meshes import generated, lowered
 
 RADIUS, BLOCK, THICKNESS, A = 10.0, 10.0, 0.5, 1.0
 STEEL = Material(210000.0, 0.3)
@@ -101,13 +102,8 @@ def hertz_mesh(h: float, order: int = 2, hexes: bool = True) -> Mesh:
         groups["z0"] = [cylinder, block]
         for name, tags in groups.items():
             add(2, tags, name=name)
-        gmsh.model.mesh.generate(3)
-        if order == 2:
-            gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-            gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh()
-    points = np.array(mesh.points)
-    points[np.unique(mesh.cells[mesh.regions["upper"]]), 1] -= _APART
+        mesh = generated(order)
+    points = lowered(mesh, 1, _APART)
     boundaries = dict(mesh.boundaries)
     curved, block_top = boundaries.pop("curved"), boundaries.pop("block_top")
     boundaries.update(contact=curved[points[curved].mean(axis=1)[:, 0] < 1.6 * A],
@@ -179,13 +175,8 @@ def sphere_mesh(h: float, order: int = 2) -> Mesh:
         add(3, [lower], name="lower")
         for name, tags in groups.items():
             add(2, tags, name=name)
-        gmsh.model.mesh.generate(3)
-        if order == 2:
-            gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-            gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh()
-    points = np.array(mesh.points)
-    points[np.unique(mesh.cells[mesh.regions["upper"]]), 2] -= _APART
+        mesh = generated(order)
+    points = lowered(mesh, 2, _APART)
     boundaries = dict(mesh.boundaries)
     curved, block_top = boundaries.pop("curved"), boundaries.pop("block_top")
     r_curved = np.linalg.norm(points[curved].mean(axis=1)[:, :2], axis=1)

@@ -13,14 +13,13 @@ set separately:
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import gmsh
 import numpy as np
 
-from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh
+from frictionid.builders.gmsh_mesh import gmsh_session
 from frictionid.model import Mesh
+from fixtures.user_block import generate
+from helpers.meshes import generated, lowered
 
 SIDE, THICKNESS = 2.0, 1.0
 #: the upper body is meshed this far up [mm] and moved down after (gmsh's extrusion finds nodes by position)
@@ -67,27 +66,13 @@ def stack(upper: str, lower: str, hexes: bool, order: int = 1, layers: int = 2):
             add(2, [t for t in sides if _on(2, t, 1, 0.0)], name=f"{name}_y0")
         add(2, base, name="lower_bottom")
         add(2, top, name="contact")
-        gmsh.model.mesh.generate(3)
-        if order == 2:
-            gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-            gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh()
-    points = np.array(mesh.points)
-    points[np.unique(mesh.cells[mesh.regions["upper"]]), 2] -= _APART
+        mesh = generated(order)
+    points = lowered(mesh, 2, _APART)
     boundaries = dict(mesh.boundaries)
     contact = boundaries.pop("contact")
     left = points[contact].mean(axis=1)[:, 0] < SIDE / 2
     boundaries.update(A=contact[left], B=contact[~left])
     return Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), boundaries)
-
-
-def user_block_generator():
-    """tests/fixtures/user_block/generate.py as a module (the fixture's own mesh writers)."""
-    spec = importlib.util.spec_from_file_location("user_block_generate",
-                                                  Path(__file__).parent / "fixtures" / "user_block" / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def write_nonmatching_block(path, block_quarter: int = 4, plate_quarter: int = 3, outer: int = 3,
@@ -96,7 +81,6 @@ def write_nonmatching_block(path, block_quarter: int = 4, plate_quarter: int = 3
     fragmented on its own), but the block's footprint with ``block_quarter`` divisions per half side and the
     plate's with ``plate_quarter``: the interface nodes do not match (except on the quadrant borders' ends).
     The block, the contact side, carries the finer mesh, as the slave side of a mortar interface should."""
-    generate = user_block_generator()
     with gmsh_session("user_block_nonmatching"):
         plate = generate._boxes([-20, -5, 0, 5, 20], -5, 0)
         block = generate._boxes([-5, 0, 5], 0, 10)

@@ -33,6 +33,7 @@ def without_timing(result: dict) -> dict:
     return {key: value for key, value in result.items() if key not in TIMING}
 
 
+@pytest.mark.slow          # 50 s in the fast suite on the shared machine (about 1/7 idle)
 def test_cli_and_api_write_the_same_result_json(first, cli_run, monkeypatch):
     cli = json.loads((cli_run / "result.json").read_text())
     monkeypatch.chdir(first)                                   # the API resolves relative paths against the cwd

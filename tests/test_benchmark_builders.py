@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from frictionid.builders.arcs import contact_abscissae
-from frictionid.builders.benchmarks import (hertz_gap, hertz_model, hertz_reference, interference_model,
+from frictionid.builders.verification import (hertz_gap, hertz_model, hertz_reference, interference_model,
                                             lame_reference, mindlin_model, mindlin_reference, pushout_force,
                                             sleeve_model)
 from frictionid.errors import InputError

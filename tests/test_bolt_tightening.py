@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from test_verification import _check_sensitivities
+from helpers import check_sensitivities
 
 from frictionid.builders.bolt import bolt_layout, bolt_model, measurement_points
 from frictionid.errors import InputError
@@ -72,7 +72,7 @@ def test_torque_tension_relation(tightening, mu):
 def test_tightening_sensitivities_match_central_differences(tightening):
     """Torque and clamp force with respect to the six thread zones, the head and the nut bearing."""
     mu = np.array([0.12, 0.15, 0.1, 0.18, 0.11, 0.14, 0.15, 0.13])
-    solution = _check_sensitivities(tightening, mu)
+    solution = check_sensitivities(tightening, mu)
     torque = solution.reaction_labels.index("nut_outer.torque")
     assert np.all(solution.d_reactions[-1, torque, [0, 1, 2, 3, 4, 5, 7]] > 0)     # thread and bearing raise it
 

@@ -10,7 +10,7 @@ from frictionid.backends.calculix.backend import CalculixSettings
 from frictionid.backends.calculix.deck import ContactSettings, stage_forces, write_deck
 from frictionid.backends.calculix.elements import (N_KEPT, SHAPE, calculix_cells, face_lookup, fill_dropped_nodes,
                                                    lump_dropped_forces)
-from frictionid.builders.benchmarks import hertz_model, interference_model, sleeve_model
+from frictionid.builders.verification import hertz_model, interference_model, sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels

@@ -4,7 +4,6 @@ difference over the range of the embedded values, displacements / strains 1 % / 
 axisymmetric, 2 % / 2 % in 3-D; reactions 2 % (2-D), the pull reaction 1 % (3-D); the press reaction as applied;
 in 3-D gross slip T = sum mu_i N_i in ccx within 0.5 % (C3D10: 1.5 %, ccx measured -0.91 %)."""
 
-import importlib.util
 import shutil
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from frictionid.data.measurements import read_measurements
 from frictionid.simulation import DEFAULT_QUANTITIES
 
 from element_models import ELEMENTS, element_model
+from fixtures.user_block import generate
 
 pytestmark = [pytest.mark.ccx,
               pytest.mark.skipif(shutil.which("ccx") is None,
@@ -136,14 +136,6 @@ def test_crosscheck_per_element_type(element, tmp_path):
 
 # ------------------------------------------------------------------------------------ a user's own mesh
 
-def _generate():
-    """tests/fixtures/user_block/generate.py as a module (the fixture's own mesh writers)."""
-    spec = importlib.util.spec_from_file_location("user_block_generate", FIXTURE / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def _simulate_both(tmp_path, config: str, points: str, calculix: str = "") -> dict:
     """`frictionid simulate` of one config with each backend (``calculix``: more [solver] lines for ccx):
     {backend: Measurements}."""
@@ -181,15 +173,14 @@ def _compare(results: dict, quantities: tuple[str, ...]) -> tuple[float, np.ndar
         np.array([embedded.force[last], ccx.force[last]])
 
 
-def test_user_inp_mesh_on_both_backends(tmp_path):
+def test_user_inp_mesh_on_both_backends(tmp_path, monkeypatch):
     """A user's .inp deck (the fixture block.inp's layout and writer, coarser: 3 divisions per half side of the
     footprint, 3 outside it, 6 layers in the block, 3 in the plate; 1,019 nodes, C3D8 as the deck says) through
     `frictionid simulate` with [solver] backend = "calculix" and "embedded" at the fixture's 46 points. Measured:
     see MEASURED_USER. The fixture itself (3,374 nodes, 10 pull increments) takes 48 s per ccx run: u / strains
     0.19 % / 0.27 % RMS of range at 16 cell centroids, pull reaction +0.32 % (docs/calculix.md)."""
-    generate = _generate()
     for name, value in {"N_QUARTER": 3, "N_OUTER": 3, "N_BLOCK_Z": 6, "N_PLATE_Z": 3}.items():
-        setattr(generate, name, value)
+        monkeypatch.setattr(generate, name, value)          # the module is shared: restored after the test
     generate.write_block_msh(tmp_path / "coarse.msh")
     generate.write_block_inp(tmp_path / "coarse.msh", tmp_path / "coarse.inp")
     config = _user_config("identify.toml", "coarse.inp", "points.csv", '["ux", "uy", "uz", "force"]',

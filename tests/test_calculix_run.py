@@ -2,7 +2,6 @@
 (fake ccx executables; no ccx needed)."""
 
 import dataclasses
-import shutil
 import stat
 
 import numpy as np
@@ -10,7 +9,7 @@ import pytest
 
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 from frictionid.backends.embedded import EmbeddedBackend
-from frictionid.builders.benchmarks import sleeve_model
+from frictionid.builders.verification import sleeve_model
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.bolt import bolt_model
 from frictionid.cli import main
@@ -23,21 +22,10 @@ from frictionid.inverse.observations import observations_from
 from frictionid.inverse.parameters import Parameters
 from frictionid.model import Mesh
 from frictionid.studies import block as twin
-
-_without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
-                                  reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
-
-
-def needs_ccx(test):
-    """A test that runs CalculiX: marked ``ccx`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
-    return pytest.mark.ccx(_without_ccx(test))
-
+from helpers import BLOCK_POINTS, needs_ccx
 
 Q2D = ("ux", "uy", "exx", "eyy", "exy")
 Q3D = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
-#: the 16 strain points of benchmarks/identify_block.py on the block's side faces near the contact
-BLOCK_POINTS = np.array([[x, y, z] for z in (0.5, 1.5) for s in (-3.0, 3.0)
-                         for x, y in ((-5.0, s), (5.0, s), (s, -5.0), (s, 5.0))])
 
 
 def small_2d(**options):

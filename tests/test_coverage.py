@@ -13,13 +13,8 @@ pytestmark = pytest.mark.slow            # 200 identifications, about 5 minutes
 
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model, refined
-from frictionid.discretisation import with_model_error
-from frictionid.identification import fit_statistics
-from frictionid.inverse.evaluator import Evaluator
-from frictionid.inverse.least_squares import LeastSquares
-from frictionid.inverse.observations import Observations
-from frictionid.inverse.optimisers import optimise
 from frictionid.inverse.parameters import Parameters
+from helpers.fits import fit_as_identify, point_observations
 
 TRUE = np.array([0.32, 0.18])
 MODEL = {"builder": "block2d", "mesh_size": 1.0, "height": 4.0, "order": 1}
@@ -34,13 +29,6 @@ REGIONS = ("block",) * 10 + ("base",) * 8
 QUANTITIES = ("ux", "uy")
 
 
-def _observations(y: np.ndarray) -> Observations:
-    n = len(y)
-    labels = tuple(f"P{i // 2 + 1}:{QUANTITIES[i % 2]}@2" for i in range(n))
-    return Observations(POINTS, REGIONS, QUANTITIES, np.arange(n), np.ones(n, int), y, np.full(n, SIGMA), labels,
-                        True)
-
-
 def _replicates(mode: str):
     """(values, identifiable, inside the 95 % interval, consistent) per replicate."""
     clean = EmbeddedBackend(build_model({**MODEL, "mesh_size": DATA_MESH}), POINTS, QUANTITIES,
@@ -52,19 +40,8 @@ def _replicates(mode: str):
     rows = []
     for seed in range(N_REPLICATES):
         y = clean + np.random.default_rng(seed).normal(0.0, SIGMA, clean.shape)
-        evaluator = Evaluator(backend, _observations(y), params)
-
-        def fit(x0, offset=0):
-            problem = LeastSquares(evaluator.residuals, evaluator.jacobian, x0, params.lower, params.upper,
-                                   params.free_names, noise_known=True)
-            return optimise(problem, "trf"), problem
-
-        outcome, problem = fit(params.x0)
-        error = None
-        if mode == "include":
-            error, outcome = with_model_error(evaluator, params, MODEL, model, outcome, mode,
-                                              lambda x0, offset: fit(x0)[0])
-        stats = fit_statistics(evaluator, problem, outcome.x, RESOLUTION, error)
+        obs = point_observations(POINTS, REGIONS, QUANTITIES, y, SIGMA)
+        outcome, stats = fit_as_identify(backend, model, MODEL, params, obs, mode, RESOLUTION)
         unc = stats.uncertainty
         inside = (unc.ci95[:, 0] <= TRUE) & (TRUE <= unc.ci95[:, 1])
         rows.append((outcome.x, unc.identifiable, inside, stats.adequacy.consistent))

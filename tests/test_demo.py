@@ -10,6 +10,8 @@ from frictionid.studies.bolt import TRUE_MU
 
 #: issue 4 acceptance: the coefficients the noise-free twin data resolve are recovered within 0.02
 RESOLVED_TOL = 0.02
+#: the demo's fixture runs the whole M20 study: 250 s in the fast suite on the shared machine (about 35 s idle)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

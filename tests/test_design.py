@@ -2,6 +2,7 @@
 
 import json
 
+import matplotlib.image
 import numpy as np
 import pytest
 
@@ -11,6 +12,7 @@ from frictionid.cli import main
 from frictionid.inverse.design import finest_partition, information_of, merged_stderr, select_points
 from frictionid.inverse.resolution import predicted_stderr
 from frictionid.model.merge import merge_zones
+from helpers import write_config
 
 # ------------------------------------------------------------------------------------------ selection
 
@@ -99,13 +101,11 @@ CSV = "point,x,y,z,stage,ux,uy\n" + "".join(f"P{k},{x},{y},0.0,2,0.0,0.0\n" for 
 
 def _config(folder, zones="A = 0.3, B = 0.3", extra="", design="", noise="noise = { u = 0.0005 }\n"):
     (folder / "points.csv").write_text(CSV)
-    path = folder / "plan.toml"
     regions = ", ".join(f'P{k} = "{r}"' for k, r in enumerate(REGIONS))
-    path.write_text(f'[model]\nbuilder = "block2d"\nmesh_size = 2.0\n[friction]\nzones = {{ {zones} }}\n{extra}'
-                    f'[data]\nfile = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n{noise}'
-                    f"regions = {{ {regions} }}\n[design]\nn_candidates = 60\n{design}"
-                    f'[run]\ndir = "runs/plan"\n')
-    return path
+    return write_config(folder / "plan.toml", model={"builder": "block2d", "mesh_size": 2.0},
+                        friction=f"zones = {{ {zones} }}\n{extra}",
+                        data=f'file = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n{noise}'
+                        f"regions = {{ {regions} }}\n", design=f"n_candidates = 60\n{design}", run={"dir": "runs/plan"})
 
 
 def test_design_writes_the_chosen_points_and_the_partitions(tmp_path, capsys):
@@ -115,7 +115,13 @@ def test_design_writes_the_chosen_points_and_the_partitions(tmp_path, capsys):
     assert result["chosen"]["n_points"] == 6 and len(result["chosen"]["points"]) == 6
     planned, chosen = result["planned"]["stderr"], result["chosen"]["stderr"]
     assert sum(chosen[z] ** 2 for z in "AB") < sum(planned[z] ** 2 for z in "AB")
-    assert "predicted standard errors" in out and (tmp_path / "runs/plan/design/sensitivity.png").stat().st_size
+    assert "predicted standard errors" in out
+    # the plot: one panel per zone side by side, the chosen points circled red over the viridis candidates
+    image = matplotlib.image.imread(tmp_path / "runs/plan/design/sensitivity.png")[:, :, :3]
+    red = (image[:, :, 0] > 0.8) & (image[:, :, 1] < 0.3) & (image[:, :, 2] < 0.3)
+    coloured = np.ptp(image, axis=2) > 0.2                  # neither white, grey nor black
+    assert image.shape[1] > image.shape[0] and red.sum() > 6 and coloured.sum() > 20 * red.sum() / 6
+    assert red[:, : image.shape[1] // 2].any() and red[:, image.shape[1] // 2:].any()      # in both panels
     # the chosen points file is a points file `simulate` takes
     (tmp_path / "points.csv").write_text((tmp_path / "runs/plan/design/chosen_points.csv").read_text())
     regions = ", ".join(f'"{k}" = "{v}"' for k, v in result["chosen"]["regions"].items())

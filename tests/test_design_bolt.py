@@ -12,22 +12,21 @@ from frictionid.builders.bolt import bolt_layout, fixed_friction, measurement_po
 from frictionid.cli import main
 from frictionid.data.measurements import write_measurements
 from frictionid.studies.bolt import TRUE_MU, points_measurements
+from helpers import toml_value, write_config
 
 pytestmark = pytest.mark.slow            # a design of 300 points and four bolt identifications: 2-4 minutes
 
 NOISE = 0.0005
-FIXED = ", ".join(f"{z} = {v}" for z, v in fixed_friction().items())
+FIXED = fixed_friction()
 
 
 def _config(folder, name, zones: dict, data: str, regions: str, extra: str = "") -> str:
-    table = ", ".join(f"{z} = {v}" for z, v in zones.items())
-    path = folder / f"{name}.toml"
-    path.write_text(f'[model]\nbuilder = "bolt"\nsize = "M20"\nforces = [10000.0, 30000.0]\nflank_size = 0.2\n'
-                    f"[friction]\nzones = {{ {table} }}\nfixed = {{ {FIXED} }}\n{extra}"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [1, 2]\n'
-                    f"noise = {{ u = {NOISE} }}\nregions = {regions}\n"
-                    f'[design]\nregions = ["bolt", "nut"]\n[run]\ndir = "runs/{name}"\n')
-    return str(path)
+    return str(write_config(folder / f"{name}.toml",
+                            model={"builder": "bolt", "size": "M20", "forces": [10000.0, 30000.0], "flank_size": 0.2},
+                            friction=f"zones = {toml_value(zones)}\nfixed = {toml_value(FIXED)}\n{extra}",
+                            data=f'file = "{data}"\nobservables = ["ux", "uy"]\nstages = [1, 2]\n'
+                            f"noise = {{ u = {NOISE} }}\nregions = {regions}\n",
+                            design={"regions": ["bolt", "nut"]}, run={"dir": f"runs/{name}"}))
 
 
 def _noisy(source, target, seed: int) -> None:

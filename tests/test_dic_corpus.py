@@ -10,17 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tomli_w
 
 from frictionid.cli import main
 from frictionid.data import read_measurements
 from frictionid.data.sources import read_sources
+from fixtures.dic import corpus
+from helpers.config import with_data
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
 CORPUS = FIXTURES / "corpus"
-sys.path.insert(0, str(FIXTURES))
-import corpus  # noqa: E402  (tests/fixtures/dic/corpus.py, the corpus's writer)
 
 #: exports carry values to 17 digits (ARAMIS's fixed-width fields fewer: the program's tolerance); a frame and
 #: unit, strain measure conversions cost a few ulp
@@ -92,12 +91,7 @@ def test_a_matchid_2024_export_without_strain_measure_is_checked_and_the_key_nam
 
 
 def _identify(folder: Path, name: str, **data) -> dict:
-    config = tomllib.loads((folder / "identify.toml").read_text())
-    config["data"].update(data)
-    config["run"]["dir"] = f"runs/{name}"
-    path = folder / f"{name}.toml"
-    path.write_text(tomli_w.dumps(config))
-    assert main(["identify", str(path)]) == 0
+    assert main(["identify", str(with_data(folder, name, **data))]) == 0
     return json.loads((folder / "runs" / name / "result.json").read_text())
 
 
@@ -106,6 +100,7 @@ def reference(first):
     return _identify(first, "corpus_generic")
 
 
+@pytest.mark.slow          # 94 s for the eight layouts in the fast suite on the shared machine (about 1/7 idle)
 @pytest.mark.parametrize("name", ["matchid2023", "aramis", "gom_correlate"])
 def test_the_new_layouts_identify_like_the_generic_csv(name, first, reference):
     """examples/first's twin (two stages) written in each layout, in a rotated camera frame, with an invalid

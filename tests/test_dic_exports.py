@@ -10,18 +10,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tomli_w
 
 from frictionid.cli import main
 from frictionid.data import read_measurements, write_measurements
 from frictionid.data.dic import read_export
 from frictionid.data.sources import read_data
 from frictionid.errors import InputError
+from fixtures.dic import generate
+from helpers.config import with_data
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
-sys.path.insert(0, str(FIXTURES))
-import generate  # noqa: E402  (the fixtures' generator, tests/fixtures/dic/generate.py)
 
 #: exports carry values to 17 digits; unit and strain-measure conversions cost a few ulp
 RTOL = 1e-12
@@ -289,16 +288,12 @@ def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
 
 def identified(folder: Path, name: str, **data) -> dict:
     """Coefficients of examples/first's identify.toml with [data] changed, run into runs/<name>."""
-    config = tomllib.loads((folder / "identify.toml").read_text())
-    config["data"].update(data)
-    config["run"]["dir"] = f"runs/{name}"
-    path = folder / f"{name}.toml"
-    path.write_text(tomli_w.dumps(config))
-    assert main(["identify", str(path)]) == 0
+    assert main(["identify", str(with_data(folder, name, **data))]) == 0
     result = json.loads((folder / "runs" / name / "result.json").read_text())
     return {zone: p["value"] for zone, p in result["parameters"].items()}
 
 
+@pytest.mark.slow          # 62 s in the fast suite on the shared machine (about 1/7 idle)
 def test_per_stage_exports_of_two_flavours_identify_like_the_generic_csv(first):
     measured = read_measurements(first / "measured.csv")
     assert measured.stages == (1, 2)
@@ -384,7 +379,7 @@ def _window_config(folder, **data):
 def _operator(setup):
     """The fit's observation operator of a setup, its rows ordered by the points' coordinates (labels differ)."""
     from frictionid.fem.space import Space
-    from frictionid.identification import strain_window
+    from frictionid.preparation import strain_window
 
     model, obs = setup.model, setup.observations
     space = Space.build(model.mesh, model.kind, model.element)
@@ -419,7 +414,8 @@ def test_a_dice_header_window_gives_the_operator_of_the_equivalent_config_window
     with strain_window = 1.525, strain_window_shape = "circle"; it is neither the square of that side nor pointwise.
     check-data and result.json's data.strain_window say where it came from."""
     from frictionid.data.sources import check_config_data
-    from frictionid.identification import data_section, prepare
+    from frictionid.preparation import prepare
+    from frictionid.result import data_section
 
     dice = prepare(_window_config(window_files, file="dice.txt"))
     size = WINDOW_PX / PX_PER_MM
@@ -447,7 +443,7 @@ def test_without_pixel_coordinates_the_header_window_is_not_used(window_files, c
     """An export without the pixel coordinates gives no pixel size: the window is not converted, check-data says
     why, a fit of strains needs [data] strain_window (exit 2), a fit of displacements runs without a window."""
     from frictionid.data.sources import check_config_data
-    from frictionid.identification import prepare
+    from frictionid.preparation import prepare
 
     said = check_config_data(_window_config(window_files, file="no_pixels.txt"))
     assert "strain window 61 px from the header, not converted to mm: the file has no pixel coordinates" in said
@@ -464,7 +460,7 @@ def test_the_config_window_overrides_the_header(window_files):
     """[data] strain_window is the fit's window (a square unless strain_window_shape says circle) whatever the
     headers say; check-data names the header's window as overridden."""
     from frictionid.data.sources import check_config_data
-    from frictionid.identification import prepare
+    from frictionid.preparation import prepare
 
     dice = prepare(_window_config(window_files, file="dice.txt", strain_window=2.0))
     generic = prepare(_window_config(window_files, file="generic.csv", strain_window=2.0))
@@ -479,7 +475,7 @@ def test_the_config_window_overrides_the_header(window_files):
 def test_two_files_with_different_header_windows_are_refused(window_files):
     """A fit has one window: two exports whose headers give different windows are refused naming both (and a
     config window settles it)."""
-    from frictionid.identification import prepare
+    from frictionid.preparation import prepare
 
     files = ["dice.txt", "dice_41.txt"]
     with pytest.raises(InputError, match=r"dice.txt and .*dice_41.txt give different strain windows in their "

@@ -5,7 +5,6 @@ the key, line or column, no traceback, nothing written."""
 import shutil
 import sys
 from dataclasses import replace
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -17,20 +16,14 @@ from frictionid.data import read_measurements, write_measurements
 from frictionid.data.frames import Frame
 from frictionid.data.sources import read_sources
 from frictionid.errors import InputError
+from fixtures.dic import generate
+from helpers.config import with_data
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
-sys.path.insert(0, str(FIXTURES))
-import generate  # noqa: E402
 
 
-def _config(folder: Path, name: str, **data) -> Path:
-    config = tomllib.loads((folder / "identify.toml").read_text())
-    config["data"].update(data)
-    config["run"]["dir"] = f"runs/{name}"
-    path = folder / f"{name}.toml"
-    path.write_text(tomli_w.dumps(config))
-    return path
+_config = with_data
 
 
 def _scattered(first: Path, name: str, amplitude: float, at=None) -> Path:
@@ -210,7 +203,7 @@ def test_a_config_force_that_contradicts_the_nodemap_metadata_is_refused(tmp_pat
 def test_coordinates_states_what_an_exports_coordinate_columns_hold(tmp_path):
     """[data] coordinates = "deformed": a MatchID 2024.1 export written with the positions at the stage reads to
     the reference positions; "reference" reads a MatchID 2023 export's coordinates as written."""
-    import corpus
+    from fixtures.dic import corpus
     generic = read_measurements(FIXTURES / "corpus" / "generic.csv").select(stages=[2])
     u = np.column_stack([generic.values[q] for q in ("ux", "uy", "uz")])
     corpus.write_matchid_2024(tmp_path / "m2024.csv", _with_coordinates(generic, generic.coordinates + u))

@@ -5,22 +5,19 @@ from pathlib import Path
 
 import pytest
 
-from block2d_case import points_csv
+from block2d_case import data_table, points_csv
 from frictionid.cli import main
+from helpers import write_config
 
 TRUE = {"A": 0.32, "B": 0.18}
 POINTS = points_csv(stage=2, quantities=("ux", "uy"))
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
 
 
 def _config(folder: Path, name: str, mesh: float, zones: dict, data: str, identify: str = "") -> Path:
-    path = folder / f"{name}.toml"
-    table = ", ".join(f"{k} = {v}" for k, v in zones.items())
-    path.write_text(f'[model]\nbuilder = "block2d"\nmesh_size = {mesh}\nheight = 4.0\norder = 1\n'
-                    f"[friction]\nzones = {{ {table} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0001 }}\n'
-                    + REGIONS + f"[identify]\n{identify}" + f'[run]\ndir = "runs/{name}"\n')
-    return path
+    return write_config(folder / f"{name}.toml", model={"builder": "block2d", "mesh_size": mesh, "height": 4.0,
+                                                        "order": 1},
+                        friction={"zones": zones}, data=data_table(data, noise=0.0001), identify=identify,
+                        run={"dir": f"runs/{name}"})
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +30,7 @@ def measured(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow          # 40 s in the fast suite on the shared machine (about 1/7 idle)
 def test_the_estimate_is_reported_and_included_in_the_weights(measured, capsys):
     start = dict.fromkeys(TRUE, 0.1)
     assert main(["identify", str(_config(measured, "plain", 1.0, start, "measured.csv"))]) == 0
@@ -76,6 +74,7 @@ ABSORBED_DATA = ('observables = ["ux", "uy", "force"]\nstages = [2]\nnoise = { u
                  'R3 = "block", "*" = "base" }\n')
 
 
+@pytest.mark.slow          # 84 s for both modes in the fast suite on the shared machine (about 1/7 idle)
 @pytest.mark.parametrize("mode", ["estimate", "include"])
 def test_a_model_error_the_coefficients_absorb_is_found_by_the_estimate(tmp_path, capsys, mode):
     """Quadratic triangles of 1 mm fitted to data of a 0.5 mm mesh: the machine force's discretisation error

@@ -54,6 +54,7 @@ def test_relative_links_lead_to_files_of_the_repository(document):
             assert (document.parent / target).exists(), f"{document.name} links to missing {target}"
 
 
+@pytest.mark.slow          # 41 s in the fast suite on the shared machine (about 1/7 idle)
 def test_the_first_example_gives_what_getting_started_shows(tmp_path):
     """docs/getting-started.md walks through examples/first: B resolved with the truth in its interval, A not
     (correlated with B), the misfit explained; with the estimate, the error is reported and moves A up, B down."""

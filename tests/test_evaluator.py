@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from frictionid.backends.embedded import EmbeddedBackend, Prediction
+from frictionid.backends.base import Prediction
+from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.block import block_model_2d
 from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.observations import Observations

@@ -7,9 +7,10 @@ import pytest
 
 from frictionid.cli import main
 from frictionid.fem import problem as problem_module
+from helpers import write_config
 
 TRUE = {"A": 0.32, "B": 0.18, "C": 0.41, "D": 0.25}
-MODEL = '[model]\nbuilder = "block"\nmesh_size = 5.0\nblock_divisions = 2\n'
+MODEL = {"builder": "block", "mesh_size": 5.0, "block_divisions": 2}
 # points on the block's side faces (the block spans [-5, 5] x [-5, 5] x [0, 10] above the plate)
 POINTS = "point,x,y,z,stage\n" + "".join(
     f"P{k},{x},{y},{z},2\n" for k, (x, y, z) in enumerate(
@@ -18,13 +19,10 @@ POINTS = "point,x,y,z,stage\n" + "".join(
 
 
 def _config(folder, name: str, zones: dict, data: str, solver: str = "") -> str:
-    table = ", ".join(f"{z} = {v}" for z, v in zones.items())
-    path = folder / f"{name}.toml"
-    path.write_text(MODEL + f"[friction]\nzones = {{ {table} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy", "uz"]\nstages = [2]\n'
-                    'noise = { u = 0.0005 }\nregions = { "*" = "block" }\n'
-                    f'{solver}[run]\ndir = "runs/{name}"\nfields = false\n')
-    return str(path)
+    return str(write_config(folder / f"{name}.toml", f'{solver}[run]\ndir = "runs/{name}"\nfields = false\n',
+                            model=MODEL, friction={"zones": zones},
+                            data={"file": data, "observables": ["ux", "uy", "uz"], "stages": [2],
+                                  "noise": {"u": 0.0005}, "regions": {"*": "block"}}))
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +33,7 @@ def measured(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow          # 35 s in the fast suite on the shared machine (about 1/7 idle)
 def test_cholmod_and_superlu_give_the_same_fit(measured, monkeypatch):
     used = []
     condense = problem_module.condense

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from frictionid.backends.embedded import EmbeddedBackend
-from frictionid.builders.benchmarks import interference_model
+from frictionid.builders.verification import interference_model
 from frictionid.cli import main
 from frictionid.fem.points import QUANTITIES
 from frictionid.fem.problem import Problem
-from frictionid.fields import strain_names
+from frictionid.fem.fields import strain_names
 from frictionid.report.vtu import export_fields, write_fields
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "first"

@@ -15,11 +15,10 @@ from frictionid.data.frames import Frame, frame_spec, in_model_frame, rotation_f
 from frictionid.data.sources import read_sources
 from frictionid.data.table import Measurements
 from frictionid.fem.surface import mesh_surface
+from fixtures.dic import generate
 
 ROOT = Path(__file__).parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "dic"
-sys.path.insert(0, str(FIXTURES))
-import generate  # noqa: E402  (the fixtures' generator, tests/fixtures/dic/generate.py)
 
 #: the frame of the tests' DIC files: turned about all three axes, shifted [mm]
 ANGLES, SHIFT = [20.0, -35.0, 110.0], [12.5, -4.0, 30.0]

@@ -230,7 +230,7 @@ def test_point_misfit_groups_by_point_in_one_pass():
     1e5 points), the machine force belonging to no point."""
     from types import SimpleNamespace
 
-    from frictionid.identification import point_misfit
+    from frictionid.inverse.statistics import point_misfit
 
     rng = np.random.default_rng(4)
     names = [f"P{k}" for k in range(300)]

@@ -25,8 +25,8 @@ from frictionid.fem.problem import Problem
 from frictionid.model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 from frictionid.model.mesh import CELL_FACETS
 
-from test_calculix_run import needs_ccx, rms_of_range
-from test_verification import _check_sensitivities
+from helpers import check_sensitivities, needs_ccx
+from test_calculix_run import rms_of_range
 
 PLATE, BLOCK = Material(3500.0, 0.35), Material(71000.0, 0.33)
 MU = np.array([0.3, 0.45])          # zones "centre" (|x|, |y| < 2.5 mm) and "rim" of the block's bottom
@@ -211,7 +211,7 @@ def test_sensitivities_with_held_pairs_match_central_differences(dim):
     """d reactions / d mu of the part model at every increment against central differences (rtol 1e-6,
     h = 1e-6, the helper of the other solver tests): stick, partial and gross slip with held pairs."""
     problem = Problem.build(symmetric_model(dim, False, STRETCH))
-    solution = _check_sensitivities(problem, MU)
+    solution = check_sensitivities(problem, MU)
     assert np.abs(solution.d_reactions).max() > 0
 
 
@@ -237,7 +237,7 @@ def test_held_directions_that_are_not_frame_axes(monkeypatch):
     E = free_tangents(turned.pairs.B, turned.condensed.free, 3)
     partly = (np.trace(E, axis1=1, axis2=2) > 0.5) & (np.trace(E, axis1=1, axis2=2) < 1.5)
     assert partly.sum() == 8 and np.abs(E[partly][:, 0, 1]).min() > 0.4                       # cos 30 sin 30
-    solution = _check_sensitivities(turned, MU)
+    solution = check_sensitivities(turned, MU)
     np.testing.assert_array_equal(solution.state, reference.state)
     for i in range(solution.n_increments):
         u = straight.displacement(reference, i)

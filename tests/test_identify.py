@@ -11,16 +11,14 @@ from pathlib import Path
 
 import pytest
 
-from block2d_case import MODEL, POINTS, REGIONS, TRUE
+from block2d_case import MODEL_TABLE, POINTS, TRUE, data_table
 from frictionid.cli import main
+from helpers import write_config
 
 
 def _config(folder: Path, name: str, zones: str, data: str, extra: str = "", run: str = "runs/r") -> Path:
-    path = folder / name
-    path.write_text(MODEL + f"[friction]\nzones = {{ {zones} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
-                    + REGIONS + extra + f'[run]\ndir = "{run}"\n')
-    return path
+    return write_config(folder / name, extra + f'[run]\ndir = "{run}"\n', model=MODEL_TABLE,
+                        friction=f"zones = {{ {zones} }}\n", data=data_table(data))
 
 
 @pytest.fixture(scope="module")
@@ -80,6 +78,7 @@ def _evaluations(store: Path) -> int:
         return 0
 
 
+@pytest.mark.slow              # 92 s measured on the shared machine (two full fits and a killed process)
 def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_run_ends(measured):
     extra = '[identify]\nmethod = "gradient-descent"\njacobian = "forward"\nmax_iterations = 30\n'
     whole = _config(measured, "whole.toml", "A = 0.1, B = 0.1, C = 0.1", "measured.csv", extra, "runs/whole")
@@ -103,6 +102,7 @@ def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_r
     assert _evaluations(store) == reference["n_forward_solves"]   # nothing evaluated twice
 
 
+@pytest.mark.slow          # 38 s in the fast suite on the shared machine (about 1/7 idle)
 def test_ctrl_c_as_a_real_signal_stops_with_exit_1_a_result_and_the_resume_hint(measured):
     """SIGINT to the command-line process mid-run (after gmsh built the mesh: gmsh must not leave Ctrl-C killing
     the process): exit status 1, the message naming --resume, result.json "interrupted", the store kept."""

@@ -20,15 +20,7 @@ from frictionid.fem.points import point_operator
 from frictionid.fem.problem import Problem
 from frictionid.fem.space import Space
 from frictionid.model import Material, Mesh, Model, Support, SurfaceForce
-
-_without_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
-                                  reason="ccx (CalculiX) is not installed: apt-get install calculix-ccx")
-
-
-def needs_ccx(test):
-    """A test that runs CalculiX: marked ``ccx`` (``make check`` runs it, ``make test`` not), skipped without ccx."""
-    return pytest.mark.ccx(_without_ccx(test))
-
+from helpers import central_difference, needs_ccx
 
 #: cantilever [0, L] x [-b/2, b/2] x [-h/2, h/2] [mm], E [MPa], nu = 0 (no Poisson coupling at the clamp)
 L, B, H, E = 10.0, 1.0, 1.0, 1000.0
@@ -259,13 +251,11 @@ def test_block_sensitivities_match_central_differences(pull):
     solution = problem.solve(mu, sensitivities=True)
     states = np.bincount(solution.state[-1], minlength=3)
     assert states[SLIP] > 0 and (pull > 0.1 or states[STICK] > 0)          # the regime the id claims
-    for zone in range(4):
-        step = np.eye(4)[zone] * h
-        plus, minus = problem.solve(mu + step), problem.solve(mu - step)
-        for name in ("reactions", "observations"):
-            central = (getattr(plus, name) - getattr(minus, name)) / (2 * h)
-            np.testing.assert_allclose(getattr(solution, f"d_{name}")[:, :, zone], central, rtol=1e-6,
-                                       atol=1e-6 * np.abs(central).max())
+    for name in ("reactions", "observations"):
+        central = central_difference(lambda m: getattr(problem.solve(m), name), mu, h)
+        for zone in range(4):
+            np.testing.assert_allclose(getattr(solution, f"d_{name}")[:, :, zone], central[..., zone], rtol=1e-6,
+                                       atol=1e-6 * np.abs(central[..., zone]).max())
 
 
 def test_block_model_carries_the_element_into_its_fingerprint():

@@ -46,6 +46,7 @@ def assert_honest(result: dict) -> list[str]:
     return off
 
 
+@pytest.mark.slow          # 192 s for both data files in the fast suite on the shared machine (about 1/7 idle)
 @pytest.mark.parametrize("data", ["measured.csv", "measured_noisy.csv"])
 def test_default_fit_recovers_the_zones_or_says_the_model_does_not_explain_the_data(data, tmp_path, capsys):
     result, _ = identify(tmp_path, data, '["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"]')
@@ -61,7 +62,7 @@ def test_default_fit_recovers_the_zones_or_says_the_model_does_not_explain_the_d
             assert variables.split(f"\n    {zone} ")[1].splitlines()[0].endswith("NOT RESOLVED"), variables
 
 
-@pytest.mark.slow     # 16 s; the default fit above runs in make test
+@pytest.mark.slow     # 16 s
 def test_displacements_alone_are_explained_and_bracket_the_front_zones(tmp_path):
     """The hint's remedy on the noisy file: the displacements, which the default mesh reproduces to about the noise
     (reduced chi-square 1.19, with the strains 10.99; the former uniform standard hexahedra 1.56), give intervals of the front zones (C, D)

@@ -26,6 +26,8 @@ from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError
 from frictionid.fem.assembly import load_channels
 from frictionid.fem.space import Space
+from fixtures.user_block import generate
+from helpers.meshes import stacked_rectangles_geo
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
@@ -63,6 +65,7 @@ def predict(model) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------ reference test 1, 3-D
 
+@pytest.mark.slow          # 58 s in the fast suite on the shared machine (about 1/7 idle)
 def test_msh_and_inp_give_the_same_model_and_the_block_builders_results():
     """block.msh and block.inp (the same mesh, names in upper case, the plate bottom as a node set) give one
     result; the mesh has the block builder's layout at mesh_size 1.25 (8 divisions per block side, uniform), so
@@ -105,6 +108,7 @@ def test_a_users_27_node_hexahedra_of_the_builders_layout_give_the_builders_resu
     assert abs(builder[-1, -1]) > 500.0                                     # the pull slides: sum mu_i N_i
 
 
+@pytest.mark.slow          # 69 s in the fast suite on the shared machine (about 1/7 idle)
 def test_twin_on_the_user_mesh_recovers_the_four_zones(folder):
     """Data simulated from block.msh at the truth, identified on block.inp from 0.1 (noise-free, same mesh)."""
     assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
@@ -132,18 +136,8 @@ def test_plane_strain_user_mesh_end_to_end(folder):
         assert abs(result["parameters"][zone]["value"] - value) < TWIN_TOL, zone
 
 
-RING_GEO = """// a ring pressed on a ring, axisymmetric (x = r, y the axis)
-SetFactory("OpenCASCADE");
-Rectangle(1) = {2, -2, 0, 4, 2};
-Rectangle(2) = {2, 0, 0, 4, 2};
-Physical Surface("lower") = {1};
-Physical Surface("upper") = {2};
-Physical Curve("bottom") = {1};
-Physical Curve("lower_top") = {3};
-Physical Curve("upper_bottom") = {5};
-Physical Curve("upper_top") = {7};
-Mesh.MeshSizeMax = 0.5;
-"""
+#: a ring pressed on a ring, axisymmetric (x = r, y the axis)
+RING_GEO = stacked_rectangles_geo(2.0)
 
 
 def test_geo_file_axisymmetric_force_is_the_whole_ring_and_ctrl_c_still_works(tmp_path):
@@ -370,18 +364,9 @@ def test_physical_points_of_a_gmsh_file_are_node_sets_for_supports(tmp_path, cap
                    **{**options, "loads": [{"type": "pressure", "boundary": "corner", "values": [1.0]}]})
 
 
-def _fixture_generator():
-    """tests/fixtures/user_block/generate.py as a module (its mesh writer with adjustable divisions)."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("user_block_generate", FIXTURES / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("family", ["hex", "tet10"])
-def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(family, tmp_path):
+def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(family, tmp_path, monkeypatch):
     """Issue 14's "within 2 % of the block builder at a similar mesh size" where it holds on a mesh of another
     layout: the machine force at the end of the pull (gross slip). 2.5 mm: the builder's default (graded,
     incompatible modes, 800 nodes) against gmsh's uniform standard hexahedra (generate.py's layout, 632 nodes)
@@ -392,8 +377,8 @@ def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(fa
         from element_models import write_tet_block
         path = write_tet_block(tmp_path / "tet10.msh", order=2, quarter=2, outer=3, block_z=4, plate_z=2)
     else:
-        generate = _fixture_generator()
-        generate.N_QUARTER, generate.N_OUTER, generate.N_BLOCK_Z, generate.N_PLATE_Z = 2, 4, 4, 2
+        for name, value in {"N_QUARTER": 2, "N_OUTER": 4, "N_BLOCK_Z": 4, "N_PLATE_Z": 2}.items():
+            monkeypatch.setattr(generate, name, value)      # the module is shared: restored after the test
         path = tmp_path / "hex.msh"
         generate.write_block_msh(path)
     user = predict(build_model({**options(), "file": str(path)}))

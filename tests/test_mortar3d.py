@@ -19,7 +19,8 @@ from element_models import BLOCK_3D, ZONES_3D
 from hertz3d import THICKNESS, hertz_model, hertz_reference, sphere_model, sphere_reference
 from stacks3d import stack, write_nonmatching_block
 from test_calculix_deck import deck_of
-from test_verification import _check_sensitivities, ellipse_fit
+from helpers import check_sensitivities
+from test_verification import ellipse_fit
 
 STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
 MU = np.array([0.2, 0.35])
@@ -153,7 +154,7 @@ def test_gross_slip_and_sensitivities(case):
     reaction within 0.5 % (the slip directions' small y part); d reactions / d mu against central differences
     (rtol 1e-6, h = 1e-6) at every increment: all stuck, partial slip, gross slip."""
     problem = Problem.build(_pulled(_mesh(case)))
-    solution = _check_sensitivities(problem, MU)
+    solution = check_sensitivities(problem, MU)
     states = [np.bincount(solution.state[solution.stage_end(k)], minlength=3) for k in (1, 2)]
     assert states[0][STICK] > 0 and states[0][SLIP] == 0
     assert states[1][STICK] > 0 and states[1][SLIP] > 0

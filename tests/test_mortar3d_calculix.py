@@ -11,7 +11,8 @@ from frictionid.builders.mesh import mesh_model
 
 from element_models import BLOCK_3D
 from stacks3d import write_nonmatching_block
-from test_calculix_elements import _compare, _generate, _simulate_both, _user_config
+from fixtures.user_block import generate
+from test_calculix_elements import _compare, _simulate_both, _user_config
 
 pytestmark = [pytest.mark.ccx,
               pytest.mark.skipif(shutil.which("ccx") is None,
@@ -30,7 +31,7 @@ def test_separately_meshed_block_and_plate_against_calculix(tmp_path):
     model = mesh_model(tmp_path / "nonmatching.msh", **BLOCK_3D)
     contact = np.unique(np.concatenate([model.mesh.boundary_nodes(z) for z in "ABCD"]))
     assert len(contact) == 9 ** 2                     # 4 divisions per half side (the plate's footprint: 3)
-    _generate().write_block_inp(tmp_path / "nonmatching.msh", tmp_path / "nonmatching.inp")
+    generate.write_block_inp(tmp_path / "nonmatching.msh", tmp_path / "nonmatching.inp")
     config = _user_config("identify.toml", "nonmatching.inp", "points.csv", '["ux", "uy", "uz", "force"]',
                           "increments = [1, 4]", "{ A = 0.3, B = 0.2, C = 0.4, D = 0.25 }")
     u, force = _compare(_simulate_both(tmp_path, config, "points.csv"), ("ux", "uy", "uz"))

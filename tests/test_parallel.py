@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from block2d_case import MODEL, POINTS, REGIONS, TRUE
+from block2d_case import MODEL_TABLE, POINTS, TRUE, data_table
 from frictionid.cli import main
+from helpers import write_config
 
 # finite differences (each Jacobian's columns solved at once) and two starts (side by side)
 IDENTIFY = '[identify]\njacobian = "forward"\nstep = 1e-3\nstarts = 2\nseed = 3\n'
@@ -23,11 +24,8 @@ IDENTIFY = '[identify]\njacobian = "forward"\nstep = 1e-3\nstarts = 2\nseed = 3\
 
 def _config(folder: Path, name: str, run: str = "", identify: str = IDENTIFY, zones="A = 0.1, B = 0.1, C = 0.1",
             data: str = "measured.csv") -> Path:
-    path = folder / name
-    path.write_text(MODEL + f"[friction]\nzones = {{ {zones} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
-                    + REGIONS + identify + f'[run]\ndir = "runs/{path.stem}"\nfields = false\n' + run)
-    return path
+    return write_config(folder / name, identify + f'[run]\ndir = "runs/{Path(name).stem}"\nfields = false\n' + run,
+                        model=MODEL_TABLE, friction=f"zones = {{ {zones} }}\n", data=data_table(data))
 
 
 @pytest.fixture(scope="module")
@@ -240,7 +238,7 @@ def test_bad_starts_exit_2_naming_the_key(measured, capsys, change, message):
 
 
 def test_start_points_are_the_configured_start_then_seeded_draws_within_the_bounds():
-    from frictionid.run.multistart import start_points
+    from frictionid.inverse.multistart import start_points
     x0, lower, upper = np.array([0.1, 0.1]), np.array([0.0, 0.05]), np.array([0.6, 0.2])
     points = start_points(5, x0, lower, upper, seed=3)
     np.testing.assert_array_equal(points[0], x0)

@@ -7,19 +7,20 @@ import pytest
 
 from block2d_case import points_csv
 from frictionid.cli import main
-from frictionid.run.profile import CHI2_95, CHI2_BOUND_95, bound_verdict, grid, interval
+from helpers import write_config
+from frictionid.inverse.profile import CHI2_95, CHI2_BOUND_95, bound_verdict, grid, interval
 
 POINTS = points_csv(stage=2, quantities=("ux", "uy"))
-REGIONS = 'regions = { "P[1-4]" = "block", "P[56]" = "base" }\n'
+REGIONS = {"P[1-4]": "block", "P[56]": "base"}
 
 
 def _config(folder, name, zones: str, data: str, identify: str = "") -> str:
-    path = folder / f"{name}.toml"
-    path.write_text(f'[model]\nbuilder = "block2d"\nmesh_size = 2.0\norder = 1\n[friction]\nzones = {{ {zones} }}\n'
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy", "force"]\nstages = [2]\n'
-                    f"noise = {{ u = 0.0005, force = 0.5 }}\n{REGIONS}[identify]\n{identify}"
-                    f'[run]\ndir = "runs/{name}"\n')
-    return str(path)
+    return str(write_config(folder / f"{name}.toml", f'[run]\ndir = "runs/{name}"\n',
+                            model={"builder": "block2d", "mesh_size": 2.0, "order": 1},
+                            friction=f"zones = {{ {zones} }}\n",
+                            data={"file": data, "observables": ["ux", "uy", "force"], "stages": [2],
+                                  "noise": {"u": 0.0005, "force": 0.5}, "regions": REGIONS},
+                            identify=identify))
 
 
 def _measured(folder, name: str, truth: str, seed: int) -> str:
@@ -146,7 +147,7 @@ def test_the_bound_verdict_refuses_a_dip_a_flat_profile_and_a_wide_one():
 def test_a_zone_that_fails_its_bound_check_is_not_claimed_and_says_why(folder, monkeypatch):
     """The identification acts on a failed check: the zone is not claimed, its why names the check's reason, and
     the check (with its values) stays in result.json."""
-    from frictionid.run import profile as module
+    from frictionid.inverse import profile as module
     checks = module.bound_checks
 
     def failing(*args, **kwargs):

@@ -6,32 +6,30 @@ from pathlib import Path
 
 import pytest
 
-from block2d_case import points_csv
+from block2d_case import REGION_TABLE, data_table, points_csv
 from frictionid.cli import main
 from frictionid.fem import memory
+from helpers import write_config
 
 TRUE = {"A": 0.32, "B": 0.18}
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
 
 
 def _config(folder: Path, name: str, identify: str, solver: str = "") -> Path:
-    path = folder / f"{name}.toml"
-    path.write_text('[model]\nbuilder = "block2d"\nmesh_size = 2.0\nheight = 4.0\norder = 1\n'
-                    "[friction]\nzones = { A = 0.1, B = 0.1 }\n"
-                    '[data]\nfile = "measured.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n'
-                    "noise = { u = 0.0001 }\n" + REGIONS + f"[identify]\n{identify}" + solver
-                    + f'[run]\ndir = "runs/{name}"\n')
-    return path
+    return write_config(folder / f"{name}.toml", solver + f'[run]\ndir = "runs/{name}"\n',
+                        model={"builder": "block2d", "mesh_size": 2.0, "height": 4.0, "order": 1},
+                        friction={"zones": {"A": 0.1, "B": 0.1}}, data=data_table("measured.csv", noise=0.0001),
+                        identify=identify)
 
 
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory):
     folder = tmp_path_factory.mktemp("refine_memory")
     (folder / "points.csv").write_text(points_csv(stage=2, quantities=("ux", "uy")))
-    truth = folder / "truth.toml"
-    truth.write_text('[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\norder = 1\n'
-                     "[friction]\nzones = { A = 0.32, B = 0.18 }\n"
-                     '[data]\nfile = "points.csv"\nobservables = ["ux", "uy"]\nstages = [2]\n' + REGIONS)
+    truth = write_config(folder / "truth.toml", model={"builder": "block2d", "mesh_size": 1.0, "height": 4.0,
+                                                       "order": 1},
+                         friction={"zones": {"A": 0.32, "B": 0.18}},
+                         data={"file": "points.csv", "observables": ["ux", "uy"], "stages": [2],
+                               "regions": REGION_TABLE})
     assert main(["simulate", str(truth), "--out", str(folder / "measured.csv")]) == 0
     return folder
 

@@ -6,21 +6,21 @@ from pathlib import Path
 
 import pytest
 
+from block2d_case import MODEL_TABLE
 from frictionid.cli import main
+from helpers import write_config
 
 #: B1, B2 on the block-base interface (y = 0, on both bodies); Q1 on the base's top beside the block
 POINTS = {"B1": (0.5, 0.0), "B2": (2.3, 0.0), "Q1": (-7.0, 0.0)}
-MODEL = '[model]\nbuilder = "block2d"\nmesh_size = 1.0\nheight = 4.0\nn_zones = 3\n'
 
 
 def _config(folder: Path, name: str, regions: str, points: dict = POINTS) -> Path:
     rows = "".join(f"{label},{x!r},{y!r},0.0,2,0.0,0.0\n" for label, (x, y) in points.items())
     (folder / f"{name}.csv").write_text("point,x,y,z,stage,ux,uy\n" + rows)
-    path = folder / f"{name}.toml"
-    path.write_text(MODEL + "[friction]\nzones = { A = 0.32, B = 0.18, C = 0.41 }\n"
-                    f'[data]\nfile = "{name}.csv"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
-                    f"regions = {{ {regions} }}\n" f'[run]\nfields = false\ndir = "runs/{name}"\n')
-    return path
+    return write_config(folder / f"{name}.toml", model=MODEL_TABLE,
+                        friction={"zones": {"A": 0.32, "B": 0.18, "C": 0.41}},
+                        data=f'file = "{name}.csv"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0005 }}\n'
+                        f"regions = {{ {regions} }}\n", run={"fields": False, "dir": f"runs/{name}"})
 
 
 def _simulated(folder: Path, name: str, regions: str, points: dict = POINTS) -> dict:

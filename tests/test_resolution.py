@@ -13,7 +13,7 @@ from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.observations import Observations
 from frictionid.inverse.parameters import Parameters
 from frictionid.inverse.resolution import predicted_stderr, resolution, suggest
-from frictionid.prefit import candidate_points, prefit
+from frictionid.inverse.prefit import candidate_points, prefit
 
 
 def test_predicted_stderr_is_the_textbook_covariance_diagonal():

@@ -183,7 +183,7 @@ def test_a_node_the_target_no_longer_covers_stays_paired_and_open(slid):
 
 
 def test_a_slide_past_the_end_of_the_target_is_reported_with_the_node():
-    from frictionid.builders.benchmarks import sleeve_model
+    from frictionid.builders.verification import sleeve_model
     from frictionid.errors import SolverError
     # the sleeve's target is the shaft's surface along the sleeve's initial bore only (y = 0 to 10 mm): pushed
     # down, the sleeve's lowest bore node leaves it, the coupling drops the node, the node comes back, ...

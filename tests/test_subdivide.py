@@ -16,6 +16,7 @@ from frictionid.builders.registry import build_model, refined
 from frictionid.builders.subdivide import CORNERS, SHAPE, node_template, shape_functions, subdivide
 from frictionid.cli import main
 from frictionid.model.mesh import CELL_FACETS, FACET_TYPE
+from helpers.meshes import stacked_rectangles_geo
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 _GAUSS = np.polynomial.legendre.leggauss(5)
@@ -221,18 +222,7 @@ def test_a_bad_refine_exits_2_naming_the_key(tmp_path, capsys, refine):
     assert "refine" in err and "whole number >= 0" in err and "Traceback" not in err
 
 
-GEO = """SetFactory("OpenCASCADE");
-Rectangle(1) = {0, -2, 0, 4, 2};
-Rectangle(2) = {0, 0, 0, 4, 2};
-Physical Surface("lower") = {1};
-Physical Surface("upper") = {2};
-Physical Curve("bottom") = {1};
-Physical Curve("lower_top") = {3};
-Physical Curve("upper_bottom") = {5};
-Physical Curve("upper_top") = {7};
-Mesh.MeshSizeMax = 0.5;
-Mesh.MeshSizeFactor = 2;
-"""
+GEO = stacked_rectangles_geo(0.0, "Mesh.MeshSizeFactor = 2;\n")
 
 
 def test_a_geo_is_meshed_again_with_its_sizes_halved_on_top_of_its_own_factor(tmp_path):

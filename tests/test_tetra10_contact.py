@@ -16,7 +16,7 @@ from frictionid.fem.node_to_node import TRI6_ALPHA, surface_transform
 from frictionid.fem.problem import Problem
 from frictionid.model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 
-from test_verification import _check_sensitivities
+from helpers import check_sensitivities
 
 STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
 MU = np.array([0.2, 0.35])
@@ -161,7 +161,7 @@ def test_tetra10_sensitivities_match_central_differences(pulled):
     """d reactions / d mu at every increment, partial slip (end of stage 2) and gross slip (stage 3), by the
     3-D and axisymmetric tests' helper (rtol 1e-6, h = 1e-6)."""
     problem, _ = pulled
-    solution = _check_sensitivities(problem, MU)
+    solution = check_sensitivities(problem, MU)
     partial = np.bincount(solution.state[solution.stage_end(1)], minlength=3)
     assert partial[SLIP] > 0 and partial[STICK] > 0                       # the regimes the test claims
     assert np.all(solution.state[-1][solution.state[-1] != 0] == SLIP)
@@ -217,7 +217,7 @@ def test_an_interference_of_unlike_bodies_with_friction_and_its_sensitivities(me
     cone elsewhere, the contact force balancing the supports, and d reactions / d mu against central differences
     (the held pairs treated alike in the sensitivities)."""
     problem = _interference(mesh, ALUMINIUM)
-    solution = _check_sensitivities(problem, MU)
+    solution = check_sensitivities(problem, MU)
     lam = solution.lam[-1]
     assert np.bincount(solution.state[-1], minlength=3)[STICK] > 0.9 * problem.pairs.n_pairs
     assert np.abs(lam[:, 1:][_on_symmetry_planes(problem)]).max() <= 1e-12 * lam[:, 0].max()

@@ -5,9 +5,9 @@ import dataclasses
 
 import numpy as np
 import pytest
-from test_verification import _check_sensitivities
+from helpers import check_sensitivities
 
-from frictionid.builders import benchmarks as bm
+from frictionid.builders import verification as bm
 from frictionid.builders.torsion import effective_radius, shaft_model, turned_rings_model
 from frictionid.errors import InputError
 from frictionid.fem.assembly import stiffness
@@ -131,7 +131,7 @@ def test_ring_turned_on_a_ring_slips_at_mu_n_r_eff(turned):
 
 
 def test_turned_ring_sensitivities_match_central_differences(turned):
-    for angle, solution in ((angle, _check_sensitivities(problem, np.array([0.1, 0.2])))
+    for angle, solution in ((angle, check_sensitivities(problem, np.array([0.1, 0.2])))
                             for angle, problem in turned.items()):
         states = np.bincount(solution.state[-1], minlength=3)
         assert states[SLIP] > 0 and (angle > 1e-3 or states[STICK] > 0)

@@ -16,10 +16,9 @@ from frictionid.data.frames import Frame, rotation_from_degrees
 from frictionid.data.sources import read_sources
 from frictionid.data.table import Measurements
 from frictionid.inverse.observations import Observations
+from fixtures.dic import generate
 
 ROOT = Path(__file__).parents[1]
-sys.path.insert(0, str(ROOT / "tests" / "fixtures" / "dic"))
-import generate  # noqa: E402  (the fixtures' generator, tests/fixtures/dic/generate.py)
 
 #: view -> (points of examples/first it sees, writer, its frame: rotation_deg, translation [mm])
 VIEWS = {"left": ("L", generate.write_gom, 90.0, [-5.0, 2.0, 0.0]),

@@ -30,13 +30,13 @@ from .config import Config
 from .data.sources import read_data
 from .data.table import CHANNELS, QUANTITIES, Measurements
 from .errors import InputError
-from .identification import prepare
+from .preparation import prepare
 from .inverse.design import CRITERIA, finest_partition, information_of, select_points
 from .inverse.observations import noise_of
 from .inverse.resolution import predicted_stderr, resolution
 from .model import Model
 from .paths import check_folder, input_files
-from .prefit import candidate_points, spread_points
+from .inverse.prefit import candidate_points, spread_points
 
 KINDS = ("surface", "section")
 #: the files a design writes into its folder

@@ -9,15 +9,17 @@ from __future__ import annotations
 import logging
 
 from ..errors import InputError
+from .base import Backend, BackendFactory, Prediction
 
 log = logging.getLogger(__name__)
+__all__ = ["Backend", "BackendFactory", "Prediction", "check_backend", "make_backend", "solver_options"]
 BACKENDS = ("embedded", "calculix")
 #: smallest finite-difference step that stays clear of ccx's 7 printed digits (see README, CalculiX backend)
 CALCULIX_MIN_STEP = 1e-3
 
 
 def make_backend(name: str, model, points, quantities, regions=None, options: dict | None = None,
-                 where: str = "[solver]", reactions: tuple[str, ...] = (), window: float | None = None):
+                 where: str = "[solver]", reactions: tuple[str, ...] = (), window: float | None = None) -> Backend:
     """The backend called ``name`` for a model and its observation points.
 
     Parameters

@@ -7,7 +7,6 @@ import hashlib
 import logging
 import os
 import pickle
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -15,18 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..fem.problem import Problem
 from ..model import Model
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """Observation rows at the end of each stage, and their derivatives with respect to every zone.
-
-    values : (n_stages, n_rows); derivatives : (n_stages, n_rows, n_zones) or None. Rows: the point rows
-    (point-major, ``n_points * n_quantities``), then one row per requested reaction sum [N].
-    """
-
-    values: np.ndarray
-    derivatives: np.ndarray | None
+from .base import Prediction
 
 
 log = logging.getLogger(__name__)
@@ -196,7 +184,7 @@ class EmbeddedBackend:
 
     def fields(self, mu):
         """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
-        :func:`frictionid.fields.solution_fields`)."""
-        from ..fields import solution_fields
+        :func:`frictionid.fem.fields.solution_fields`)."""
+        from ..fem.fields import solution_fields
 
         return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments))

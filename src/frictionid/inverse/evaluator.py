@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..backends.base import Backend
 from ..errors import SolverError
 from ..progress import bar
 from ..run.executor import make_executor
@@ -34,7 +35,7 @@ class Evaluator:
     the evaluator may be shared by threads (multi-start), each waiting for its own solves.
     """
 
-    def __init__(self, backend, observations: Observations, parameters: Parameters, store=None,
+    def __init__(self, backend: Backend, observations: Observations, parameters: Parameters, store=None,
                  jacobian: str = "analytic", step: float = 1e-4, tikhonov: float = 0.0, prior=None,
                  penalty: float = 0.0, workers: int = 1, executor=None):
         self.backend, self.obs, self.params, self.store = backend, observations, parameters, store

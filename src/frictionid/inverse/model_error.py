@@ -131,7 +131,7 @@ class ModelError:
     n_points : number of coefficient sets the estimate is the largest over
     seconds : wall time of the refined model's build, condensation and solves [s]
     scale : factor on ``estimate`` where it is used as extra variance (:func:`inflated_sigma`): the size of the
-        error the data show relative to the estimate (``frictionid.discretisation.error_scale``); 1 by default
+        error the data show relative to the estimate (``frictionid.inverse.discretisation.error_scale``); 1 by default
     signed : (n_obs,) the signed error (model minus converged value, observations' units) at the last
         coefficient set (an identification's fitted point): what the coarse model's values would be corrected
         by; it moves the fitted coefficients along the sensitivities, which the misfit alone cannot show

@@ -16,7 +16,7 @@ a bound in a fit the stated noise does not explain and, where the discretisation
 error does not move it by more than SHIFT_LIMIT standard errors; every other one gets a reason (``why``). With
 the model error included in the weights, a systematic part (:func:`systematic_error`) is added to the standard
 error in quadrature. A parameter claimed on a bound still needs its profile-likelihood check
-(:func:`frictionid.run.profile.bound_verdict`), made by the identification.
+(:func:`frictionid.inverse.profile.bound_verdict`), made by the identification.
 """
 
 from __future__ import annotations

@@ -11,8 +11,9 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from ..backends.base import Backend
 from ..errors import SolverError
-from ..fields import Fields, StageFields, strain_names
+from ..fem.fields import Fields, StageFields, strain_names
 
 log = logging.getLogger(__name__)
 #: the collections written; each lists one ``<name>_<stage number>.vtu`` per stage
@@ -144,7 +145,7 @@ def fields_readme(fields: Fields) -> str:
     return "\n".join(lines)
 
 
-def export_fields(backend, mu, folder: str | Path, echo=lambda text: None) -> list[Path]:
+def export_fields(backend: Backend, mu, folder: str | Path, echo=lambda text: None) -> list[Path]:
     """Solve once at ``mu`` with a backend that provides fields (the embedded one) and write them to ``folder``;
     with another backend, or when the solve fails, say so through ``echo`` and write nothing."""
     if not hasattr(backend, "fields"):

@@ -17,7 +17,7 @@ from distributed import Client, LocalCluster, as_completed
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from ..errors import InputError, SolverError
-from .executor import CONNECT_TIMEOUT, LOCAL, WorkerLost, solve
+from .solve import CONNECT_TIMEOUT, LOCAL, WorkerLost, solve
 
 log = logging.getLogger(__name__)
 _BACKENDS: dict[str, object] = {}   # on a worker: backends handed over by the plugin, by token

@@ -19,32 +19,13 @@ import concurrent.futures
 import logging
 import multiprocessing
 import re
-import time
 
-from ..errors import InputError, SolverError
+from ..errors import InputError
+from .solve import LOCAL, solve
 
 log = logging.getLogger(__name__)
-#: run.scheduler value that starts a Dask LocalCluster with run.workers processes
-LOCAL = "local"
-#: seconds to wait for a Dask scheduler to answer before run.scheduler is called unreachable
-CONNECT_TIMEOUT = 10.0
 _ADDRESS = re.compile(r"^(tcp|tls)://[^\s:/]+:\d{1,5}$")
 _BACKEND = None   # the backend a forked worker process inherits (fork start method: nothing is pickled)
-
-
-class WorkerLost(SolverError):
-    """A solve that did not come back from its worker (after the allowed retries): the run stops, resumable;
-    unlike a solve that failed to converge, it says nothing about the coefficients."""
-
-
-def solve(backend, mu, sensitivities: bool):
-    """One forward solve: (the backend's Prediction, or the message of its SolverError; wall time [s])."""
-    start = time.perf_counter()
-    try:
-        prediction = backend.predict(mu, sensitivities)
-    except SolverError as exc:
-        prediction = str(exc)
-    return prediction, time.perf_counter() - start
 
 
 def _solve_forked(mu, sensitivities: bool):

@@ -24,7 +24,8 @@ from ..builders.registry import build_model
 from ..config import read_config
 from ..data.measurements import Measurements, write_measurements
 from ..errors import InputError
-from ..identification import identify_config, prepare
+from ..identification import identify_config
+from ..preparation import prepare
 from ..report.html import NEAR_BOUND
 from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads
 from ..report.outputs import write_outputs

@@ -16,7 +16,7 @@ from ...fem.interface import contact_pairs as embedded_pairs
 from ...fem.points import point_operator
 from ...fem.space import Space
 from ...model import Model
-from ..embedded import Prediction
+from ..base import Prediction
 from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck, zone_columns
 from .elements import calculix_cells, fill_dropped_nodes
 from .parse import DatFile, read_dat, read_frd

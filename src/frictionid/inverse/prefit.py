@@ -14,9 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .inverse.observations import DISPLACEMENTS, Observations
-from .inverse.resolution import Addition, Resolution, resolution, suggest
-from .model import Model
+from ..model import Model
+from ..backends.base import BackendFactory
+from .observations import DISPLACEMENTS, Observations
+from .resolution import Addition, Resolution, resolution, suggest
 
 log = logging.getLogger(__name__)
 
@@ -132,7 +133,7 @@ def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.n
     return groups
 
 
-def prefit(evaluator, model: Model, tolerance: float, max_additions: int = 5, backend_factory=None,
+def prefit(evaluator, model: Model, tolerance: float, max_additions: int = 5, backend_factory: BackendFactory | None = None,
            n_points: int = 120) -> Prefit:
     """The pre-fit resolution at the evaluator's start point, with suggestions for unresolved zones.
 

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import concurrent.futures
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..errors import InputError, SolverError
-from .executor import WorkerLost
+from ..run.solve import WorkerLost
 
 log = logging.getLogger(__name__)
 #: starts optimised side by side at most (threads of the client waiting for their solves)
@@ -123,3 +123,30 @@ def summary(starts: list[Start], chosen: Start, full, names: tuple[str, ...]) ->
                        status=s.outcome.status, n_iterations=int(s.outcome.n_iterations))
         rows.append(row)
     return rows
+
+
+def optimise_starts(problem, optimise, evaluator, store, starts, seed, lines, echo) -> tuple[object, list[dict]]:
+    """The fit of ``problem`` (a :class:`~frictionid.inverse.least_squares.LeastSquares` on ``evaluator``) by
+    ``optimise(problem)`` from its start, or with identify.starts (``starts``, ``seed``: :func:`start_points`)
+    the fits from every start (side by side on a parallel executor, each shown through ``lines(echo)``, see
+    :func:`frictionid.progress.iteration_lines`) and the best of them, whose iterations are then stored as the
+    run's; the optimiser's result and the list of starts for result.json ([] for one start)."""
+    params = evaluator.params
+    points = start_points(starts, params.x0, params.lower, params.upper, int(seed), params.free_names)
+    if len(points) == 1 and np.array_equal(points[0], params.x0):
+        return optimise(problem), []
+    echo(f"{len(points)} starts ({evaluator.executor.describe()})")
+
+    def optimise_from(k, x0):
+        shown = lines(lambda text: echo(f"start {k + 1}: {text}"))
+        quiet = replace(problem, x0=x0, progress=lambda i, x, objective: shown(i, params.full(x), objective,
+                                                                              evaluator))
+        return optimise(quiet)
+
+    evaluator.executor.start()
+    runs = run_starts(points, optimise_from, evaluator.executor.parallel)
+    chosen = best(runs)
+    for i, (x, objective) in enumerate(zip(chosen.outcome.history_x, chosen.outcome.history_objective)):
+        store.record_iteration(i, x, objective)
+    echo(f"best: start {chosen.index + 1} of {len(points)}, J={chosen.outcome.objective:.6e}")
+    return chosen.outcome, summary(runs, chosen, params.full, params.names)

@@ -6,11 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fem.pairs import ContactPairs
-from .fem.points import QUANTITIES, cell_centre_operator
-from .fem.problem import Problem
-from .fem.solution import Solution
-from .model import Model
+from ..model import Model
+from .pairs import ContactPairs
+from .points import QUANTITIES, cell_centre_operator
+from .problem import Problem
+from .solution import Solution
 
 
 @dataclass(frozen=True)

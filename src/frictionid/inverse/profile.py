@@ -7,7 +7,7 @@ for the standard errors). Unlike the linearised interval it follows a curved or 
 that ends on a bound gets an interval that stops there, and a zone the data barely see gets one as wide as the
 data allow. The grid spans the fitted value +- 4 standard errors within the bounds (the whole bound range when
 the standard error is not finite). The refits run on the identification's executor and store, side by side
-when it has workers (:func:`frictionid.run.multistart.run_starts`).
+when it has workers (:func:`frictionid.inverse.multistart.run_starts`).
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 """Refits with one zone held, on an identification's evaluator, store and executor: the profiles of
 ``identify.profile`` and the profile-likelihood check of every zone claimed on a bound (result.json
-``parameters.<zone>.bound_check``, :func:`frictionid.run.profile.bound_verdict`)."""
+``parameters.<zone>.bound_check``, :func:`frictionid.inverse.profile.bound_verdict`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..inverse.evaluator import Evaluator
-from ..inverse.least_squares import LeastSquares
+from .evaluator import Evaluator
+from .fitting import make_evaluator, make_least_squares
 from . import profile
 
 
@@ -24,13 +24,9 @@ class HeldRefits:
         """The other free zones refitted from x0 with ``zone`` held at ``value``."""
         ident, evaluator, obs = self.ident, self.evaluator, self.evaluator.obs
         held = profile.held(self.params, zone, value, x0)
-        sub = Evaluator(evaluator.backend, obs, held, profile.HeldStore(self.store, held), ident["jacobian"],
-                        float(ident["step"]), float(ident["tikhonov"]),
-                        np.delete(evaluator.prior, self.names.index(zone)), float(ident["penalty"]),
-                        executor=evaluator.executor)
-        problem = LeastSquares(sub.residuals, sub.jacobian, held.x0, held.lower, held.upper, held.free_names,
-                               float(ident["power"]), lambda *args: None, obs.noise_known, ident["loss"],
-                               float(ident["loss_scale"]))
+        sub = make_evaluator(evaluator.backend, obs, held, profile.HeldStore(self.store, held), ident,
+                             evaluator.executor, np.delete(evaluator.prior, self.names.index(zone)))
+        problem = make_least_squares(sub, ident)
         x = self.optimise(problem).x
         evaluator.count(sub)
         return x
@@ -44,7 +40,7 @@ class HeldRefits:
                 [result["parameters"][z]["stderr"] for z in self.names], float(result["fit"]["error_scale"]) ** 2)
 
     def profiles(self, zones, result: dict) -> dict:
-        """identify.profile: result.json ``profiles`` of ``zones`` (:func:`frictionid.run.profile.profiles`)."""
+        """identify.profile: result.json ``profiles`` of ``zones`` (:func:`frictionid.inverse.profile.profiles`)."""
         fitted, stderr, s2 = self._fitted(result)
         return profile.profiles(zones, self.names, self.params, fitted, stderr, self.chi2_of, self.refit,
                                 self.evaluator.executor.parallel, int(self.ident["profile_points"]), s2)

@@ -27,9 +27,9 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import brentq
 
-from .builders.registry import build_model, refined
-from .errors import InputError, SolverError
-from .inverse.model_error import estimate_model_error, inflated_sigma
+from ..builders.registry import build_model, refined
+from ..errors import InputError, SolverError
+from .model_error import estimate_model_error, inflated_sigma
 
 log = logging.getLogger(__name__)
 MODES = ("off", "estimate", "include")

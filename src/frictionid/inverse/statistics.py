@@ -1,0 +1,91 @@
+"""What a fitted point says: weighted residuals, adequacy and uncertainty of the free coefficients, the misfit
+per measurement point, and why a zone is not identifiable in terms of its contact state."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..backends.base import Backend
+from .adequacy import Adequacy, assess, bias_shift
+from .evaluator import Evaluator
+from .least_squares import LeastSquares, robust_weights
+from .uncertainty import Uncertainty, at_bounds, estimate, systematic_error
+
+
+@dataclass(frozen=True)
+class FitStatistics:
+    """What the fitted point says: weighted residuals r (n_obs,) (robust weights applied), model values f,
+    robust weights (1 for least squares), the fit's :class:`Adequacy` and :class:`Uncertainty`."""
+
+    r: np.ndarray
+    f: np.ndarray
+    weights: np.ndarray
+    adequacy: Adequacy
+    uncertainty: Uncertainty
+    model_shift: np.ndarray | None = None
+    #: (n_free,) systematic standard error in the uncertainty (model error included), None otherwise
+    systematic: np.ndarray | None = None
+
+
+def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float,
+                   error=None) -> FitStatistics:
+    """Adequacy and uncertainty of the free coefficients x with the evaluator's observations and weights;
+    ``error``: the :class:`~frictionid.inverse.model_error.ModelError` estimated for this fit, if any (the
+    coefficient shift its signed error causes decides, with the rest, which zones are identifiable)."""
+    params, obs = evaluator.params, evaluator.obs
+    r = evaluator.residuals(x)[:obs.n_obs]
+    jac = evaluator.jacobian(x)[:obs.n_obs]
+    # a robust fit is the least-squares fit with the weights it ends with: its statistics are computed so
+    weights = robust_weights(r, problem.loss, problem.loss_scale)
+    r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
+    inner = ~at_bounds(x, params.lower, params.upper)
+    model = getattr(evaluator.backend, "model", None)
+    adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner,
+                      sigma=obs.sigma, regions=dict(zip(obs.point_labels, obs.point_regions)),
+                      model_kind=getattr(model, "kind", None))
+    shift = systematic = None
+    if error is not None and error.signed is not None:
+        shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
+        if error.before is not None:                   # "include": the error's effect is part of the interval
+            systematic = systematic_error(shift, error.scale, error.before, x)
+    unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
+                   shift, systematic)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic)
+
+
+def point_misfit(obs, r: np.ndarray) -> list[dict]:
+    """Per measurement point: its label, model coordinates [mm] and RMS weighted residual (noise units)."""
+    index = {label: i for i, label in enumerate(obs.point_labels)}
+    point = np.array([index.get(label.rpartition(":")[0], -1) for label in obs.labels], dtype=np.int64)
+    seen = point >= 0                                   # the machine force ("force@2") belongs to no point
+    count = np.bincount(point[seen], minlength=len(index))
+    total = np.bincount(point[seen], weights=np.asarray(r, dtype=float)[seen] ** 2, minlength=len(index))
+    return [{"point": label, "xyz": [float(v) for v in xyz], "rms": float(np.sqrt(total[i] / count[i]))}
+            for i, (label, xyz) in enumerate(zip(obs.point_labels, obs.points)) if count[i]]
+
+
+#: area fraction below which a zone counts as carrying no load (lifted off) or not slipping (stuck)
+_STATE_SHARE = 0.01
+
+
+def contact_reasons(backend: Backend, mu: np.ndarray, stages, free, unc) -> list[str]:
+    """Each free zone's reason for not being identifiable, with what the contact does there at the observed
+    stages (lifted off, stuck) when the backend can tell; "" for identifiable zones."""
+    why = list(unc.why)
+    states = getattr(backend, "contact_states", None)
+    if states is None or all(unc.identifiable):
+        return why
+    per_stage = states(mu)
+    names = ", ".join(str(s + 1) for s in stages)
+    for k, zone in enumerate(free):
+        if unc.identifiable[k]:
+            continue
+        seen = [per_stage[s][zone] for s in stages]
+        if all(state["open"] > 1 - _STATE_SHARE for state in seen):
+            why[k] = f"lifted off at the observed stage(s) {names}: its friction acts on nothing; " + why[k]
+        elif all(state["slip"] < _STATE_SHARE for state in seen):
+            why[k] = (f"sticks at the observed stage(s) {names}: friction shows only where a surface slips; "
+                      + why[k])
+    return why

@@ -1,0 +1,89 @@
+"""Small identifications whose result.json must not change when the code is reorganised: examples/first with
+its options varied (robust loss and starts, profiles, central differences, the model-error estimate, the Python
+interface, a run interrupted). ``python tests/same_result_cases.py OUT`` writes each case's
+result.json to OUT/<case>.json; tests/test_same_result.py runs the cases and compares them with the files in
+tests/fixtures/same_result, made so from commit 5aa774a (before identification.py was split by job)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).parents[1]
+
+#: [identify] keys added to examples/first/identify.toml, per case
+CASES = {
+    "first": {},
+    "robust_starts": {"loss": "soft_l1", "starts": 2, "seed": 3},
+    "profile_central": {"jacobian": "central", "profile": ["A"], "profile_points": 3, "max_iterations": 4},
+    "model_error": {"model_error": "estimate"},
+    "model_error_include": {"model_error": "include"},
+    "max_iterations": {"max_iterations": 2},
+    "interrupted": {},
+}
+
+#: keys of result.json that measure time, not the result
+TIMES = {"wall_time_s", "timings", "seconds", "backend_s"}
+
+
+def make_data(folder: Path) -> None:
+    """examples/first copied into ``folder`` with its twin data (measured.csv) made."""
+    from frictionid.cli import main
+
+    shutil.copytree(ROOT / "examples" / "first", folder, dirs_exist_ok=True)
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
+
+
+def run_case(folder: Path, name: str) -> dict:
+    """result.json of case ``name`` run in ``folder`` (which holds make_data's files)."""
+    from frictionid.config import read_config
+    from frictionid.identification import identify, identify_config
+
+    text = (folder / "identify.toml").read_text().replace('dir = "runs/first"', f'dir = "runs/{name}"')
+    extra = "".join(f"{key} = {json.dumps(value)}\n" for key, value in CASES.get(name, {}).items())
+    path = folder / f"{name}.toml"
+    path.write_text(text.replace('method = "trf"\n', 'method = "trf"\n' + extra))
+    if name == "api":
+        table = tomllib.loads(text)
+        result = identify(table["model"], folder / "measured.csv", {"A": 0.1, "B": 0.1},
+                          observables=table["data"]["observables"], stages=table["data"]["stages"],
+                          noise=table["data"]["noise"], regions=table["data"]["regions"], method="trf")
+        return result.to_dict()
+    if name == "interrupted":               # stopped at the second iteration: result.json of a stopped run
+        def stop(iteration, mu, objective, evaluator):
+            if iteration == 1:
+                raise KeyboardInterrupt
+        try:
+            identify_config(read_config(path, need=("model", "friction", "data", "run")), on_iteration=stop)
+        except KeyboardInterrupt:
+            pass
+    else:
+        identify_config(read_config(path, need=("model", "friction", "data", "run")))
+    return json.loads((folder / "runs" / name / "result.json").read_text())
+
+
+NAMES = (*CASES, "api")
+
+
+def without_times(value):
+    """``value`` with the keys that measure time left out (at any depth)."""
+    if isinstance(value, dict):
+        return {k: without_times(v) for k, v in value.items() if k not in TIMES}
+    if isinstance(value, list):
+        return [without_times(v) for v in value]
+    return value
+
+
+if __name__ == "__main__":
+    out = Path(sys.argv[1])
+    out.mkdir(parents=True, exist_ok=True)
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        make_data(Path(tmp))
+        for name in sys.argv[2:] or NAMES:
+            (out / f"{name}.json").write_text(json.dumps(without_times(run_case(Path(tmp), name)), indent=1))
+            print(name, "written")
