@@ -29,7 +29,8 @@ from .inverse.least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult,
 from .inverse.observations import observations_from
 from .inverse.optimisers import check_method, optimise
 from .inverse.parameters import Parameters
-from .discretisation import check_options, refine_until, with_model_error
+from .discretisation import check_options, with_model_error
+from .discretisation_control import control
 from .inverse.adequacy import Adequacy, assess, bias_shift
 from .inverse.uncertainty import Uncertainty, at_bounds, estimate, systematic_error
 from .model import Model
@@ -70,6 +71,9 @@ class Setup:
     files: tuple = ()
     #: the contact map checked at model build (:func:`~frictionid.fem.interface.contact_setup`)
     contact: tuple = ()
+    #: what the discretisation control did (:mod:`~frictionid.discretisation_control`): result.json's
+    #: ``model.discretisation``
+    discretisation: dict | None = None
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:
@@ -267,12 +271,12 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     start = time.perf_counter()
     obs = setup.observations
     max_memory = config.solver.get("max_memory")
-    if float(config.identify["refine_target"]) > 0:
-        options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
-                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]),
-                                         max_memory, echo)
-        contact = setup.contact if model is setup.model else checked_contact(model, config.where, echo)
-        setup = replace(setup, model=model, model_options=options, contact=contact)
+    chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
+                     float(config.identify["refine_target"]), int(config.identify["refine_budget"]), max_memory,
+                     echo, strain_window(setup.window, obs), config.solver["backend"])
+    contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo)
+    setup = replace(setup, model=chosen.model, model_options=chosen.options, contact=contact,
+                    discretisation=chosen.record)
     if config.solver["backend"] == "embedded":
         log.info(memory.check(setup.model, "model", max_memory, config.solver.get("factorisation", "auto")).line())
         if config.identify["model_error"] != "off":       # refused now rather than after the fit
@@ -495,7 +499,8 @@ def _result(config, setup, evaluator: Evaluator, problem: LeastSquares, outcome:
                     "mode": config.identify["model_error"], **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
-        "model": {**setup.model_options, "contact": [entry.as_dict() for entry in setup.contact]},
+        "model": {**setup.model_options, "contact": [entry.as_dict() for entry in setup.contact],
+                  "discretisation": setup.discretisation},
         "data": data_section(setup.frames, obs, setup.window, setup.files),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
