@@ -3,16 +3,16 @@
 claim the zone, the largest error of a claim in standard errors and the coverage of the claimed 95 % intervals.
 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_acceptance.py N [--modes default,include,u,u-include]
-        [--max-memory GB] [--out DIR]
+        [--max-memory GB] [--out DIR] [--first K] [--chosen JSON]
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
 machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
 force only; "u-include" that with "include". Truth A 0.35, B 0.20, C 0.45, D 0.15.
 
 The control's choice depends on the points, the stated noise and the start values, not on a replicate's values:
-it runs in each mode's first replicate, and the later replicates are fitted on the [model] table it chose with
-refine_target = 0 (their record says "off"; the first's says what the control did). Their condensation is the
-first's, kept in the process (one condensation per mode). Replicate k is generate.py's ``replicate(values,
+it runs in the first replicate of the first mode of each set of observables, and every other fit of that set
+(later replicates, the "include" mode) is on the [model] table it chose with refine_target = 0 (their record
+says "off"; the first's says what the control did). Their condensation is the first's, kept in the process. Replicate k is generate.py's ``replicate(values,
 force, k)`` of the noise-free measured.csv (replicate 0 is measured_noisy.csv).
 """
 
@@ -118,15 +118,22 @@ def main(argv=None) -> int:
     parser.add_argument("--modes", default="default,include,u,u-include")
     parser.add_argument("--max-memory", type=float, default=None, help="[solver] max_memory [GB]")
     parser.add_argument("--out", type=Path, default=Path("/tmp/dense_acceptance"))
+    parser.add_argument("--first", type=int, default=0, help="first replicate")
+    parser.add_argument("--chosen", default=None,
+                        help='the [model] table a run of the control chose for these observables, as JSON (e.g. '
+                             '\'{"builder": "block", "mesh_size": 0.5, "block_divisions": 10}\'): no control run')
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    rows = []
+    given = json.loads(args.chosen) if args.chosen else None
+    rows, chosen = [], {}
     for mode in args.modes.split(","):
-        chosen = None
-        for k in range(args.replicates):
-            row = fit(mode, k, args.out, chosen, args.max_memory)
-            if chosen is None:
-                chosen = {key: v for key, v in row["model"].items() if key not in ("contact", "discretisation")}
+        group = MODES[mode][0]
+        if given is not None:
+            chosen.setdefault(group, given)
+        for k in range(args.first, args.first + args.replicates):
+            row = fit(mode, k, args.out, chosen.get(group), args.max_memory)
+            if group not in chosen:
+                chosen[group] = {key: v for key, v in row["model"].items() if key not in ("contact", "discretisation")}
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'])}", flush=True)
             rows.append(row)
             print(f"{mode} {k}: chi2/dof {row['reduced_chi2']:.3g}, " + ", ".join(

@@ -72,6 +72,7 @@ def test_by_default_the_fit_runs_on_the_refined_mesh_and_says_so(measured, capsy
     factor = record["factors"]["element sizes"]
     assert record["target"] == 0.5 and factor > 1 and default["model"]["mesh_size"] == pytest.approx(2.0 / factor)
     assert f"fitting the model refined: element sizes x{factor}" in out
+    assert f"discretisation control: estimated error of the mesh as given u {record['error_as_given']['u']:.2f}" in out
     assert off["model"]["discretisation"]["status"] == "off" and off["model"]["mesh_size"] == 2.0
     # the refined mesh's coefficients are closer to the truth than the given mesh's
     for zone, truth in TRUE.items():
