@@ -122,6 +122,9 @@ def main(argv=None) -> int:
     parser.add_argument("--chosen", default=None,
                         help='the [model] table a run of the control chose for these observables, as JSON (e.g. '
                              '\'{"builder": "block", "mesh_size": 0.5, "block_divisions": 10}\'): no control run')
+    parser.add_argument("--merge", type=Path, nargs="*", default=[],
+                        help="rows.json files of earlier runs: their rows join the printed table (0 replicates: "
+                             "only print it)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     given = json.loads(args.chosen) if args.chosen else None
@@ -140,7 +143,8 @@ def main(argv=None) -> int:
                 f"{z} {e['value']:.4f} +- {e['stderr'] or float('nan'):.4f}{' claimed' if e['claimed'] else ''}"
                 for z, e in row["zones"].items()) + f" ({row['seconds']:.0f} s)", flush=True)
             (args.out / "rows.json").write_text(json.dumps(rows, indent=1, default=str))
-    print(table(rows))
+    earlier = [row for path in args.merge for row in json.loads(path.read_text())]
+    print(table(earlier + rows))
     return 0
 
 
