@@ -95,7 +95,8 @@ def values(model, observations, mu, window=None, keep: bool = False) -> np.ndarr
 
 
 def _skipped(target, why: str, progress) -> dict:
-    progress(f"discretisation control: {why}; the model is fitted as it is")
+    lead = "" if why.startswith("discretisation control:") else "discretisation control: "
+    progress(f"{lead}{why}; the model is fitted as it is")
     return {"target": target, "status": "skipped", "why": why, "seconds": 0.0}
 
 
