@@ -35,7 +35,6 @@ import numpy as np
 
 from .backends.embedded import EmbeddedBackend
 from .builders.registry import _default, build_model, refined
-from .errors import InputError
 from .fem import memory
 from .fem.locate import PointsOutside
 from .inverse.model_error import ELEMENT_ORDER, convergence_orders, observation_kinds
