@@ -2,8 +2,8 @@
 builder's mesh refined in the direction the error comes from until it is below ``identify.refine_target`` noise
 levels RMS per quantity kind, within ``[solver] max_memory``.
 
-The error is estimated by splitting extrapolation (Richardson per refinement direction; Lin, Lue and Shen's
-splitting extrapolation for multi-parameter discretisations): a builder's mesh has independent size parameters
+The error is estimated by splitting extrapolation (Richardson per refinement direction of a multi-parameter
+discretisation; C. B. Liem, T. Lu, T. M. Shih, The Splitting Extrapolation Method, World Scientific 1995): a builder's mesh has independent size parameters
 (:func:`directions`; the 3-D block: the divisions of the contact footprint, which set the element size at the
 contact edges, and the layers, which set it across the interface), and its error is taken as a sum of one
 term per direction, f(h_1, h_2) = f + C_1 h_1^p + C_2 h_2^p. One condensation per direction, refined by 2 in that
