@@ -137,12 +137,12 @@ def main(argv=None) -> int:
             row = fit(mode, k, args.out, chosen.get(group), args.max_memory)
             if group not in chosen:
                 chosen[group] = {key: v for key, v in row["model"].items() if key not in ("contact", "discretisation")}
-                print(f"{mode}: the control: {json.dumps(row['model']['discretisation'])}", flush=True)
+                print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
             rows.append(row)
             print(f"{mode} {k}: chi2/dof {row['reduced_chi2']:.3g}, " + ", ".join(
                 f"{z} {e['value']:.4f} +- {e['stderr'] or float('nan'):.4f}{' claimed' if e['claimed'] else ''}"
                 for z, e in row["zones"].items()) + f" ({row['seconds']:.0f} s)", flush=True)
-            (args.out / "rows.json").write_text(json.dumps(rows, indent=1, default=str))
+            (args.out / "rows.json").write_text(json.dumps(rows, indent=1, default=dict))
     earlier = [row for path in args.merge for row in json.loads(path.read_text())]
     print(table(earlier + rows))
     return 0
