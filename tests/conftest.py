@@ -5,10 +5,30 @@ from pathlib import Path
 
 import pytest
 
+from frictionid import config
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.cli import main
 
 ROOT = Path(__file__).parents[1]
+
+
+@pytest.fixture(scope="session", autouse=True)
+def discretisation_control_off():
+    """The discretisation control (identify.refine_target, default 0.5) off in the whole session, module- and
+    session-scoped fixtures included: it costs two refined condensations per identification and, on the twins'
+    data, fits another mesh than the one their assertions are about. Tests marked ``discretisation_control`` get
+    the real default back (:func:`discretisation_control_default`)."""
+    default = config.SCHEMA["identify"]["refine_target"]
+    config.SCHEMA["identify"]["refine_target"] = 0.0
+    yield default
+    config.SCHEMA["identify"]["refine_target"] = default
+
+
+@pytest.fixture(autouse=True)
+def discretisation_control_default(request, monkeypatch, discretisation_control_off):
+    """The control's default within the tests marked ``discretisation_control``."""
+    if request.node.get_closest_marker("discretisation_control") is not None:
+        monkeypatch.setitem(config.SCHEMA["identify"], "refine_target", discretisation_control_off)
 
 
 @pytest.fixture(scope="session")

@@ -55,7 +55,8 @@ def test_model_and_measurements_as_objects_give_the_table_and_file_results(first
     for zone in ("A", "B"):
         assert result.coefficients[zone] == pytest.approx(from_files.coefficients[zone], abs=1e-12)
         assert result.stderr[zone] == pytest.approx(from_files.stderr[zone], rel=1e-9)
-    assert set(result["model"]) == {"contact"}               # a model object has no [model] table, only the map
+    # a model object has no [model] table: only the contact map and what the discretisation control did (here off)
+    assert set(result["model"]) == {"contact", "discretisation"}
 
 
 def test_the_result_object_reads_like_result_json_and_cannot_be_changed(cli_run):

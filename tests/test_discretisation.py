@@ -1,4 +1,5 @@
-"""The identification's discretisation error through the command line: estimate, include, refine, bad keys."""
+"""The identification's discretisation error through the command line: estimate, include, bad keys (the control
+before the fit: test_discretisation_control.py)."""
 
 import json
 from pathlib import Path
@@ -104,17 +105,6 @@ def test_a_model_error_the_coefficients_absorb_is_found_by_the_estimate(tmp_path
     assert not checked["parameters"]["B"]["identifiable"]
     assert "estimated discretisation error moves it" in checked["parameters"]["B"]["why"]
     assert "corrected for that error the coefficients would move by" in out
-
-
-def test_refinement_reaches_its_target_or_names_the_error_reached(measured, capsys):
-    start = dict.fromkeys(TRUE, 0.1)
-    config = _config(measured, "budget", 2.0, start, "measured.csv", "refine_target = 0.01\nrefine_budget = 1\n")
-    assert main(["identify", str(config)]) == 1
-    err = capsys.readouterr().err
-    assert "identify.refine_budget = 1" in err and "noise levels RMS" in err and "'mesh_size': 1.0" in err
-    config = _config(measured, "refine", 2.0, start, "measured.csv", "refine_target = 1000\n")
-    assert main(["identify", str(config)]) == 0                       # reached at once: nothing refined
-    assert json.loads((measured / "runs/refine/result.json").read_text())["model"]["mesh_size"] == 2.0
 
 
 @pytest.mark.parametrize("identify, key", [('model_error = "maybe"\n', "identify.model_error"),

@@ -1,12 +1,14 @@
-"""Refinement and the model-error estimate say what they do (level, mesh, dofs, memory) and refuse a condensation
-that would take more memory than [solver] max_memory allows, before it is built (issue 31 item 3)."""
+"""The discretisation control and the model-error estimate say what they do (level, mesh, dofs, memory) and refuse a condensation
+that would take more memory than [solver] max_memory allows, before it is built ."""
 
+import json
 import re
 from pathlib import Path
 
 import pytest
 
 from block2d_case import REGION_TABLE, data_table, points_csv
+from frictionid.builders.registry import build_model
 from frictionid.cli import main
 from frictionid.fem import memory
 from helpers import write_config
@@ -34,31 +36,41 @@ def measured(tmp_path_factory):
     return folder
 
 
-def test_refinement_prints_its_phases_with_mesh_dofs_and_memory(measured, capsys):
+@pytest.mark.discretisation_control
+def test_the_control_prints_its_phases_with_mesh_dofs_and_memory(measured, capsys):
     config = _config(measured, "progress", "refine_target = 1000\nrefine_budget = 2\n")
     assert main(["identify", str(config)]) == 0
     out = capsys.readouterr().out
-    assert re.search(r"refinement level 0 of at most 2: the model has [\d,]+ nodes", out)
-    line = re.search(r"model error: the model refined by 2 \(mesh_size 1\): ([\d,]+) nodes, ([\d,]+) dofs, "
+    assert re.search(r"discretisation control: the model's error at the start values by refining it in each of 1 "
+                     r"direction\(s\) \(element sizes\), target 1000", out), out
+    line = re.search(r"discretisation control: element sizes x2: ([\d,]+) nodes, ([\d,]+) dofs, "
                      r"estimated memory ([\d.]+) GB of ([\d.]+) GB allowed", out)
     assert line, out
     assert int(line[2].replace(",", "")) == 2 * int(line[1].replace(",", ""))       # plane strain: 2 dofs a node
     assert float(line[4]) == pytest.approx(memory.DEFAULT_FRACTION * memory.machine_memory() / memory.GB, abs=0.06)
-    assert re.search(r"refinement level 0: estimated model error [\d.e+-]+ noise levels RMS \(target 1000\)", out)
+    assert re.search(r"discretisation control: estimated error as given u [\d.]+; fitting the model as given "
+                     r"\([\d,]+ nodes\), predicted u [\d.]+ noise levels RMS: target 1000 not needed", out), out
 
 
-def test_a_refinement_over_the_memory_allowed_is_refused_before_it_is_built(measured, capsys):
-    # less than this process already holds: any condensation is over it, so the first refinement is refused
-    allowed = 0.9 * memory.resident() / memory.GB
+@pytest.mark.discretisation_control
+def test_a_refinement_over_the_memory_allowed_is_not_condensed_and_the_record_says_so(measured, capsys,
+                                                                                      monkeypatch):
+    # the process holds 1 GB (fixed: its real resident memory moves by more than this model's condensation) and
+    # may take 3 times the fitted model's condensation more: the fit fits, the directional model (about 4 times
+    # the nodes, 5 times the memory) does not, so the control condenses none and the model is fitted as given
+    monkeypatch.setattr(memory, "resident", lambda: memory.GB)
+    model = build_model({"builder": "block2d", "mesh_size": 2.0, "height": 4.0, "order": 1})
+    allowed = 1.0 + 3.0 * memory.condensation_bytes(2 * model.mesh.n_nodes, 2) / memory.GB
     config = _config(measured, "memory", "refine_target = 1\nrefine_budget = 2\n",
                      f"[solver]\nmax_memory = {allowed:.6f}\n")
-    assert main(["identify", str(config)]) == 2
-    err = capsys.readouterr().err
-    assert re.search(r"model error: the model refined by 2 \(mesh_size 1\) \(at least\): [\d,]+ nodes, [\d,]+ "
-                     r"dofs, estimated memory [\d.]+ GB of [\d.]+ GB allowed: more than \[solver\] max_memory "
-                     r"allows; refused before condensing it", err), err
-    assert "Traceback" not in err
-    assert not (measured / "runs/memory").exists()                     # nothing started, nothing to lose
+    assert main(["identify", str(config)]) == 0
+    out = capsys.readouterr().out
+    line = (r"discretisation control: element sizes x2: [\d,]+ nodes, [\d,]+ dofs, estimated memory [\d.]+ GB of "
+            r"[\d.]+ GB allowed: more than \[solver\] max_memory allows, not condensed")
+    assert re.search(line + "; the model is fitted as it is", out), out
+    record = json.loads((measured / "runs/memory/result.json").read_text())["model"]
+    assert record["discretisation"]["status"] == "skipped" and re.match(line, record["discretisation"]["why"])
+    assert record["mesh_size"] == 2.0
 
 
 @pytest.mark.parametrize("value", ["-1", "0", '"8 GB"'])

@@ -34,7 +34,7 @@ SCHEMA = {
     "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
                  "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
                  "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
-                 "model_error": "off", "refine_target": 0.0, "refine_budget": 2, "starts": 1, "seed": 0,
+                 "model_error": "off", "refine_target": 0.5, "refine_budget": 2, "starts": 1, "seed": 0,
                  "profile": False, "profile_points": 11},
     "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "retries": 2, "fields": True},
     "design": {"points": 10, "candidates": None, "n_candidates": 400, "regions": None, "criterion": "A",
@@ -97,9 +97,9 @@ TYPES = {
     "identify.loss_scale": ((int, float), "a positive number (residual, in units of the stated noise, beyond "
                                           "which a robust loss down-weights an observation)"),
     "identify.model_error": (str, '"off", "estimate" or "include"'),
-    "identify.refine_target": ((int, float), "a number >= 0 (largest RMS model error in noise levels; 0: no "
-                                             "refinement)"),
-    "identify.refine_budget": (int, "a whole number >= 1 (refinements at most)"),
+    "identify.refine_target": ((int, float), "a number >= 0 (largest RMS model error per quantity kind in "
+                                             "noise levels; 0: no discretisation control)"),
+    "identify.refine_budget": (int, "a whole number >= 1 (refinement factors up to 2^budget)"),
     "identify.starts": ((int, list), "a number of starts or a list of start points (each a list of values or "
                                      "a table zone = value)"),
     "identify.seed": (int, "a whole number (seed of the drawn start points)"),

@@ -19,7 +19,8 @@ from .fem import memory
 from .fem.locate import PointsOutside
 from .inverse.evaluator import Evaluator
 from .inverse import multistart, profile, refits
-from .inverse.discretisation import refine_until, with_model_error
+from .inverse.discretisation import with_model_error
+from .inverse.discretisation_control import control
 from .inverse.fitting import make_evaluator, make_least_squares, recorded
 from .inverse.least_squares import LeastSquares, OptimiseResult
 from .inverse.optimisers import optimise
@@ -131,12 +132,12 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     start = time.perf_counter()
     obs = setup.observations
     max_memory = config.solver.get("max_memory")
-    if float(config.identify["refine_target"]) > 0:
-        options, model, _ = refine_until(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
-                                         float(config.identify["refine_target"]), int(config.identify["refine_budget"]),
-                                         max_memory, echo)
-        contact = setup.contact if model is setup.model else checked_contact(model, config.where, echo)
-        setup = replace(setup, model=model, model_options=options, contact=contact)
+    chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
+                     float(config.identify["refine_target"]), int(config.identify["refine_budget"]), max_memory,
+                     echo, strain_window(setup.window, obs), config.solver["backend"])
+    contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo)
+    setup = replace(setup, model=chosen.model, model_options=chosen.options, contact=contact,
+                    discretisation=chosen.record)
     if config.solver["backend"] == "embedded":
         log.info(memory.check(setup.model, "model", max_memory, config.solver.get("factorisation", "auto")).line())
         if config.identify["model_error"] != "off":       # refused now rather than after the fit

@@ -52,6 +52,9 @@ class Setup:
     files: tuple = ()
     #: the contact map checked at model build (:func:`~frictionid.fem.interface.contact_setup`)
     contact: tuple = ()
+    #: what the discretisation control did (:mod:`~frictionid.inverse.discretisation_control`): result.json's
+    #: ``model.discretisation``
+    discretisation: dict | None = None
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:

@@ -14,9 +14,8 @@
   (``ModelError.before``): how far the refit moved is part of the coefficients' systematic error
   (:func:`frictionid.inverse.uncertainty.systematic_error`).
 
-``identify.refine_target`` > 0 refines the model (element sizes halved, up to ``identify.refine_budget``
-times) before fitting until the estimated error at the start values is below that many noise levels RMS; a
-budget that runs out ends the run with the error reached.
+``identify.refine_target`` (default 0.5 noise levels RMS per quantity kind) is the discretisation control
+before the fit, :mod:`frictionid.inverse.discretisation_control`.
 """
 
 from __future__ import annotations
@@ -27,8 +26,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import brentq
 
-from ..builders.registry import build_model, refined
-from ..errors import InputError, SolverError
+from ..builders.registry import refined
+from ..errors import InputError
 from .model_error import estimate_model_error, inflated_sigma
 
 log = logging.getLogger(__name__)
@@ -44,49 +43,12 @@ def check_options(identify: dict, model_options: dict, where: str) -> None:
         raise InputError(f"{where} identify.refine_target must be >= 0 (0: no refinement), got {target!r}")
     if budget < 1:
         raise InputError(f"{where} identify.refine_budget must be at least 1, got {budget!r}")
-    if mode != "off" or target > 0:
+    if mode != "off":                   # refine_target on a model that cannot be refined: the control says so
         try:
             refined(model_options)
         except InputError as exc:
-            raise InputError(f"{where} identify.model_error / refine_target need a model frictionid can refine: "
+            raise InputError(f"{where} identify.model_error needs a model frictionid can refine: "
                              f"{exc}") from None
-
-
-def refine_until(model_options: dict, model, observations, mu, target: float, budget: int,
-                 max_memory: float | None = None, progress=None):
-    """Halve the element sizes until the estimated error at ``mu`` is below ``target`` noise levels RMS.
-
-    Returns the [model] options, the model and the last :class:`ModelError` (of the returned model).
-    ``max_memory`` [GB]: what each condensation may take (:mod:`frictionid.fem.memory`); ``progress`` is called
-    with one line of text per phase (level, mesh size, dofs, memory estimate, error reached).
-
-    Raises
-    ------
-    SolverError
-        When ``budget`` refinements do not reach the target; the message names the error reached.
-    InputError
-        Before a condensation that would take more than ``max_memory``, naming its size and cost.
-    """
-    progress = progress or (lambda text: None)
-    options = dict(model_options)
-    for level in range(budget + 1):
-        progress(f"refinement level {level} of at most {budget}: the model has {model.mesh.n_nodes:,} nodes; "
-                 f"estimating its discretisation error")
-        error = estimate_model_error(options, observations, [mu], model=model, max_memory=max_memory,
-                                     progress=progress)
-        rms = error.summary["all"]["rms"]
-        log.info("model error with %s: %.3g noise levels RMS (target %g)", options, rms, target)
-        progress(f"refinement level {level}: estimated model error {rms:.3g} noise levels RMS (target {target:g})")
-        if rms <= target:
-            return options, model, error
-        if level == budget:
-            break
-        options = error.refined_options
-        model = build_model(options, "[model] (refined)")
-    raise SolverError(f"identify.refine_budget = {budget} refinement(s) did not bring the estimated model error "
-                      f"below identify.refine_target = {target:g}: it is {rms:.3g} noise levels RMS (max "
-                      f"{error.summary['all']['max']:.3g}) with {options}. Raise the budget or the target, or "
-                      "observe points farther from the contact edges")
 
 
 def with_model_error(evaluator, parameters, model_options: dict, model, outcome, mode: str, refit,
@@ -97,7 +59,7 @@ def with_model_error(evaluator, parameters, model_options: dict, model, outcome,
 
     ``refit(x0, offset)`` runs the optimiser from x0 with the evaluator's (new) weights, numbering its
     iterations from ``offset``. Returns the :class:`ModelError` and the outcome to report (fit and refit joined).
-    ``max_memory``, ``progress``: as :func:`refine_until`.
+    ``max_memory`` [GB] and ``progress``: as :func:`~frictionid.inverse.model_error.estimate_model_error`.
     """
     points = [parameters.x0, outcome.x]
     obs = evaluator.obs

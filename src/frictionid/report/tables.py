@@ -50,6 +50,7 @@ def result_summary(result: dict) -> str:
              + ("" if fit["noise_known"] else " (no stated noise: errors scaled by the residual)"),
              f"    wall time          {result['wall_time_s']:.2f} s"]
     lines += _adequacy_lines(fit)
+    lines += discretisation_lines(result.get("model", {}).get("discretisation"))
     lines.append("[[Variables]]")
     for name, p in result["parameters"].items():
         if p["fixed"]:
@@ -115,6 +116,20 @@ def starts_lines(starts: list[dict] | None) -> list[str]:
         lines.append(f" {'*' if s['best'] else ' '} {s['start']:3d}  from {initial} -> {final}  "
                      f"J={s['objective']:.6e}  {s['status']}, {s['n_iterations']} iterations")
     return lines
+
+
+def discretisation_lines(record: dict | None) -> list[str]:
+    """What the discretisation control did before the fit (result.json ``model.discretisation``), one line."""
+    if not record:
+        return []
+    if record["status"] in ("off", "skipped"):
+        return [f"    discretisation control: {record['status']}" + (f" ({record['why']})" if record.get("why") else "")]
+    rms = ", ".join(f"{kind} {value:.2f}" for kind, value in record["error_as_given"].items())
+    factors = ", ".join(f"{name} x{k}" for name, k in record["factors"].items() if k != 1) or "none"
+    predicted = ", ".join(f"{kind} {value:.2f}" for kind, value in record["predicted_error"].items())
+    return [f"    discretisation control: estimated error of the mesh as given {rms} noise levels RMS (target "
+            f"{record['target']:g}); refined: {factors} ({record['n_nodes']:,} nodes), predicted {predicted}: "
+            f"target {record['status']}; {record['seconds']:.0f} s"]
 
 
 def _adequacy_lines(fit: dict) -> list[str]:

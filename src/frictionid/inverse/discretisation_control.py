@@ -1,0 +1,198 @@
+"""The discretisation control before a fit: the model's error at the start values per quantity kind, and the
+builder's mesh refined in the direction the error comes from until it is below ``identify.refine_target`` noise
+levels RMS per quantity kind, within ``[solver] max_memory``.
+
+The error is estimated by splitting extrapolation (Richardson per refinement direction of a multi-parameter
+discretisation; C. B. Liem, T. Lu, T. M. Shih, The Splitting Extrapolation Method, World Scientific 1995): a builder's mesh has independent size parameters
+(:func:`directions`; the 3-D block: the divisions of the contact footprint, which set the element size at the
+contact edges, and the layers, which set it across the interface), and its error is taken as a sum of one
+term per direction, f(h_1, h_2) = f + C_1 h_1^p + C_2 h_2^p. One condensation per direction, refined by 2 in that
+direction only, gives each term, e_d = (f_h - f_d) 2^p / (2^p - 1), with the orders of
+:func:`frictionid.inverse.model_error.convergence_orders` (displacements and forces 1, strains 1.77: the contact
+edges' singularity caps them). Each directional model is about twice the model's size, where the uniform
+halving is 4-5 times (3-D block: 37,872 nodes, more than 7 GB with a dense DIC grid), so the estimate fits in
+memory where Richardson from the uniform halving does not.
+
+The refinement (k_1, k_2, ...) then has the predicted error sum_d e_d / k_d^p. Where every quantity kind is within
+the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to 2^``identify.refine_budget``, size predicted from the
+directional models' sizes) whose prediction is within the target in every kind is built and fitted, after
+:func:`frictionid.fem.memory.check`; when none is, the one with the smallest largest-kind error that fits in
+memory, and the record says the target was not reached. A model that cannot be refined (a model object, another
+backend) is fitted as it is, and the record says why.
+
+``identify.refine_target = 0`` switches the control off. The record goes to result.json (``model.discretisation``)
+and one line per phase to the run's progress.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..backends.embedded import EmbeddedBackend
+from ..builders.registry import _default, build_model, refined
+from ..fem import memory
+from ..fem.locate import PointsOutside
+from .model_error import ELEMENT_ORDER, convergence_orders, observation_kinds
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Control:
+    """What the control decided: the [model] table and model to fit, and the record for result.json."""
+
+    options: dict
+    model: object
+    record: dict
+
+
+def directions(options: dict) -> list[str]:
+    """The independent refinement directions of a [model] table's builder.
+
+    >>> directions({"builder": "block"}), directions({"builder": "block2d"})
+    (['footprint divisions', 'interface layers'], ['element sizes'])
+    """
+    return ["footprint divisions", "interface layers"] if options.get("builder") == "block" else ["element sizes"]
+
+
+def refinement(options: dict, factors: tuple[int, ...]) -> dict:
+    """The [model] table refined by ``factors`` (one per :func:`directions` entry; 1: unchanged).
+
+    block: ``block_divisions`` times the first (the footprint's element size at the contact edges divided by
+    it), the layers (``mesh_size``, the footprint kept) divided by the second; others: every size divided
+    (:func:`frictionid.builders.registry.refined`).
+
+    >>> refinement({"builder": "block", "mesh_size": 1.0}, (2, 1))
+    {'builder': 'block', 'mesh_size': 1.0, 'block_divisions': 20}
+    """
+    if options.get("builder") == "block":
+        size = float(options.get("mesh_size", _default("block", options, "mesh_size")))
+        divisions = options.get("block_divisions") or 2 * max(1, round(5.0 / size))
+        return {**options, "mesh_size": size / factors[1], "block_divisions": divisions * factors[0]}
+    return dict(options) if factors[0] == 1 else refined(options, factors[0])
+
+
+def kind_rms(in_noise: np.ndarray, kinds: np.ndarray) -> dict:
+    """RMS of ``in_noise`` per quantity kind, {"u": ..., "e": ..., "force": ...} (the kinds observed)."""
+    return {k: float(np.sqrt(np.mean(in_noise[kinds == k] ** 2))) for k in dict.fromkeys(kinds.tolist())}
+
+
+def values(model, observations, mu, window=None, keep: bool = False) -> np.ndarray:
+    """(n_obs,) the model's values of the observations at ``mu`` (one condensation and one solve)."""
+    obs = observations
+    try:
+        backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=keep,
+                                  window=window)
+    except PointsOutside as exc:
+        raise exc.named(obs.point_labels, obs.source) from None
+    return obs.predicted(backend.predict(mu).values)
+
+
+def _skipped(target, why: str, progress) -> dict:
+    lead = "" if why.startswith("discretisation control:") else "discretisation control: "
+    progress(f"{lead}{why}; the model is fitted as it is")
+    return {"target": target, "status": "skipped", "why": why, "seconds": 0.0}
+
+
+def control(model_options: dict, model, observations, mu, target: float, budget: int = 2,
+            max_memory: float | None = None, progress=None, window=None, backend: str = "embedded") -> Control:
+    """The model to fit: ``model`` itself, or the cheapest refinement of it whose predicted error at ``mu`` (all
+    zones, model order) is within ``target`` noise levels RMS in every quantity kind (module docstring).
+
+    ``budget``: the factors per direction go up to 2^budget (``identify.refine_budget``); ``window``: the fit's
+    strain window (:class:`frictionid.fem.points.StrainWindow`), so that the error is the
+    error of what is fitted; ``progress`` gets one line per phase. The record says what was done and its cost.
+
+    Raises
+    ------
+    InputError
+        When a directional model's condensation would exceed ``max_memory`` (:func:`frictionid.fem.memory.check`).
+    """
+    progress = progress or (lambda text: None)
+    if not target > 0:
+        return Control(model_options, model, {"target": target, "status": "off", "seconds": 0.0})
+    if backend != "embedded" or not model_options or model_options.get("builder") not in \
+            ("block", "block2d", "bolt", "mesh"):
+        why = f"backend {backend!r} (the estimate needs the embedded backend)" if backend != "embedded" else \
+            "the model is not a builder's [model] table frictionid can refine"
+        return Control(model_options, model, _skipped(target, why, progress))
+    start = time.perf_counter()
+    names, kinds = directions(model_options), observation_kinds(observations)
+    orders = convergence_orders(ELEMENT_ORDER[model.mesh.cell_type])
+    gain = 2.0 ** np.array([orders[k] for k in kinds])
+    progress(f"discretisation control: the model's error at the start values by refining it in each of "
+             f"{len(names)} direction(s) ({', '.join(names)}), target {target:g} noise levels RMS per quantity kind")
+    coarse = values(model, observations, mu, window, keep=True)
+    terms, sizes, steps = [], [], []
+    for d, name in enumerate(names):
+        begun = time.perf_counter()
+        options = refinement(model_options, tuple(2 if j == d else 1 for j in range(len(names))))
+        fine_model = build_model(options, f"[model] ({name} x2)")
+        cost = memory.estimate(fine_model, f"discretisation control: {name} x2", max_memory)
+        if not cost.fits:
+            return Control(model_options, model, _skipped(target, f"{cost.line()}: more than [solver] max_memory "
+                                                                  "allows, not condensed", progress))
+        progress(cost.line() + "; condensing")
+        terms.append((coarse - values(fine_model, observations, mu, window)) * gain / (gain - 1.0))
+        sizes.append(fine_model.mesh.n_nodes)
+        steps.append({"direction": name, "options": options, "n_nodes": int(fine_model.mesh.n_nodes),
+                      "rms": kind_rms(np.abs(terms[-1]) / observations.sigma, kinds),
+                      "memory_gb": round(cost.needed / memory.GB, 2), "seconds": round(time.perf_counter() - begun, 1)})
+        progress(f"discretisation control: error from the {name}: {_rms_text(steps[-1]['rms'])} noise levels RMS "
+                 f"({steps[-1]['seconds']:.1f} s)")
+    chosen = _choose(model_options, model, terms, sizes, gain, observations.sigma, kinds, target, max_memory,
+                     range(1, 2 ** budget + 1))
+    factors, options, fitted, rms = chosen
+    given = kind_rms(np.abs(np.sum(terms, axis=0)) / observations.sigma, kinds)
+    status = "not needed" if max(given.values()) <= target else \
+        "reached" if max(rms.values()) <= target else "not reached"
+    seconds = time.perf_counter() - start
+    record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
+              "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
+              "options": options, "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
+              "seconds": round(seconds, 1)}
+    progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
+             f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
+             f"levels RMS: target {target:g} {status}; the control took {seconds:.1f} s")
+    log.info("discretisation control: %s", record)
+    return Control(options, fitted, record)
+
+
+def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_memory, factors_tried):
+    """(factors, options, model, predicted rms per kind) of the cheapest refinement within the target that fits
+    in memory, else of the smallest worst-kind error that does."""
+    base = model.mesh.n_nodes
+    rows = []
+    for factors in itertools.product(factors_tried, repeat=len(terms)):
+        if model_options.get("builder") == "mesh" and any(k not in (1, 2, 4) for k in factors):
+            continue
+        error = sum(term / float(k) ** np.log2(gain) for term, k in zip(terms, factors))
+        rms = kind_rms(np.abs(error) / sigma, kinds)
+        nodes = base * np.prod([(n / base) ** np.log2(k) for n, k in zip(sizes, factors)])
+        rows.append((max(rms.values()) > target, nodes if max(rms.values()) <= target else max(rms.values()),
+                     factors, rms, nodes))
+    for _, _, factors, rms, nodes in sorted(rows, key=lambda row: row[:2]):
+        if all(k == 1 for k in factors):
+            return factors, model_options, model, rms
+        if not memory.estimate(model, "discretisation control", max_memory, n_nodes=int(nodes)).fits:
+            continue                                   # refused on its predicted size, before meshing
+        options = refinement(model_options, factors)
+        candidate = build_model(options, "[model] (refined)")
+        if memory.estimate(candidate, "discretisation control", max_memory).fits:
+            return factors, options, candidate, rms
+    raise AssertionError("unreachable: the model as given is always a candidate")
+
+
+def _rms_text(rms: dict) -> str:
+    return ", ".join(f"{kind} {value:.2f}" for kind, value in rms.items())
+
+
+def _factors_text(names, factors) -> str:
+    if all(k == 1 for k in factors):
+        return "the model as given"
+    return "the model refined: " + ", ".join(f"{name} x{k}" for name, k in zip(names, factors) if k != 1)
