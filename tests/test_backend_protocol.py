@@ -38,8 +38,9 @@ def test_an_object_without_predict_is_not_a_backend():
 
 def test_only_the_backend_registry_and_the_modules_that_build_the_embedded_solver_name_it():
     """The identification's layer types its backends with the protocol; EmbeddedBackend is imported only where
-    the embedded solver itself is built (the model-error estimate, planning's sensitivities, the bolt study)."""
+    the embedded solver itself is built (the discretisation control and the model-error estimate, planning's sensitivities, the bolt study)."""
     importers = sorted(str(path.relative_to(SRC)) for path in SRC.rglob("*.py")
                        if re.search(r"import .*\bEmbeddedBackend\b", path.read_text())
                        and "backends" not in path.parts)
-    assert importers == ["inverse/model_error.py", "planning.py", "studies/bolt.py"]
+    assert importers == ["inverse/discretisation_control.py", "inverse/model_error.py", "planning.py",
+                         "studies/bolt.py"]

@@ -44,6 +44,10 @@ def folder(tmp_path_factory):
 def test_same_result_json(folder, name):
     new = json.loads(json.dumps(without_times(run_case(folder, name))))
     old = json.loads((REFERENCE / f"{name}.json").read_text())
+    # added after the references were written: the discretisation control's record (off in these cases, as
+    # examples/first and tests/conftest.py set it); everything the references hold must still be equal
+    if "model" in new:
+        assert new["model"].pop("discretisation") == {"target": 0.0, "status": "off"}
     found = differences(new, old)
     assert not found, f"{name}: {len(found)} differences, first: {found[:5]}"
 
