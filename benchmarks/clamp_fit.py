@@ -53,8 +53,10 @@ def data_table(file: str) -> str:
             'regions = { "S*" = "strip", "U*" = "upper_pad", "L*" = "lower_pad" }\n')
 
 
-def run(args, cwd) -> None:
-    subprocess.run([FRICTIONID, *args], cwd=cwd, check=True, capture_output=True, timeout=3600)
+def run(args, cwd, check: bool = True) -> str:
+    """The command's last line of standard error where it exits with status > 0 (``check``: raise), else ''."""
+    done = subprocess.run([FRICTIONID, *args], cwd=cwd, check=check, capture_output=True, text=True, timeout=3600)
+    return done.stderr.strip().splitlines()[-1] if done.returncode else ""
 
 
 def main(starts: list[float]) -> None:
@@ -77,7 +79,11 @@ def main(starts: list[float]) -> None:
                     model_table("clamp.geo") + f"[friction]\nzones = {{ {zones} }}\nbounds = [0.0, 1.0]\n"
                     + data_table("measured.csv")
                     + f'[identify]\nmethod = "{method}"\n{options}[run]\ndir = "runs/{tag}"\n')
-                run(["identify", f"fit_{tag}.toml"], work)
+                error = run(["identify", f"fit_{tag}.toml"], work, check=False)
+                if error:
+                    table[start, name] = "exit > 0"
+                    print(f"start {start}, {name}: exit status > 0: {error}", flush=True)
+                    continue
                 result = json.loads((work / "runs" / tag / "result.json").read_text())
                 mu = {k: v["value"] for k, v in result["parameters"].items()}
                 reference = reference or mu
