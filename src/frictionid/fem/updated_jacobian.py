@@ -150,6 +150,8 @@ class UpdatedSolver:
         #: the last few capacitance factorisations by their rows (fem/capacitance.py), the last fresh one
         self._kept: dict[bytes, Fresh | Updated | None] = {}
         self._base: Fresh | None = None
+        #: (n_w, dim) pair rows P, Q of the Jacobian of the last fresh factorisation (J1)
+        self._base_rows: tuple[np.ndarray, np.ndarray] | None = None
         self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
@@ -226,6 +228,7 @@ class UpdatedSolver:
             C = self._rows_times(K, P_K, Q_K, None, None)
             self.n_factorisations += 1
             factorised = self._base = Fresh.factorise(K, P_K, Q_K, C)
+            self._base_rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
         while len(self._kept) >= KEEP:
             self._kept.pop(next(iter(self._kept)))
         self._kept[key] = factorised
@@ -234,16 +237,14 @@ class UpdatedSolver:
     def _updated(self, base: Fresh, P_rows, Q_rows, K) -> Updated | None:
         """C of J's rows K as an update of ``base`` (fem/capacitance.py); None where too many rows differ or the
         update is singular. ``P_rows``, ``Q_rows`` (n_w, dim): J's pair rows."""
-        s = self.stuck
-        U = np.union1d(base.K, K)
-        P_U, Q_U = P_rows[U], Q_rows[U]
-        dim = P_rows.shape[1]
-        P1, Q1 = s.P0.reshape(-1, dim)[U], s.Q0.reshape(-1, dim)[U]        # J1's rows: J0's outside K1 ...
-        in_base = np.searchsorted(U, base.K)
-        P1[in_base], Q1[in_base] = base.P_K, base.Q_K                         # ... the base's on K1
-        D = np.flatnonzero(np.any((P_U != P1) | (Q_U != Q1), axis=1))
-        if len(D) > max(UPDATE_MIN, UPDATE_FRACTION * len(base.K)):
+        P1, Q1 = self._base_rows
+        differ = np.flatnonzero(np.any((P_rows != P1) | (Q_rows != Q1), axis=1))
+        if len(differ) > max(UPDATE_MIN, UPDATE_FRACTION * len(base.K)):
             return None
+        U = np.union1d(base.K, K)                                # rows outside both are J0's in J and J1
+        P_U, Q_U = P_rows[U], Q_rows[U]
+        D = np.searchsorted(U, differ)
+        in_base = np.searchsorted(U, base.K)
         new = np.setdiff1d(np.arange(len(U)), in_base, assume_unique=True)
         X = self._rows_times(base.K, base.P_K, base.Q_K, None, None, columns=U[new])
         C_D = self._rows_times(U[D], P_U[D], Q_U[D], None, None, columns=U)
@@ -265,7 +266,7 @@ class UpdatedSolver:
         if stuck is not None and stuck is not self.stuck:
             self.stuck = stuck
             self._kept.clear()
-            self._base = None
+            self._base = self._base_rows = None
             self.n_switches += 1
 
     def _rows_times(self, K, P_K, Q_K, z, b, columns=None) -> np.ndarray:
