@@ -90,7 +90,9 @@ class Updated:
         """The update from ``base`` to rows U with J's rows ``P_U``, ``Q_U``; ``D`` the positions in U where J's
         rows differ from the base's Jacobian's, ``C_D`` (d, u) = C_U[D], ``X`` = R1 A[:, U \\ K1]."""
         in_base = np.searchsorted(U, base.K)
-        new = np.setdiff1d(np.arange(len(U)), in_base, assume_unique=True)
+        outside = np.ones(len(U), dtype=bool)
+        outside[in_base] = False
+        new = np.flatnonzero(outside)                              # U \ K1
         old = np.full(len(U), -1)
         old[in_base] = np.arange(len(in_base))
         base_rows = np.zeros_like(C_D)                          # C1_U[D]: [C1 row, X row] or an identity row

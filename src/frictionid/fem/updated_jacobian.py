@@ -245,7 +245,9 @@ class UpdatedSolver:
         P_U, Q_U = P_rows[U], Q_rows[U]
         D = np.searchsorted(U, differ)
         in_base = np.searchsorted(U, base.K)
-        new = np.setdiff1d(np.arange(len(U)), in_base, assume_unique=True)
+        outside = np.ones(len(U), dtype=bool)
+        outside[in_base] = False
+        new = np.flatnonzero(outside)                              # U \ K1
         X = self._rows_times(base.K, base.P_K, base.Q_K, None, None, columns=U[new])
         C_D = self._rows_times(U[D], P_U[D], Q_U[D], None, None, columns=U)
         updated = Updated.build(base, U, P_U, Q_U, D, C_D, X)
