@@ -206,7 +206,14 @@ class UpdatedSolver:
         Ry = self._rows_times(K, factorised.P_K, factorised.Q_K, y, b)
         z = b.copy()
         z[K] -= factorised.solve(Ry - b[K])
-        return A @ z                                            # y - A[:, K] u without gathering A's columns
+        x = A @ z                                               # y - A[:, K] u without gathering A's columns
+        # identity rows of J (open pairs: F = lam) solved exactly, as a fresh LU factorisation solves them: an
+        # open pair's force is exactly zero after a Newton step, not round-off of either sign
+        n_pairs, dim = P.shape[:2]
+        identity = np.all(P == np.eye(dim), axis=2) & np.all(Q == 0.0, axis=2)
+        rows = np.flatnonzero(identity.ravel())
+        x[rows] = b[rows]
+        return x
 
     def _factorised(self, P, Q, fresh: bool = False) -> Fresh | Updated | None:
         """The factorised capacitance matrix of the rows where J differs from J0 (None: none differ), kept from
@@ -234,13 +241,15 @@ class UpdatedSolver:
         self._kept[key] = factorised
         return factorised
 
-    def _updated(self, base: Fresh, P_rows, Q_rows, K) -> Updated | None:
+    def _updated(self, base: Fresh, P_rows, Q_rows, K) -> Fresh | Updated | None:
         """C of J's rows K as an update of ``base`` (fem/capacitance.py); None where too many rows differ or the
         update is singular. ``P_rows``, ``Q_rows`` (n_w, dim): J's pair rows."""
         P1, Q1 = self._base_rows
         differ = np.flatnonzero(np.any((P_rows != P1) | (Q_rows != Q1), axis=1))
         if len(differ) > max(UPDATE_MIN, UPDATE_FRACTION * len(base.K)):
             return None
+        if not len(differ):
+            return base                                          # J1 itself (its entry was no longer kept)
         U = np.union1d(base.K, K)                                # rows outside both are J0's in J and J1
         P_U, Q_U = P_rows[U], Q_rows[U]
         D = np.searchsorted(U, differ)
@@ -248,7 +257,8 @@ class UpdatedSolver:
         outside = np.ones(len(U), dtype=bool)
         outside[in_base] = False
         new = np.flatnonzero(outside)                              # U \ K1
-        X = self._rows_times(base.K, base.P_K, base.Q_K, None, None, columns=U[new])
+        X = self._rows_times(base.K, base.P_K, base.Q_K, None, None, columns=U[new]) if len(new) else \
+            np.zeros((len(base.K), 0))
         C_D = self._rows_times(U[D], P_U[D], Q_U[D], None, None, columns=U)
         updated = Updated.build(base, U, P_U, Q_U, D, C_D, X)
         if updated.singular:
