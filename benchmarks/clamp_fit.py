@@ -1,8 +1,10 @@
 """The six-zone clamp fit (tests/fixtures/clamp) as a user runs it: `frictionid simulate` makes twin data on a finer
 mesh (contact size 0.25 mm instead of 0.5, bodies 2 mm instead of 4: model error, so the minimum has a nonzero
-residual), then `frictionid identify` fits all six zones with trf from several starts and with several x_scale
-options. Prints per run: iterations, solves with sensitivities, final objective, wall time, and the largest
-coefficient difference from the default run from the same start.
+residual), then `frictionid identify` fits all six zones from several starts with trf's default and its options
+(x_scale 1.0, x_scale "se": the standard errors the start's Jacobian predicts, tr_solver "lsmr"), with
+Levenberg-Marquardt ("lm", unbounded), and with the default tightened (se_step 0.001) as the reference minimum.
+Prints per run: iterations, solves with sensitivities, final objective, wall time, and the largest coefficient
+difference from the tightened run from the same start; then the table of all runs side by side.
 
 Data: ux, uy at 42 points (22 on the strip's side, 10 on each pad) at the ends of stages 2-4, noise 0.5 um for the
 weights; truth U1..L3 = 0.15, 0.2, 0.25, 0.18, 0.22, 0.3.
@@ -20,8 +22,16 @@ from pathlib import Path
 CLAMP = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "clamp"
 FRICTIONID = str(Path(sys.executable).with_name("frictionid"))
 TRUTH = {"U1": 0.15, "U2": 0.2, "U3": 0.25, "L1": 0.18, "L2": 0.22, "L3": 0.3}
-#: [identify] options compared; the first is the default
-VARIANTS = {"default (x_scale jac)": "", "x_scale 1.0": "options = { x_scale = 1.0 }\n"}
+#: [identify] method and options compared; the first is the reference (the default tightened), the second the
+#: default
+VARIANTS = {
+    "reference (se_step 0.001)": ("trf", "options = { se_step = 0.001 }\n"),
+    "default (trf, x_scale jac)": ("trf", ""),
+    "x_scale 1.0": ("trf", "options = { x_scale = 1.0 }\n"),
+    'x_scale "se"': ("trf", 'options = { x_scale = "se" }\n'),
+    'tr_solver "lsmr"': ("trf", 'options = { tr_solver = "lsmr" }\n'),
+    "lm": ("lm", ""),
+}
 
 
 def points_csv() -> str:
@@ -43,8 +53,10 @@ def data_table(file: str) -> str:
             'regions = { "S*" = "strip", "U*" = "upper_pad", "L*" = "lower_pad" }\n')
 
 
-def run(args, cwd) -> None:
-    subprocess.run([FRICTIONID, *args], cwd=cwd, check=True, capture_output=True, timeout=3600)
+def run(args, cwd, check: bool = True) -> str:
+    """The command's last line of standard error where it exits with status > 0 (``check``: raise), else ''."""
+    done = subprocess.run([FRICTIONID, *args], cwd=cwd, check=check, capture_output=True, text=True, timeout=3600)
+    return done.stderr.strip().splitlines()[-1] if done.returncode else ""
 
 
 def main(starts: list[float]) -> None:
@@ -57,23 +69,36 @@ def main(starts: list[float]) -> None:
         (work / "truth.toml").write_text(model_table("clamp_fine.geo") + f"[friction]\nzones = {{ {zones} }}\n"
                                          + data_table("points.csv"))
         run(["simulate", "truth.toml", "--out", "measured.csv"], work)
+        table = {}
         for start in starts:
             reference = None
-            for name, options in VARIANTS.items():
-                tag = f"{start}_{len(options)}"
+            for v, (name, (method, options)) in enumerate(VARIANTS.items()):
+                tag = f"{start}_{v}"
                 zones = ", ".join(f"{k} = {start}" for k in TRUTH)
                 (work / f"fit_{tag}.toml").write_text(
                     model_table("clamp.geo") + f"[friction]\nzones = {{ {zones} }}\nbounds = [0.0, 1.0]\n"
-                    + data_table("measured.csv") + f'[identify]\nmethod = "trf"\n{options}[run]\ndir = "runs/{tag}"\n')
-                run(["identify", f"fit_{tag}.toml"], work)
+                    + data_table("measured.csv")
+                    + f'[identify]\nmethod = "{method}"\n{options}[run]\ndir = "runs/{tag}"\n')
+                error = run(["identify", f"fit_{tag}.toml"], work, check=False)
+                if error:
+                    table[start, name] = "exit > 0"
+                    print(f"start {start}, {name}: exit status > 0: {error}", flush=True)
+                    continue
                 result = json.loads((work / "runs" / tag / "result.json").read_text())
                 mu = {k: v["value"] for k, v in result["parameters"].items()}
                 reference = reference or mu
+                difference = max(abs(mu[k] - reference[k]) for k in mu)
+                table[start, name] = (f"{result['n_iterations']}, {result['n_sensitivity_solves']}, {difference:.0e}"
+                                      + ("" if result["status"] == "converged" else f" ({result['status']})"))
                 print(f"start {start}, {name}: {result['status']}, {result['n_iterations']} iterations, "
-                      f"{result['n_sensitivity_solves']} solves, objective {result['objective']['final']:.6g}, "
-                      f"{result['wall_time_s']:.0f} s; largest difference from the default "
-                      f"{max(abs(mu[k] - reference[k]) for k in mu):.1e}; "
-                      + ", ".join(f"{k} {v:.4f}" for k, v in mu.items()), flush=True)
+                      f"{result['n_sensitivity_solves']} solves, objective {result['objective']['final']:.8g}, "
+                      f"{result['wall_time_s']:.0f} s; largest difference from the reference {difference:.1e}; "
+                      + ", ".join(f"{k} {v:.6f}" for k, v in mu.items()), flush=True)
+        print("\niterations, solves with sensitivities, largest coefficient difference from the reference")
+        print("| start | " + " | ".join(VARIANTS) + " |")
+        print("|---" * (len(VARIANTS) + 1) + "|")
+        for start in starts:
+            print(f"| {start} | " + " | ".join(table[start, name] for name in VARIANTS) + " |")
 
 
 if __name__ == "__main__":

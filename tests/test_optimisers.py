@@ -226,7 +226,7 @@ class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
     def test_resolved_options_are_reported(self):
         result = self.run(linear()[0], tol=1e-9, max_iterations=20)
         assert result.options == {"ftol": 1e-9, "xtol": 1e-9, "gtol": 1e-9, "max_nfev": 105, "x_scale": "jac",
-                                  "se_step": 0.0}
+                                  "tr_solver": "exact", "se_step": 0.0}
         assert optimise(linear()[0], "trf").options["se_step"] == 0.1
 
     def test_no_jacobian_at_the_iterate_where_max_iterations_stops(self):
@@ -251,6 +251,40 @@ def standard_errors_away(a: np.ndarray, b: np.ndarray, x: np.ndarray, x_star: np
 def printed(values: np.ndarray) -> np.ndarray:
     """values rounded to 7 significant digits, as ccx prints its results."""
     return np.array([float(f"{v:.6e}") for v in values])
+
+
+@pytest.mark.parametrize("options", [{"x_scale": "se"}, {"tr_solver": "lsmr"}])
+def test_trf_scaled_by_standard_errors_or_with_lsmr_reaches_the_same_minima(options):
+    for prob, x_star in (linear(), exponential_decay()):
+        result = optimise(prob, "trf", max_iterations=200, options={"se_step": 0.0, **options})
+        assert result.status == "converged" and result.options == {**result.options, **options}
+        np.testing.assert_allclose(result.x, x_star, atol=1e-6)
+
+
+def test_x_scale_se_is_the_standard_errors_at_the_start(monkeypatch):
+    """The scale passed to scipy is sqrt(diag((J^T J)^-1)) of the start's Jacobian (here constant)."""
+    import frictionid.inverse.optimisers as optimisers
+    seen = []
+    real = optimisers.least_squares
+    monkeypatch.setattr(optimisers, "least_squares", lambda *a, **k: seen.append(k["x_scale"]) or real(*a, **k))
+    a = np.array([[1.0, 0.9], [1.0, 1.1], [0.0, 2.0]])
+    optimise(problem(lambda x: a @ x - 1.0, lambda x: a, [0.0, 0.0], -10.0, 10.0), "trf",
+             options={"x_scale": "se"})
+    np.testing.assert_allclose(seen[0], np.sqrt(np.diag(np.linalg.inv(a.T @ a))), rtol=1e-12)
+
+
+class TestLM(BaseMixin, RosenbrockMixin, ScaleMixin):
+    method = "lm"
+    options: ClassVar[dict] = {"se_step": 0.0}
+
+    def test_a_minimum_outside_the_bounds_is_failed(self):
+        result = self.run(outside_bounds())
+        np.testing.assert_allclose(result.x, OUTSIDE, atol=1e-8)
+        assert result.status == "failed" and "outside the bounds" in result.message
+
+    def test_fewer_residuals_than_parameters_are_refused(self):
+        with pytest.raises(InputError, match="'lm' needs at least as many residuals"):
+            self.run(problem(lambda x: x[:1], lambda x: np.eye(2)[:1], [0.1, 0.1], 0.0, 1.0))
 
 
 class TestTRFStepLeft:
@@ -418,7 +452,7 @@ class TestProjectedGradientDescent(BaseMixin, BoundsMixin, PowerMixin):
 def test_unknown_method_names_the_known_ones():
     with pytest.raises(InputError, match="'bfgs'.*gradient-descent.*lbfgsb.*nelder-mead.*trf"):
         optimise(linear()[0], "bfgs")
-    assert set(METHODS) == {"trf", "lbfgsb", "gradient-descent", "nelder-mead"}
+    assert set(METHODS) == {"trf", "lm", "lbfgsb", "gradient-descent", "nelder-mead"}
 
 
 @pytest.mark.parametrize("kwargs, match", [({"max_iterations": -1}, "max_iterations"),

@@ -16,7 +16,7 @@ import pytest
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.registry import build_model
 from frictionid.config import read_config
-from frictionid.fem import loadpath
+from frictionid.fem import loadpath, updated_jacobian
 from frictionid.fem.contact import OPEN, SLIP, STICK, Increment, jacobian, linearise
 from frictionid.fem.problem import Problem
 from frictionid.fem.updated_jacobian import StuckInverses, UpdatedSolver
@@ -140,6 +140,35 @@ def test_corrected_solves_satisfy_the_jacobian(case, plane_strain):
             assert np.allclose(updated.product(P, Q, x), J @ x, rtol=0, atol=1e-12 * scale)
     assert seen == {OPEN, STICK, SLIP}
     assert updated.n_dense == 0
+
+
+@pytest.mark.parametrize("case", ["plane strain", "quarter 3-D"])
+def test_a_few_changed_pairs_update_the_capacitance_factorisation(case, plane_strain, monkeypatch):
+    """From a factorised state, pairs that open, stick or take another state's rows are solved by an update of
+    that factorisation (fem/capacitance.py): J x = b to the round-off of a fresh one. (The random states open a
+    third of the pairs: the stuck inverse is not switched to their open pairs here, so that the updates meet
+    open rows too.)"""
+    monkeypatch.setattr(updated_jacobian, "SWITCH_FRACTION", np.inf)
+    problem = plane_strain if case == "plane strain" else Problem.build(symmetric_model(3, False))
+    solver = loadpath.LoadPathSolver(problem.condensed, problem.pairs)
+    inverses = loadpath.stuck_inverses(problem.condensed, problem.pairs)
+    updated = UpdatedSolver(inverses)
+    rng = np.random.default_rng(4)
+    states = _random_states(problem, seed=5, n_states=2)
+    (P_base, Q_base, _), (P_other, Q_other, _) = next(states), next(states)
+    b = rng.normal(size=(solver.Wfull.shape[1], 2))
+    updated(P_base, Q_base, b, check=False)
+    s = inverses.base
+    opened = (np.broadcast_to(np.eye(problem.pairs.dim), P_base.shape), np.zeros_like(Q_base))
+    for k, (P_to, Q_to) in enumerate((opened, (s.P0, s.Q0), (P_other, Q_other))):     # open, stick, other rows
+        differ = np.flatnonzero(np.any((P_base != P_to) | (Q_base != Q_to), axis=(1, 2)))
+        some = rng.choice(differ, 2, replace=False)
+        P, Q = P_base.copy(), Q_base.copy()
+        P[some], Q[some] = P_to[some], Q_to[some]
+        x = updated(P, Q, b, check=False)
+        J = jacobian(P, Q, solver.Wfull, solver.Wa_T)
+        assert np.abs(J @ x - b).max() <= 1e-11 * np.abs(J).max() * np.abs(x).max(), k
+        assert (updated.n_factorisations, updated.n_updates) == (1, k + 1)
 
 
 def test_the_capacitance_factorisation_is_reused_for_the_same_rows(plane_strain):

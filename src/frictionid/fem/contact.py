@@ -111,46 +111,49 @@ class Increment:
 
 
 def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r, free_T=None) -> Linearisation:
-    """Residual F(x) and generalised Jacobian of the increment (vectorised over pairs); ``free_T`` the projectors
-    of :func:`free_tangents` (None: every tangential direction free)."""
+    """Residual F(x) and generalised Jacobian of the increment (vectorised over pairs: every case's rows are
+    computed for all pairs and selected by state); ``free_T`` the projectors of :func:`free_tangents` (None:
+    every tangential direction free)."""
     n_pairs, dim = len(gap), inc.w_prev_T.shape[1] + 1
     n_w = n_pairs * dim
     lam = x[:n_w].reshape(n_pairs, dim)
+    lam_T = lam[:, 1:]
     w = (inc.w0 + Wfull @ x).reshape(n_pairs, dim)
     g, ds = gap + w[:, 0], w[:, 1:] - inc.w_prev_T
-    closed = lam[:, 0] - r * g > 0
-    lam_hat = np.where(closed, lam[:, 0] - r * g, 0.0)
-    tau = lam[:, 1:] - r * ds
+    augmented = lam[:, 0] - r * g
+    closed = augmented > 0
+    lam_hat = np.where(closed, augmented, 0.0)
+    tau = lam_T - r * ds
     if free_T is not None:
         tau = np.einsum("nij,nj->ni", free_T, tau)
     norm = np.linalg.norm(tau, axis=1)
-    stick = closed & (norm < mu * lam_hat)
+    bound = mu * lam_hat
+    stick = closed & (norm < bound)
     slip = closed & ~stick
-    t = np.divide(tau, norm[:, None], out=np.zeros_like(tau), where=norm[:, None] > 0)
-    kappa = np.divide(mu * lam_hat, norm, out=np.zeros_like(norm), where=(norm > 0) & slip)
+    positive = norm > 0
+    safe = np.where(positive, norm, 1.0)
+    t = np.where(positive[:, None], tau / safe[:, None], 0.0)
+    kappa = np.where(positive & slip, bound / safe, 0.0)
 
-    F = lam.copy()
-    F[closed, 0] = r * g[closed]
     eye_T = np.eye(dim - 1)
     E = np.broadcast_to(eye_T, (n_pairs, dim - 1, dim - 1)) if free_T is None else free_T
-    F[stick, 1:] = r * ds[stick]
+    F = np.empty((n_pairs, dim))
+    F[:, 0] = np.where(closed, r * g, lam[:, 0])
+    F_stick = r * ds
     if free_T is not None:
-        F[stick, 1:] = np.einsum("nij,nj->ni", E[stick], F[stick, 1:]) \
-            + np.einsum("nij,nj->ni", eye_T - E[stick], lam[stick, 1:])
-    F[slip, 1:] = lam[slip, 1:] - (mu * lam_hat)[slip, None] * t[slip]
+        F_stick = np.einsum("nij,nj->ni", E, F_stick) + np.einsum("nij,nj->ni", eye_T - E, lam_T)
+    F[:, 1:] = np.where(stick[:, None], F_stick, np.where(slip[:, None], lam_T - bound[:, None] * t, lam_T))
 
     proj = E - t[:, :, None] * t[:, None, :]                            # E - t t^T
-    P = np.broadcast_to(np.eye(dim), (n_pairs, dim, dim)).copy()
+    stick3, slip3 = stick[:, None, None], slip[:, None, None]
+    P = np.zeros((n_pairs, dim, dim))
     Q = np.zeros((n_pairs, dim, dim))
-    P[closed, 0, :] = 0.0
-    Q[closed, 0, 0] = r
-    P[stick, 1:, :] = 0.0
-    P[stick, 1:, 1:] = eye_T - E[stick]
-    Q[stick, 1:, 1:] = r * E[stick]
-    P[slip, 1:, 1:] = eye_T - kappa[slip, None, None] * proj[slip]
-    P[slip, 1:, 0] = -mu[slip, None] * t[slip]
-    Q[slip, 1:, 0] = r * mu[slip, None] * t[slip]
-    Q[slip, 1:, 1:] = r * kappa[slip, None, None] * proj[slip]
+    P[:, 0, 0] = np.where(closed, 0.0, 1.0)
+    Q[:, 0, 0] = np.where(closed, r, 0.0)
+    P[:, 1:, 1:] = np.where(stick3, eye_T - E, np.where(slip3, eye_T - kappa[:, None, None] * proj, eye_T))
+    P[:, 1:, 0] = np.where(slip[:, None], -mu[:, None] * t, 0.0)
+    Q[:, 1:, 0] = np.where(slip[:, None], r * mu[:, None] * t, 0.0)
+    Q[:, 1:, 1:] = np.where(stick3, r * E, np.where(slip3, r * kappa[:, None, None] * proj, 0.0))
 
     h = inc.h0 + Wa_T @ x[:n_w]
     state = np.where(slip, SLIP, np.where(stick, STICK, OPEN)).astype(np.int8)

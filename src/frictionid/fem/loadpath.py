@@ -80,8 +80,9 @@ class LoadPathSolver:
         self.Wa_T = condensed.equilibrium.on_lam
         self.r = contact_scale(condensed)
         self.rtol = rtol
-        #: projectors onto the tangential directions the supports leave free (None: all free)
-        self.free_T = free_tangents(pairs.B, condensed.free, pairs.dim)
+        #: projectors onto the tangential directions the supports leave free (None: all free); those the stuck
+        #: inverses were made with (the same model) where given
+        self.free_T = stuck.free_T if stuck is not None else free_tangents(pairs.B, condensed.free, pairs.dim)
         #: J^-1 by corrections of the inverses ``stuck`` (:func:`stuck_inverses`); None: dense solves
         self.updated = UpdatedSolver(stuck) if stuck is not None and stuck.base is not None \
             and _LINEAR == "updated" else None

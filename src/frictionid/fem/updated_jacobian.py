@@ -14,8 +14,10 @@ No product with W is needed to form C: J0 A = I gives r E W_i A = e_i - (I - E) 
 (pairs with held gaps, whose J0 rows are identity rows: W A from a product, made once). A Newton step then costs a
 product with A (n^2) and, when the replaced rows differ from the last ones, an LU factorisation of C (k^3): in 2-D
 a slipping pair's rows depend on the sign of its slip direction only, so in gross slip C stays the same from
-iteration to iteration and increment to increment. Each solve checks its residual with J and falls back to a
-fresh LU factorisation of J where the correction lost accuracy.
+iteration to iteration and increment to increment; in partial slip, where the slip front moves by a few pairs
+per Newton step, the new C is an update of the last factorised one (fem/capacitance.py: of order k^2 instead
+of k^3). Each solve checks its residual with J and falls back to a fresh LU factorisation of J where the
+correction lost accuracy.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
+from .capacitance import Fresh, Updated
 from .contact import jacobian
 
 log = logging.getLogger(__name__)
@@ -44,6 +47,12 @@ KEEP = 4
 #: the stuck inverses kept per model take at most this many bytes besides the base one (n^2 x 8 bytes each: 288 MB
 #: at 6,000 unknowns)
 KEEP_BYTES = 400e6
+#: a capacitance matrix is updated from the last fresh factorisation (fem/capacitance.py) where at most this
+#: fraction of that one's rows, and at least UPDATE_MIN rows, differ; else factorised afresh (and the new base)
+UPDATE_FRACTION = 0.25
+UPDATE_MIN = 8
+#: an update's condition estimate below this is checked by a fresh factorisation
+RCOND_RECHECK = 1e-10
 
 
 @dataclass(frozen=True)
@@ -85,11 +94,23 @@ class StuckInverse:
         if not rcond >= RCOND_MIN:
             log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
             return None
-        A = la.lu_solve(lu, np.eye(len(J0)), check_finite=False)
+        # Fortran order as lu_solve makes it (the capacitance rows gather from its transpose): the same A in C
+        # order changes the round-off of A b enough to move the clamp's contact forces by 2e-9 of their largest
+        A = np.asfortranarray(la.lu_solve(lu, np.eye(len(J0)), check_finite=False))
         rows = np.flatnonzero(np.repeat(held_gap, dim))
         open_rows = np.full(n_pairs * dim, -1)
         open_rows[rows] = np.arange(len(rows))
         return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
+
+
+def _block(A: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """A[rows][:, columns] of a Fortran-ordered A, gathered from its (C-ordered) transpose, the smaller index set
+    first (a few columns of an update's X, a few rows of its C[D]): numpy's take along either axis of a
+    Fortran-ordered array is several times slower."""
+    At = A.T
+    if len(columns) <= len(rows):
+        return At.take(columns, axis=0).take(rows, axis=1).T
+    return At.take(rows, axis=1).take(columns, axis=0).T
 
 
 class StuckInverses:
@@ -126,9 +147,12 @@ class UpdatedSolver:
         Wfull, Wa_T = inverses.Wfull, inverses.Wa_T
         self.Wfull, self.Wa_T = Wfull, Wa_T
         self._W_max = np.max(np.abs(Wfull), initial=0.0)
-        #: the last few factorisations by their rows: (K, P rows, Q rows, (LU, pivots) of C, 1-norm of C)
-        self._kept: dict[bytes, tuple] = {}
-        self.n_factorisations = self.n_dense = self.n_switches = 0
+        #: the last few capacitance factorisations by their rows (fem/capacitance.py), the last fresh one
+        self._kept: dict[bytes, Fresh | Updated | None] = {}
+        self._base: Fresh | None = None
+        #: (n_w, dim) pair rows P, Q of the Jacobian of the last fresh factorisation (J1)
+        self._base_rows: tuple[np.ndarray, np.ndarray] | None = None
+        self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
         """J^-1 b, b (n,) or (n, n_rhs), J from pair rows ``P``, ``Q`` (n_pairs, dim, dim). ``check``: the
@@ -150,10 +174,13 @@ class UpdatedSolver:
 
     def rcond(self, P, Q) -> float:
         """Reciprocal condition number of the capacitance matrix of J (1 when J = J0): near zero, J is singular."""
-        K, _, _, (lu, _), norm = self._factorised(P, Q)
-        if not len(K):
+        factorised = self._factorised(P, Q)
+        if factorised is None:
             return 1.0
-        return la.lapack.dgecon(lu, norm, norm="1")[0] if np.all(np.isfinite(lu)) else 0.0
+        rcond = factorised.rcond()
+        if isinstance(factorised, Updated) and rcond < RCOND_RECHECK:
+            rcond = self._factorised(P, Q, fresh=True).rcond()
+        return rcond
 
     def product(self, P, Q, x) -> np.ndarray:
         """J x, x (n,) or (n, n_rhs)."""
@@ -168,21 +195,30 @@ class UpdatedSolver:
         return max(np.max(np.abs(P), initial=0.0), np.max(np.abs(Q), initial=0.0) * self._W_max)
 
     def _corrected(self, P, Q, b) -> np.ndarray:
-        K, P_K, Q_K, (lu, pivots), _ = self._factorised(P, Q)          # may switch to another inverse
+        factorised = self._factorised(P, Q)          # may switch to another inverse
         A = self.stuck.A
         y = A @ b
-        if not len(K):
+        if factorised is None:
             return y
-        if not np.isfinite(lu[0, 0]):
+        if factorised.singular:
             return np.full_like(y, np.nan)
-        Ry = self._rows_times(K, P_K, Q_K, y, b)
+        K = factorised.K
+        Ry = self._rows_times(K, factorised.P_K, factorised.Q_K, y, b)
         z = b.copy()
-        z[K] -= la.lapack.dgetrs(lu, pivots, Ry - b[K])[0]
-        return A @ z                                            # y - A[:, K] u without gathering A's columns
+        z[K] -= factorised.solve(Ry - b[K])
+        x = A @ z                                               # y - A[:, K] u without gathering A's columns
+        # identity rows of J (open pairs: F = lam) solved exactly, as a fresh LU factorisation solves them: an
+        # open pair's force is exactly zero after a Newton step, not round-off of either sign
+        n_pairs, dim = P.shape[:2]
+        identity = np.all(P == np.eye(dim), axis=2) & np.all(Q == 0.0, axis=2)
+        rows = np.flatnonzero(identity.ravel())
+        x[rows] = b[rows]
+        return x
 
-    def _factorised(self, P, Q):
-        """(K, P rows, Q rows, (LU, pivots) of C, 1-norm of C) of the rows where J differs from J0, kept from an
-        earlier call with the same rows."""
+    def _factorised(self, P, Q, fresh: bool = False) -> Fresh | Updated | None:
+        """The factorised capacitance matrix of the rows where J differs from J0 (None: none differ), kept from
+        an earlier call with the same rows, else updated from the last fresh one where few rows differ from it,
+        else (or ``fresh``) factorised afresh."""
         self._switch(P, Q)
         s = self.stuck
         changed = np.any((P != s.P0) | (Q != s.Q0), axis=2).ravel()
@@ -190,22 +226,45 @@ class UpdatedSolver:
         dim = P.shape[1]
         P_K, Q_K = P.reshape(-1, dim)[K], Q.reshape(-1, dim)[K]
         key = K.tobytes() + P_K.tobytes() + Q_K.tobytes()
-        if key in self._kept:
+        if key in self._kept and not (fresh and isinstance(self._kept[key], Updated)):
             return self._kept[key]
-        if not len(K):
-            factorised = (K, P_K, Q_K, (None, None), 0.0)
-        else:
+        factorised = None
+        if len(K) and not fresh and self._base is not None:
+            factorised = self._updated(self._base, P.reshape(-1, dim), Q.reshape(-1, dim), K)
+        if len(K) and factorised is None:
             C = self._rows_times(K, P_K, Q_K, None, None)
             self.n_factorisations += 1
-            norm = np.abs(C).sum(axis=0).max(initial=0.0)
-            lu, pivots, info = la.lapack.dgetrf(C, overwrite_a=True)   # LAPACK directly: no wrapper cost per call
-            if info > 0:                                                  # exactly singular: J is
-                lu[:] = np.nan
-            factorised = (K, P_K, Q_K, (lu, pivots), norm)
+            factorised = self._base = Fresh.factorise(K, P_K, Q_K, C)
+            self._base_rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
         while len(self._kept) >= KEEP:
             self._kept.pop(next(iter(self._kept)))
         self._kept[key] = factorised
         return factorised
+
+    def _updated(self, base: Fresh, P_rows, Q_rows, K) -> Fresh | Updated | None:
+        """C of J's rows K as an update of ``base`` (fem/capacitance.py); None where too many rows differ or the
+        update is singular. ``P_rows``, ``Q_rows`` (n_w, dim): J's pair rows."""
+        P1, Q1 = self._base_rows
+        differ = np.flatnonzero(np.any((P_rows != P1) | (Q_rows != Q1), axis=1))
+        if len(differ) > max(UPDATE_MIN, UPDATE_FRACTION * len(base.K)):
+            return None
+        if not len(differ):
+            return base                                          # J1 itself (its entry was no longer kept)
+        U = np.union1d(base.K, K)                                # rows outside both are J0's in J and J1
+        P_U, Q_U = P_rows[U], Q_rows[U]
+        D = np.searchsorted(U, differ)
+        in_base = np.searchsorted(U, base.K)
+        outside = np.ones(len(U), dtype=bool)
+        outside[in_base] = False
+        new = np.flatnonzero(outside)                              # U \ K1
+        X = self._rows_times(base.K, base.P_K, base.Q_K, None, None, columns=U[new]) if len(new) else \
+            np.zeros((len(base.K), 0))
+        C_D = self._rows_times(U[D], P_U[D], Q_U[D], None, None, columns=U)
+        updated = Updated.build(base, U, P_U, Q_U, D, C_D, X)
+        if updated.singular:
+            return None
+        self.n_updates += 1
+        return updated
 
     def _switch(self, P, Q) -> None:
         """Take the inverse holding the Jacobian's open pairs open where the pairs open in one of J and J0 and
@@ -219,12 +278,14 @@ class UpdatedSolver:
         if stuck is not None and stuck is not self.stuck:
             self.stuck = stuck
             self._kept.clear()
+            self._base = self._base_rows = None
             self.n_switches += 1
 
-    def _rows_times(self, K, P_K, Q_K, z, b) -> np.ndarray:
-        """R z for the replaced rows R (rows K of J) and z = A v (n, ...): P z[lam] + Q (W z), with W z = v / r
-        on the pairs J0 holds closed (``b`` = v) and from W_open on the others; z = b = None: v = I[:, K], i.e.
-        C = R A[:, K], gathering only the rows of A it needs."""
+    def _rows_times(self, K, P_K, Q_K, z, b, columns=None) -> np.ndarray:
+        """R z for the replaced rows R (rows K of J, sorted) and z = A v (n, ...): P z[lam] + Q (W z), with
+        W z = v / r on the pairs J0 holds closed (``b`` = v) and from W_open on the others; z = b = None:
+        v = I[:, columns] (default K), i.e. C = R A[:, K], gathering only the rows of A it needs."""
+        columns = K if columns is None else columns
         s = self.stuck
         dim = P_K.shape[1]
         pair = K // dim
@@ -236,19 +297,19 @@ class UpdatedSolver:
             # columns of them
             first = np.r_[True, pair[1:] != pair[:-1]]
             rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
-            A_K = s.A.take(rows, axis=0).take(K, axis=1).reshape(-1, dim, len(K))
+            A_K = _block(s.A, rows, columns).reshape(len(rows) // dim, dim, len(columns))
             out = np.einsum("ac,ack->ak", P_K, A_K[np.cumsum(first) - 1])
         closed = s.open_rows[lam_rows[:, 0]] < 0
         if b is not None:
             out[closed] += np.einsum("ac,ac...->a...", Q_K[closed], b[lam_rows[closed]]) / s.r
         else:
             position = np.full(s.A.shape[0], -1)
-            position[K] = np.arange(len(K))
-            columns = position[lam_rows]                                        # (k, dim) column in C or -1
-            a, c = np.nonzero(closed[:, None] & (columns >= 0))
-            out[a, columns[a, c]] += Q_K[a, c] / s.r             # (a, column) pairs are distinct
+            position[columns] = np.arange(len(columns))
+            column = position[lam_rows]                                         # (k, dim) column in C or -1
+            a, c = np.nonzero(closed[:, None] & (column >= 0))
+            out[a, column[a, c]] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
         if not closed.all():
             held = np.flatnonzero(~closed)
-            Wz = s.W_open @ z if b is not None else s.WA_open[:, K]
+            Wz = s.W_open @ z if b is not None else s.WA_open[:, columns]
             out[held] += np.einsum("ac,ac...->a...", Q_K[held], Wz[s.open_rows[lam_rows[held]]])
         return out

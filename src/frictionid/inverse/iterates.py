@@ -117,7 +117,7 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Option:
-    """One option of a method: its kind ("float", "int", "bool" or "scale"), a check and a default.
+    """One option of a method: its kind ("float", "int", "bool", "scale" or "str"), a check and a default.
 
     ``default(max_iterations, tol, n_free)`` gives the value when the caller does not set one;
     ``valid(value)`` is True for acceptable values, described by ``expected`` in error messages.
@@ -133,9 +133,11 @@ _KINDS = {
     "float": lambda v: isinstance(v, Real) and not isinstance(v, bool),
     "int": lambda v: isinstance(v, Integral) and not isinstance(v, bool),
     "bool": lambda v: isinstance(v, (bool, np.bool_)),
-    "scale": lambda v: v == "jac" if isinstance(v, str) else isinstance(v, Real) and not isinstance(v, bool),
+    "scale": lambda v: v in ("jac", "se") if isinstance(v, str) else isinstance(v, Real) and not isinstance(v, bool),
+    "str": lambda v: isinstance(v, str),
 }
-_KIND_NAMES = {"float": "a number", "int": "an integer", "bool": "true or false", "scale": '"jac" or a number'}
+_KIND_NAMES = {"float": "a number", "int": "an integer", "bool": "true or false", "scale": '"jac", "se" or a number',
+               "str": "a string"}
 
 
 def resolve_options(method: str, spec: dict[str, Option], given: dict | None, max_iterations: int,

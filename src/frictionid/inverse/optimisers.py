@@ -23,7 +23,7 @@ def _positive(value) -> bool:
 
 
 def _scale(value) -> bool:
-    return value == "jac" or value > 0
+    return value in ("jac", "se") if isinstance(value, str) else value > 0
 
 
 _TOLERANCE = Option("float", lambda n, tol, n_free: tol, _positive, "> 0")
@@ -32,12 +32,20 @@ TRF_OPTIONS = {
     "ftol": _TOLERANCE, "xtol": _TOLERANCE, "gtol": _TOLERANCE,
     "max_nfev": Option("int", lambda n, tol, n_free: 5 * (n + 1), _positive, "> 0"),
     "x_scale": Option("scale", lambda n, tol, n_free: "jac", _scale, "(> 0)"),
+    "tr_solver": Option("str", lambda n, tol, n_free: "exact", lambda v: v in ("exact", "lsmr"),
+                        '("exact" or "lsmr")'),
     "se_step": Option("float", lambda n, tol, n_free: 0.1, lambda v: v >= 0, ">= 0"),
 }
 """Options of "trf" (scipy.optimize.least_squares): ftol, xtol, gtol (default tol), max_nfev (residual
-evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale, and
-se_step (default 0.1; 0 turns it off): stop at an accepted iterate once the Gauss-Newton step still to go is
-shorter than se_step standard errors (see ``remaining_step``)."""
+evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale ("jac":
+scipy's column norms of the Jacobian, updated each iteration; "se": the standard errors the start's Jacobian
+predicts, sqrt(diag((J^T J)^-1)), held; or a number), tr_solver ("exact" or "lsmr", scipy's), and se_step
+(default 0.1; 0 turns it off): stop at an accepted iterate once the Gauss-Newton step still to go is shorter
+than se_step standard errors (see ``remaining_step``)."""
+
+LM_OPTIONS = {key: TRF_OPTIONS[key] for key in ("ftol", "xtol", "gtol", "max_nfev", "x_scale", "se_step")}
+"""Options of "lm" (Levenberg-Marquardt, MINPACK through scipy.optimize.least_squares): those of "trf" but
+tr_solver. It does not know bounds: a run that ends outside them is reported "failed"."""
 
 LBFGSB_OPTIONS = {
     "ftol": _TOLERANCE, "gtol": _TOLERANCE,
@@ -113,7 +121,34 @@ def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper, noise_known:
 
 
 def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
-    """Bounded trust-region reflective Gauss-Newton (scipy.optimize.least_squares, method "trf").
+    """Bounded trust-region reflective Gauss-Newton (scipy.optimize.least_squares, method "trf"); see
+    :func:`_gauss_newton`."""
+    return _gauss_newton(run, max_iterations, options, "trf")
+
+
+def _lm(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
+    """Levenberg-Marquardt without bounds (scipy.optimize.least_squares, method "lm", MINPACK); see
+    :func:`_gauss_newton`."""
+    return _gauss_newton(run, max_iterations, options, "lm")
+
+
+def _x_scale(run: Iterates, x0: np.ndarray, x_scale):
+    """scipy's x_scale for an option value: "se" becomes the standard errors sqrt(diag((J^T J)^-1)) the
+    Jacobian at the start predicts (in any common unit: only their ratios and the first trust region depend on
+    it), 1 / |column| where that matrix is singular."""
+    if not isinstance(x_scale, str) or x_scale != "se":
+        return x_scale
+    jac = run.jacobian(x0)
+    norms = np.linalg.norm(jac, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        se = np.sqrt(np.diag(np.linalg.pinv(jac.T @ jac)))
+        fallback = np.where(norms > 0, 1.0 / norms, 1.0)
+    return np.where(np.isfinite(se) & (se > 0) & (np.linalg.matrix_rank(jac) == jac.shape[1]), se, fallback)
+
+
+def _gauss_newton(run: Iterates, max_iterations: int, options: dict, method: str) -> tuple[str, str]:
+    """Gauss-Newton with a trust region ("trf", bounded) or Levenberg-Marquardt ("lm", unbounded) through
+    scipy.optimize.least_squares.
 
     least_squares evaluates the Jacobian at the start and at every accepted iterate and nowhere else, so the
     Jacobian call is where an iterate is recorded; at the max_iterations-th one the run stops before the
@@ -125,9 +160,13 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
     """
     problem = run.problem
     x0 = np.array(problem.x0, dtype=float)
-    norm = float(np.linalg.norm(run.residuals(x0)))
+    r0 = run.residuals(x0)
+    norm = float(np.linalg.norm(r0))
     if not np.isfinite(norm):
         raise SolverError(f"the residuals at the start x0 = {x0.tolist()} are not finite")
+    if method == "lm" and len(r0) < len(x0):
+        raise InputError(f"method 'lm' needs at least as many residuals as free parameters, got {len(r0)} "
+                         f"residuals for {len(x0)} parameters; use 'trf'")
     scale = 1.0 / norm if norm > 0 else 1.0
 
     def jacobian(x):
@@ -145,11 +184,11 @@ def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple
         return jac * scale
 
     try:
-        fit = least_squares(lambda x: run.residuals(x) * scale, x0, jac=jacobian, method="trf",
-                            bounds=(problem.lower, problem.upper), x_scale=options["x_scale"],
-                            loss=problem.loss, f_scale=problem.loss_scale * scale,
-                            ftol=options["ftol"], xtol=options["xtol"], gtol=options["gtol"],
-                            max_nfev=options["max_nfev"])
+        bounded = {"bounds": (problem.lower, problem.upper), "tr_solver": options["tr_solver"],
+                   "loss": problem.loss, "f_scale": problem.loss_scale * scale} if method == "trf" else {}
+        fit = least_squares(lambda x: run.residuals(x) * scale, x0, jac=jacobian, method=method,
+                            x_scale=_x_scale(run, x0, options["x_scale"]), ftol=options["ftol"],
+                            xtol=options["xtol"], gtol=options["gtol"], max_nfev=options["max_nfev"], **bounded)
     except _IterationLimit:
         return "max_iterations", f"stopped after max_iterations = {max_iterations} iterations"
     except _StepLeftSmall as stop:
@@ -204,6 +243,7 @@ def _recorder(run: Iterates):
 
 METHODS = {
     "trf": (_trf, TRF_OPTIONS),
+    "lm": (_lm, LM_OPTIONS),
     "lbfgsb": (_lbfgsb, LBFGSB_OPTIONS),
     "gradient-descent": (descent.gradient_descent, descent.OPTIONS),
     "nelder-mead": (_nelder_mead, NELDER_MEAD_OPTIONS),
@@ -220,7 +260,8 @@ def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int 
     problem : LeastSquares
         Residuals, Jacobian, start and bounds; never modified (``problem.x0`` included).
     method : str
-        "trf" (bounded trust-region Gauss-Newton, power 2 only), "lbfgsb" (L-BFGS-B within the bounds),
+        "trf" (bounded trust-region Gauss-Newton, power 2 only), "lm" (Levenberg-Marquardt, power 2, no
+        bounds: a run ending outside them is failed), "lbfgsb" (L-BFGS-B within the bounds),
         "gradient-descent" (the seed paper's steepest descent with Armijo steps, projected onto the bounds
         unless ``options={"bounds": False}``) or "nelder-mead" (derivative-free, within the bounds). A run
         that ends outside the bounds is reported "failed", whatever the method said.
@@ -229,7 +270,7 @@ def optimise(problem: LeastSquares, method: str = "trf", *, max_iterations: int 
     tol : float
         Convergence tolerance (> 0), passed to each method's own tolerances (see its options).
     options : dict, optional
-        Method options, see ``TRF_OPTIONS``, ``LBFGSB_OPTIONS``, ``NELDER_MEAD_OPTIONS`` and
+        Method options, see ``TRF_OPTIONS``, ``LM_OPTIONS``, ``LBFGSB_OPTIONS``, ``NELDER_MEAD_OPTIONS`` and
         ``gradient_descent.OPTIONS``.
 
     Returns
@@ -319,6 +360,6 @@ def _check_problem(problem: LeastSquares, method: str) -> None:
         raise InputError(f"a robust loss ({problem.loss!r}) needs method 'trf', not {method!r}")
     if not problem.loss_scale > 0:
         raise InputError(f"loss_scale must be > 0, not {problem.loss_scale}")
-    if method == "trf" and problem.power != 2:
-        raise InputError(f"method 'trf' solves least-squares problems (power 2), not power {problem.power}; "
+    if method in ("trf", "lm") and problem.power != 2:
+        raise InputError(f"method {method!r} solves least-squares problems (power 2), not power {problem.power}; "
                          "use 'lbfgsb', 'gradient-descent' or 'nelder-mead'")

@@ -1,0 +1,142 @@
+"""Factorisations of the capacitance matrix of the contact Jacobian's corrections (fem/updated_jacobian.py).
+
+For a Jacobian J whose rows K differ from J0's, the Woodbury correction solves with C = R A[:, K] (k x k; R the
+rows K of J, A = J0^-1). Between Newton steps of a partial-slip increment a few pairs change state, so the new
+C differs from an earlier, factorised one C1 (rows K1) in a few rows and columns. Over U = K u K1 both are
+capacitance matrices of J and J1 (a row of U outside K is J0's own row: its capacitance row is the identity row,
+its right-hand side zero), and over U
+
+    C1_U = [[C1, X], [0, I]]     (blocks: K1, U \\ K1;  X = R1 A[:, U \\ K1])
+
+is factorised with C1. C_U differs from C1_U in the rows D where J's rows differ from J1's (added, dropped and
+changed rows): C_U = C1_U + E_D Delta, Delta = C_U[D] - C1_U[D] (d x u), and by the Woodbury identity once more
+
+    C_U^-1 v = w - G S^-1 Delta w,   w = C1_U^-1 v,   G = C1_U^-1 E_D,   S = I_d + Delta G   (d x d),
+
+so a new state costs d + |U \\ K1| solves with C1's factors instead of a factorisation of order k^3.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as la
+
+
+def _lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(LU, pivots, 1-norm) of a square matrix by LAPACK directly (no wrapper cost per call); NaN factors where
+    it is exactly singular."""
+    norm = np.abs(matrix).sum(axis=0).max(initial=0.0)
+    lu, pivots, info = la.lapack.dgetrf(matrix)
+    if info > 0:
+        lu[:] = np.nan
+    return lu, pivots, norm
+
+
+def _rcond(lu: np.ndarray, norm: float) -> float:
+    return la.lapack.dgecon(lu, norm, norm="1")[0] if np.all(np.isfinite(lu)) else 0.0
+
+
+@dataclass(frozen=True)
+class Fresh:
+    """An LU factorisation of C made for its rows K (pair rows ``P_K``, ``Q_K`` of J); ``C`` kept for updates."""
+
+    K: np.ndarray
+    P_K: np.ndarray
+    Q_K: np.ndarray
+    C: np.ndarray
+    lu: np.ndarray
+    pivots: np.ndarray
+    norm: float
+
+    @classmethod
+    def factorise(cls, K, P_K, Q_K, C: np.ndarray) -> "Fresh":
+        return cls(K, P_K, Q_K, C, *_lu(C))
+
+    @property
+    def singular(self) -> bool:
+        return not np.isfinite(self.lu[0, 0])
+
+    def solve(self, v: np.ndarray) -> np.ndarray:
+        """C^-1 v, v (k,) or (k, n_rhs)."""
+        return la.lapack.dgetrs(self.lu, self.pivots, v)[0]
+
+    def rcond(self) -> float:
+        """Reciprocal condition number of C (1-norm estimate)."""
+        return _rcond(self.lu, self.norm)
+
+
+@dataclass(frozen=True)
+class Updated:
+    """C over U = K u K1 as an update of a :class:`Fresh` base (K1) on the rows D (module docstring)."""
+
+    K: np.ndarray          # (u,) U, sorted
+    P_K: np.ndarray        # (u, dim) J's pair rows on U (J0's where U is outside J's K)
+    Q_K: np.ndarray
+    base: Fresh
+    in_base: np.ndarray    # (k1,) positions of the base's rows in U
+    new: np.ndarray        # (u - k1,) positions of U \ K1
+    X: np.ndarray          # (k1, u - k1)
+    D: np.ndarray          # (d,) positions in U of the rows that differ from the base's Jacobian
+    G: np.ndarray          # (u, d)
+    delta: np.ndarray      # (d, u)
+    lu: np.ndarray         # LU of S (d x d)
+    pivots: np.ndarray
+    norm: float
+
+    @classmethod
+    def build(cls, base: Fresh, U, P_U, Q_U, D: np.ndarray, C_D: np.ndarray, X: np.ndarray) -> "Updated":
+        """The update from ``base`` to rows U with J's rows ``P_U``, ``Q_U``; ``D`` the positions in U where J's
+        rows differ from the base's Jacobian's, ``C_D`` (d, u) = C_U[D], ``X`` = R1 A[:, U \\ K1]."""
+        in_base = np.searchsorted(U, base.K)
+        outside = np.ones(len(U), dtype=bool)
+        outside[in_base] = False
+        new = np.flatnonzero(outside)                              # U \ K1
+        old = np.full(len(U), -1)
+        old[in_base] = np.arange(len(in_base))
+        base_rows = np.zeros_like(C_D)                          # C1_U[D]: [C1 row, X row] or an identity row
+        from_base = old[D] >= 0
+        base_rows[np.ix_(from_base, in_base)] = base.C[old[D[from_base]]]
+        base_rows[np.ix_(from_base, new)] = X[old[D[from_base]]]
+        base_rows[np.flatnonzero(~from_base), D[~from_base]] = 1.0
+        delta = C_D - base_rows
+        E = np.zeros((len(U), len(D)))
+        E[D, np.arange(len(D))] = 1.0
+        partial = cls(U, P_U, Q_U, base, in_base, new, X, D, None, delta, None, None, 0.0)
+        G = partial._base_solve(E)
+        lu, pivots, norm = _lu(np.eye(len(D)) + delta @ G)
+        return cls(U, P_U, Q_U, base, in_base, new, X, D, G, delta, lu, pivots, norm)
+
+    @property
+    def singular(self) -> bool:
+        return self.base.singular or not np.isfinite(self.lu[0, 0])
+
+    def _base_solve(self, v: np.ndarray) -> np.ndarray:
+        """C1_U^-1 v."""
+        w = np.empty_like(v)
+        w[self.new] = v[self.new]
+        w[self.in_base] = self.base.solve(v[self.in_base] - self.X @ v[self.new])
+        return w
+
+    def solve(self, v: np.ndarray) -> np.ndarray:
+        """C_U^-1 v, v (u,) or (u, n_rhs), refined once with C_U's residual: the nested corrections lose a few
+        digits that one refinement (products of order k^2) wins back."""
+        u = self._solve_once(v)
+        return u + self._solve_once(v - self._times(u))
+
+    def _solve_once(self, v: np.ndarray) -> np.ndarray:
+        w = self._base_solve(v)
+        return w - self.G @ la.lapack.dgetrs(self.lu, self.pivots, self.delta @ w)[0]
+
+    def _times(self, u: np.ndarray) -> np.ndarray:
+        """C_U u = C1_U u + E_D Delta u."""
+        out = u.copy()
+        out[self.in_base] = self.base.C @ u[self.in_base] + self.X @ u[self.new]
+        out[self.D] += self.delta @ u
+        return out
+
+    def rcond(self) -> float:
+        """An estimate of C_U's reciprocal condition number: the product of the base's and S's (C_U is
+        singular where C1 or S is: det C_U = det C1 det S)."""
+        return self.base.rcond() * _rcond(self.lu, self.norm)
