@@ -136,15 +136,19 @@ def _simulate(folder, solver: str) -> int:
     return main(["simulate", str(config), "--out", str(folder / "simulated.csv")])
 
 
-def test_simulate_with_finite_sliding_agrees_with_small_sliding_on_a_short_slide(tmp_path):
+def test_simulate_with_finite_sliding_agrees_with_small_sliding_on_a_short_slide(tmp_path, capsys):
     def read():
         lines = [line for line in (tmp_path / "simulated.csv").read_text().splitlines() if line[:1] == "P"]
         return np.array([[float(v) for v in line.split(",")[-2:]] for line in lines])
 
     assert _simulate(tmp_path, '[solver]\nsliding = "finite"\n') == 0
     finite = read()
+    contact = [line for line in capsys.readouterr().out.splitlines() if line.startswith("contact ")]
+    assert contact and all(line.endswith("finite sliding: re-coupled by dual mortar in the deformed configuration "
+                                         "at every increment") for line in contact), contact
     assert _simulate(tmp_path, "") == 0
     small = read()
+    assert "finite sliding" not in capsys.readouterr().out
     assert finite.shape == small.shape and len(finite) >= 6
     # block2d slides less than a facet: the updated coupling changes the displacements a little, not nothing
     difference = np.abs(finite - small).max()

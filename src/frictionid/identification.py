@@ -135,7 +135,9 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                      float(config.identify["refine_target"]), int(config.identify["refine_budget"]), max_memory,
                      echo, strain_window(setup.window, obs), config.solver["backend"])
-    contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo)
+    sliding = config.solver["sliding"]
+    contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo,
+                                                                                   sliding)
     setup = replace(setup, model=chosen.model, model_options=chosen.options, contact=contact,
                     discretisation=chosen.record)
     if config.solver["backend"] == "embedded":

@@ -14,13 +14,16 @@ def model_line(model: Model, builder: str, seconds: float) -> str:
             f"element {model.element!r}, zones {', '.join(model.zone_names)} ({seconds:.1f} s)")
 
 
-def checked_contact(model: Model, where: str, echo) -> tuple:
+def checked_contact(model: Model, where: str, echo, sliding: str = "small") -> tuple:
     """The model's contact map (:func:`~frictionid.fem.interface.contact_setup`), one line per interface to
-    ``echo``; a failed set-up check is an :class:`InputError` naming ``where`` (the config file)."""
+    ``echo``; a failed set-up check is an :class:`InputError` naming ``where`` (the config file). With
+    ``sliding = "finite"`` the lines say that the solve re-couples the interfaces by dual mortar in the deformed
+    configuration (fem/sliding.py), whatever the pairing checked here."""
     try:
         contact = contact_setup(model)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
     for entry in contact:
-        echo(entry.line())
+        echo(entry.line() + ("; finite sliding: re-coupled by dual mortar in the deformed configuration at every "
+                             "increment" if sliding == "finite" else ""))
     return contact

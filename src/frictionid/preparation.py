@@ -91,7 +91,7 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
         start = time.perf_counter()
         model = build_model(model_options, f"{where}: [model]")
         echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
-    contact = checked_contact(model, where, echo)
+    contact = checked_contact(model, where, echo, config.solver["sliding"])
     if parameters is None:
         parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                             config.friction.get("fixed"))

@@ -49,7 +49,7 @@ def _simulate(config: Config, out, echo) -> Path:
     start = time.perf_counter()
     model = build_model(config.model_options, f"{config.where}: [model]")
     echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
-    checked_contact(model, config.where, echo)
+    checked_contact(model, config.where, echo, config.solver["sliding"])
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
