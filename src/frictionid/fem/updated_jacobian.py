@@ -78,14 +78,20 @@ class StuckInverse:
         Q0[:, 1:, 1:] = r * E
         P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
         J0 = jacobian(P0, Q0, Wfull, Wa_T)
+        norm = np.linalg.norm(J0, 1)
+        # factorised and inverted in place, in LAPACK's column order: one n x n array at a time besides the copy
+        # into that order (the identity's solve took four)
+        J0 = np.asfortranarray(J0)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", la.LinAlgWarning)
-            lu = la.lu_factor(J0, check_finite=False)
-        rcond = la.lapack.dgecon(lu[0], np.linalg.norm(J0, 1), norm="1")[0] if len(J0) else 1.0
+            lu, piv = la.lu_factor(J0, overwrite_a=True, check_finite=False)
+        rcond = la.lapack.dgecon(lu, norm, norm="1")[0] if len(lu) else 1.0
         if not rcond >= RCOND_MIN:
             log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
             return None
-        A = la.lu_solve(lu, np.eye(len(J0)), check_finite=False)
+        A, info = la.lapack.dgetri(lu, piv, overwrite_lu=1) if len(lu) else (lu, 0)
+        if info != 0:
+            return None
         rows = np.flatnonzero(np.repeat(held_gap, dim))
         open_rows = np.full(n_pairs * dim, -1)
         open_rows[rows] = np.arange(len(rows))
