@@ -79,8 +79,8 @@ class StuckInverse:
         P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
         J0 = jacobian(P0, Q0, Wfull, Wa_T)
         norm = np.linalg.norm(J0, 1)
-        # factorised and inverted in place, in LAPACK's column order: one n x n array at a time besides the copy
-        # into that order (the identity's solve took four)
+        # factorised in place in LAPACK's column order, the identity solved for in place: two n x n arrays at the
+        # peak instead of four (LAPACK's dgetri would need one but took 4 times as long as this solve here)
         J0 = np.asfortranarray(J0)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", la.LinAlgWarning)
@@ -89,9 +89,8 @@ class StuckInverse:
         if not rcond >= RCOND_MIN:
             log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
             return None
-        A, info = la.lapack.dgetri(lu, piv, overwrite_lu=1) if len(lu) else (lu, 0)
-        if info != 0:
-            return None
+        A = la.lu_solve((lu, piv), np.eye(len(lu), order="F"), overwrite_b=True, check_finite=False)
+        del lu, J0
         rows = np.flatnonzero(np.repeat(held_gap, dim))
         open_rows = np.full(n_pairs * dim, -1)
         open_rows[rows] = np.arange(len(rows))
