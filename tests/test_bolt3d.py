@@ -32,6 +32,12 @@ def model():
 
 
 @pytest.fixture(scope="module")
+def pairs(model):
+    """The thread's node-to-node pairs (interface 0), made once for the tests that read them."""
+    return node_to_node_pairs(Space.build(model.mesh, model.kind, model.element), model, 0)
+
+
+@pytest.fixture(scope="module")
 def layout():
     return bolt_layout("M20", engaged_length=5.0, n_axial=2, thread_length=30.5)
 
@@ -96,10 +102,8 @@ def test_bodies_have_their_own_nodes(model):
 
 
 @pytest.mark.slow
-def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model):
+def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model, pairs):
     """Every contact node of the thread faces a nut node at its place (zero gap to round-off), on the nut."""
-    space = Space.build(model.mesh, model.kind, model.element)
-    pairs = node_to_node_pairs(space, model, 0)
     label = bodies(model.mesh)
     bolt, nut = (label[model.mesh.cells[model.mesh.regions[n][0]][0]] for n in ("bolt", "nut"))
     assert np.all(label[pairs.nodes] == bolt)
@@ -142,13 +146,11 @@ def test_helix_on_the_mesh_is_iso_68_1(model, layout):
 
 
 @pytest.mark.slow
-def test_zone_areas_are_the_helicoid_areas(model, layout):
+def test_zone_areas_are_the_helicoid_areas(model, layout, pairs):
     """The tributary areas of the thread pairs per radial part (outer: A, B; inner: C, D) against the helicoid's
     area integrated over the exact engaged region (nut crest D1/2 to bolt crest, above the countersink, below the
     engaged length, outside the window), to 1 %."""
     s = layout.size
-    space = Space.build(model.mesh, model.kind, model.element)
-    pairs = node_to_node_pairs(space, model, 0)
     zones = model.interfaces[0].zones
     area = (pairs.weight[:, None] * pairs.zone_share[:, [model.zone_names.index(z) for z in zones]]).sum(axis=0)
     outer = sum(a for z, a in zip(zones, area) if z in "AB")
