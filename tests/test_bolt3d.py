@@ -32,6 +32,12 @@ def model():
 
 
 @pytest.fixture(scope="module")
+def pairs(model):
+    """The thread's node-to-node pairs (interface 0), made once for the tests that read them."""
+    return node_to_node_pairs(Space.build(model.mesh, model.kind, model.element), model, 0)
+
+
+@pytest.fixture(scope="module")
 def layout():
     return bolt_layout("M20", engaged_length=5.0, n_axial=2, thread_length=30.5)
 
@@ -96,10 +102,8 @@ def test_bodies_have_their_own_nodes(model):
 
 
 @pytest.mark.slow
-def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model):
+def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model, pairs):
     """Every contact node of the thread faces a nut node at its place (zero gap to round-off), on the nut."""
-    space = Space.build(model.mesh, model.kind, model.element)
-    pairs = node_to_node_pairs(space, model, 0)
     label = bodies(model.mesh)
     bolt, nut = (label[model.mesh.cells[model.mesh.regions[n][0]][0]] for n in ("bolt", "nut"))
     assert np.all(label[pairs.nodes] == bolt)
@@ -114,14 +118,14 @@ def test_thread_pairs_are_coincident_nodes_of_bolt_and_nut(model):
 def test_helix_on_the_mesh_is_iso_68_1(model, layout):
     """Bolt flank nodes fitted by y = c_k + L phi / 2 pi +- t r: lead L = P, flank half-angle atan(t) = 30 deg,
     and the radius where the tooth is P/2 thick is the 6g pitch diameter d2 + es (ISO 965-1), to 5 um (es is
-    -42 um). The quadratic tets are straight-sided: mid-side nodes lie on chords of the helicoid, a few um inside
-    (0.625 mm edges on r = 9 mm: 5 um)."""
+    -42 um). Fitted on the facets' vertices, which gmsh places on the CAD faces: the quadratic tets are
+    straight-sided, so mid-side nodes lie on chords of the helicoid (1.25 mm edges on r = 9 mm: 22 um inside)."""
     s = layout.size
     fits = {}
     for name in ("nut_contact_bolt", "bolt_free"):
         boundary = "bolt_free" if name == "bolt_free" else None
-        nodes = (model.mesh.boundary_nodes(boundary) if boundary else
-                 np.unique(np.concatenate([model.mesh.boundary_nodes(z) for z in model.interfaces[0].zones])))
+        faces = [boundary] if boundary else model.interfaces[0].zones
+        nodes = np.unique(np.concatenate([model.mesh.boundary(face)[:, :3] for face in faces]))   # vertices
         r, y, phi = _polar(model.mesh.points[nodes])
         eta = y - s.P * phi / (2 * math.pi)
         tooth = np.round((eta - layout.bolt_phase) / s.P).astype(int)
@@ -142,13 +146,11 @@ def test_helix_on_the_mesh_is_iso_68_1(model, layout):
 
 
 @pytest.mark.slow
-def test_zone_areas_are_the_helicoid_areas(model, layout):
+def test_zone_areas_are_the_helicoid_areas(model, layout, pairs):
     """The tributary areas of the thread pairs per radial part (outer: A, B; inner: C, D) against the helicoid's
     area integrated over the exact engaged region (nut crest D1/2 to bolt crest, above the countersink, below the
     engaged length, outside the window), to 1 %."""
     s = layout.size
-    space = Space.build(model.mesh, model.kind, model.element)
-    pairs = node_to_node_pairs(space, model, 0)
     zones = model.interfaces[0].zones
     area = (pairs.weight[:, None] * pairs.zone_share[:, [model.zone_names.index(z) for z in zones]]).sum(axis=0)
     outer = sum(a for z, a in zip(zones, area) if z in "AB")

@@ -87,3 +87,19 @@ def test_the_memory_law_is_at_or_above_the_measured_condensations():
     measured = {23_595: 0.49, 56_187: 1.36, 113_616: 3.6}     # [GB]
     for dofs, peak in measured.items():
         assert 1.0 <= memory.condensation_bytes(dofs, 3) / memory.GB / peak <= 1.6, dofs
+
+
+def test_the_estimate_counts_the_contact_pairs_and_their_dense_blocks():
+    """The pairs counted from the model before they are made are the ones the condensation makes (3-D block and
+    the axisymmetric bolt), and the estimate carries their dense blocks: CONTACT_WORDS (dim n_c)^2 doubles."""
+    from frictionid.builders.block import block_model
+    from frictionid.builders.bolt import bolt_model
+    from frictionid.fem.interface import contact_pairs, model_space
+    for model in (block_model(mesh_size=5.0), bolt_model(flank_size=0.25, forces=(1000.0,), n_increments=1)):
+        n_pairs = contact_pairs(model_space(model), model).n_pairs
+        assert memory.contact_pairs(model) == n_pairs
+        dim = 3 if model.kind == "3d" else 2
+        estimate = memory.estimate(model, "model")
+        rest = estimate.needed - memory.contact_bytes(n_pairs, dim)
+        assert rest == pytest.approx(memory.resident() + memory.condensation_bytes(estimate.n_dofs, dim), rel=0.05)
+        assert memory.contact_bytes(n_pairs, dim) == memory.CONTACT_WORDS * 8 * (dim * n_pairs) ** 2

@@ -65,7 +65,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                engaged_length: float | None = None, clearance: float | None = None,
                bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
                model: str = "axisymmetric", cutout=True, jaws: bool = True,
-               thread_length: float | None = None) -> Model:
+               thread_length: float | None = None, root_size: float | None = None) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -118,6 +118,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         ``{ width = deg, depth = mm }`` (depth from the flats' radius s/2 inwards).
     jaws : bool, 3-D only
         True (default): the nut's two flats normal to z are held in z (jaws against rotation); false: free.
+    root_size : float [mm], 3-D only, optional
+        Element size at the bolt's roots where the nut crest faces them (the size grows from there by 1 mm per
+        mm); default R/2 (R = H/6 the root radius).
     torques : sequence of float [N m], optional
         Wrench torque at the end of each stage instead of ``angles``: a uniform circumferential traction on
         "nut_outer" (the hexagon ring, one radius) whose moment about the axis is the torque; the nut's rotation
@@ -141,8 +144,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     contact_size = defaults["contact_size"] if contact_size is None else positive("contact_size", contact_size)
     mesh_size = defaults["mesh_size"] if mesh_size is None else positive("mesh_size", mesh_size)
     if model == "3d":
+        root_size = None if root_size is None else positive("root_size", root_size)
         return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
-                         load, cutout, jaws)
+                         load, cutout, jaws, root_size)
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -169,7 +173,8 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                  interfaces=interfaces)
 
 
-def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, load: str, cutout, jaws) -> Model:
+def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, load: str, cutout, jaws,
+              root_size: float | None) -> Model:
     from .bolt3d import bolt3d_model
     if load != "tension":
         raise InputError(f"`load` = {load!r}: the 3-D model has the tensile test only (load = \"tension\")")
@@ -179,7 +184,7 @@ def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, l
                          f"at most P = {layout.size.P:g} mm")
     engaged = layout.size.nut_m if engaged_length is None else engaged_length
     return bolt3d_model(layout, layout.y_bearing + engaged, _forces(forces), count("n_increments", n_increments,
-                        1, 1000), flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws)
+                        1, 1000), flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size)
 
 
 def _angles(values, name: str) -> tuple[float, ...]:

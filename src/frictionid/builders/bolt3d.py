@@ -30,6 +30,8 @@ WINDOW_CENTRE = 0.0
 #: angle [deg] of the normal of the flat the jaws hold (and of the opposite one): +-z, either side of the window;
 #: the hexagons' flats are at this angle + k 60 deg, so the window faces a corner
 JAW_ANGLE = 90.0
+#: default element size at the bolt's roots facing the nut crest, in units of the root radius R = H/6
+ROOT_FRACTION = 0.5
 
 
 def window_of(layout: BoltLayout, cutout) -> Window | None:
@@ -52,7 +54,8 @@ def window_of(layout: BoltLayout, cutout) -> Window | None:
 
 
 def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ...], n_increments: int,
-                 flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool) -> Model:
+                 flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool,
+                 root_size: float | None = None) -> Model:
     """The 3-D tensile test (options as :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d").
 
     Regions "bolt", "nut", "plate1", "plate2"; interfaces "thread" (zones on the bolt's load flanks, target
@@ -64,8 +67,9 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ..
     window = window_of(layout, cutout)
     if not isinstance(jaws, bool):
         raise InputError(f"`jaws` must be true or false, got {jaws!r}")
+    root_size = ROOT_FRACTION * layout.size.root_radius if root_size is None else root_size
     options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
-                        math.radians(JAW_ANGLE))
+                        math.radians(JAW_ANGLE), root_size)
     mesh = bolt3d_mesh(layout, options, engaged_top)
     supports = [Support("plate2_rim", (0, 1, 2))]
     if jaws:

@@ -23,7 +23,7 @@ SIZE_GROWTH = 0.3
 #: growth per mm of the size away from the bolt's roots inside the nut, which are meshed at R/2 (R = H/6 the root
 #: radius): coarser, a root face's triangles spanned the gap below the nut crest corner to corner and lay on the
 #: nut crest's own triangles (gmsh refused the overlapping facets)
-ROOT_GROWTH = 1.0
+ROOT_GROWTH = 2.5
 #: a window reaching within this many pitches of the nut crest D1/2 is cut through to the bore
 THROUGH = 0.1
 _TOL = 2e-3  # [mm] distance under which a face point lies on an analytic surface (the lofts: < 1 um)
@@ -41,6 +41,7 @@ class Options3d:
     window: Window | None
     theta_match: float
     jaw_angle: float
+    root_size: float
 
 
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
@@ -182,7 +183,9 @@ def _classify(layout: BoltLayout, options: Options3d, volumes: dict) -> dict[str
 
 
 def _is_root(layout: BoltLayout, points: np.ndarray) -> bool:
-    """Whether a face reaches a bolt thread root (below the nut crest D1/2) inside the nut: some of its points."""
+    """Whether a face reaches a bolt thread root (below the nut crest D1/2) inside the nut: some of its points.
+    (Above ``engaged_length`` too: the refinement around these roots also keeps the bolt crest apart from the
+    relieved bore, H/16 away; without it gmsh's volume mesher met intersecting facets there.)"""
     r = np.hypot(points[:, 0], points[:, 2])
     s = layout.size
     root = (r < s.d1 / 2) & (r > s.d3 / 2 - layout.shift - _TOL)
@@ -266,7 +269,7 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
     with gmsh_session("bolt3d"):
         volumes = _fragment(layout, options, engaged_top)
         names = _classify(layout, options, volumes)
-        root = min(options.flank_size, layout.size.root_radius / 2)
+        root = min(options.flank_size, options.root_size)
         use_size_fields(_distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
                         _distance_field(names["head_plate"] + names["nut_plate"], options.contact_size,
                                         options.mesh_size),

@@ -12,6 +12,7 @@ solves of size |s| instead of one sparse solve per column. The supernodal factor
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numpy as np
@@ -119,18 +120,28 @@ class Cholesky:
         cholmod.solve(self.factor, x)
         return np.array(x).reshape(b.shape)
 
-    def trailing(self) -> np.ndarray:
-        """L_ss (|last|, |last|), lower triangular: L_ss L_ss^T is the Schur complement of K onto ``last``
-        (in the order of ``last``).
+    def trailing(self, blocks: list[np.ndarray] | None = None) -> Iterator[np.ndarray]:
+        """The diagonal blocks L_ss[b][:, b] (dense, lower triangular) for each index array b into ``last``
+        (default: one block, all of ``last``): L_ss L_ss^T is the Schur complement of K onto ``last`` (in the
+        order of ``last``). Where K has no coupling between the blocks (separate bodies) L_ss has none either,
+        so each block is the factor of its own Schur complement and the dense memory is the largest block's
+        square instead of |last|^2.
 
         kvxopt's getfactor turns the factor into a simplicial one in place, which its solve refuses: the factor
         is dropped here and computed again at the next :meth:`solve`."""
         from kvxopt import cholmod, matrix
         n, m = self.matrix.shape[0], len(self.last)
+        blocks = [np.arange(m)] if blocks is None else blocks
         if self.factor is None:
             self.factor = self._factor()
         L = cholmod.getfactor(self.factor)
         self.factor = None
-        log.info("Cholesky factor: %d rows, %d entries; the Schur complement onto %d of them", n, len(L), m)
-        block = np.array(matrix(L[n - m:, n - m:]))         # a slice: L.CCS would copy the whole factor again
-        return block
+        log.info("Cholesky factor: %d rows, %d entries; the Schur complement onto %d of them in %d block(s)",
+                 n, len(L), m, len(blocks))
+        for block in blocks:
+            rows = matrix(np.asarray(n - m + block, dtype=np.int64))
+            sparse = L[rows, rows]
+            dense = matrix(sparse)
+            del sparse
+            # a view of kvxopt's column-major buffer, not a copy
+            yield np.asarray(dense)

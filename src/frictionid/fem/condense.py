@@ -24,6 +24,7 @@ import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
 from ..progress import bar
@@ -133,21 +134,30 @@ class GeneralisedInverse:
         return self.lu.solve(np.ascontiguousarray(b))
 
     def _from_schur(self, rows: sp.csr_matrix, n_w: int) -> np.ndarray | None:
-        """(L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T), checked on one column against a solve with the factor (None if
-        it disagrees: the factor's order was not the one asked for)."""
+        """(L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T), summed over the bodies (the connected parts of K: L_ss has no
+        coupling between them, :meth:`~frictionid.fem.cholesky.Cholesky.trailing`), checked on one column against
+        a solve with the factor (None if it disagrees: the factor's order was not the one asked for)."""
         last = self.cholesky.last
         if len(last) == 0:
             return np.zeros((rows.shape[0], n_w))
         probe = np.zeros(len(self.keep))
         probe[last[-1]] = 1.0
         expected = self.cholesky.solve(probe)[last]
-        L_ss = self.cholesky.trailing()
-        with blas_threads_for(len(last)):       # one thread for small blocks (fem/threads.py)
-            Z = la.solve_triangular(L_ss, rows[:, last].T.toarray(), lower=True, check_finite=False)
-            out = Z.T @ Z[:, :n_w]
-            e = np.zeros(len(last))
-            e[-1] = 1.0
-            got = la.solve_triangular(L_ss, la.solve_triangular(L_ss, e, lower=True), lower=True, trans="T")
+        _, body = connected_components(self.matrix, directed=False)
+        blocks = [np.flatnonzero(body[last] == b) for b in np.unique(body[last])]
+        T = rows[:, last].tocsc()
+        out = np.zeros((rows.shape[0], n_w))
+        got = np.zeros(len(last))
+        with blas_threads_for(max(len(b) for b in blocks)):       # one thread for small blocks (fem/threads.py)
+            for block, L_bb in zip(blocks, self.cholesky.trailing(blocks)):
+                Z = la.solve_triangular(L_bb, T[:, block].T.toarray(), lower=True, check_finite=False)
+                out += Z.T @ Z[:, :n_w]
+                del Z
+                if block[-1] == len(last) - 1:
+                    e = np.zeros(len(block))
+                    e[-1] = 1.0
+                    got[block] = la.solve_triangular(L_bb, la.solve_triangular(L_bb, e, lower=True), lower=True,
+                                                     trans="T")
         if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max()):
             log.warning("CHOLMOD's factor is not in the requested order: condensing by solves instead")
             return None

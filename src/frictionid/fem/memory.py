@@ -10,6 +10,12 @@ whose estimate condensed mesh 0.5; measured 2026-11-26 with /usr/bin/time), time
 plane-strain block's condensation (52,374 dofs: 0.37 GB, docs/solver.md) doubled for its assembly. SuperLU (the
 fallback) took about three times CHOLMOD's.
 
+The dense contact blocks come on top (:func:`contact_bytes`): with n_w = dim n_c contact dofs the condensed
+operator W (n_w^2), the Schur complement's per-body factor and its triangular solves (about n_w^2 each for a
+two-body interface) and the load path's stuck Jacobian and its inverse (n_w^2 each) hold about
+:data:`CONTACT_WORDS` n_w^2 doubles at the peak. The block's anchors have a few hundred contact pairs, where this is
+negligible; the 3-D bolt's thread has thousands, where it dominates (5,777 pairs, 17,331 contact dofs: 9.0 GB).
+
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 """
 
@@ -30,6 +36,8 @@ LAWS = {3: (113_616, 3.6 * GB, 1.3), 2: (52_374, 0.74 * GB, 1.2)}
 SAFETY = 1.25
 #: SuperLU against CHOLMOD (docs/solver.md: 4.0 against 1.9 GB at 114k dofs with the process's own)
 SUPERLU_FACTOR = 3.0
+#: dense (n_w, n_w) arrays of doubles held at once by a condensation and its first solve (module docstring)
+CONTACT_WORDS = 4
 
 
 def machine_memory() -> float:
@@ -76,6 +84,27 @@ def condensation_bytes(n_dofs: int, dim: int, factorisation: str = "cholmod") ->
     return grown * (SUPERLU_FACTOR if factorisation == "superlu" else 1.0)
 
 
+def contact_bytes(n_pairs: int, dim: int) -> float:
+    """Estimated dense memory of the condensed contact operators for ``n_pairs`` contact pairs [bytes] (module
+    docstring).
+
+    >>> round(contact_bytes(5_777, 3) / GB, 1)
+    9.0
+    """
+    return CONTACT_WORDS * 8.0 * (dim * n_pairs) ** 2
+
+
+def contact_pairs(model) -> int:
+    """Number of contact pairs of a model's interfaces before they are made: the nodes of their zones."""
+    import numpy as np
+
+    zones = [z for interface in model.interfaces for z in interface.zones]
+    if not zones:
+        return 0
+    return sum(len(np.unique(np.concatenate([model.mesh.boundary(z).ravel() for z in interface.zones])))
+               for interface in model.interfaces if interface.zones)
+
+
 @dataclass(frozen=True)
 class MemoryEstimate:
     """A condensation's estimated cost: the model's size and the memory it would reach against the limit."""
@@ -101,12 +130,16 @@ def estimate(model, what: str, max_memory: float | None = None, factorisation: s
     reach in this process, against ``[solver] max_memory``."""
     from .cholesky import available
 
+    grown = 1.0 if n_nodes is None else int(n_nodes) / model.mesh.n_nodes
     n_nodes = model.mesh.n_nodes if n_nodes is None else int(n_nodes)
     dim = 3 if model.kind == "3d" else 2                               # the mesh's dimension: the fill's law
-    n_dofs = n_nodes * (3 if model.kind in ("3d", "axisymmetric_twist") else 2)
+    n_components = 3 if model.kind in ("3d", "axisymmetric_twist") else 2
+    n_dofs = n_nodes * n_components
     method = "superlu" if factorisation == "superlu" or not available() else "cholmod"
-    return MemoryEstimate(what, n_nodes, n_dofs, resident() + condensation_bytes(n_dofs, dim, method),
-                          limit(max_memory))
+    # a refinement grows the interfaces' pairs by at most the nodes' factor to the power (dim - 1) / dim
+    pairs = contact_pairs(model) * grown ** ((dim - 1) / dim)
+    return MemoryEstimate(what, n_nodes, n_dofs, resident() + condensation_bytes(n_dofs, dim, method)
+                          + contact_bytes(int(pairs), n_components), limit(max_memory))
 
 
 def check(model, what: str, max_memory: float | None = None, factorisation: str = "auto",

@@ -87,16 +87,23 @@ class StuckInverse:
         Q0[:, 1:, 1:] = r * E
         P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
         J0 = jacobian(P0, Q0, Wfull, Wa_T)
+        norm = np.linalg.norm(J0, 1)
+        # factorised in place in LAPACK's column order, the identity solved for in place: two n x n arrays at the
+        # peak instead of four (LAPACK's dgetri would need one but took 4 times as long as this solve here)
+        J0 = np.asfortranarray(J0)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", la.LinAlgWarning)
-            lu = la.lu_factor(J0, check_finite=False)
-        rcond = la.lapack.dgecon(lu[0], np.linalg.norm(J0, 1), norm="1")[0] if len(J0) else 1.0
+            lu, piv = la.lu_factor(J0, overwrite_a=True, check_finite=False)
+        rcond = la.lapack.dgecon(lu, norm, norm="1")[0] if len(lu) else 1.0
         if not rcond >= RCOND_MIN:
             log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
             return None
         # Fortran order as lu_solve makes it (the capacitance rows gather from its transpose): the same A in C
-        # order changes the round-off of A b enough to move the clamp's contact forces by 2e-9 of their largest
-        A = np.asfortranarray(la.lu_solve(lu, np.eye(len(J0)), check_finite=False))
+        # order changes the round-off of A b enough to move the clamp's contact forces by 2e-9 of their largest;
+        # the identity solved in place keeps two n x n arrays at the peak
+        A = np.asfortranarray(la.lu_solve((lu, piv), np.eye(len(lu), order="F"), overwrite_b=True,
+                                          check_finite=False))
+        del lu, J0
         rows = np.flatnonzero(np.repeat(held_gap, dim))
         open_rows = np.full(n_pairs * dim, -1)
         open_rows[rows] = np.arange(len(rows))

@@ -1,0 +1,75 @@
+"""The 3-D bolt-nut model without window and jaws against the axisymmetric model of the same layout: load share per
+engaged thread (3-D: per turn, a turn from the seam opposite theta = 0 round to it) and bolt elongation (uy of the
+bolt end's centre minus that of the head's centre), at the same machine force and coefficients.
+
+Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl]
+(options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
+benchmarks/bolt3d.py). Run it under /usr/bin/time -v for the peak.
+"""
+
+import json
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _measure import peak_memory_mb
+from frictionid.builders.bolt import bolt_layout, bolt_model
+from frictionid.fem.problem import Problem
+from frictionid.report.bolt import thread_loads
+
+MU = 0.15
+AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size")
+
+
+def elongation_points(layout, dim: int) -> np.ndarray:
+    """Head centre 0.5 mm below its top face and bolt end centre 0.5 mm inside it, on the axis."""
+    s = layout.size
+    ends = [-s.head_k + 0.5, layout.length - 0.5]
+    return np.array([[0.0, y, 0.0][:dim] for y in ends])
+
+
+def solved(model, layout, dim: int):
+    start = time.perf_counter()
+    problem = Problem.build(model, points=elongation_points(layout, dim), quantities=("uy",),
+                            regions=["bolt", "bolt"])
+    built = time.perf_counter() - start
+    solution = problem.solve(np.full(len(model.zone_names), MU))
+    loads = thread_loads(model, solution)
+    uy = solution.observations[-1]
+    print(f"  {model.kind}: {model.mesh.n_nodes:,} nodes, {problem.pairs.n_pairs:,} contact pairs; condensation "
+          f"{built:.1f} s, solve {time.perf_counter() - start - built:.1f} s, peak {peak_memory_mb():.0f} MB",
+          flush=True)
+    return loads, float(uy[1] - uy[0])
+
+
+def main(options: dict, cache: str | None = None):
+    layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
+                         options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
+                         options.get("bearing_diameter"), options.get("thread_length"))
+    three = {**options, "model": "3d", "cutout": False, "jaws": False}
+    if cache and Path(cache).exists():
+        model3 = pickle.loads(Path(cache).read_bytes())
+    else:
+        model3 = bolt_model(**three)
+        if cache:
+            Path(cache).write_bytes(pickle.dumps(model3))
+    axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
+    print(f"3-D {json.dumps(three)} against the axisymmetric model {json.dumps(axi)}, mu = {MU} everywhere")
+    loads2, elongation2 = solved(bolt_model(**axi), layout, 2)
+    loads3, elongation3 = solved(model3, layout, 3)
+    print(f"  machine force {loads2.applied:.0f} / {loads3.applied:.0f} N; thread forces sum to "
+          f"{loads2.force.sum():.0f} / {loads3.force.sum():.0f} N (axisymmetric / 3-D)")
+    for i in range(max(loads2.n_threads, loads3.n_threads)):
+        a = loads2.share[i] if i < loads2.n_threads else float("nan")
+        b = loads3.share[i] if i < loads3.n_threads else float("nan")
+        print(f"  thread {i + 1}: share {100 * a:.2f} % / {100 * b:.2f} %, difference "
+              f"{100 * (b - a) / loads2.share[0]:+.2f} % of the first thread's share")
+    print(f"  bolt elongation {1000 * elongation2:.3f} / {1000 * elongation3:.3f} um: "
+          f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
+
+
+if __name__ == "__main__":
+    main(json.loads(sys.argv[1]), sys.argv[2] if len(sys.argv) > 2 else None)
