@@ -19,8 +19,11 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q -m "not slow and not ccx"
 
+# the slow and CalculiX tests on both cores, a test file per worker (their module fixtures are built once):
+# measured 12.7 min instead of 22.4 serially
 check: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -m "not slow and not ccx"
+	$(PY) -m pytest -q -n 2 --dist loadfile -m "slow or ccx"
 
 bench: $(STAMP)
 	$(PY) benchmarks/forward_block2d.py
