@@ -304,3 +304,14 @@ def test_flank_slip_direction_is_the_wedge(problem, solution, model):
     np.testing.assert_allclose(frames[:, 1], t1, atol=1e-9)
     first = profile.flank == 1
     assert np.all(profile.slip[first] < -3e-3) and np.all(profile.traction[first] > 0)   # slip about -6 um
+
+
+def test_the_demo_fits_the_papers_mesh_as_given(tmp_path):
+    """The demo compares algorithms on the paper's mesh; its noise-free twin states that mesh's own error as its
+    noise, so the discretisation control (on by default, off in the test session) would refine the fit towards
+    a target it cannot reach and change the study: its configs switch it off themselves."""
+    from frictionid.config import read_config
+    from frictionid.studies.bolt import write_config
+
+    path = write_config(tmp_path, "trf", "measured_exact.csv", "trf", "analytic", 10, 0.25, 3e-7)
+    assert read_config(path, need=("model", "friction", "data", "run")).identify["refine_target"] == 0
