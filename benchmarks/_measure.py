@@ -1,5 +1,6 @@
 """Timing and memory helpers shared by the benchmark scripts."""
 
+import json
 import resource
 import time
 from contextlib import contextmanager
@@ -26,3 +27,12 @@ def best_of(repeat: int, function):
         result = function()
         best = min(best, time.perf_counter() - start)
     return best, result
+
+
+def emit(result: dict, out=None) -> None:
+    """Print ``result`` as one JSON line and, when ``out`` (a path) is given, append the line to it."""
+    line = json.dumps(result)
+    print(line, flush=True)
+    if out:
+        with open(out, "a") as file:
+            file.write(line + "\n")

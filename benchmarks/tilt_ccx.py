@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import json
 import os
 import subprocess
 import sys
@@ -33,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _measure import emit
 from frictionid.backends.calculix.parse import read_dat, read_frd
 
 FIXTURE = Path(__file__).parents[1] / "tests" / "fixtures" / "independent_block" / "generate.py"
@@ -133,10 +133,7 @@ def main(argv=None) -> int:
         print(f"level {args.level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
         return 0
     result = run(args.level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments)
-    print(json.dumps(result), flush=True)
-    if args.out:
-        with open(args.out, "a") as out:
-            out.write(json.dumps(result) + "\n")
+    emit(result, args.out)
     return 0
 
 

@@ -14,14 +14,13 @@ Run (each candidate in a fresh process, one at a time):
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from _measure import peak_memory_mb, timed
+from _measure import emit, peak_memory_mb, timed
 from block_strains import options_of
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
@@ -79,10 +78,7 @@ def main(argv=None) -> int:
         for scale in [None, *args.ccx]:
             with multiprocessing.get_context("spawn").Pool(1) as pool:
                 result = pool.apply(evaluate, (spec, scale))
-            print(json.dumps(result), flush=True)
-            if args.out:
-                with open(args.out, "a") as out:
-                    out.write(json.dumps(result) + "\n")
+            emit(result, args.out)
     return 0
 
 
