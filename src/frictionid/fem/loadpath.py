@@ -99,6 +99,10 @@ class LoadPathSolver:
         return la.lu_solve(la.lu_factor(jacobian(lin.P, lin.Q, self.Wfull, self.Wa_T), check_finite=False), rhs,
                            check_finite=False)
 
+    def _times_W(self, x) -> np.ndarray:
+        """Wfull x (the updated solver keeps it from its residual check of x)."""
+        return self.updated.times_W(x) if self.updated is not None else self.Wfull @ x
+
     def _step(self, lin: Linearisation, rhs) -> np.ndarray:
         """A Newton step: Newton checks the residual it reaches itself."""
         return self._solve(lin, rhs, check=False)
@@ -185,7 +189,7 @@ class LoadPathSolver:
                              * zone_share[slip, None, :])
         if path.dw_T is not None or path.S is not None:
             dw_prev = path.dw_T if path.dw_T is not None else \
-                (self.Wfull @ path.S).reshape(n_pairs, dim, n_z)[:, 1:, :]
+                self._times_W(path.S).reshape(n_pairs, dim, n_z)[:, 1:, :]
             top[:, 1:, :] -= np.einsum("nij,njz->niz", lin.Q[:, 1:, 1:], dw_prev)
         return self._solve(lin, -rhs)
 

@@ -159,6 +159,9 @@ class UpdatedSolver:
         self._base: Fresh | None = None
         #: (n_w, dim) pair rows P, Q of the Jacobian of the last fresh factorisation (J1)
         self._base_rows: tuple[np.ndarray, np.ndarray] | None = None
+        #: the index data of the last few sets of replaced rows (:class:`_Rows`)
+        self._layouts: dict[bytes, _Rows] = {}
+        self._last_times: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
         self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
@@ -194,9 +197,16 @@ class UpdatedSolver:
         n_pairs, dim = P.shape[:2]
         n_w = n_pairs * dim
         lam = x[:n_w].reshape((n_pairs, dim) + x.shape[1:])
-        w = (self.Wfull @ x).reshape(lam.shape)
+        w = self.times_W(x).reshape(lam.shape)
         top = np.einsum("nij,nj...->ni...", P, lam) + np.einsum("nij,nj...->ni...", Q, w)
         return np.concatenate([top.reshape((n_w,) + x.shape[1:]), self.Wa_T @ x[:n_w]])
+
+    def times_W(self, x) -> np.ndarray:
+        """Wfull x, kept for the last x (the residual check of a sensitivity solve makes W S, which the next
+        increment's right-hand sides need)."""
+        if x is not self._last_times[0]:
+            self._last_times = (x, self.Wfull @ x)
+        return self._last_times[1]
 
     def _norm(self, P, Q) -> float:
         return max(np.max(np.abs(P), initial=0.0), np.max(np.abs(Q), initial=0.0) * self._W_max)
@@ -285,38 +295,106 @@ class UpdatedSolver:
         if stuck is not None and stuck is not self.stuck:
             self.stuck = stuck
             self._kept.clear()
+            self._layouts.clear()
             self._base = self._base_rows = None
             self.n_switches += 1
+
+    def _rows(self, K: np.ndarray, dim: int) -> "_Rows":
+        """The index data of rows K of the current stuck inverse, kept for the last few K (the block of A only
+        for the last: k^2 dim values)."""
+        key = K.tobytes()
+        rows = self._layouts.pop(key, None)
+        if rows is None:
+            rows = _Rows(self.stuck, K, dim)
+            while len(self._layouts) >= KEEP:
+                self._layouts.pop(next(iter(self._layouts)))
+            for other in self._layouts.values():
+                other.drop_block()
+        self._layouts[key] = rows                                     # most recently used last
+        return rows
 
     def _rows_times(self, K, P_K, Q_K, z, b, columns=None) -> np.ndarray:
         """R z for the replaced rows R (rows K of J, sorted) and z = A v (n, ...): P z[lam] + Q (W z), with
         W z = v / r on the pairs J0 holds closed (``b`` = v) and from W_open on the others; z = b = None:
         v = I[:, columns] (default K), i.e. C = R A[:, K], gathering only the rows of A it needs."""
-        columns = K if columns is None else columns
+        if columns is None:
+            rows = self._rows(K, P_K.shape[1])
+            return rows.capacitance(P_K, Q_K) if z is None else rows.times(P_K, Q_K, z, b)
         s = self.stuck
         dim = P_K.shape[1]
         pair = K // dim
         lam_rows = pair[:, None] * dim + np.arange(dim)                           # (k, dim)
-        if z is not None:
-            out = np.einsum("ac,ac...->a...", P_K, z[lam_rows])
-        else:
-            # A's rows of each pair once (a slipping pair in 3-D has two rows in K, which is sorted), then K's
-            # columns of them
-            first = np.r_[True, pair[1:] != pair[:-1]]
-            rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
-            A_K = _block(s.A, rows, columns).reshape(len(rows) // dim, dim, len(columns))
-            out = np.einsum("ac,ack->ak", P_K, A_K[np.cumsum(first) - 1])
+        # A's rows of each pair once (a slipping pair in 3-D has two rows in K, which is sorted), then the
+        # columns of them
+        first = np.r_[True, pair[1:] != pair[:-1]]
+        pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
+        A_K = _block(s.A, pair_rows, columns).reshape(len(pair_rows) // dim, dim, len(columns))
+        out = np.einsum("ac,ack->ak", P_K, A_K[np.cumsum(first) - 1])
         closed = s.open_rows[lam_rows[:, 0]] < 0
-        if b is not None:
-            out[closed] += np.einsum("ac,ac...->a...", Q_K[closed], b[lam_rows[closed]]) / s.r
-        else:
-            position = np.full(s.A.shape[0], -1)
-            position[columns] = np.arange(len(columns))
-            column = position[lam_rows]                                         # (k, dim) column in C or -1
-            a, c = np.nonzero(closed[:, None] & (column >= 0))
-            out[a, column[a, c]] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
+        position = np.full(s.A.shape[0], -1)
+        position[columns] = np.arange(len(columns))
+        column = position[lam_rows]                                         # (k, dim) column in C or -1
+        a, c = np.nonzero(closed[:, None] & (column >= 0))
+        out[a, column[a, c]] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
         if not closed.all():
             held = np.flatnonzero(~closed)
-            Wz = s.W_open @ z if b is not None else s.WA_open[:, columns]
-            out[held] += np.einsum("ac,ac...->a...", Q_K[held], Wz[s.open_rows[lam_rows[held]]])
+            out[held] += np.einsum("ac,ac...->a...", Q_K[held], s.WA_open[:, columns][s.open_rows[lam_rows[held]]])
+        return out
+
+
+class _Rows:
+    """Where the products of a set of replaced rows K (sorted) of J read from a stuck inverse: the rows' pairs,
+    their positions in W_open, the columns of C = R A[:, K] their Q terms add to, and (made when a capacitance
+    matrix is first formed for K, kept for the next: in 3-D the slip directions change each Newton step while the
+    slipping pairs stay) the block A[pairs' rows, K]."""
+
+    def __init__(self, stuck: StuckInverse, K: np.ndarray, dim: int):
+        self.stuck, self.K = stuck, K
+        pair = K // dim
+        self.lam_rows = pair[:, None] * dim + np.arange(dim)                      # (k, dim)
+        self.closed = stuck.open_rows[self.lam_rows[:, 0]] < 0
+        self.held = np.flatnonzero(~self.closed)
+        self.held_rows = stuck.open_rows[self.lam_rows[self.held]]
+        first = np.r_[True, pair[1:] != pair[:-1]]
+        self.pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()   # A's rows of each pair once
+        self.of_pair = np.cumsum(first) - 1                                      # (k,) row -> its pair's block
+        position = np.full(stuck.A.shape[0], -1)
+        position[K] = np.arange(len(K))
+        column = position[self.lam_rows]                                         # (k, dim) column in C or -1
+        self.add = np.nonzero(self.closed[:, None] & (column >= 0))              # (row, component) of Q / r
+        self.add_column = column[self.add]
+        self._block: np.ndarray | None = None
+
+    def drop_block(self) -> None:
+        self._block = None
+
+    def times(self, P_K, Q_K, z, b) -> np.ndarray:
+        """R z for z = A b (n, ...)."""
+        s = self.stuck
+        out = np.einsum("ac,ac...->a...", P_K, z[self.lam_rows])
+        out[self.closed] += np.einsum("ac,ac...->a...", Q_K[self.closed], b[self.lam_rows[self.closed]]) / s.r
+        if len(self.held):
+            out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], (s.W_open @ z)[self.held_rows])
+        return out
+
+    def capacitance(self, P_K, Q_K) -> np.ndarray:
+        """C = R A[:, K] (k, k)."""
+        s, K = self.stuck, self.K
+        dim = P_K.shape[1]
+        if self._block is None:
+            self._block = _block(s.A, self.pair_rows, K).reshape(len(self.pair_rows) // dim, dim, len(K))
+        n_blocks = len(self._block)
+        # each pair's block read once per row of it: rows of one component in K meet distinct pairs, and where
+        # they meet all of them, in order, the block is read in place instead of copied
+        out = np.empty((len(K), len(K)))
+        component = K % dim
+        for c in np.unique(component):
+            rows = np.flatnonzero(component == c)
+            of_pair = self.of_pair[rows]
+            block = self._block if len(rows) == n_blocks else self._block[of_pair]
+            out[rows] = np.einsum("ac,ack->ak", P_K[rows], block)
+        a, c = self.add
+        out[a, self.add_column] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
+        if len(self.held):
+            out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], s.WA_open[:, K][self.held_rows])
         return out
