@@ -24,14 +24,18 @@ import numpy as np
 import scipy.linalg as la
 
 
-def _lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """(LU, pivots, 1-norm) of a square matrix by LAPACK directly (no wrapper cost per call); NaN factors where
-    it is exactly singular."""
-    norm = np.abs(matrix).sum(axis=0).max(initial=0.0)
+def _norm(matrix: np.ndarray) -> float:
+    """1-norm of a matrix."""
+    return np.abs(matrix).sum(axis=0).max(initial=0.0)
+
+
+def _lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(LU, pivots) of a square matrix by LAPACK directly (no wrapper cost per call; ``matrix`` is not
+    overwritten); NaN factors where it is exactly singular."""
     lu, pivots, info = la.lapack.dgetrf(matrix)
     if info > 0:
         lu[:] = np.nan
-    return lu, pivots, norm
+    return lu, pivots
 
 
 def _rcond(lu: np.ndarray, norm: float) -> float:
@@ -40,7 +44,8 @@ def _rcond(lu: np.ndarray, norm: float) -> float:
 
 @dataclass(frozen=True)
 class Fresh:
-    """An LU factorisation of C made for its rows K (pair rows ``P_K``, ``Q_K`` of J); ``C`` kept for updates."""
+    """An LU factorisation of C made for its rows K (pair rows ``P_K``, ``Q_K`` of J); ``C`` kept for updates
+    and for its norm, which a condition estimate needs (most factorisations are never asked for one)."""
 
     K: np.ndarray
     P_K: np.ndarray
@@ -48,7 +53,6 @@ class Fresh:
     C: np.ndarray
     lu: np.ndarray
     pivots: np.ndarray
-    norm: float
 
     @classmethod
     def factorise(cls, K, P_K, Q_K, C: np.ndarray) -> "Fresh":
@@ -64,7 +68,7 @@ class Fresh:
 
     def rcond(self) -> float:
         """Reciprocal condition number of C (1-norm estimate)."""
-        return _rcond(self.lu, self.norm)
+        return _rcond(self.lu, _norm(self.C))
 
 
 @dataclass(frozen=True)
@@ -105,8 +109,8 @@ class Updated:
         E[D, np.arange(len(D))] = 1.0
         partial = cls(U, P_U, Q_U, base, in_base, new, X, D, None, delta, None, None, 0.0)
         G = partial._base_solve(E)
-        lu, pivots, norm = _lu(np.eye(len(D)) + delta @ G)
-        return cls(U, P_U, Q_U, base, in_base, new, X, D, G, delta, lu, pivots, norm)
+        S = np.eye(len(D)) + delta @ G
+        return cls(U, P_U, Q_U, base, in_base, new, X, D, G, delta, *_lu(S), _norm(S))
 
     @property
     def singular(self) -> bool:

@@ -110,6 +110,11 @@ class StuckInverse:
         return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
 
 
+def _identity_rows(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """(n_pairs, dim) the pair rows of J that are identity rows (open pairs: F = lam)."""
+    return np.all(P == np.eye(P.shape[1]), axis=2) & np.all(Q == 0.0, axis=2)
+
+
 def _block(A: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """A[rows][:, columns] of a Fortran-ordered A, gathered from its (C-ordered) transpose, the smaller index set
     first (a few columns of an update's X, a few rows of its C[D]): numpy's take along either axis of a
@@ -168,7 +173,8 @@ class UpdatedSolver:
         """J^-1 b, b (n,) or (n, n_rhs), J from pair rows ``P``, ``Q`` (n_pairs, dim, dim). ``check``: the
         residual checked (a product with W), refined once and the solve redone densely if still above
         :data:`RESIDUAL_RTOL`; a Newton step, which checks its residual itself, may do without."""
-        x = self._corrected(P, Q, b)
+        identity = _identity_rows(P, Q)
+        x = self._corrected(P, Q, b, identity)
         if not check:
             return x
         for refined in (False, True):
@@ -177,19 +183,20 @@ class UpdatedSolver:
             if np.max(np.abs(residual), initial=0.0) <= RESIDUAL_RTOL * scale:
                 return x
             if not refined:
-                x = x + self._corrected(P, Q, residual)
+                x = x + self._corrected(P, Q, residual, identity)
         self.n_dense += 1
         log.debug("corrected solve lost accuracy: a dense solve instead")
         return la.solve(jacobian(P, Q, self.Wfull, self.Wa_T), b, check_finite=False)
 
     def rcond(self, P, Q) -> float:
         """Reciprocal condition number of the capacitance matrix of J (1 when J = J0): near zero, J is singular."""
-        factorised = self._factorised(P, Q)
+        identity = _identity_rows(P, Q)
+        factorised = self._factorised(P, Q, identity)
         if factorised is None:
             return 1.0
         rcond = factorised.rcond()
         if isinstance(factorised, Updated) and rcond < RCOND_RECHECK:
-            rcond = self._factorised(P, Q, fresh=True).rcond()
+            rcond = self._factorised(P, Q, identity, fresh=True).rcond()
         return rcond
 
     def product(self, P, Q, x) -> np.ndarray:
@@ -211,8 +218,8 @@ class UpdatedSolver:
     def _norm(self, P, Q) -> float:
         return max(np.max(np.abs(P), initial=0.0), np.max(np.abs(Q), initial=0.0) * self._W_max)
 
-    def _corrected(self, P, Q, b) -> np.ndarray:
-        factorised = self._factorised(P, Q)          # may switch to another inverse
+    def _corrected(self, P, Q, b, identity) -> np.ndarray:
+        factorised = self._factorised(P, Q, identity)          # may switch to another inverse
         A = self.stuck.A
         y = A @ b
         if factorised is None:
@@ -226,17 +233,15 @@ class UpdatedSolver:
         x = A @ z                                               # y - A[:, K] u without gathering A's columns
         # identity rows of J (open pairs: F = lam) solved exactly, as a fresh LU factorisation solves them: an
         # open pair's force is exactly zero after a Newton step, not round-off of either sign
-        n_pairs, dim = P.shape[:2]
-        identity = np.all(P == np.eye(dim), axis=2) & np.all(Q == 0.0, axis=2)
         rows = np.flatnonzero(identity.ravel())
         x[rows] = b[rows]
         return x
 
-    def _factorised(self, P, Q, fresh: bool = False) -> Fresh | Updated | None:
+    def _factorised(self, P, Q, identity, fresh: bool = False) -> Fresh | Updated | None:
         """The factorised capacitance matrix of the rows where J differs from J0 (None: none differ), kept from
         an earlier call with the same rows, else updated from the last fresh one where few rows differ from it,
-        else (or ``fresh``) factorised afresh."""
-        self._switch(P, Q)
+        else (or ``fresh``) factorised afresh; ``identity`` J's identity rows (:func:`_identity_rows`)."""
+        self._switch(identity.all(axis=1))
         s = self.stuck
         changed = np.any((P != s.P0) | (Q != s.Q0), axis=2).ravel()
         K = np.flatnonzero(changed)
@@ -283,11 +288,10 @@ class UpdatedSolver:
         self.n_updates += 1
         return updated
 
-    def _switch(self, P, Q) -> None:
-        """Take the inverse holding the Jacobian's open pairs open where the pairs open in one of J and J0 and
-        closed in the other have more than :data:`SWITCH_FRACTION` of the rows."""
-        n_pairs, dim = P.shape[:2]
-        opened = np.all(P == np.eye(dim), axis=(1, 2)) & np.all(Q == 0.0, axis=(1, 2))
+    def _switch(self, opened) -> None:
+        """Take the inverse holding the Jacobian's open pairs (``opened``, n_pairs) open where the pairs open in
+        one of J and J0 and closed in the other have more than :data:`SWITCH_FRACTION` of the rows."""
+        dim = len(self.stuck.open_rows) // max(len(opened), 1)
         differ = np.count_nonzero(opened != self.stuck.open_pairs)
         if dim * differ <= SWITCH_FRACTION * len(self.stuck.A):
             return
