@@ -19,6 +19,7 @@ so a new state costs d + |U \\ K1| solves with C1's factors instead of a factori
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as la
@@ -68,6 +69,10 @@ class Fresh:
 
     def rcond(self) -> float:
         """Reciprocal condition number of C (1-norm estimate)."""
+        return self._rcond
+
+    @cached_property
+    def _rcond(self) -> float:
         return _rcond(self.lu, _norm(self.C))
 
 

@@ -115,6 +115,16 @@ def _identity_rows(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.all(P == np.eye(P.shape[1]), axis=2) & np.all(Q == 0.0, axis=2)
 
 
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (sorted, distinct) as a slice where it is evenly spaced, else itself."""
+    if len(index) < 2:
+        return slice(int(index[0]), int(index[0]) + 1) if len(index) else index
+    step = int(index[1] - index[0])
+    if np.all(np.diff(index) == step):
+        return slice(int(index[0]), int(index[-1]) + 1, step)
+    return index
+
+
 def _block(A: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """A[rows][:, columns] of a Fortran-ordered A, gathered from its (C-ordered) transpose, the smaller index set
     first (a few columns of an update's X, a few rows of its C[D]): numpy's take along either axis of a
@@ -367,6 +377,17 @@ class _Rows:
         column = position[self.lam_rows]                                         # (k, dim) column in C or -1
         self.add = np.nonzero(self.closed[:, None] & (column >= 0))              # (row, component) of Q / r
         self.add_column = column[self.add]
+        closed = np.flatnonzero(self.closed)
+        self.closed_rows = slice(None) if len(closed) == len(K) else closed
+        self.closed_lam = self.lam_rows[self.closed_rows]
+        # the rows of each pair component in K (each meets distinct pairs), as a slice where they are evenly
+        # spaced, and the pairs' blocks they read: None where they read every block in order
+        self.components = []
+        component = K % dim
+        for c in np.unique(component):
+            rows = np.flatnonzero(component == c)
+            of_pair = None if len(rows) == len(self.pair_rows) // dim else self.of_pair[rows]
+            self.components.append((_as_slice(rows), of_pair))
         self._block: np.ndarray | None = None
 
     def drop_block(self) -> None:
@@ -376,7 +397,7 @@ class _Rows:
         """R z for z = A b (n, ...)."""
         s = self.stuck
         out = np.einsum("ac,ac...->a...", P_K, z[self.lam_rows])
-        out[self.closed] += np.einsum("ac,ac...->a...", Q_K[self.closed], b[self.lam_rows[self.closed]]) / s.r
+        out[self.closed_rows] += np.einsum("ac,ac...->a...", Q_K[self.closed_rows], b[self.closed_lam]) / s.r
         if len(self.held):
             out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], (s.W_open @ z)[self.held_rows])
         return out
@@ -387,16 +408,13 @@ class _Rows:
         dim = P_K.shape[1]
         if self._block is None:
             self._block = _block(s.A, self.pair_rows, K).reshape(len(self.pair_rows) // dim, dim, len(K))
-        n_blocks = len(self._block)
-        # each pair's block read once per row of it: rows of one component in K meet distinct pairs, and where
-        # they meet all of them, in order, the block is read in place instead of copied
         out = np.empty((len(K), len(K)))
-        component = K % dim
-        for c in np.unique(component):
-            rows = np.flatnonzero(component == c)
-            of_pair = self.of_pair[rows]
-            block = self._block if len(rows) == n_blocks else self._block[of_pair]
-            out[rows] = np.einsum("ac,ack->ak", P_K[rows], block)
+        for rows, of_pair in self.components:
+            block = self._block if of_pair is None else self._block[of_pair]
+            if isinstance(rows, slice):
+                np.einsum("ac,ack->ak", P_K[rows], block, out=out[rows])
+            else:
+                out[rows] = np.einsum("ac,ack->ak", P_K[rows], block)
         a, c = self.add
         out[a, self.add_column] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
         if len(self.held):
