@@ -177,6 +177,7 @@ class UpdatedSolver:
         #: the index data of the last few sets of replaced rows (:class:`_Rows`)
         self._layouts: dict[bytes, _Rows] = {}
         self._last_times: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
+        self._base_layout: _Rows | None = None
         self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
@@ -264,9 +265,10 @@ class UpdatedSolver:
         if len(K) and not fresh and self._base is not None:
             factorised = self._updated(self._base, P.reshape(-1, dim), Q.reshape(-1, dim), K)
         if len(K) and factorised is None:
-            C = self._rows_times(K, P_K, Q_K, None, None)
+            layout = self._rows(K, dim)
             self.n_factorisations += 1
-            factorised = self._base = Fresh.factorise(K, P_K, Q_K, C)
+            factorised = self._base = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
+            self._base_layout = layout
             self._base_rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
         while len(self._kept) >= KEEP:
             self._kept.pop(next(iter(self._kept)))
@@ -316,6 +318,8 @@ class UpdatedSolver:
     def _rows(self, K: np.ndarray, dim: int) -> "_Rows":
         """The index data of rows K of the current stuck inverse, kept for the last few K (the block of A only
         for the last: k^2 dim values)."""
+        if self._base is not None and K is self._base.K:
+            return self._base_layout                  # kept while it is the base: the updates read its rows
         key = K.tobytes()
         rows = self._layouts.pop(key, None)
         if rows is None:
@@ -330,30 +334,17 @@ class UpdatedSolver:
     def _rows_times(self, K, P_K, Q_K, z, b, columns=None) -> np.ndarray:
         """R z for the replaced rows R (rows K of J, sorted) and z = A v (n, ...): P z[lam] + Q (W z), with
         W z = v / r on the pairs J0 holds closed (``b`` = v) and from W_open on the others; z = b = None:
-        v = I[:, columns] (default K), i.e. C = R A[:, K], gathering only the rows of A it needs."""
-        if columns is None:
-            rows = self._rows(K, P_K.shape[1])
-            return rows.capacitance(P_K, Q_K) if z is None else rows.times(P_K, Q_K, z, b)
-        s = self.stuck
+        v = I[:, columns] (default K), i.e. R A[:, columns], gathering only the rows of A it needs. The index
+        data of K are kept where K are the rows of a factorisation (columns None, or the columns an update adds
+        to its base's rows)."""
         dim = P_K.shape[1]
-        pair = K // dim
-        lam_rows = pair[:, None] * dim + np.arange(dim)                           # (k, dim)
-        # A's rows of each pair once (a slipping pair in 3-D has two rows in K, which is sorted), then the
-        # columns of them
-        first = np.r_[True, pair[1:] != pair[:-1]]
-        pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
-        A_K = _block(s.A, pair_rows, columns).reshape(len(pair_rows) // dim, dim, len(columns))
-        out = np.einsum("ac,ack->ak", P_K, A_K[np.cumsum(first) - 1])
-        closed = s.open_rows[lam_rows[:, 0]] < 0
-        position = np.full(s.A.shape[0], -1)
-        position[columns] = np.arange(len(columns))
-        column = position[lam_rows]                                         # (k, dim) column in C or -1
-        a, c = np.nonzero(closed[:, None] & (column >= 0))
-        out[a, column[a, c]] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
-        if not closed.all():
-            held = np.flatnonzero(~closed)
-            out[held] += np.einsum("ac,ac...->a...", Q_K[held], s.WA_open[:, columns][s.open_rows[lam_rows[held]]])
-        return out
+        if columns is None or K is getattr(self._base, "K", None) or K.tobytes() in self._layouts:
+            rows = self._rows(K, dim)
+        else:
+            rows = _Rows(self.stuck, K, dim)
+        if z is not None:
+            return rows.times(P_K, Q_K, z, b)
+        return rows.capacitance(P_K, Q_K, columns)
 
 
 class _Rows:
@@ -372,11 +363,6 @@ class _Rows:
         first = np.r_[True, pair[1:] != pair[:-1]]
         self.pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()   # A's rows of each pair once
         self.of_pair = np.cumsum(first) - 1                                      # (k,) row -> its pair's block
-        position = np.full(stuck.A.shape[0], -1)
-        position[K] = np.arange(len(K))
-        column = position[self.lam_rows]                                         # (k, dim) column in C or -1
-        self.add = np.nonzero(self.closed[:, None] & (column >= 0))              # (row, component) of Q / r
-        self.add_column = column[self.add]
         closed = np.flatnonzero(self.closed)
         self.closed_rows = slice(None) if len(closed) == len(K) else closed
         self.closed_lam = self.lam_rows[self.closed_rows]
@@ -388,7 +374,16 @@ class _Rows:
             rows = np.flatnonzero(component == c)
             of_pair = None if len(rows) == len(self.pair_rows) // dim else self.of_pair[rows]
             self.components.append((_as_slice(rows), of_pair))
+        self._add_K = None
         self._block: np.ndarray | None = None
+
+    def _adds(self, columns):
+        """(rows, components, columns) where the rows' Q / r terms fall in R A[:, columns]."""
+        position = np.full(self.stuck.A.shape[0], -1)
+        position[columns] = np.arange(len(columns))
+        column = position[self.lam_rows]                                         # (k, dim) column or -1
+        a, c = np.nonzero(self.closed[:, None] & (column >= 0))
+        return a, c, column[a, c]                                                # (a, column) are distinct
 
     def drop_block(self) -> None:
         self._block = None
@@ -402,21 +397,28 @@ class _Rows:
             out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], (s.W_open @ z)[self.held_rows])
         return out
 
-    def capacitance(self, P_K, Q_K) -> np.ndarray:
-        """C = R A[:, K] (k, k)."""
-        s, K = self.stuck, self.K
-        dim = P_K.shape[1]
-        if self._block is None:
-            self._block = _block(s.A, self.pair_rows, K).reshape(len(self.pair_rows) // dim, dim, len(K))
-        out = np.empty((len(K), len(K)))
+    def capacitance(self, P_K, Q_K, columns=None) -> np.ndarray:
+        """R A[:, columns] (k, len(columns)); columns None: C = R A[:, K] (its block of A kept)."""
+        s, dim = self.stuck, P_K.shape[1]
+        if columns is None:
+            if self._add_K is None:
+                self._add_K = self._adds(self.K)
+            columns, adds = self.K, self._add_K
+            if self._block is None:
+                self._block = _block(s.A, self.pair_rows, columns).reshape(-1, dim, len(columns))
+            gathered = self._block
+        else:
+            adds = self._adds(columns)
+            gathered = _block(s.A, self.pair_rows, columns).reshape(-1, dim, len(columns))
+        out = np.empty((len(self.K), len(columns)))
         for rows, of_pair in self.components:
-            block = self._block if of_pair is None else self._block[of_pair]
+            block = gathered if of_pair is None else gathered[of_pair]
             if isinstance(rows, slice):
                 np.einsum("ac,ack->ak", P_K[rows], block, out=out[rows])
             else:
                 out[rows] = np.einsum("ac,ack->ak", P_K[rows], block)
-        a, c = self.add
-        out[a, self.add_column] += Q_K[a, c] / s.r              # (a, column) pairs are distinct
+        a, c, column = adds
+        out[a, column] += Q_K[a, c] / s.r
         if len(self.held):
-            out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], s.WA_open[:, K][self.held_rows])
+            out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], s.WA_open[:, columns][self.held_rows])
         return out
