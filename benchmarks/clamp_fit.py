@@ -9,7 +9,8 @@ difference from the tightened run from the same start; then the table of all run
 Data: ux, uy at 42 points (22 on the strip's side, 10 on each pad) at the ends of stages 2-4, noise 0.5 um for the
 weights; truth U1..L3 = 0.15, 0.2, 0.25, 0.18, 0.22, 0.3.
 
-Run: .venv/bin/python benchmarks/clamp_fit.py [start ...]   (default starts 0.1 0.02 0.6; about 2 min per fit)
+Run: .venv/bin/python benchmarks/clamp_fit.py [--variants N,...] [start ...]   (default starts 0.1 0.02 0.6, every
+variant; --variants 0,1: the reference and the default only, by their position below; about 2 min per fit)
 """
 
 import json
@@ -59,7 +60,7 @@ def run(args, cwd, check: bool = True) -> str:
     return done.stderr.strip().splitlines()[-1] if done.returncode else ""
 
 
-def main(starts: list[float]) -> None:
+def main(starts: list[float], variants: dict = VARIANTS) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         shutil.copy(CLAMP / "clamp.geo", work)
@@ -72,7 +73,7 @@ def main(starts: list[float]) -> None:
         table = {}
         for start in starts:
             reference = None
-            for v, (name, (method, options)) in enumerate(VARIANTS.items()):
+            for v, (name, (method, options)) in enumerate(variants.items()):
                 tag = f"{start}_{v}"
                 zones = ", ".join(f"{k} = {start}" for k in TRUTH)
                 (work / f"fit_{tag}.toml").write_text(
@@ -95,11 +96,17 @@ def main(starts: list[float]) -> None:
                       f"{result['wall_time_s']:.0f} s; largest difference from the reference {difference:.1e}; "
                       + ", ".join(f"{k} {v:.6f}" for k, v in mu.items()), flush=True)
         print("\niterations, solves with sensitivities, largest coefficient difference from the reference")
-        print("| start | " + " | ".join(VARIANTS) + " |")
-        print("|---" * (len(VARIANTS) + 1) + "|")
+        print("| start | " + " | ".join(variants) + " |")
+        print("|---" * (len(variants) + 1) + "|")
         for start in starts:
-            print(f"| {start} | " + " | ".join(table[start, name] for name in VARIANTS) + " |")
+            print(f"| {start} | " + " | ".join(table[start, name] for name in variants) + " |")
 
 
 if __name__ == "__main__":
-    main([float(a) for a in sys.argv[1:]] or [0.1, 0.02, 0.6])
+    args = sys.argv[1:]
+    chosen = VARIANTS
+    if args[:1] == ["--variants"]:
+        names = list(VARIANTS)
+        chosen = {names[int(k)]: VARIANTS[names[int(k)]] for k in args[1].split(",")}
+        args = args[2:]
+    main([float(a) for a in args] or [0.1, 0.02, 0.6], chosen)
