@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 import warnings
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as la
@@ -354,28 +355,32 @@ class _Rows:
     slipping pairs stay) the block A[pairs' rows, K]."""
 
     def __init__(self, stuck: StuckInverse, K: np.ndarray, dim: int):
-        self.stuck, self.K = stuck, K
-        pair = K // dim
-        self.lam_rows = pair[:, None] * dim + np.arange(dim)                      # (k, dim)
+        self.stuck, self.K, self.dim = stuck, K, dim
+        self.lam_rows = (K // dim)[:, None] * dim + np.arange(dim)               # (k, dim)
         self.closed = stuck.open_rows[self.lam_rows[:, 0]] < 0
         self.held = np.flatnonzero(~self.closed)
         self.held_rows = stuck.open_rows[self.lam_rows[self.held]]
-        first = np.r_[True, pair[1:] != pair[:-1]]
-        self.pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()   # A's rows of each pair once
-        self.of_pair = np.cumsum(first) - 1                                      # (k,) row -> its pair's block
         closed = np.flatnonzero(self.closed)
         self.closed_rows = slice(None) if len(closed) == len(K) else closed
         self.closed_lam = self.lam_rows[self.closed_rows]
-        # the rows of each pair component in K (each meets distinct pairs), as a slice where they are evenly
-        # spaced, and the pairs' blocks they read: None where they read every block in order
-        self.components = []
-        component = K % dim
-        for c in np.unique(component):
-            rows = np.flatnonzero(component == c)
-            of_pair = None if len(rows) == len(self.pair_rows) // dim else self.of_pair[rows]
-            self.components.append((_as_slice(rows), of_pair))
         self._add_K = None
         self._block: np.ndarray | None = None
+
+    @cached_property
+    def pairs(self) -> tuple[np.ndarray, list]:
+        """(A's rows of each pair of K once, the rows of each pair component in K as a slice where they are
+        evenly spaced with the pairs' blocks they read: None where they read every block in order); what a
+        product with columns of A needs, made when first asked for (most row sets multiply vectors only)."""
+        dim, pair = self.dim, self.K // self.dim
+        first = np.r_[True, pair[1:] != pair[:-1]]
+        pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
+        of_pair = np.cumsum(first) - 1                                           # (k,) row -> its pair's block
+        components = []
+        component = self.K % dim
+        for c in np.unique(component):                     # each component's rows meet distinct pairs
+            rows = np.flatnonzero(component == c)
+            components.append((_as_slice(rows), None if len(rows) == len(pair_rows) // dim else of_pair[rows]))
+        return pair_rows, components
 
     def _adds(self, columns):
         """(rows, components, columns) where the rows' Q / r terms fall in R A[:, columns]."""
@@ -400,18 +405,19 @@ class _Rows:
     def capacitance(self, P_K, Q_K, columns=None) -> np.ndarray:
         """R A[:, columns] (k, len(columns)); columns None: C = R A[:, K] (its block of A kept)."""
         s, dim = self.stuck, P_K.shape[1]
+        pair_rows, components = self.pairs
         if columns is None:
             if self._add_K is None:
                 self._add_K = self._adds(self.K)
             columns, adds = self.K, self._add_K
             if self._block is None:
-                self._block = _block(s.A, self.pair_rows, columns).reshape(-1, dim, len(columns))
+                self._block = _block(s.A, pair_rows, columns).reshape(-1, dim, len(columns))
             gathered = self._block
         else:
             adds = self._adds(columns)
-            gathered = _block(s.A, self.pair_rows, columns).reshape(-1, dim, len(columns))
+            gathered = _block(s.A, pair_rows, columns).reshape(-1, dim, len(columns))
         out = np.empty((len(self.K), len(columns)))
-        for rows, of_pair in self.components:
+        for rows, of_pair in components:
             block = gathered if of_pair is None else gathered[of_pair]
             if isinstance(rows, slice):
                 np.einsum("ac,ack->ak", P_K[rows], block, out=out[rows])
