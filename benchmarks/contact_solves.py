@@ -10,8 +10,12 @@ too: on a machine shared with other jobs it moves less than the wall time. The f
 also makes its stuck inverse (once per model, kept for the fit's later solves): printed apart.
 
 Run: .venv/bin/python benchmarks/contact_solves.py [repeats] [model ...]   (models: clamp block bolt)
+     .venv/bin/python benchmarks/contact_solves.py --parts [repeats] [model ...]   (where the CPU time of a corrected
+     solve goes: each part's own time, without the parts it calls, by wrapping the solver's methods)
 """
 
+import collections
+import functools
 import statistics
 import sys
 import time
@@ -23,7 +27,7 @@ from frictionid.builders.block import block_model
 from frictionid.builders.bolt import bolt_model
 from frictionid.builders.registry import build_model
 from frictionid.config import read_config
-from frictionid.fem import loadpath
+from frictionid.fem import contact, loadpath, updated_jacobian
 from frictionid.fem.problem import Problem
 from frictionid.studies.bolt import FORCES
 
@@ -88,12 +92,66 @@ def run(name: str, make, mu, repeats: int) -> None:
           + ", ".join(f"{k} {v:.1e}" for k, v in difference(dense, updated).items()))
 
 
+#: the parts of a corrected solve timed by --parts: (owner, method, label)
+PARTS = (
+    (updated_jacobian.UpdatedSolver, "_corrected", "corrected solves: the two products with A, capacitance solves, R y"),
+    (updated_jacobian.UpdatedSolver, "_factorised", "capacitance matrices: gathers, LU factorisations, updates"),
+    (contact, "linearise", "linearising (each with a product with W)"),
+    (updated_jacobian.UpdatedSolver, "product", "residual checks of the sensitivity solves (a product with W)"),
+    (loadpath.LoadPathSolver, "_predictor", "predictors"),
+    (loadpath.LoadPathSolver, "_sensitivity", "sensitivity right-hand sides"),
+    (loadpath.LoadPathSolver, "step", "the rest of the load path: Newton loop, cuts, outputs"),
+)
+
+
+def parts(name: str, make, mu, repeats: int) -> None:
+    """CPU time of each part of a corrected forward + sensitivity solve, its own time only."""
+    model = make()
+    problem = Problem.build(model)
+    mu = np.full(model.n_zones, 0.15) if mu is None else np.asarray(mu)
+    problem.solve(mu, sensitivities=True)                               # makes the model's stuck inverse
+    own, inner = collections.defaultdict(float), []
+
+    def timed(method, label):
+        @functools.wraps(method)
+        def wrapper(*args, **kwargs):
+            start = time.process_time()
+            inner.append(0.0)
+            try:
+                return method(*args, **kwargs)
+            finally:
+                spent = time.process_time() - start
+                own[label] += spent - inner.pop()
+                if inner:
+                    inner[-1] += spent
+        return wrapper
+
+    originals = [(owner, attr, getattr(owner, attr)) for owner, attr, _ in PARTS]
+    for (owner, attr, label), (_, _, method) in zip(PARTS, originals):
+        setattr(owner, attr, timed(method, label))
+    try:
+        start = time.process_time()
+        for _ in range(repeats):
+            problem.solve(mu, sensitivities=True)
+        total = time.process_time() - start
+    finally:
+        for owner, attr, method in originals:
+            setattr(owner, attr, method)
+    print(f"{name}: corrected forward + sensitivities, CPU {total / repeats:.3f} s per solve ({repeats} solves)")
+    for _, _, label in PARTS:
+        print(f"  {100 * own[label] / total:5.1f} %  {label}")
+    print(f"  {100 * (1 - sum(own.values()) / total):5.1f} %  outside these (Problem.solve's set-up and outputs)")
+
+
 def main(argv: list[str]) -> None:
+    measure = run
+    if argv[:1] == ["--parts"]:
+        measure, argv = parts, argv[1:]
     repeats = int(argv[0]) if argv else 5
     chosen = argv[1:] or list(models())
     for name in chosen:
         make, mu = models()[name]
-        run(name, make, mu, repeats)
+        measure(name, make, mu, repeats)
 
 
 if __name__ == "__main__":
