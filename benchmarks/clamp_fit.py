@@ -10,7 +10,8 @@ Data: ux, uy at 42 points (22 on the strip's side, 10 on each pad) at the ends o
 weights; truth U1..L3 = 0.15, 0.2, 0.25, 0.18, 0.22, 0.3.
 
 Run: .venv/bin/python benchmarks/clamp_fit.py [--variants N,...] [start ...]   (default starts 0.1 0.02 0.6, every
-variant; --variants 0,1: the reference and the default only, by their position below; about 2 min per fit)
+variant; --variants 0,1: the reference and the default only, by their position below; 17 to 30 s per fit
+measured on 2 shared cores)
 """
 
 import json
