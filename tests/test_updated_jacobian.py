@@ -182,6 +182,29 @@ def test_the_capacitance_factorisation_is_reused_for_the_same_rows(plane_strain)
     assert np.array_equal(first, again)
 
 
+def test_the_same_replaced_rows_after_a_switch_of_inverses_read_the_new_inverse(plane_strain):
+    """A state with slipping pairs (rows K against the stuck inverse), then the same state with a third of the
+    other pairs open: the solver switches to the inverse holding those open, against which the replaced rows are
+    the same K, and must not reuse what it kept for K from the other inverse (J x = b to round-off)."""
+    solver = loadpath.LoadPathSolver(plane_strain.condensed, plane_strain.pairs)
+    inverses = loadpath.stuck_inverses(plane_strain.condensed, plane_strain.pairs)
+    updated = UpdatedSolver(inverses)
+    n_pairs = plane_strain.pairs.n_pairs
+    s = inverses.base
+    slipping, opened = np.arange(0, n_pairs, 3), np.setdiff1d(np.arange(n_pairs), np.arange(0, n_pairs, 3))[::2]
+    P, Q = s.P0.copy(), s.Q0.copy()
+    P[slipping, 1, :] = [-0.3, 1.0]                      # 2-D slip rows, slip direction +1, mu 0.3
+    Q[slipping, 1, :] = [0.3 * solver.r, 0.0]
+    P_open, Q_open = P.copy(), Q.copy()
+    P_open[opened], Q_open[opened] = np.eye(2), 0.0
+    b = np.random.default_rng(7).normal(size=(solver.Wfull.shape[1], 2))
+    for P_, Q_ in ((P, Q), (P_open, Q_open), (P, Q)):
+        x = updated(P_, Q_, b, check=False)
+        J = jacobian(P_, Q_, solver.Wfull, solver.Wa_T)
+        assert np.abs(J @ x - b).max() <= 1e-11 * np.abs(J).max() * np.abs(x).max()
+    assert updated.n_switches == 2
+
+
 @pytest.fixture(scope="module")
 def clamp():
     return Problem.build(build_model(read_config(CLAMP).model_options))

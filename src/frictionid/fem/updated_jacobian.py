@@ -323,7 +323,7 @@ class UpdatedSolver:
             return self._base_layout                  # kept while it is the base: the updates read its rows
         key = K.tobytes()
         rows = self._layouts.pop(key, None)
-        if rows is None:
+        if rows is None or rows.stuck is not self.stuck:          # the data of one inverse's rows and columns
             rows = _Rows(self.stuck, K, dim)
             while len(self._layouts) >= KEEP:
                 self._layouts.pop(next(iter(self._layouts)))
