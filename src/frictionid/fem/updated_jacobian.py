@@ -341,11 +341,30 @@ class UpdatedSolver:
         dim = P_K.shape[1]
         if columns is None or K is getattr(self._base, "K", None) or K.tobytes() in self._layouts:
             rows = self._rows(K, dim)
+        elif z is None:
+            return self._few_rows_times(K, P_K, Q_K, columns)
         else:
             rows = _Rows(self.stuck, K, dim)
         if z is not None:
             return rows.times(P_K, Q_K, z, b)
         return rows.capacitance(P_K, Q_K, columns)
+
+    def _few_rows_times(self, K, P_K, Q_K, columns) -> np.ndarray:
+        """R A[:, columns] for a few rows K (the rows an update changes) and sorted ``columns``, A read row by
+        row: no index data worth keeping."""
+        s, dim = self.stuck, P_K.shape[1]
+        lam_rows = (K // dim)[:, None] * dim + np.arange(dim)                     # (k, dim)
+        gathered = np.ascontiguousarray(_block(s.A, lam_rows.ravel(), columns)).reshape(len(K), dim, -1)
+        out = np.einsum("ac,ack->ak", P_K, gathered)
+        closed = s.open_rows[lam_rows[:, 0]] < 0
+        where = np.minimum(np.searchsorted(columns, lam_rows), len(columns) - 1)   # (k, dim) column or not
+        a, c = np.nonzero(closed[:, None] & (columns[where] == lam_rows))
+        out[a, where[a, c]] += Q_K[a, c] / s.r                                    # (a, column) are distinct
+        if not closed.all():
+            held = np.flatnonzero(~closed)
+            out[held] += np.einsum("ac,ac...->a...", Q_K[held],
+                                   s.WA_open[:, columns][s.open_rows[lam_rows[held]]])
+        return out
 
 
 class _Rows:
