@@ -25,13 +25,13 @@ from __future__ import annotations
 import logging
 import warnings
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 import scipy.linalg as la
 
 from .capacitance import Fresh, Updated
 from .contact import jacobian
+from .replaced_rows import ReplacedRows, gather
 
 log = logging.getLogger(__name__)
 
@@ -116,26 +116,6 @@ def _identity_rows(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.all(P == np.eye(P.shape[1]), axis=2) & np.all(Q == 0.0, axis=2)
 
 
-def _as_slice(index: np.ndarray) -> slice | np.ndarray:
-    """``index`` (sorted, distinct) as a slice where it is evenly spaced, else itself."""
-    if len(index) < 2:
-        return slice(int(index[0]), int(index[0]) + 1) if len(index) else index
-    step = int(index[1] - index[0])
-    if np.all(np.diff(index) == step):
-        return slice(int(index[0]), int(index[-1]) + 1, step)
-    return index
-
-
-def _block(A: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """A[rows][:, columns] of a Fortran-ordered A, gathered from its (C-ordered) transpose, the smaller index set
-    first (a few columns of an update's X, a few rows of its C[D]): numpy's take along either axis of a
-    Fortran-ordered array is several times slower."""
-    At = A.T
-    if len(columns) <= len(rows):
-        return At.take(columns, axis=0).take(rows, axis=1).T
-    return At.take(rows, axis=1).take(columns, axis=0).T
-
-
 class StuckInverses:
     """The stuck inverses of one model by their open pairs, made when first asked for, the last :data:`KEEP`
     kept (a fit's solves meet the same states again)."""
@@ -175,10 +155,10 @@ class UpdatedSolver:
         self._base: Fresh | None = None
         #: (n_w, dim) pair rows P, Q of the Jacobian of the last fresh factorisation (J1)
         self._base_rows: tuple[np.ndarray, np.ndarray] | None = None
-        #: the index data of the last few sets of replaced rows (:class:`_Rows`)
-        self._layouts: dict[bytes, _Rows] = {}
+        #: the index data of the last few sets of replaced rows (:class:`ReplacedRows`)
+        self._layouts: dict[bytes, ReplacedRows] = {}
         self._last_times: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
-        self._base_layout: _Rows | None = None
+        self._base_layout: ReplacedRows | None = None
         self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
@@ -316,7 +296,7 @@ class UpdatedSolver:
             self._base = self._base_rows = None
             self.n_switches += 1
 
-    def _rows(self, K: np.ndarray, dim: int) -> "_Rows":
+    def _rows(self, K: np.ndarray, dim: int) -> "ReplacedRows":
         """The index data of rows K of the current stuck inverse, kept for the last few K (the block of A only
         for the last: k^2 dim values)."""
         if self._base is not None and K is self._base.K:
@@ -324,7 +304,7 @@ class UpdatedSolver:
         key = K.tobytes()
         rows = self._layouts.pop(key, None)
         if rows is None or rows.stuck is not self.stuck:          # the data of one inverse's rows and columns
-            rows = _Rows(self.stuck, K, dim)
+            rows = ReplacedRows(self.stuck, K, dim)
             while len(self._layouts) >= KEEP:
                 self._layouts.pop(next(iter(self._layouts)))
             for other in self._layouts.values():
@@ -344,7 +324,7 @@ class UpdatedSolver:
         elif z is None:
             return self._few_rows_times(K, P_K, Q_K, columns)
         else:
-            rows = _Rows(self.stuck, K, dim)
+            rows = ReplacedRows(self.stuck, K, dim)
         if z is not None:
             return rows.times(P_K, Q_K, z, b)
         return rows.capacitance(P_K, Q_K, columns)
@@ -354,7 +334,7 @@ class UpdatedSolver:
         row: no index data worth keeping."""
         s, dim = self.stuck, P_K.shape[1]
         lam_rows = (K // dim)[:, None] * dim + np.arange(dim)                     # (k, dim)
-        gathered = np.ascontiguousarray(_block(s.A, lam_rows.ravel(), columns)).reshape(len(K), dim, -1)
+        gathered = np.ascontiguousarray(gather(s.A, lam_rows.ravel(), columns)).reshape(len(K), dim, -1)
         out = np.einsum("ac,ack->ak", P_K, gathered)
         closed = s.open_rows[lam_rows[:, 0]] < 0
         where = np.minimum(np.searchsorted(columns, lam_rows), len(columns) - 1)   # (k, dim) column or not
@@ -364,86 +344,4 @@ class UpdatedSolver:
             held = np.flatnonzero(~closed)
             out[held] += np.einsum("ac,ac...->a...", Q_K[held],
                                    s.WA_open[:, columns][s.open_rows[lam_rows[held]]])
-        return out
-
-
-class _Rows:
-    """Where the products of a set of replaced rows K (sorted) of J read from a stuck inverse: the rows' pairs,
-    their positions in W_open, the columns of C = R A[:, K] their Q terms add to, and (made when a capacitance
-    matrix is first formed for K, kept for the next: in 3-D the slip directions change each Newton step while the
-    slipping pairs stay) the block A[pairs' rows, K]."""
-
-    def __init__(self, stuck: StuckInverse, K: np.ndarray, dim: int):
-        self.stuck, self.K, self.dim = stuck, K, dim
-        self.lam_rows = (K // dim)[:, None] * dim + np.arange(dim)               # (k, dim)
-        self.closed = stuck.open_rows[self.lam_rows[:, 0]] < 0
-        self.held = np.flatnonzero(~self.closed)
-        self.held_rows = stuck.open_rows[self.lam_rows[self.held]]
-        closed = np.flatnonzero(self.closed)
-        self.closed_rows = slice(None) if len(closed) == len(K) else closed
-        self.closed_lam = self.lam_rows[self.closed_rows]
-        self._add_K = None
-        self._block: np.ndarray | None = None
-
-    @cached_property
-    def pairs(self) -> tuple[np.ndarray, list]:
-        """(A's rows of each pair of K once, the rows of each pair component in K as a slice where they are
-        evenly spaced with the pairs' blocks they read: None where they read every block in order); what a
-        product with columns of A needs, made when first asked for (most row sets multiply vectors only)."""
-        dim, pair = self.dim, self.K // self.dim
-        first = np.r_[True, pair[1:] != pair[:-1]]
-        pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
-        of_pair = np.cumsum(first) - 1                                           # (k,) row -> its pair's block
-        components = []
-        component = self.K % dim
-        for c in np.unique(component):                     # each component's rows meet distinct pairs
-            rows = np.flatnonzero(component == c)
-            components.append((_as_slice(rows), None if len(rows) == len(pair_rows) // dim else of_pair[rows]))
-        return pair_rows, components
-
-    def _adds(self, columns):
-        """(rows, components, columns) where the rows' Q / r terms fall in R A[:, columns]."""
-        position = np.full(self.stuck.A.shape[0], -1)
-        position[columns] = np.arange(len(columns))
-        column = position[self.lam_rows]                                         # (k, dim) column or -1
-        a, c = np.nonzero(self.closed[:, None] & (column >= 0))
-        return a, c, column[a, c]                                                # (a, column) are distinct
-
-    def drop_block(self) -> None:
-        self._block = None
-
-    def times(self, P_K, Q_K, z, b) -> np.ndarray:
-        """R z for z = A b (n, ...)."""
-        s = self.stuck
-        out = np.einsum("ac,ac...->a...", P_K, z[self.lam_rows])
-        out[self.closed_rows] += np.einsum("ac,ac...->a...", Q_K[self.closed_rows], b[self.closed_lam]) / s.r
-        if len(self.held):
-            out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], (s.W_open @ z)[self.held_rows])
-        return out
-
-    def capacitance(self, P_K, Q_K, columns=None) -> np.ndarray:
-        """R A[:, columns] (k, len(columns)); columns None: C = R A[:, K] (its block of A kept)."""
-        s, dim = self.stuck, P_K.shape[1]
-        pair_rows, components = self.pairs
-        if columns is None:
-            if self._add_K is None:
-                self._add_K = self._adds(self.K)
-            columns, adds = self.K, self._add_K
-            if self._block is None:
-                self._block = _block(s.A, pair_rows, columns).reshape(-1, dim, len(columns))
-            gathered = self._block
-        else:
-            adds = self._adds(columns)
-            gathered = _block(s.A, pair_rows, columns).reshape(-1, dim, len(columns))
-        out = np.empty((len(self.K), len(columns)))
-        for rows, of_pair in components:
-            block = gathered if of_pair is None else gathered[of_pair]
-            if isinstance(rows, slice):
-                np.einsum("ac,ack->ak", P_K[rows], block, out=out[rows])
-            else:
-                out[rows] = np.einsum("ac,ack->ak", P_K[rows], block)
-        a, c, column = adds
-        out[a, column] += Q_K[a, c] / s.r
-        if len(self.held):
-            out[self.held] += np.einsum("ac,ac...->a...", Q_K[self.held], s.WA_open[:, columns][self.held_rows])
         return out
