@@ -71,6 +71,7 @@ from pathlib import Path
 import numpy as np
 
 from _measure import peak_memory_mb
+from frictionid.options import ModelSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "fixtures" / "user_block"
@@ -91,7 +92,7 @@ def _generate():
 def options(path: Path, element: str = "standard") -> dict:
     """The fixture's [model] (truth.toml) on another mesh file."""
     from frictionid.config import read_config
-    return {**read_config(FIXTURE / "truth.toml").model, "file": str(path), "element": element}
+    return {**read_config(FIXTURE / "truth.toml").model.table(), "file": str(path), "element": element}
 
 
 def user_model(family: str, n: int, folder: Path):
@@ -100,13 +101,13 @@ def user_model(family: str, n: int, folder: Path):
         from element_models import write_tet_block
         path = write_tet_block(folder / f"tet10_{n}.msh", order=2, quarter=n, outer=max(2, round(1.5 * n)),
                                block_z=2 * n, plate_z=n)
-        return build_model(options(path))
+        return build_model(ModelSpec.from_table(options(path)))
     generate = _generate()
     generate.N_QUARTER, generate.N_OUTER, generate.N_BLOCK_Z, generate.N_PLATE_Z = n, max(2, round(1.75 * n)), \
         2 * n, n
     path = folder / f"hex_{n}.msh"
     generate.write_block_msh(path)
-    return build_model(options(path, "incompatible" if family == "hexI" else "standard"))
+    return build_model(ModelSpec.from_table(options(path, "incompatible" if family == "hexI" else "standard")))
 
 
 def predict(model) -> np.ndarray:

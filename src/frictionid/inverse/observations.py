@@ -13,6 +13,7 @@ from ..data.table import CHANNELS, DISPLACEMENTS, PLANE_TOL
 from ..errors import InputError
 from ..model import Displacement, Model, Rotation
 from ..model.model import component_index, reaction_label
+from ..options import DataSpec
 
 #: the observable for the measurement file's `force` column: the machine force of each stage [N]
 FORCE = "force"
@@ -300,20 +301,21 @@ def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.nda
     return sigma
 
 
-def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
-                      regions: dict | None = None, relative: dict | None = None,
-                      specimens: dict | None = None, reactions: dict | None = None) -> Observations:
-    """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model.
+def observations_from(measurements, model: Model, data: DataSpec, relative: dict | None = None,
+                      specimens: dict | None = None) -> Observations:
+    """Select ``data.observables`` at ``data.stages`` (1-based, as in the file) and map them onto the model.
 
-    ``regions`` is the ``[data] regions`` table, resolved by :func:`region_of_points` against every point of the
-    file (also those of stages not fitted). ``relative`` (point label -> reference label, from ``[data]
-    relative_to``): that point's displacements are fitted as its displacement minus the reference's at the same
-    stage, in the data and in the model (the reference's own displacements are then not fitted). ``specimens``
-    (point label -> specimen): each specimen's machine force is an observation of its own (of the same model
-    reaction: specimens share the model and its load path). The per-stage observables ``torque`` and ``clamp``
-    (columns of that name, file units N m and N; noise in the same units) are reaction sums of the model too, found
-    by :func:`channel_reaction` from ``reactions`` (the ``[data] reactions`` table)."""
-    noise, regions, relative = dict(noise or {}), dict(regions or {}), dict(relative or {})
+    ``data.regions`` (the ``[data] regions`` table) is resolved by :func:`region_of_points` against every point
+    of the file (also those of stages not fitted); ``data.noise`` weights the rows the file gives no sigma.
+    ``relative`` (point label -> reference label, from ``[data] relative_to``): that point's displacements are
+    fitted as its displacement minus the reference's at the same stage, in the data and in the model (the
+    reference's own displacements are then not fitted). ``specimens`` (point label -> specimen): each specimen's
+    machine force is an observation of its own (of the same model reaction: specimens share the model and its
+    load path). The per-stage observables ``torque`` and ``clamp`` (columns of that name, file units N m and N;
+    noise in the same units) are reaction sums of the model too, found by :func:`channel_reaction` from
+    ``data.reactions`` (the ``[data] reactions`` table)."""
+    observables, stages, reactions = data.observables, data.stages, data.reactions
+    noise, regions, relative = dict(data.noise or {}), dict(data.regions or {}), dict(relative or {})
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
             raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
