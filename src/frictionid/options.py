@@ -12,8 +12,8 @@ from dataclasses import MISSING, dataclass, field, fields, replace
 from types import MappingProxyType
 from typing import Any
 
-#: the default bounds of every friction coefficient ([friction] bounds, :class:`~frictionid.inverse.parameters.
-#: Parameter`)
+#: the bounds of a friction coefficient when none are given ([friction] bounds, :class:`~frictionid.inverse.
+#: parameters.Parameter`, the Python API's dict of start values)
 DEFAULT_BOUNDS = (0.0, 1.0)
 
 

@@ -24,14 +24,14 @@ from ..builders.registry import build_model
 from ..config import read_config
 from ..data.measurements import Measurements, write_measurements
 from ..errors import InputError
-from ..options import ModelSpec
+from ..options import DEFAULT_BOUNDS, ModelSpec
 from ..identification import identify_config
 from ..preparation import prepare
 from ..report.html import NEAR_BOUND
 from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads
 from ..report.outputs import write_outputs
 from ..report.tables import prefit_summary, result_summary
-from ..options import ModelSpec
+from ..options import DEFAULT_BOUNDS, ModelSpec
 
 #: the coefficients the data are made with (thread zones; outer A-C, inner D-F, section 1 at the bearing face)
 TRUE_MU = {"A": 0.14, "B": 0.18, "C": 0.22, "D": 0.12, "E": 0.16, "F": 0.20}
@@ -40,7 +40,7 @@ NOISE = 0.0005
 FORCES = (10000.0, 30000.0)
 START = 0.1
 #: friction.bounds of the demo's configs (they set none: the config default)
-BOUNDS = (0.0, 1.0)
+BOUNDS = DEFAULT_BOUNDS
 METHODS = (("trf", "analytic"), ("gradient-descent", "forward"))
 #: per-method options: trf stops once an iteration lowers J by less than 0.1 % (J is a chi-square here: the
 #: unresolved zones otherwise drift along their flat valley for dozens of iterations) or the coefficients change
