@@ -15,7 +15,7 @@ from frictionid.backends.calculix.elements import element_type
 from frictionid.cli import main
 from frictionid.crosscheck import cross_check, default_points
 from frictionid.data.measurements import read_measurements
-from frictionid.simulation import DEFAULT_QUANTITIES
+from frictionid.inverse.observations import default_quantities
 
 from element_models import ELEMENTS, element_model
 from fixtures.user_block import generate
@@ -104,7 +104,7 @@ def test_crosscheck_per_element_type(element, tmp_path):
     assert element.startswith(element_type(model.kind, model.mesh.cell_type, model.element))
     mu = np.array([zones[z] for z in model.zone_names])
     points, regions = default_points(model)
-    check = cross_check(model, mu, points, DEFAULT_QUANTITIES[model.dim], regions, CalculixSettings())
+    check = cross_check(model, mu, points, default_quantities(model), regions, CalculixSettings())
     assert check.kind == model.kind
     dim, n = model.dim, len(points)
     u_tolerance, e_tolerance = {"plane_strain": (0.01, 0.02), "axisymmetric": (0.01, 0.01), "3d": (0.02, 0.02)}[

@@ -58,3 +58,31 @@ def test_a_stage_the_model_does_not_have_or_a_missing_noise_is_an_input_error(bl
         observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[5], noise={"u": 5e-4}, regions=REGIONS))
     unweighted = observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[2], noise={}, regions=REGIONS))
     assert not unweighted.noise_known
+
+
+def test_point_and_per_stage_observables_are_split_in_one_place():
+    """simulate, the cross-check and the design take the point quantities from here: torque and clamp are
+    per-stage reaction sums like the machine force, never point quantities."""
+    from frictionid.inverse.observations import STAGE_OBSERVABLES, split_observables
+
+    points, stages = split_observables(["uy", "clamp", "exx", "torque", "force"])
+    assert points == ("uy", "exx") and stages == ("clamp", "torque", "force")
+    assert set(STAGE_OBSERVABLES) == {"force", "torque", "clamp"}
+
+
+def test_simulate_writes_every_quantity_of_the_models_kind_when_none_is_named(tmp_path):
+    """The plane-strain block's default columns are the model kind's quantities (fem.points.QUANTITIES), ezz
+    included (zero in plane strain)."""
+    import shutil
+    from pathlib import Path
+
+    from frictionid.cli import main
+
+    folder = tmp_path / "first"
+    shutil.copytree(Path(__file__).parents[1] / "examples" / "first", folder)
+    text = (folder / "truth.toml").read_text().replace('["ux", "uy"]', "[]")
+    (folder / "all.toml").write_text(text.replace("mesh_size = 0.5", "mesh_size = 2.0"))
+    assert main(["simulate", str(folder / "all.toml"), "--out", str(folder / "all.csv")]) == 0
+    written = read_measurements(folder / "all.csv")
+    assert written.quantities == ("ux", "uy", "exx", "eyy", "ezz", "exy")
+    assert np.all(written.values["ezz"] == 0.0) and np.any(written.values["exx"] != 0.0)

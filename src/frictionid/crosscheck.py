@@ -19,11 +19,11 @@ from .data.sources import read_data
 from .errors import InputError
 from .fem.locate import PointsOutside
 from .fem.problem import Problem
-from .inverse.observations import FORCE, machine_force, observations_from, region_of_points
+from .inverse.observations import (FORCE, default_quantities, machine_force, observations_from, region_of_points,
+                                   split_observables)
 from .inverse.parameters import Parameters
 from .inverse.shift import CoefficientShift, coefficient_shift, observed_shift
 from .model import Model
-from .simulation import DEFAULT_QUANTITIES
 
 #: cells per region whose centroids are the default observation points
 DEFAULT_CELLS_PER_REGION = 8
@@ -78,7 +78,7 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     data, noise = config.data, config.data.noise
     observables = tuple(data.observables or ())
     force = machine_force(model) if FORCE in observables else None
-    quantities = tuple(q for q in observables if q != FORCE) or tuple(DEFAULT_QUANTITIES[model.dim])
+    quantities = split_observables(observables)[0] or default_quantities(model)
     source = read_data(data, config.resolve, f"{config.where}: [data]", model) if data.file else None
     observations = None
     if source is not None and noise and all(q in source.values for q in quantities) and \

@@ -32,7 +32,7 @@ from .data.table import CHANNELS, QUANTITIES, Measurements
 from .errors import InputError
 from .preparation import prepare
 from .inverse.design import CRITERIA, finest_partition, information_of, select_points
-from .inverse.observations import noise_of
+from .inverse.observations import noise_of, split_observables
 from .inverse.resolution import predicted_stderr, resolution
 from .model import Model
 from .paths import check_folder, input_files
@@ -166,7 +166,7 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
         setup = prepare(config, model, planned_measurements(config, model), echo=echo)
     params, obs = setup.parameters, setup.observations
     kind = table.candidates or ("surface" if model.dim == 3 else "section")
-    quantities = tuple(q for q in config.data.observables if q != "force")
+    quantities = split_observables(config.data.observables)[0]
     noise = config.data.noise or {}
     sigma = [noise_of(q, noise) for q in quantities]
     missing = [q for q, s in zip(quantities, sigma) if s is None]

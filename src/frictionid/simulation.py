@@ -17,13 +17,12 @@ from .errors import InputError
 from .model_checks import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
-from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
+from .inverse.observations import (FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, default_quantities,
+                                   region_of_points, split_observables)
 from .inverse.parameters import Parameters
 from .paths import check_file, check_folder, input_files
 from .report.vtu import export_fields
 
-DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
-                                                                   "eyz", "exz")}
 
 
 def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
@@ -58,8 +57,7 @@ def _simulate(config: Config, out, echo) -> Path:
     xyz = np.array([source.coordinates[first[p]] for p in labels])
     if model.kind != "3d" and np.any(np.abs(xyz[:, 2]) > PLANE_TOL * max(1.0, float(np.abs(xyz).max()))):
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
-    quantities = tuple(q for q in config.data.observables or DEFAULT_QUANTITIES[model.dim]
-                       if q not in STAGE_OBSERVABLES)
+    quantities = split_observables(config.data.observables or default_quantities(model))[0]
     region_of = region_of_points(config.data.regions, labels, model.mesh.region_names)
     channels = {}
     check_reaction_keys(config.data.reactions, f"{config.where}: [data] reactions")

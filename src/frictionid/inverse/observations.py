@@ -11,6 +11,7 @@ import numpy as np
 
 from ..data.table import CHANNELS, DISPLACEMENTS, PLANE_TOL
 from ..errors import InputError
+from ..fem.points import QUANTITIES
 from ..model import Displacement, Model, Rotation
 from ..model.model import component_index, reaction_label
 from ..options import DataSpec
@@ -24,6 +25,25 @@ STAGE_OBSERVABLES = (FORCE,) + tuple(CHANNELS)
 
 def _kind(quantity: str) -> str:
     return quantity if quantity in STAGE_OBSERVABLES else "u" if quantity in DISPLACEMENTS else "e"
+
+
+def split_observables(observables) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(point quantities, per-stage observables) of a ``[data] observables`` list, each in its given order: the
+    quantities measured at points (displacements, strains) and the reaction sums of one value per stage
+    (:data:`STAGE_OBSERVABLES`: force, torque, clamp).
+
+    >>> split_observables(["ux", "torque", "exx", "force"])
+    (('ux', 'exx'), ('torque', 'force'))
+    """
+    observables = tuple(observables)
+    return (tuple(q for q in observables if q not in STAGE_OBSERVABLES),
+            tuple(q for q in observables if q in STAGE_OBSERVABLES))
+
+
+def default_quantities(model: Model) -> tuple[str, ...]:
+    """The point quantities a model of its kind gives (:data:`frictionid.fem.points.QUANTITIES`): what
+    ``frictionid simulate`` writes and the cross-check compares when ``[data] observables`` names none."""
+    return QUANTITIES[model.kind]
 
 
 def machine_force(model: Model) -> str:
@@ -321,7 +341,7 @@ def observations_from(measurements, model: Model, data: DataSpec, relative: dict
             raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
     channels = [c for c in STAGE_OBSERVABLES if c in observables]
     reactions = tuple(channel_reaction(model, c, reactions) for c in channels)
-    observables = [q for q in observables if q not in STAGE_OBSERVABLES]
+    observables = list(split_observables(observables)[0])
     wanted = list(observables)
     if model.kind == "axisymmetric" and "ux" in wanted and "uz" in measurements.quantities and "uz" not in wanted:
         wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
