@@ -237,7 +237,9 @@ def test_point_misfit_groups_by_point_in_one_pass():
     names = [f"P{k}" for k in range(300)]
     labels = [f"{names[k]}:{q}@{s}" for s in (1, 2) for k in rng.permutation(300)[:250] for q in ("ux", "uy")]
     labels.append("force@2")
-    obs = SimpleNamespace(labels=tuple(labels), point_labels=tuple(names), points=rng.normal(size=(300, 2)))
+    index = {name: k for k, name in enumerate(names)}
+    point = np.array([index.get(label.rpartition(":")[0], -1) for label in labels])     # Observations.point
+    obs = SimpleNamespace(point=point, point_labels=tuple(names), points=rng.normal(size=(300, 2)))
     r = rng.normal(size=len(labels))
     got = {row["point"]: row["rms"] for row in point_misfit(obs, r)}
     point_of = np.array([label.rpartition(":")[0] for label in labels])

@@ -86,3 +86,22 @@ def test_simulate_writes_every_quantity_of_the_models_kind_when_none_is_named(tm
     written = read_measurements(folder / "all.csv")
     assert written.quantities == ("ux", "uy", "exx", "eyy", "ezz", "exy")
     assert np.all(written.values["ezz"] == 0.0) and np.any(written.values["exx"] != 0.0)
+
+
+def test_each_observation_knows_its_point_quantity_and_kind_without_its_label(tmp_path):
+    """The per-observation arrays agree with the labels built from the same rows, a per-stage observable at
+    point -1."""
+    from frictionid.builders.block import block_model_2d
+
+    rows = ["point,x,y,z,stage,force,ux,exx"] + [f"{p},{x},{y},0.0,2,12.5,{k * 1e-3},{k * 1e-5}"
+                                                 for k, (p, (x, y)) in enumerate(XY.items(), start=1)]
+    (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
+    obs = observations_from(read_measurements(tmp_path / "f.csv"), block_model_2d(mesh_size=2.0),
+                            DataSpec(observables=["exx", "force", "ux"], stages=[2],
+                                     noise={"u": 1e-3, "e": 1e-5, "force": 1.0}))
+    for label, point, quantity, kind in zip(obs.labels, obs.point, obs.quantity, obs.kind):
+        if point < 0:
+            assert label == f"{quantity}@2" and quantity == kind == "force"
+        else:
+            assert label == f"{obs.point_labels[point]}:{quantity}@2" and kind == quantity[0]
+    assert sorted(set(obs.quantity)) == ["exx", "force", "ux"] and list(obs.point).count(-1) == 1

@@ -60,7 +60,7 @@ from ..fem import memory
 from ..fem.locate import PointsOutside
 from ..model import Model
 from ..options import ModelSpec
-from .observations import FORCE, Observations, _kind
+from .observations import FORCE, Observations
 
 log = logging.getLogger(__name__)
 
@@ -107,10 +107,7 @@ def richardson(coarse: np.ndarray, fine: np.ndarray, order, factor: int = 2) -> 
 
 def observation_kinds(observations: Observations) -> np.ndarray:
     """(n_obs,) quantity kind of each observation: "u", "e" or "force" (the rows after the point rows)."""
-    quantities = observations.quantities
-    n_point_rows = len(observations.points) * len(quantities)
-    return np.array([FORCE if row >= n_point_rows else _kind(quantities[row % len(quantities)])
-                     for row in observations.row])
+    return np.where(observations.point < 0, FORCE, observations.kind).astype(str)
 
 
 def _summary(values: np.ndarray) -> dict:

@@ -139,6 +139,11 @@ class Observations:
     point_labels : the measurement file's label of each point; source : that file, for messages
     minus_row : (n_obs,) backend row subtracted from ``row``'s value (-1: none): a displacement measured relative
         to a reference point's ([data] relative_to) is predicted as the difference of the two points' values
+    channels : the per-stage observable of each reaction row ("force", "torque", "clamp"; default "force")
+
+    Per observation, from the rows (the labels are for people and files; code reads these): ``point`` (index
+    into ``points``, -1 for a per-stage observable), ``quantity`` (the quantity or the per-stage observable),
+    ``kind`` ("u", "e", or the per-stage observable).
     """
 
     points: np.ndarray
@@ -154,10 +159,37 @@ class Observations:
     point_labels: tuple[str, ...] = ()
     source: str = ""
     minus_row: np.ndarray | None = None
+    channels: tuple[str, ...] = ()
 
     @property
     def n_obs(self) -> int:
         return len(self.y)
+
+    @property
+    def n_point_rows(self) -> int:
+        """Backend rows of the points (the reaction rows follow)."""
+        return len(self.points) * len(self.quantities)
+
+    @property
+    def point(self) -> np.ndarray:
+        """(n_obs,) index into ``points`` of each observation; -1 for a per-stage observable."""
+        row = np.asarray(self.row, dtype=np.int64)
+        return np.where(row < self.n_point_rows, row // max(len(self.quantities), 1), -1)
+
+    @property
+    def quantity(self) -> np.ndarray:
+        """(n_obs,) the quantity ("ux", "exx", ...) or per-stage observable ("force", ...) of each observation."""
+        channels = self.channels or (FORCE,) * len(self.reactions)
+        names = np.array(list(self.quantities) + list(channels) or [""], dtype=object)
+        row = np.asarray(self.row, dtype=np.int64)
+        at = np.where(row < self.n_point_rows, row % max(len(self.quantities), 1),
+                      len(self.quantities) + row - self.n_point_rows)
+        return names[at]
+
+    @property
+    def kind(self) -> np.ndarray:
+        """(n_obs,) "u" (a displacement), "e" (a strain) or the per-stage observable of each observation."""
+        return np.array([_kind(q) for q in self.quantity], dtype=object)
 
     @property
     def weight(self) -> np.ndarray:
@@ -401,13 +433,15 @@ def observations_from(measurements, model: Model, data: DataSpec, relative: dict
     sigma = np.array(sigma)
     noise_known = not np.any(np.isnan(sigma))
     kinds = {_kind(q) for q in quantities} | set(channels)
+    observations = Observations(
+        points=points, point_regions=tuple(map(region_of.__getitem__, labels_of)), quantities=quantities,
+        row=np.array(row), stage=np.array(stage), y=np.array(y), sigma=np.where(np.isnan(sigma), 1.0, sigma),
+        labels=tuple(labels), noise_known=noise_known, reactions=reactions, point_labels=tuple(labels_of),
+        source=str(measurements.source), minus_row=np.array(minus, dtype=np.int64) if relative else None,
+        channels=tuple(channels))
     if not noise_known and len(kinds) > 1:
-        raise InputError(_unweighted(labels, sigma))
-    return Observations(points=points, point_regions=tuple(map(region_of.__getitem__, labels_of)),
-                        quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
-                        sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
-                        reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source),
-                        minus_row=np.array(minus, dtype=np.int64) if relative else None)
+        raise InputError(_unweighted(observations.quantity, sigma))
+    return observations
 
 
 #: what a data.noise key of each kind of observable is, for messages
@@ -415,10 +449,9 @@ _NOISE_EXAMPLES = {"u": ("u = 0.0005", "mm"), "e": ("e = 1e-5", "strain"), FORCE
                    "torque": ("torque = 0.1", "N m"), "clamp": ("clamp = 10.0", "N")}
 
 
-def _unweighted(labels, sigma: np.ndarray) -> str:
-    """The message for observables of different kinds (units) fitted together where some have no stated noise:
-    it names those."""
-    quantities = [label.rpartition("@")[0].rpartition(":")[2].rpartition("/")[2] for label in labels]
+def _unweighted(quantities, sigma: np.ndarray) -> str:
+    """The message for observables of different kinds (units) fitted together where some have no stated noise
+    (``quantities``, ``sigma``: per observation): it names those."""
     missing = list(dict.fromkeys(q for q, s in zip(quantities, sigma) if np.isnan(s)))
     given = list(dict.fromkeys(q for q, s in zip(quantities, sigma) if not np.isnan(s)))
     keys = list(dict.fromkeys(_kind(q) for q in missing))
