@@ -27,6 +27,19 @@ def _kind(quantity: str) -> str:
     return quantity if quantity in STAGE_OBSERVABLES else "u" if quantity in DISPLACEMENTS else "e"
 
 
+def label_parts(label: str) -> tuple[str, str, str]:
+    """(point, quantity, stage) of an observation label as :func:`observations_from` writes them: "point:quantity@
+    stage", or "quantity@stage" for a per-stage observable (point ""; a specimen's "S1/force@2" keeps its
+    prefix in the quantity). Code that has the :class:`Observations` reads its arrays; this reads result.json.
+
+    >>> label_parts("F12:exx@2"), label_parts("force@3")
+    (('F12', 'exx', '2'), ('', 'force', '3'))
+    """
+    body, _, stage = label.rpartition("@")
+    point, _, quantity = body.rpartition(":")
+    return point, quantity, stage
+
+
 def split_observables(observables) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(point quantities, per-stage observables) of a ``[data] observables`` list, each in its given order: the
     quantities measured at points (displacements, strains) and the reaction sums of one value per stage
