@@ -18,6 +18,7 @@ from frictionid.cli import main
 from frictionid.model.mesh import CELL_FACETS, FACET_TYPE
 from helpers.meshes import stacked_rectangles_geo
 from frictionid.options import ModelSpec
+from helpers.differences import central_difference
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 _GAUSS = np.polynomial.legendre.leggauss(5)
@@ -44,13 +45,10 @@ def measure(kind: str, points: np.ndarray, elements: np.ndarray) -> float:
     linear, _ = SHAPE[kind]
     template = node_template(kind, points, elements)
     xi, weights = _rule(linear)
-    d, h = xi.shape[1], 1e-6
-    columns = []
-    for a in range(d):
-        step = np.eye(d)[a] * h
-        dn = (shape_functions(kind, template, xi + step) - shape_functions(kind, template, xi - step)) / (2 * h)
-        columns.append(np.einsum("qn,enx->eqx", dn, points[elements]))
-    jac = np.stack(columns, axis=-1)                                       # (n_el, q, dim, d)
+    d = xi.shape[1]
+    # dN/dxi_a at every quadrature point: the same offset at all of them (shape functions act point by point)
+    dn = central_difference(lambda offset: shape_functions(kind, template, xi + offset), np.zeros(d), 1e-6)
+    jac = np.einsum("qna,enx->eqxa", dn, points[elements])                 # (n_el, q, dim, d)
     return float(np.sum(np.sqrt(np.linalg.det(np.einsum("eqxa,eqxb->eqab", jac, jac))) * weights))
 
 
@@ -59,11 +57,9 @@ def orientation(kind: str, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     linear, _ = SHAPE[kind]
     template = node_template(kind, points, cells)
     centre = np.mean(np.array(CORNERS[linear], dtype=float), axis=0)[None]
-    d, h = centre.shape[1], 1e-6
-    jac = np.stack([np.einsum("qn,enx->ex", shape_functions(kind, template, centre + np.eye(d)[a] * h)
-                              - shape_functions(kind, template, centre - np.eye(d)[a] * h), points[cells])
-                    for a in range(d)], axis=-1)
-    return np.sign(np.linalg.det(jac))
+    dn = central_difference(lambda offset: shape_functions(kind, template, centre + offset)[0],
+                            np.zeros(centre.shape[1]), 1e-6)                # (n_nodes, d) at the centroid
+    return np.sign(np.linalg.det(np.einsum("na,enx->exa", dn, points[cells])))
 
 
 def _gmsh_box(order: int):
