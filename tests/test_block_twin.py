@@ -100,7 +100,7 @@ def test_bad_pull_levels_are_refused(levels, message):
 
 def test_machine_force_rows_are_the_driven_reaction_with_its_sensitivities(block3d):
     from frictionid.backends.embedded import EmbeddedBackend
-    from frictionid.inverse.observations import machine_force
+    from frictionid.inverse.reactions import machine_force
 
     model = block3d
     assert machine_force(model) == "block_top.y"

@@ -63,7 +63,8 @@ def test_a_stage_the_model_does_not_have_or_a_missing_noise_is_an_input_error(bl
 def test_point_and_per_stage_observables_are_split_in_one_place():
     """simulate, the cross-check and the design take the point quantities from here: torque and clamp are
     per-stage reaction sums like the machine force, never point quantities."""
-    from frictionid.inverse.observations import STAGE_OBSERVABLES, split_observables
+    from frictionid.inverse.observations import split_observables
+    from frictionid.inverse.reactions import STAGE_OBSERVABLES
 
     points, stages = split_observables(["uy", "clamp", "exx", "torque", "force"])
     assert points == ("uy", "exx") and stages == ("clamp", "torque", "force")

@@ -7,7 +7,8 @@ import pytest
 from frictionid.builders.torsion import turned_rings_model
 from frictionid.data.measurements import Measurements, read_measurements, write_measurements
 from frictionid.errors import InputError
-from frictionid.inverse.observations import channel_reaction, observations_from
+from frictionid.inverse.observations import observations_from
+from frictionid.inverse.reactions import channel_reaction
 from frictionid.options import DataSpec
 
 HEADER = "point,x,y,z,stage,torque,clamp,uz"

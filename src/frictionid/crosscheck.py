@@ -19,8 +19,9 @@ from .data.sources import read_data
 from .errors import InputError
 from .fem.locate import PointsOutside
 from .fem.problem import Problem
-from .inverse.observations import (FORCE, default_quantities, machine_force, observations_from, region_of_points,
-                                   split_observables)
+from .inverse.observations import default_quantities, observations_from, split_observables
+from .inverse.point_regions import region_of_points
+from .inverse.reactions import FORCE, machine_force
 from .inverse.parameters import Parameters
 from .inverse.shift import CoefficientShift, coefficient_shift, observed_shift
 from .model import Model

@@ -17,8 +17,9 @@ from .errors import InputError
 from .model_checks import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
-from .inverse.observations import (FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, default_quantities,
-                                   region_of_points, split_observables)
+from .inverse.observations import default_quantities, split_observables
+from .inverse.point_regions import region_of_points
+from .inverse.reactions import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys
 from .inverse.parameters import Parameters
 from .paths import check_file, check_folder, input_files
 from .report.vtu import export_fields

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
-import fnmatch
-import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,15 +9,10 @@ import numpy as np
 from ..data.table import CHANNELS, DISPLACEMENTS, PLANE_TOL
 from ..errors import InputError
 from ..fem.points import QUANTITIES
-from ..model import Displacement, Model, Rotation
-from ..model.model import component_index, reaction_label
+from ..model import Model
 from ..options import DataSpec
-
-#: the observable for the measurement file's `force` column: the machine force of each stage [N]
-FORCE = "force"
-#: observables of one value per stage, each a reaction sum of the model: the machine force and the channels of
-#: a tightening test (`torque`, `clamp` columns; :data:`frictionid.data.table.CHANNELS`)
-STAGE_OBSERVABLES = (FORCE,) + tuple(CHANNELS)
+from .point_regions import region_of_points
+from .reactions import FORCE, STAGE_OBSERVABLES, channel_reaction
 
 
 def _kind(quantity: str) -> str:
@@ -57,78 +49,6 @@ def default_quantities(model: Model) -> tuple[str, ...]:
     """The point quantities a model of its kind gives (:data:`frictionid.fem.points.QUANTITIES`): what
     ``frictionid simulate`` writes and the cross-check compares when ``[data] observables`` names none."""
     return QUANTITIES[model.kind]
-
-
-def machine_force(model: Model) -> str:
-    """Label ("boundary.axis") of the reaction sum the machine's load cell measures.
-
-    It is the reaction of the one boundary component driven by a non-zero prescribed displacement (the block
-    test: "block_top.y"), in the model's frame: positive when the machine pushes the body in +axis.
-
-    Raises
-    ------
-    InputError
-        When the model has no such component (e.g. it is loaded by a prescribed force, which is then known and
-        not measured) or more than one.
-    """
-    driven = list(dict.fromkeys(
-        reaction_label(load.boundary, component_index(load.component, model.dim, load.boundary))
-        for load in model.loads if isinstance(load, Displacement) and any(v != 0 for v in load.values)))
-    if len(driven) != 1:
-        raise InputError(f"data.observables: 'force' needs a model driven by one prescribed displacement whose "
-                         f"reaction the machine measures; this model drives {driven or 'none'}")
-    return driven[0]
-
-
-def check_reaction_keys(reactions: dict | None, where: str = "data.reactions") -> dict:
-    """The ``[data] reactions`` table, its keys checked to be channels (:data:`~frictionid.data.table.CHANNELS`).
-
-    >>> check_reaction_keys({"clamp": "plate1_rim.y"})
-    {'clamp': 'plate1_rim.y'}
-    """
-    reactions = dict(reactions or {})
-    unknown = [key for key in reactions if key not in CHANNELS]
-    if unknown:
-        close = difflib.get_close_matches(str(unknown[0]), list(CHANNELS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"{where}: {unknown[0]!r} is not a per-stage observable with a reaction to name{hint}; "
-                         f"expected {', '.join(CHANNELS)}")
-    return reactions
-
-
-def channel_reaction(model: Model, channel: str, reactions: dict | None = None,
-                     where: str = "data.reactions") -> str:
-    """Label of the reaction sum of ``model`` that the per-stage observable ``channel`` measures.
-
-    "force": :func:`machine_force`. "torque", "clamp": the label ``reactions`` (the ``[data] reactions`` table)
-    gives for it, e.g. ``{ clamp = "plate1_rim.y" }``; without one, "torque" is the torque about the axis of the
-    one boundary turned by a prescribed rotation (the tightening bolt: "nut_outer.torque") and "clamp" has no
-    default (where the load cell sits is the rig's choice).
-
-    Raises
-    ------
-    InputError
-        A channel with no reaction to measure, or a label that is not one of the model's reactions.
-    """
-    reactions = check_reaction_keys(reactions, where)
-    if channel == FORCE:
-        return machine_force(model)
-    label = reactions.get(channel)
-    if label is None and channel == "torque":
-        turned = list(dict.fromkeys(reaction_label(load.boundary, 2, model.kind) for load in model.loads
-                                    if isinstance(load, Rotation)))
-        label = turned[0] if len(turned) == 1 else None
-    if label is None:
-        example = model.reaction_labels[0] if model.reaction_labels else "boundary.y"
-        raise InputError(f"{where}: the observable {channel!r} ({CHANNELS[channel][0]}) needs the reaction it "
-                         f"measures, e.g. reactions = {{ {channel} = \"{example}\" }}; the model's reactions are "
-                         f"{list(model.reaction_labels)}")
-    if label not in model.reaction_labels:
-        close = difflib.get_close_matches(str(label), list(model.reaction_labels), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"{where}.{channel}: {label!r} is not a reaction of the model{hint}; the model's "
-                         f"reactions are {list(model.reaction_labels)}")
-    return label
 
 
 @dataclass(frozen=True)
@@ -246,102 +166,6 @@ def _coordinates(measurements, model: Model):
             raise InputError(f"{measurements.source}: a plane-strain model needs points with z = 0")
         return measurements, measurements.coordinates[:, :2]
     return measurements, measurements.coordinates
-
-
-def _is_pattern(key: str) -> bool:
-    return any(c in key for c in "*?[")
-
-
-def _specificity(pattern: str) -> int:
-    """Literal characters of a glob pattern (those outside ``*``, ``?`` and ``[...]``): "*" has 0."""
-    return sum(1 for _ in _literal_parts(pattern))
-
-
-def _literal_parts(pattern: str):
-    """The literal characters of a glob pattern, one by one."""
-    i = 0
-    while i < len(pattern):
-        if pattern[i] == "[" and "]" in pattern[i + 2:]:
-            i = pattern.index("]", i + 2) + 1
-        elif pattern[i] in "*?":
-            i += 1
-        else:
-            yield pattern[i]
-            i += 1
-
-
-def region_of_points(regions: dict | None, labels, region_names, where: str = "data.regions") -> dict:
-    """The region each point label is read from, by the rules of a ``[data] regions`` table.
-
-    A key is a point label or a glob pattern (:func:`fnmatch.fnmatchcase`: ``*``, ``?``, ``[...]``). A label
-    takes the value of its exact key; else of the matching pattern with the most literal characters (so
-    ``"*"`` comes last); two matching patterns equally specific with different regions are an error. Labels
-    no key matches get None (any cell).
-
-    Parameters
-    ----------
-    regions : mapping key -> region name
-    labels : every point label of the data
-    region_names : the model's regions
-    where : how messages name the table
-
-    Raises
-    ------
-    InputError
-        A key that matches no label (naming labels that exist), a value that is not one of the model's regions
-        (with a "did you mean"), or a label two patterns claim equally.
-
-    >>> region_of_points({"B*": "block", "B7": "base", "*": "base"}, ["B1", "B7", "P1"], ["block", "base"])
-    {'B1': 'block', 'B7': 'base', 'P1': 'base'}
-    """
-    regions, labels = dict(regions or {}), list(dict.fromkeys(labels))
-    matches = {key: [] for key in regions if _is_pattern(key)}        # labels of each pattern, one match per pattern
-    for key in matches:
-        match = re.compile(fnmatch.translate(key)).match
-        matches[key] = list(labels) if key == "*" else [label for label in labels if match(label)]   # "*": all
-    known = set(labels)
-    for key, value in regions.items():
-        if not isinstance(value, str) or value not in region_names:
-            close = difflib.get_close_matches(str(value), list(region_names), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise InputError(f"{where}.{key}: {value!r} is not a region of the model{hint}; the model has "
-                             f"{list(region_names)}")
-        if key not in known and not matches.get(key):
-            shown = ", ".join(labels[:5]) + (f", ... ({len(labels)} points)" if len(labels) > 5 else "")
-            raise InputError(f"{where}: key {key!r} matches no point of the data (points: {shown}); a key is a "
-                             "point label or a pattern such as \"B*\"")
-    return _regions_of(labels, regions, matches, where)
-
-
-def _regions_of(labels: list, regions: dict, matches: dict, where: str) -> dict:
-    """Each label's region: its exact key, else its most specific matching pattern (ties with different regions
-    are an error naming the first such label), else None."""
-    found = {label: regions[label] for label in labels if label in regions}
-    levels: dict = {}                                          # specificity -> patterns, in the table's order
-    for key in matches:
-        levels.setdefault(_specificity(key), []).append(key)
-    tied: dict = {}                                            # label -> the equally specific patterns claiming it
-    for level in sorted(levels, reverse=True):
-        if len(levels[level]) == 1:                            # one pattern (e.g. "*"): no tie possible
-            key = levels[level][0]
-            found.update(dict.fromkeys([label for label in matches[key] if label not in found], regions[key]))
-            continue
-        claims: dict = {}
-        for key in levels[level]:
-            for label in matches[key]:
-                if label not in found:
-                    claims.setdefault(label, []).append(key)
-        for label, keys in claims.items():
-            if len({regions[k] for k in keys}) > 1:
-                tied[label] = keys
-            found[label] = regions[keys[0]]
-    if tied:
-        label = next(label for label in labels if label in tied)
-        raise InputError(f"{where}: point {label!r} matches the patterns {tied[label]}, equally specific, with "
-                         "different regions; name the point itself or make one pattern longer")
-    regions_of = dict.fromkeys(labels)                      # None (any cell) unless a key gave one
-    regions_of.update(found)
-    return regions_of
 
 
 def noise_of(quantity: str, noise: dict) -> float | None:
