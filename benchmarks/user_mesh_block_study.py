@@ -56,11 +56,11 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
 from _measure import peak_memory_mb
 from frictionid.options import ModelSpec
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 STORE = Path("/tmp/user_mesh_block_study.json")
 QUANTITIES = ("ux", "uy", "uz")
 #: case name -> (kind, keyword arguments): builder cases for block_model, user cases for write_hex_block

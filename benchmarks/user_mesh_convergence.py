@@ -60,7 +60,6 @@ strain component; machine force; nodes user / builder:
   within 2.0 % (u) and 12.4 % (strains); the builder between 1.0 and 0.833 mm 0.7 % and 14 %.
 """
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -70,12 +69,12 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
 from _measure import peak_memory_mb
 from frictionid.options import ModelSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "fixtures" / "user_block"
-sys.path.insert(0, str(ROOT / "tests"))
 
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 MU = {"A": 0.35, "B": 0.2, "C": 0.45, "D": 0.15}
@@ -83,10 +82,9 @@ STORE = Path("/tmp/user_mesh_convergence.json")
 
 
 def _generate():
-    spec = importlib.util.spec_from_file_location("user_block_generate", FIXTURE / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    from fixtures.user_block import generate
+
+    return generate
 
 
 def options(path: Path, element: str = "standard") -> dict:
