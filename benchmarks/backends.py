@@ -36,7 +36,8 @@ def observations(model, folder: Path):
                 k += 1
                 rows.append(f"P{k},{x},{y},{z},2" + ",0.0" * len(QUANTITIES))
     (folder / "points.csv").write_text("\n".join(rows) + "\n")
-    return observations_from(read_measurements(folder / "points.csv"), model, DataSpec(observables=QUANTITIES, stages=[2], noise={"u": 1e-3, "e": 1e-5}, regions={"*": "block"}))
+    data = DataSpec(observables=QUANTITIES, stages=[2], noise={"u": 1e-3, "e": 1e-5}, regions={"*": "block"})
+    return observations_from(read_measurements(folder / "points.csv"), model, data)
 
 
 def jacobian_time(backend, obs, params, workers: int) -> tuple[float, np.ndarray]:

@@ -6,7 +6,7 @@ process, so that its peak resident memory is its own:
 
 - imports: the builders imported, nothing built (the floor under the others);
 - block: ``block_model(mesh_size=...)``;
-- mesh: ``build_model(ModelSpec.from_table({"builder": "mesh", "file": <the .msh>, ...}))`` with the block's materials, supports, loads,
+- mesh: ``build_model(ModelSpec("mesh", {"file": <the .msh>, ...}))`` with the block's materials, supports, loads,
   stages and interface: gmsh reads the file, the groups become regions and boundaries, then the checks (bodies
   apart at the interface, zones on the contact side, every body held).
 

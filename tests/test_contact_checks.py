@@ -116,7 +116,7 @@ def test_the_solver_uses_the_pairs_checked_at_model_build(tmp_path):
     checked = contact_pairs(Space.build(model.mesh, model.kind), model)
     problem = Problem.build(model)
     assert problem.pairs is checked and problem.space is model_space(model)
-    fresh = _pairs(build_model(ModelSpec.from_table({**options, "increments": [1, 4]})))           # another model object
+    fresh = _pairs(build_model(ModelSpec.from_table({**options, "increments": [1, 4]})))        # another model
     assert fresh is not checked
     for name in ("nodes", "gap", "weight", "zone_share", "frames"):
         np.testing.assert_array_equal(getattr(fresh, name), getattr(checked, name))

@@ -36,7 +36,8 @@ def _replicates(mode: str):
                             REGIONS).predict(TRUE).values[1]
     model = build_model(ModelSpec.from_table(MODEL))
     backend = EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS)
-    EmbeddedBackend(build_model(refined(ModelSpec.from_table(MODEL))), POINTS, QUANTITIES, REGIONS)   # kept: condensed once, not 100 times
+    # kept: condensed once, not 100 times
+    EmbeddedBackend(build_model(refined(ModelSpec.from_table(MODEL))), POINTS, QUANTITIES, REGIONS)
     params = Parameters.from_config(model.zone_names, {"A": 0.1, "B": 0.1})
     rows = []
     for seed in range(N_REPLICATES):

@@ -221,9 +221,11 @@ def test_sigma_columns_of_an_export_weight_the_values(tmp_path):
     np.testing.assert_array_equal(m.sigma["ux"], [0.5e-3, np.nan, 2.0e-3])
     np.testing.assert_allclose(m.sigma["exx"], [1e-4 * np.exp(2e-3), 2e-4 * np.exp(3e-3), np.nan], rtol=1e-15)
     assert "sigma_ux <- 'sU'" in "\n".join(report.lines()) and report.units["sigma_ux"] == "µm"
-    measured = read_data(DataSpec.from_table({"file": [{"path": "s.csv", "stage": 2, "force": 10.0}], "columns": SIGMA_COLUMNS,
+    measured = read_data(DataSpec.from_table({"file": [{"path": "s.csv", "stage": 2, "force": 10.0}],
+                                              "columns": SIGMA_COLUMNS,
                           "strain": "log"}), lambda p: tmp_path / p)
-    obs = observations_from(measured, block_model_2d(mesh_size=2.0), DataSpec(observables=["ux", "exx"], stages=[2], noise={"u": 0.007, "e": 0.003}))
+    obs = observations_from(measured, block_model_2d(mesh_size=2.0), DataSpec(observables=["ux", "exx"], stages=[2],
+                                                                              noise={"u": 0.007, "e": 0.003}))
     sigma = dict(zip(obs.labels, obs.sigma))
     assert sigma["A:ux@2"] == 0.5e-3 and sigma["B:ux@2"] == 0.007 and sigma["C:ux@2"] == 2.0e-3
     assert sigma["A:exx@2"] == m.sigma["exx"][0] and "C:exx@2" not in sigma
@@ -263,10 +265,12 @@ def test_a_load_cell_column_of_an_export_is_the_stage_force(tmp_path, capsys):
     path = _force_export(tmp_path / "f.csv", ["1.25", "", "1.25"])
     m, report = read_export(path, stage=2, columns=FORCE_COLUMNS)
     assert np.all(m.force == 1250.0) and m.stage_force(2) == 1250.0 and report.units["force"] == "kN"
-    measured = read_data(DataSpec.from_table({"file": [{"path": "f.csv", "stage": 2}], "columns": FORCE_COLUMNS}), lambda p: tmp_path / p)
+    measured = read_data(DataSpec.from_table({"file": [{"path": "f.csv", "stage": 2}], "columns": FORCE_COLUMNS}),
+                         lambda p: tmp_path / p)
     assert measured.stage_force(2) == 1250.0
     with pytest.raises(InputError, match="the file gives the force 1250.0 N, the config 1300.0 N"):
-        read_data(DataSpec.from_table({"file": [{"path": "f.csv", "stage": 2, "force": 1300.0}], "columns": FORCE_COLUMNS}),
+        read_data(DataSpec.from_table({"file": [{"path": "f.csv", "stage": 2, "force": 1300.0}],
+                                       "columns": FORCE_COLUMNS}),
                   lambda p: tmp_path / p)
     _force_export(tmp_path / "g.csv", ["1.25", "1.5", "1.25"])
     with pytest.raises(InputError, match=r"g.csv:3: column 'Force': force 1500.0 N differs from 1250.0 N on line 2"):
@@ -522,7 +526,8 @@ def test_a_frame_scale_enlarges_the_header_window_and_a_file_without_one_is_refu
     from frictionid.data.sources import read_sources
 
     resolve = lambda p: window_files / p                                       # noqa: E731
-    scaled = read_sources(DataSpec.from_table({"file": [{"path": "dice.txt", "transform": {"rotation_deg": 0, "scale": 2.0}}]}),
+    scaled = read_sources(DataSpec.from_table({"file": [{"path": "dice.txt", "transform": {"rotation_deg": 0,
+                                                                                           "scale": 2.0}}]}),
                           resolve).window
     assert abs(scaled.size - 2 * WINDOW_PX / PX_PER_MM) <= 1e-12 and scaled.files[0]["frame_scale"] == 2.0
     mixed = read_sources(DataSpec.from_table({"file": ["dice.txt", "generic.csv"]}), resolve).window

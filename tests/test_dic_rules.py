@@ -96,7 +96,8 @@ def test_pixel_columns_mapped_as_lengths_are_refused_by_name(tmp_path, capsys, w
     assert f"export.csv:{header}: column {pixel!r} (for " in err and "holds image pixels" in err
     assert "Traceback" not in err
     with pytest.raises(InputError, match="holds image pixels"):
-        read_sources(DataSpec.from_table({"file": str(export), "columns": columns, "format": writer.__name__[6:]}), Path)
+        read_sources(DataSpec.from_table({"file": str(export), "columns": columns, "format": writer.__name__[6:]}),
+                     Path)
 
 
 def _face_points(model_frame: Frame):
@@ -213,7 +214,8 @@ def test_coordinates_states_what_an_exports_coordinate_columns_hold(tmp_path):
     assert np.abs(read.measurements.coordinates - generic.coordinates).max() < 1e-12
     assert read.files[0]["coordinates"].startswith('deformed positions ([data] coordinates = "deformed")')
     corpus.write_matchid_2023(tmp_path / "m2023.csv", generic)
-    read = read_sources(DataSpec.from_table({"file": [{"path": str(tmp_path / "m2023.csv"), "coordinates": "reference"}],
+    read = read_sources(DataSpec.from_table({"file": [{"path": str(tmp_path / "m2023.csv"),
+                                                       "coordinates": "reference"}],
                          "strain": "log"}), Path)
     assert np.abs(read.measurements.coordinates - (generic.coordinates + u)).max() < 1e-12
 

@@ -280,7 +280,8 @@ def test_inp_element_type_without_a_cell_is_refused_by_name(tmp_path):
 def test_a_user_mesh_is_refined_by_subdivision(folder):
     """tests/test_subdivide.py has the geometry, the groups and the convergence; here: the option it raises."""
     table = options("plane_identify.toml")
-    assert refined(ModelSpec.from_table(table)).option("refine") == 1 and refined(refined(ModelSpec.from_table(table))).option("refine") == 2
+    once = refined(ModelSpec.from_table(table))
+    assert once.option("refine") == 1 and refined(once).option("refine") == 2
 
 
 def test_relative_file_is_resolved_against_the_config_folder(folder, monkeypatch, tmp_path):

@@ -22,7 +22,8 @@ def measured(tmp_path):
 
 
 def test_each_value_gets_its_backend_row_stage_label_and_noise(block2d, measured):
-    obs = observations_from(measured, block2d, DataSpec(observables=["ux", "uy"], stages=[2], noise={"u": 5e-4}, regions=REGIONS))
+    obs = observations_from(measured, block2d, DataSpec(observables=["ux", "uy"], stages=[2], noise={"u": 5e-4},
+                                                        regions=REGIONS))
     assert obs.n_obs == 12 and obs.quantities == ("ux", "uy") and obs.noise_known
     assert obs.point_labels == tuple(XY) and obs.point_regions == tuple(REGIONS[p] for p in XY)
     np.testing.assert_array_equal(obs.points, [XY[p] for p in XY])
@@ -36,7 +37,8 @@ def test_each_value_gets_its_backend_row_stage_label_and_noise(block2d, measured
 
 
 def test_predicted_reads_the_rows_and_stages_it_was_built_for(block2d, measured):
-    obs = observations_from(measured, block2d, DataSpec(observables=["uy"], stages=[2], noise={"u": 5e-4}, regions=REGIONS))
+    obs = observations_from(measured, block2d, DataSpec(observables=["uy"], stages=[2], noise={"u": 5e-4},
+                                                        regions=REGIONS))
     values = np.arange(block2d.n_stages * 12, dtype=float).reshape(block2d.n_stages, 12)   # backend rows, per stage
     np.testing.assert_array_equal(obs.predicted(values), values[1, obs.row])
     assert obs.quantities == ("uy",) and obs.row.tolist() == list(range(6))
@@ -45,7 +47,8 @@ def test_predicted_reads_the_rows_and_stages_it_was_built_for(block2d, measured)
 
 
 def test_a_displacement_relative_to_a_reference_point_is_a_difference(block2d, measured):
-    obs = observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[2], noise={"u": 5e-4}, regions=REGIONS), relative={"P3": "P1"})
+    obs = observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[2], noise={"u": 5e-4},
+                                                        regions=REGIONS), relative={"P3": "P1"})
     values = np.arange(block2d.n_stages * 6, dtype=float).reshape(block2d.n_stages, 6) ** 2
     k3, k1 = obs.point_labels.index("P3"), obs.point_labels.index("P1")
     i = obs.labels.index("P3:ux@2")
@@ -55,8 +58,10 @@ def test_a_displacement_relative_to_a_reference_point_is_a_difference(block2d, m
 
 def test_a_stage_the_model_does_not_have_or_a_missing_noise_is_an_input_error(block2d, measured):
     with pytest.raises(InputError, match="stage 5 is not one of the model's stages"):
-        observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[5], noise={"u": 5e-4}, regions=REGIONS))
-    unweighted = observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[2], noise={}, regions=REGIONS))
+        observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[5], noise={"u": 5e-4},
+                                                      regions=REGIONS))
+    unweighted = observations_from(measured, block2d, DataSpec(observables=["ux"], stages=[2], noise={},
+                                                               regions=REGIONS))
     assert not unweighted.noise_known
 
 

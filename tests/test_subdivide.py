@@ -81,8 +81,8 @@ def _gmsh_box(order: int):
 MESHES = {
     "triangle": lambda: build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "order": 1})).mesh,
     "triangle6": lambda: build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "order": 2})).mesh,
-    "quad": lambda: build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "order": 1, "quads": True})).mesh,
-    "quad9": lambda: build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "order": 2, "quads": True})).mesh,
+    "quad": lambda: build_model(ModelSpec("block2d", {"mesh_size": 2.0, "order": 1, "quads": True})).mesh,
+    "quad9": lambda: build_model(ModelSpec("block2d", {"mesh_size": 2.0, "order": 2, "quads": True})).mesh,
     "tetra": lambda: _gmsh_box(1),
     "tetra10": lambda: _gmsh_box(2),
     "hexahedron": lambda: build_model(ModelSpec.from_table({"builder": "block", "mesh_size": 5.0, "order": 1})).mesh,

@@ -59,7 +59,8 @@ def test_a_stage_has_one_torque(tmp_path):
 
 def test_torque_and_clamp_are_observed_as_the_model_reactions():
     model = _rings()
-    obs = observations_from(_data(), model, DataSpec(observables=["uz", "torque", "clamp"], stages=[1, 2], noise={"u": 1e-3, "torque": 0.01,
+    obs = observations_from(_data(), model, DataSpec(observables=["uz", "torque", "clamp"], stages=[1, 2],
+                                                     noise={"u": 1e-3, "torque": 0.01,
                             "clamp": 20.0}, reactions={"clamp": "lower_bottom.y"}))
     assert obs.reactions == ("upper_top.torque", "lower_bottom.y")
     assert obs.labels == ("P:uz@1", "P:uz@2", "torque@1", "torque@2", "clamp@1", "clamp@2")
@@ -83,11 +84,13 @@ def test_a_channel_needs_its_reaction_and_its_column():
         channel_reaction(model, "clamp", {"clamp": "lower_bottom.z"})
     with pytest.raises(InputError, match=r"data\.reactions: 'clmap' is not a per-stage observable with a reaction "
                                          r"to name \(did you mean 'clamp'\?\); expected torque, clamp"):
-        observations_from(_data(), model, DataSpec(observables=["torque"], stages=[2], noise={"torque": 0.01}, reactions={"clmap": "lower_bottom.y"}))
+        observations_from(_data(), model, DataSpec(observables=["torque"], stages=[2], noise={"torque": 0.01},
+                                                   reactions={"clmap": "lower_bottom.y"}))
     bare = Measurements(points=("P",), coordinates=[[10.0, 2.0, 0.0]], stage=[1], force=[np.nan],
                         values={"uz": [0.0]}, source="m.csv")
     with pytest.raises(InputError, match="m.csv: data.observables has 'torque' but the data have no column 'torque'"):
-        observations_from(bare, model, DataSpec(observables=["uz", "torque"], stages=[1], noise={"u": 1e-3, "torque": 0.01}))
+        observations_from(bare, model, DataSpec(observables=["uz", "torque"], stages=[1], noise={"u": 1e-3,
+                                                                                                 "torque": 0.01}))
     gap = _data(torques=(np.nan, 1.5))
     with pytest.raises(InputError, match="no row of stage 1 gives the wrench torque \\(column 'torque'\\)"):
         observations_from(gap, model, DataSpec(observables=["torque"], stages=[1, 2], noise={"torque": 0.01}))
