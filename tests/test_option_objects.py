@@ -187,3 +187,15 @@ def test_each_table_has_its_frozen_option_object():
         assert type(getattr(config, table)) is kind, table
     with pytest.raises(FrozenInstanceError):
         config.identify.jacobian = "central"
+
+
+def test_a_whole_number_given_for_a_float_key_is_a_float_in_the_options():
+    """TOML writes "tol = 1" as an integer; the option objects hold the float every user of the key expects, so
+    no layer casts it again."""
+    from frictionid.config import config_from_dict
+
+    config = config_from_dict({"model": {"builder": "block2d"}, "friction": {"zones": {"A": 0.1}},
+                               "identify": {"tol": 1, "step": 1, "max_iterations": 3}, "solver": {"timeout": 60}})
+    assert type(config.identify.tol) is float and type(config.identify.step) is float
+    assert type(config.solver.timeout) is float and config.identify.max_iterations == 3
+    assert type(config.identify.max_iterations) is int

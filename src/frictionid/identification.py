@@ -132,7 +132,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     obs = setup.observations
     max_memory = config.solver.max_memory
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
-                     float(config.identify.refine_target), int(config.identify.refine_budget), max_memory,
+                     config.identify.refine_target, config.identify.refine_budget, max_memory,
                      echo, strain_window(setup.window, obs), config.solver.backend)
     sliding = config.solver.sliding
     contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo,
@@ -153,8 +153,8 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     backend_s = time.perf_counter() - condensed
     echo(f"{config.solver.backend} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "
          f"({backend_s:.1f} s{', condensed' if config.solver.backend == 'embedded' else ''})")
-    executor = make_executor(backend, int(config.run.workers), config.run.scheduler,
-                             int(config.run.retries), f"{config.where}:")
+    executor = make_executor(backend, config.run.workers, config.run.scheduler,
+                             config.run.retries, f"{config.where}:")
     try:
         store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     except BaseException:
@@ -184,8 +184,8 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     leaves result.json (with ``write_files``; the store keeps the result either way)."""
     try:
         factory = make_backend if evaluator.backend.has_sensitivities else None       # the embedded backend
-        report = prefit(evaluator, setup.model, float(config.identify.resolution),
-                        int(config.identify.suggestions), factory)
+        report = prefit(evaluator, setup.model, config.identify.resolution,
+                        config.identify.suggestions, factory)
         on_prefit(report)
         outcome, starts = multistart.optimise_starts(problem, lambda problem: _optimise(problem, config), evaluator,
                                                      store, config.identify.starts, config.identify.seed,
@@ -212,7 +212,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
         result["starts"] = starts
     zones = profile.profiled_zones(config.identify.profile, setup.parameters.free_names, f"{config.where}:")
     if zones:
-        echo(f"profiles of {', '.join(zones)}: {int(config.identify.profile_points)} refits each ...")
+        echo(f"profiles of {', '.join(zones)}: {config.identify.profile_points} refits each ...")
         result["profiles"] = held.profiles(zones, result)
     result["timings"] = solve_timings(store, backend_s)
     store.put_result(result)
@@ -227,7 +227,7 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
 
 def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
     ident = config.identify
-    return optimise(problem, ident.method, max_iterations=int(ident.max_iterations), tol=float(ident.tol),
+    return optimise(problem, ident.method, max_iterations=ident.max_iterations, tol=ident.tol,
                     options=ident.method_options)
 
 

@@ -22,6 +22,12 @@ class _Table:
     frozen; the tables inside them (noise, transform, the method's options, ...) are the config's own, not
     copied, and nothing changes them."""
 
+    def __post_init__(self):
+        for f in fields(self):              # a whole number where a float is meant ("tol = 1") becomes a float
+            value = getattr(self, f.name)
+            if f.type in ("float", "float | None") and isinstance(value, int) and not isinstance(value, bool):
+                object.__setattr__(self, f.name, float(value))
+
     @classmethod
     def from_table(cls, table: dict):
         """The object of a table whose keys config.py has checked (an unknown key is a TypeError here)."""
@@ -101,6 +107,7 @@ class DataSpec(_Table):
     coordinates: str | None = None
 
     def __post_init__(self):
+        super().__post_init__()
         for key in ("observables", "stages"):
             if getattr(self, key) is not None:
                 object.__setattr__(self, key, tuple(getattr(self, key)))

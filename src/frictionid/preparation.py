@@ -84,7 +84,7 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     # types and ranges of every key are config.py's (TYPES, RANGES); the names a key takes, their owners'
     if ident.jacobian not in JACOBIANS:
         raise InputError(f"{where}: identify.jacobian = {ident.jacobian!r} is not one of {list(JACOBIANS)}")
-    check_backend(config.solver, ident.jacobian, f"{where}: [solver]", float(ident.step))
+    check_backend(config.solver, ident.jacobian, f"{where}: [solver]", ident.step)
     check_scheduler(config.run.scheduler, f"{where}:")
     given_model, model_options = model, config.model_spec if model is None else None
     if model is None:
@@ -98,7 +98,7 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     else:
         parameters = parameters.ordered_as(model.zone_names, f"{where}: parameters")
     _check_identify(config, ident, len(parameters.free_names), list(parameters.free_names))
-    multistart.start_points(ident.starts, parameters.x0, parameters.lower, parameters.upper, int(ident.seed),
+    multistart.start_points(ident.starts, parameters.x0, parameters.lower, parameters.upper, ident.seed,
                             parameters.free_names, f"{where}:")
     profile.profiled_zones(ident.profile, parameters.free_names, f"{where}:")
     check_options(ident, model_options, f"{where}:")

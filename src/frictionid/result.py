@@ -169,7 +169,7 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
     prefit ``report``, the counts of solves and the history."""
     params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
     free = list(params.free_names)
-    stats = fit_statistics(evaluator, problem, outcome.x, float(config.identify.resolution), error)
+    stats = fit_statistics(evaluator, problem, outcome.x, config.identify.resolution, error)
     r, f, weights, adequacy, unc = stats.r, stats.f, stats.weights, stats.adequacy, stats.uncertainty
     why = contact_reasons(evaluator.backend, params.full(outcome.x), sorted(set(obs.stage.tolist())), free, unc)
     parameters = {}

@@ -20,9 +20,9 @@ def make_evaluator(backend: Backend, observations: Observations, parameters: Par
                    executor=None, prior=None) -> Evaluator:
     """The evaluator of ``parameters``' free coefficients with identify.jacobian, step, tikhonov, penalty and
     prior (``prior`` given: instead of identify.prior, e.g. a refit's with the held zone left out)."""
-    return Evaluator(backend, observations, parameters, store, ident.jacobian, float(ident.step),
-                     float(ident.tikhonov), ident.prior if prior is None else prior,
-                     float(ident.penalty), executor=executor)
+    return Evaluator(backend, observations, parameters, store, ident.jacobian, ident.step,
+                     ident.tikhonov, ident.prior if prior is None else prior,
+                     ident.penalty, executor=executor)
 
 
 def make_least_squares(evaluator: Evaluator, ident: IdentifyOptions, on_iteration: Callable = lambda *args: None,
@@ -32,8 +32,8 @@ def make_least_squares(evaluator: Evaluator, ident: IdentifyOptions, on_iteratio
     after each iteration."""
     params = evaluator.params
     return LeastSquares(evaluator.residuals, evaluator.jacobian, params.x0 if x0 is None else x0, params.lower,
-                        params.upper, params.free_names, float(ident.power), on_iteration,
-                        evaluator.obs.noise_known, ident.loss, float(ident.loss_scale))
+                        params.upper, params.free_names, ident.power, on_iteration,
+                        evaluator.obs.noise_known, ident.loss, ident.loss_scale)
 
 
 def recorded(evaluator: Evaluator, store, progress: Callable, offset: int = 0) -> Callable:

@@ -44,7 +44,7 @@ class HeldRefits:
         """identify.profile: result.json ``profiles`` of ``zones`` (:func:`frictionid.inverse.profile.profiles`)."""
         fitted, stderr, s2 = self._fitted(result)
         return profile.profiles(zones, self.names, self.params, fitted, stderr, self.chi2_of, self.refit,
-                                self.evaluator.executor.parallel, int(self.ident.profile_points), s2)
+                                self.evaluator.executor.parallel, self.ident.profile_points, s2)
 
     def check_bounds(self, result: dict, echo=lambda text: None) -> None:
         """Every zone claimed on a bound gets its check in ``parameters.<zone>.bound_check``; one that fails it
@@ -53,12 +53,12 @@ class HeldRefits:
         zones = [z for z, p in result["parameters"].items() if p.get("at_bound") and p.get("identifiable")]
         if not zones:
             return
-        echo(f"bound check of {', '.join(zones)} (claimed on a bound): {int(self.ident.profile_points)} "
+        echo(f"bound check of {', '.join(zones)} (claimed on a bound): {self.ident.profile_points} "
              "refits each ...")
         fitted, stderr, s2 = self._fitted(result)
         checks = profile.bound_checks(zones, self.names, self.params, fitted, stderr,
-                                      float(self.ident.resolution), self.chi2_of, self.refit,
-                                      self.evaluator.executor.parallel, int(self.ident.profile_points), s2)
+                                      self.ident.resolution, self.chi2_of, self.refit,
+                                      self.evaluator.executor.parallel, self.ident.profile_points, s2)
         for zone, check in checks.items():
             entry = result["parameters"][zone]
             entry["bound_check"] = check
