@@ -77,37 +77,20 @@ def test_point_and_per_stage_observables_are_split_in_one_place():
 
 
 def test_simulate_writes_every_quantity_of_the_models_kind_when_none_is_named(tmp_path):
-    """The plane-strain block's default columns are the model kind's quantities (fem.points.QUANTITIES), ezz
-    included (zero in plane strain)."""
+    """Without observables simulate writes the model kind's quantities (fem.points.QUANTITIES): the plane-strain
+    block's displacements and in-plane strains (its ezz is zero by definition), an axisymmetric model's hoop
+    strain ezz too."""
     import shutil
     from pathlib import Path
 
+    from frictionid.builders.verification import interference_model
     from frictionid.cli import main
+    from frictionid.inverse.observations import default_quantities
 
     folder = tmp_path / "first"
     shutil.copytree(Path(__file__).parents[1] / "examples" / "first", folder)
     text = (folder / "truth.toml").read_text().replace('["ux", "uy"]', "[]")
     (folder / "all.toml").write_text(text.replace("mesh_size = 0.5", "mesh_size = 2.0"))
     assert main(["simulate", str(folder / "all.toml"), "--out", str(folder / "all.csv")]) == 0
-    written = read_measurements(folder / "all.csv")
-    assert written.quantities == ("ux", "uy", "exx", "eyy", "ezz", "exy")
-    assert np.all(written.values["ezz"] == 0.0) and np.any(written.values["exx"] != 0.0)
-
-
-def test_each_observation_knows_its_point_quantity_and_kind_without_its_label(tmp_path):
-    """The per-observation arrays agree with the labels built from the same rows, a per-stage observable at
-    point -1."""
-    from frictionid.builders.block import block_model_2d
-
-    rows = ["point,x,y,z,stage,force,ux,exx"] + [f"{p},{x},{y},0.0,2,12.5,{k * 1e-3},{k * 1e-5}"
-                                                 for k, (p, (x, y)) in enumerate(XY.items(), start=1)]
-    (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
-    obs = observations_from(read_measurements(tmp_path / "f.csv"), block_model_2d(mesh_size=2.0),
-                            DataSpec(observables=["exx", "force", "ux"], stages=[2],
-                                     noise={"u": 1e-3, "e": 1e-5, "force": 1.0}))
-    for label, point, quantity, kind in zip(obs.labels, obs.point, obs.quantity, obs.kind):
-        if point < 0:
-            assert label == f"{quantity}@2" and quantity == kind == "force"
-        else:
-            assert label == f"{obs.point_labels[point]}:{quantity}@2" and kind == quantity[0]
-    assert sorted(set(obs.quantity)) == ["exx", "force", "ux"] and list(obs.point).count(-1) == 1
+    assert read_measurements(folder / "all.csv").quantities == ("ux", "uy", "exx", "eyy", "exy")
+    assert default_quantities(interference_model(size=2.0)) == ("ux", "uy", "exx", "eyy", "ezz", "exy")

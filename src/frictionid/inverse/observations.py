@@ -46,9 +46,10 @@ def split_observables(observables) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 
 def default_quantities(model: Model) -> tuple[str, ...]:
-    """The point quantities a model of its kind gives (:data:`frictionid.fem.points.QUANTITIES`): what
-    ``frictionid simulate`` writes and the cross-check compares when ``[data] observables`` names none."""
-    return QUANTITIES[model.kind]
+    """The point quantities a model of its kind gives (:data:`frictionid.fem.points.QUANTITIES`) but plane
+    strain's ezz, zero by definition: what ``frictionid simulate`` writes and the cross-check compares when
+    ``[data] observables`` names none (an axisymmetric model's ezz is its hoop strain, u_r / r)."""
+    return tuple(q for q in QUANTITIES[model.kind] if not (q == "ezz" and model.kind == "plane_strain"))
 
 
 @dataclass(frozen=True)
