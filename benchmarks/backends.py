@@ -22,6 +22,7 @@ from frictionid.data.measurements import QUANTITIES, read_measurements
 from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.observations import observations_from
 from frictionid.inverse.parameters import Parameters
+from frictionid.options import DataSpec
 
 MU = {"A": 0.3, "B": 0.2, "C": 0.4, "D": 0.25}
 
@@ -35,8 +36,8 @@ def observations(model, folder: Path):
                 k += 1
                 rows.append(f"P{k},{x},{y},{z},2" + ",0.0" * len(QUANTITIES))
     (folder / "points.csv").write_text("\n".join(rows) + "\n")
-    return observations_from(read_measurements(folder / "points.csv"), model, QUANTITIES, [2],
-                             {"u": 1e-3, "e": 1e-5}, {"*": "block"})
+    data = DataSpec(observables=QUANTITIES, stages=[2], noise={"u": 1e-3, "e": 1e-5}, regions={"*": "block"})
+    return observations_from(read_measurements(folder / "points.csv"), model, data)
 
 
 def jacobian_time(backend, obs, params, workers: int) -> tuple[float, np.ndarray]:

@@ -16,6 +16,7 @@ from frictionid.builders.registry import build_model
 from frictionid.fem import problem as problem_module
 from frictionid.fem.problem import Problem
 from frictionid.studies.bolt import TRUE_MU
+from frictionid.options import ModelSpec
 
 MODELS = {"block (default, mesh 1.0)": ({"builder": "block"}, {"A": 0.35, "B": 0.2, "C": 0.45, "D": 0.15}),
           "bolt (default M20)": ({"builder": "bolt"}, {**TRUE_MU, "head_plate": 0.15, "nut_plate": 0.15})}
@@ -48,7 +49,7 @@ def solve_time(problem: Problem, mu: dict, limited: bool) -> float:
 def main() -> None:
     print("BLAS:", ", ".join(f"{d['internal_api']} {d['num_threads']} threads" for d in threadpool_info()))
     for name, (options, mu) in MODELS.items():
-        problem = Problem.build(build_model(options))
+        problem = Problem.build(build_model(ModelSpec.from_table(options)))
         print(f"{name}: {problem.pairs.n_pairs} contact pairs")
         for condition in ("idle", "one core busy"):
             stop = multiprocessing.Event()

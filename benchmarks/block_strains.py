@@ -34,6 +34,7 @@ from _measure import peak_memory_mb, timed
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
 from frictionid.data.measurements import QUANTITIES, read_measurements
+from frictionid.options import ModelSpec
 
 FIXTURE = Path(__file__).parents[1] / "tests" / "fixtures" / "independent_block" / "measured.csv"
 #: noise per kind: DIC 0.5 um, strain gauges 2e-5 (issue 12)
@@ -79,7 +80,7 @@ def evaluate(spec: str) -> dict:
     regions = ["block" if label.startswith("F") else "plate" for label in labels]
     figures = {}
     with timed(figures, "build"):
-        model = build_model(options_of(spec))
+        model = build_model(ModelSpec.from_table(options_of(spec)))
     with timed(figures, "condensation"):
         backend = EmbeddedBackend(model, points, QUANTITIES, regions, (REACTION,), keep=False)
     with timed(figures, "solve"):

@@ -13,6 +13,7 @@ import time
 from frictionid.builders.registry import build_model
 from frictionid.fem.interface import contact_setup
 from frictionid.fem.problem import Problem
+from frictionid.options import ModelSpec
 
 
 def _timed(function) -> float:
@@ -26,7 +27,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     for builder in ("block", "bolt"):
-        model = build_model({"builder": builder})
+        model = build_model(ModelSpec.from_table({"builder": builder}))
         copies = [dataclasses.replace(model) for _ in range(2 * args.repeat)]    # new objects: nothing cached
         alone, check, both = [], [], []
         for k in range(args.repeat):

@@ -30,6 +30,7 @@ from frictionid.config import read_config
 from frictionid.fem import contact, loadpath, updated_jacobian
 from frictionid.fem.problem import Problem
 from frictionid.studies.bolt import FORCES
+from frictionid.options import ModelSpec
 
 CLAMP = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "clamp" / "clamp.toml"
 
@@ -37,7 +38,7 @@ CLAMP = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "clamp" / "
 def models():
     """name -> (model, coefficients)."""
     return {
-        "clamp": (lambda: build_model(read_config(CLAMP).model_options), [0.15, 0.2, 0.25, 0.18, 0.22, 0.3]),
+        "clamp": (lambda: build_model(read_config(CLAMP).model_spec), [0.15, 0.2, 0.25, 0.18, 0.22, 0.3]),
         "block": (block_model, [0.3, 0.2, 0.4, 0.25]),
         "bolt": (lambda: bolt_model(forces=FORCES), None),
     }

@@ -19,7 +19,6 @@ force, k)`` of the noise-free measured.csv (replicate 0 is measured_noisy.csv).
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import math
 import sys
@@ -28,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
+from fixtures.dense_block import generate
 from frictionid.config import read_config
 from frictionid.identification import identify_config
 
@@ -38,9 +39,6 @@ MODES = {"default": ("all", "off"), "include": ("all", "include"), "u": ("u", "o
 OBSERVABLES = {"all": '["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz", "force"]',
                "u": '["ux", "uy", "uz", "force"]'}
 
-_spec = importlib.util.spec_from_file_location("dense_generate", FIXTURE / "generate.py")
-generate = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(generate)
 
 
 def read_values(path: Path):

@@ -17,14 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
+import mortar2d_segments
 from _measure import best_of, peak_memory_mb, timed
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 from frictionid.builders.block import block_model_2d
 from frictionid.fem import mortar
 from frictionid.fem.problem import Problem
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
-import mortar2d_segments  # noqa: E402
 
 #: the points of tests/test_sliding_calculix.py's 2-D block test [mm]
 POINTS = np.array([[-4.5, 1.0], [4.5, 3.0], [-8.0, -1.0], [12.0, -1.0], [-3.0, -0.5], [3.0, -0.5]])

@@ -19,8 +19,8 @@ from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettin
 from frictionid.builders.block import block_model
 from frictionid.fem.problem import Problem
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
-from sliding3d_case import MU, POINTS, QUANTITIES, REGIONS  # noqa: E402
+import _tests  # noqa: F401  (tests/ importable)
+from sliding3d_case import MU, POINTS, QUANTITIES, REGIONS
 
 
 def cpu_now() -> float:

@@ -4,14 +4,12 @@ gross-slip reaction, base pressure centroid, tiny-pull limit, mu = 0, sensitivit
 Run: PYTHONPATH=src .venv/bin/python benchmarks/finite_sliding_checks.py
 """
 
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
-from sliding_case import block_on_base  # noqa: E402
-from frictionid.fem.problem import Problem  # noqa: E402
+import _tests  # noqa: F401  (tests/ importable)
+from sliding_case import block_on_base
+from frictionid.fem.problem import Problem
 
 MU = np.array([0.3, 0.2])
 POINTS = np.array([[0.5, 1.5], [9.5, 2.5], [15.0, -1.0], [-3.0, -1.5]])

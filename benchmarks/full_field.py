@@ -72,10 +72,9 @@ def measure(n: int) -> dict:
         with timed(figures, "reading"):
             measurements = read_data(config.data, config.resolve)
         with timed(figures, "mapping"):
-            obs = observations_from(measurements, model, config.data["observables"], config.data["stages"],
-                                    config.data.get("noise"), config.data.get("regions"))
+            obs = observations_from(measurements, model, config.data)
         with timed(figures, "backend"):
-            backend = make_backend("embedded", model, obs.points, obs.quantities, obs.point_regions)
+            backend = make_backend(model, obs.points, obs.quantities, obs.point_regions)
         with timed(figures, "solve"):
             prediction = backend.predict(np.array([0.3, 0.2, 0.4, 0.25]), sensitivities=True)
         figures["cpu"] = time.process_time() - cpu         # the four phases' CPU time, all threads

@@ -52,6 +52,7 @@ from frictionid.inverse.observations import FORCE, Observations
 from frictionid.inverse.parameters import Parameters
 from frictionid.studies import block as twin
 from frictionid.studies.bolt import FORCES, TRUE_MU
+from frictionid.options import ModelSpec
 
 #: noise per kind: DIC 0.5 um, strain gauges 2e-5, load cell 1 N (plane strain: N/mm)
 SIGMA = {"u": 0.0005, "e": 2e-5, "force": 1.0}
@@ -109,7 +110,7 @@ def predictions(options: dict, obs: Observations, mus, cache: Path | None, name:
     if path is not None and path.exists():
         return np.load(path)
     start = time.perf_counter()
-    model = build_model(options)
+    model = build_model(ModelSpec.from_table(options))
     backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=False)
     values = np.array([obs.predicted(backend.predict(mu).values) for mu in mus])
     print(f"  {options}: {model.mesh.n_nodes} nodes, built, condensed and solved twice in "
@@ -123,7 +124,7 @@ def coarse_run(options: dict, obs: Observations, mus) -> tuple[dict, np.ndarray,
     """Timings of the coarse model (build, condensation, forward, forward + sensitivities) and its values."""
     figures = {}
     with timed(figures, "build"):
-        model = build_model(options)
+        model = build_model(ModelSpec.from_table(options))
     with timed(figures, "condensation"):
         backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions)
     figures["forward"], _ = best_of(2, lambda: backend.predict(mus[-1]))
@@ -151,7 +152,7 @@ def measurements_of(obs: Observations, values: np.ndarray, forces) -> Measuremen
 def identification_cost(options: dict, obs: Observations, mus, fine_values: np.ndarray, forces) -> None:
     """Wall time of an identification on the coarse model with identify.model_error = "estimate" (data: the
     refined model's values at the true coefficients), and the share of it the estimate took."""
-    zones = build_model(options).zone_names
+    zones = build_model(ModelSpec.from_table(options)).zone_names
     params = Parameters.from_dict({z: float(mus[0][k]) for k, z in enumerate(zones)})
     if "bolt" in options["builder"]:                                   # the head and nut-plate zones are held
         fixed = fixed_friction()
@@ -212,7 +213,7 @@ def main(argv=None) -> None:
     print(f"{args.case}: {obs.n_obs} observations, coarse {options}", flush=True)
     figures, coarse, model = coarse_run(options, obs, mus)
     start = time.perf_counter()
-    error = estimate_model_error(options, obs, mus, coarse_values=list(coarse), model=model)
+    error = estimate_model_error(ModelSpec.from_table(options), obs, mus, coarse_values=list(coarse), model=model)
     figures["estimate"] = time.perf_counter() - start
     print(f"  coarse: {model.mesh.n_nodes} nodes; build {figures['build']:.2f} s, condensation "
           f"{figures['condensation']:.2f} s, forward {figures['forward']:.3f} s, forward + sensitivities "
@@ -225,7 +226,7 @@ def main(argv=None) -> None:
                                            for name, v in error.summary.items()), flush=True)
     sequence = [options]
     for _ in range(max(args.levels, 2) - 1):
-        sequence.append(refined(sequence[-1]))
+        sequence.append(refined(ModelSpec.from_table(sequence[-1])))
     if args.identify:
         fine = predictions(sequence[1], obs, mus, args.cache, args.case)
         identification_cost(options, obs, mus, fine[-1], {0: FORCES[0], 1: FORCES[1]})

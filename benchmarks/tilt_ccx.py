@@ -23,7 +23,6 @@ small-sliding limit (docs/calculix.md). Run (one thread, niced):
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
 import subprocess
 import sys
@@ -32,13 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
 from _measure import emit
+from fixtures.independent_block import generate as gen
 from frictionid.backends.calculix.parse import read_dat, read_frd
 
-FIXTURE = Path(__file__).parents[1] / "tests" / "fixtures" / "independent_block" / "generate.py"
-_spec = importlib.util.spec_from_file_location("independent_generate", FIXTURE)
-gen = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(gen)
 
 #: mesh levels: divisions per half side (block; the plate gets one more), block layers, plate layers, the
 #: first block / plate layer [mm]

@@ -24,6 +24,7 @@ from _measure import emit, peak_memory_mb, timed
 from block_strains import options_of
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
+from frictionid.options import ModelSpec
 
 MU = np.array([0.35, 0.20, 0.45, 0.15])
 POINTS = np.array([[0.0, -5.0, 5.0], [0.0, 5.0, 5.0], [-5.0, 0.0, 1.0], [5.0, 0.0, 1.0]])
@@ -41,7 +42,7 @@ def evaluate(spec: str, ccx_scale: float | None = None) -> dict:
     from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 
     figures = {}
-    model = build_model(options_of(spec))
+    model = build_model(ModelSpec.from_table(options_of(spec)))
     flat = model.kind != "3d"
     points, quantities, reaction = (POINTS_2D, QUANTITIES_2D, REACTION_2D) if flat else (POINTS, QUANTITIES, REACTION)
     mu = MU_2D if flat else MU

@@ -6,7 +6,7 @@ process, so that its peak resident memory is its own:
 
 - imports: the builders imported, nothing built (the floor under the others);
 - block: ``block_model(mesh_size=...)``;
-- mesh: ``build_model({"builder": "mesh", "file": <the .msh>, ...})`` with the block's materials, supports, loads,
+- mesh: ``build_model(ModelSpec("mesh", {"file": <the .msh>, ...}))`` with the block's materials, supports, loads,
   stages and interface: gmsh reads the file, the groups become regions and boundaries, then the checks (bodies
   apart at the interface, zones on the contact side, every body held).
 
@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from _measure import peak_memory_mb, timed
+from frictionid.options import ModelSpec
 
 #: gmsh element types of the block's cells and facets (meshio's node order is gmsh's for these)
 GMSH_TYPE = {"hexahedron": 5, "quad": 3}
@@ -87,7 +88,7 @@ def run_case(case: str, mesh_size: float, path: Path) -> dict:
         from frictionid.builders.gmsh_mesh import read_msh
         from frictionid.builders.registry import build_model
     cases = {"imports": lambda: None, "block": lambda: block_model(mesh_size=mesh_size).mesh,
-             "mesh": lambda: build_model(mesh_options(path)).mesh, "read": lambda: read_msh(path),
+             "mesh": lambda: build_model(ModelSpec.from_table(mesh_options(path))).mesh, "read": lambda: read_msh(path),
              "write": lambda: write_msh(block_model(mesh_size=mesh_size).mesh, path)}
     with timed(figures, "build"):
         mesh = cases[case]()

@@ -56,10 +56,11 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
 from _measure import peak_memory_mb
+from frictionid.options import ModelSpec
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 STORE = Path("/tmp/user_mesh_block_study.json")
 QUANTITIES = ("ux", "uy", "uz")
 #: case name -> (kind, keyword arguments): builder cases for block_model, user cases for write_hex_block
@@ -98,7 +99,7 @@ def run(name: str, folder: Path) -> dict:
         model = block_model(order=2, grading=3, pull_levels=study.PULL_LEVELS, **arguments)
     else:
         from element_models import write_hex_block
-        model = build_model(user_options(write_hex_block(folder / "user.msh", **arguments)))
+        model = build_model(ModelSpec.from_table(user_options(write_hex_block(folder / "user.msh", **arguments))))
     points, _ = study.points()
     mu = study.goal_coefficients()
     backend = EmbeddedBackend(model, points, QUANTITIES, None, ("block_top.y",))

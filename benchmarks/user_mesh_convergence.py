@@ -60,7 +60,6 @@ strain component; machine force; nodes user / builder:
   within 2.0 % (u) and 12.4 % (strains); the builder between 1.0 and 0.833 mm 0.7 % and 14 %.
 """
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -70,11 +69,12 @@ from pathlib import Path
 
 import numpy as np
 
+import _tests  # noqa: F401  (tests/ importable)
 from _measure import peak_memory_mb
+from frictionid.options import ModelSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "fixtures" / "user_block"
-sys.path.insert(0, str(ROOT / "tests"))
 
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
 MU = {"A": 0.35, "B": 0.2, "C": 0.45, "D": 0.15}
@@ -82,16 +82,15 @@ STORE = Path("/tmp/user_mesh_convergence.json")
 
 
 def _generate():
-    spec = importlib.util.spec_from_file_location("user_block_generate", FIXTURE / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    from fixtures.user_block import generate
+
+    return generate
 
 
 def options(path: Path, element: str = "standard") -> dict:
     """The fixture's [model] (truth.toml) on another mesh file."""
     from frictionid.config import read_config
-    return {**read_config(FIXTURE / "truth.toml").model, "file": str(path), "element": element}
+    return {**read_config(FIXTURE / "truth.toml").model.table(), "file": str(path), "element": element}
 
 
 def user_model(family: str, n: int, folder: Path):
@@ -100,13 +99,13 @@ def user_model(family: str, n: int, folder: Path):
         from element_models import write_tet_block
         path = write_tet_block(folder / f"tet10_{n}.msh", order=2, quarter=n, outer=max(2, round(1.5 * n)),
                                block_z=2 * n, plate_z=n)
-        return build_model(options(path))
+        return build_model(ModelSpec.from_table(options(path)))
     generate = _generate()
     generate.N_QUARTER, generate.N_OUTER, generate.N_BLOCK_Z, generate.N_PLATE_Z = n, max(2, round(1.75 * n)), \
         2 * n, n
     path = folder / f"hex_{n}.msh"
     generate.write_block_msh(path)
-    return build_model(options(path, "incompatible" if family == "hexI" else "standard"))
+    return build_model(ModelSpec.from_table(options(path, "incompatible" if family == "hexI" else "standard")))
 
 
 def predict(model) -> np.ndarray:

@@ -56,14 +56,13 @@ def test_solver_increments_key_reaches_the_embedded_backend(plane_strain):
     from frictionid.config import config_from_dict
 
     tables = {"model": {"builder": "block2d"}, "friction": {"zones": {"A": 0.1, "B": 0.1}}}
-    assert config_from_dict(tables).solver["increments"] == "fixed"
+    assert config_from_dict(tables).solver.increments == "fixed"
     config = config_from_dict({**tables, "solver": {"increments": "adaptive"}})
     with pytest.raises(InputError, match="solver.increments"):
         config_from_dict({**tables, "solver": {"increments": "automatic"}})
-    backend = make_backend("embedded", plane_strain.model, np.array([[-5.0, 0.5]]), ("ux",), ["block"],
-                           options=config.solver)
+    backend = make_backend(plane_strain.model, np.array([[-5.0, 0.5]]), ("ux",), ["block"], solver=config.solver)
     assert backend.increments == "adaptive"
-    fixed = make_backend("embedded", plane_strain.model, np.array([[-5.0, 0.5]]), ("ux",), ["block"])
+    fixed = make_backend(plane_strain.model, np.array([[-5.0, 0.5]]), ("ux",), ["block"])
     adaptive, reference = backend.predict([0.3, 0.2], True), fixed.predict([0.3, 0.2], True)
     assert np.allclose(adaptive.values, reference.values, rtol=1e-9, atol=0)
     assert np.allclose(adaptive.derivatives, reference.derivatives, rtol=1e-9, atol=1e-12)

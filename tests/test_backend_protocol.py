@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from frictionid.backends import Backend, make_backend
+from frictionid.options import SolverOptions
 from frictionid.backends.base import Prediction
 
 SRC = Path(__file__).parents[1] / "src" / "frictionid"
@@ -15,7 +16,7 @@ SRC = Path(__file__).parents[1] / "src" / "frictionid"
 
 def test_the_embedded_backend_is_a_backend_and_predicts_a_prediction(block2d):
     points = block2d.mesh.points[[0, len(block2d.mesh.points) // 2]]
-    backend = make_backend("embedded", block2d, points, ("ux", "uy"))
+    backend = make_backend(block2d, points, ("ux", "uy"))
     assert isinstance(backend, Backend)
     prediction = backend.predict(np.full(len(block2d.zone_names), 0.2), sensitivities=True)
     assert isinstance(prediction, Prediction)
@@ -25,7 +26,7 @@ def test_the_embedded_backend_is_a_backend_and_predicts_a_prediction(block2d):
 
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="needs ccx (CalculiX) on PATH")
 def test_the_calculix_backend_is_a_backend(block2d):
-    backend = make_backend("calculix", block2d, block2d.mesh.points[:1], ("ux",))
+    backend = make_backend(block2d, block2d.mesh.points[:1], ("ux",), solver=SolverOptions("calculix"))
     assert isinstance(backend, Backend) and not backend.has_sensitivities
 
 

@@ -15,6 +15,7 @@ import pytest
 
 from frictionid.cli import main
 from frictionid.studies import block as twin
+from frictionid.options import DataSpec
 from helpers import central_difference
 
 
@@ -99,7 +100,7 @@ def test_bad_pull_levels_are_refused(levels, message):
 
 def test_machine_force_rows_are_the_driven_reaction_with_its_sensitivities(block3d):
     from frictionid.backends.embedded import EmbeddedBackend
-    from frictionid.inverse.observations import machine_force
+    from frictionid.inverse.reactions import machine_force
 
     model = block3d
     assert machine_force(model) == "block_top.y"
@@ -128,7 +129,8 @@ def test_force_observable_reads_the_force_column_and_needs_its_noise(tmp_path):
     path = tmp_path / "m.csv"
     path.write_text("point,x,y,z,stage,force,uy\nP1,5,0,2,2,512.5,0.01\nP2,-5,0,2,2,512.5,0.02\n"
                     "P1,5,0,2,3,630.0,0.1\nP2,-5,0,2,3,630.0,0.2\n")
-    obs = observations_from(read_measurements(path), model, ["uy", "force"], [2, 3], {"u": 5e-4, "force": 2.0})
+    obs = observations_from(read_measurements(path), model, DataSpec(observables=["uy", "force"], stages=[2, 3],
+                                                                     noise={"u": 5e-4, "force": 2.0}))
     assert obs.reactions == ("block_top.y",) and obs.quantities == ("uy",)
     forces = [k for k, label in enumerate(obs.labels) if label.startswith("force@")]
     assert [obs.labels[k] for k in forces] == ["force@2", "force@3"]
@@ -136,11 +138,14 @@ def test_force_observable_reads_the_force_column_and_needs_its_noise(tmp_path):
     np.testing.assert_array_equal(obs.row[forces], [2, 2])          # after the 2 points x 1 quantity rows
     np.testing.assert_array_equal(obs.sigma[forces], [2.0, 2.0])
     with pytest.raises(InputError, match="force is observed with uy but without a standard deviation"):
-        observations_from(read_measurements(path), model, ["uy", "force"], [2, 3], {"u": 5e-4})
+        observations_from(read_measurements(path), model, DataSpec(observables=["uy", "force"], stages=[2, 3],
+                                                                   noise={"u": 5e-4}))
     no_force = tmp_path / "n.csv"
     no_force.write_text("point,x,y,z,stage,uy\nP1,5,0,2,2,0.01\n")
     with pytest.raises(InputError, match="no row of stage 2 gives the machine force"):
-        observations_from(read_measurements(no_force), model, ["uy", "force"], [2], {"u": 5e-4, "force": 1.0})
+        observations_from(read_measurements(no_force), model, DataSpec(observables=["uy", "force"], stages=[2],
+                                                                       noise={"u": 5e-4, "force": 1.0}))
     pressed_only = replace(model, loads=model.loads[:1])
     with pytest.raises(InputError, match="driven by one prescribed displacement"):
-        observations_from(read_measurements(path), pressed_only, ["uy", "force"], [2], {"u": 5e-4, "force": 1.0})
+        observations_from(read_measurements(path), pressed_only, DataSpec(observables=["uy", "force"], stages=[2],
+                                                                          noise={"u": 5e-4, "force": 1.0}))

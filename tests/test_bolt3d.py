@@ -19,6 +19,7 @@ from frictionid.errors import InputError
 from frictionid.fem.rigid import bodies
 from frictionid.fem.space import Space
 from frictionid.fem.node_to_node import node_to_node_pairs
+from frictionid.options import ModelSpec
 
 #: the short model: M20, threads engaged over two pitches, bolt threaded from 1.2 pitches below the nut
 SHORT = dict(size="M20", model="3d", engaged_length=5.0, thread_length=30.5, n_axial=2, flank_size=0.625,
@@ -79,7 +80,7 @@ def test_groove_section_is_the_iso_profile(layout):
 ])
 def test_bad_options_name_the_key(options, message):
     with pytest.raises(InputError, match=message.replace("(", r"\(")):
-        build_model({"builder": "bolt", **options})
+        build_model(ModelSpec.from_table({"builder": "bolt", **options}))
 
 
 def test_measurement_points_are_the_axisymmetric_ones_in_the_window(layout):

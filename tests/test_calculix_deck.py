@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from frictionid.backends import check_backend, make_backend
+from frictionid.config import config_from_dict
+from frictionid.options import SolverOptions
 from frictionid.backends.calculix.backend import CalculixSettings
 from frictionid.backends.calculix.deck import ContactSettings, stage_forces, write_deck
 from frictionid.backends.calculix.elements import (N_KEPT, SHAPE, calculix_cells, face_lookup, fill_dropped_nodes,
@@ -119,9 +121,9 @@ def test_load_scale_needs_contact_that_starts_closed(model, gap):
     """An initial gap or interference does not scale with the loads: load_scale is refused, before ccx is
     looked for, naming the key and the size of the gap."""
     with pytest.raises(InputError, match=f"load_scale: the model has initial contact gaps \\(up to {gap}"):
-        make_backend("calculix", model(), None, ("ux",), options={"ccx": "/nonexistent/ccx", "load_scale": 0.01})
+        make_backend(model(), None, ("ux",), solver=SolverOptions("calculix", ccx="/nonexistent/ccx", load_scale=0.01))
     with pytest.raises(InputError, match="apt-get install calculix-ccx"):       # at 1 the model is fine
-        make_backend("calculix", model(), None, ("ux",), options={"ccx": "/nonexistent/ccx"})
+        make_backend(model(), None, ("ux",), solver=SolverOptions("calculix", ccx="/nonexistent/ccx"))
 
 
 def test_plane_strain_cells_turn_counter_clockwise():
@@ -186,39 +188,40 @@ def test_wrong_number_of_coefficients(block3d):
         deck_of(block3d, [0.1, 0.2])
 
 
-@pytest.mark.parametrize("options, message", [
-    ({"timeout": 0}, "timeout must be a number > 0"),
-    ({"threads": 0}, "threads must be a whole number"),
-    ({"contact": "mortar"}, "contact = 'mortar' is not one of"),
-    ({"keep_work": "yes"}, "keep_work must be true or false"),
-    ({"stick_slope": -1.0}, "stick_slope must be a number > 0"),
-    ({"load_scale": 0.0}, "load_scale must be a number > 0"),
-    ({"tmeout": 10}, "tmeout: not an option of the calculix backend"),
+@pytest.mark.parametrize("solver, message", [
+    ({"timeout": 0}, "solver.timeout must be > 0"),
+    ({"threads": 0}, "solver.threads must be >= 1"),
+    ({"contact": "mortar"}, "solver.contact must be .*surface-to-surface.*got 'mortar'"),
+    ({"keep_work": "yes"}, "solver.keep_work must be true or false"),
+    ({"stick_slope": -1.0}, "solver.stick_slope must be > 0"),
+    ({"load_scale": 0.0}, "solver.load_scale must be > 0"),
+    ({"tmeout": 10}, "unknown key solver.tmeout .did you mean 'timeout'"),
 ])
-def test_bad_settings(options, message):
+def test_bad_settings_are_refused_where_the_config_is_read(solver, message):
+    """CalculixSettings takes the [solver] options as config.py checked them: the checks are config.py's."""
     with pytest.raises(InputError, match=message):
-        CalculixSettings.from_options(options)
+        config_from_dict({"model": {"builder": "block2d"}, "friction": {"zones": {"A": 0.1}}, "solver": solver})
 
 
 def test_missing_ccx_names_the_setting_and_the_package(block3d):
     with pytest.raises(InputError, match=r"solver.ccx = '/nonexistent/ccx'.*apt-get install calculix-ccx"):
-        check_backend("calculix", "forward", {"ccx": "/nonexistent/ccx"})
+        check_backend(SolverOptions("calculix", ccx="/nonexistent/ccx"), "forward")
     with pytest.raises(InputError, match="apt-get install calculix-ccx"):
-        make_backend("calculix", block3d, None, ("ux",), options={"ccx": "/nonexistent/ccx"})
+        make_backend(block3d, None, ("ux",), solver=SolverOptions("calculix", ccx="/nonexistent/ccx"))
 
 
 def test_backend_choice_is_checked():
     with pytest.raises(InputError, match="no analytic sensitivities.*'forward' or 'central'"):
-        check_backend("calculix", "analytic", {"ccx": "/nonexistent/ccx"})
+        check_backend(SolverOptions("calculix", ccx="/nonexistent/ccx"), "analytic")
     with pytest.raises(InputError, match="backend = 'ansys' is not one of"):
-        check_backend("ansys")
+        check_backend(SolverOptions("ansys"))
 
 
 def test_small_finite_difference_step_is_logged(caplog):
     # "sh" stands in for an executable found on PATH
-    check_backend("calculix", "forward", {"ccx": "sh"}, step=1e-2)
+    check_backend(SolverOptions("calculix", ccx="sh"), "forward", step=1e-2)
     assert not caplog.records
-    check_backend("calculix", "forward", {"ccx": "sh"}, step=1e-4)
+    check_backend(SolverOptions("calculix", ccx="sh"), "forward", step=1e-4)
     assert "identify.step = 0.0001 is small for ccx results" in caplog.text
 
 

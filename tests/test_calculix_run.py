@@ -22,6 +22,7 @@ from frictionid.inverse.observations import observations_from
 from frictionid.inverse.parameters import Parameters
 from frictionid.model import Mesh
 from frictionid.studies import block as twin
+from frictionid.options import DataSpec
 from helpers import BLOCK_POINTS, needs_ccx
 
 Q2D = ("ux", "uy", "exx", "eyy", "exy")
@@ -212,8 +213,8 @@ def test_parallel_finite_differences_equal_serial(tmp_path):
     csv = tmp_path / "points.csv"
     csv.write_text("point,x,y,z,stage,ux,exx\n" + "".join(
         f"P{i},{x},{y},0,2,0.0,0.0\n" for i, (x, y) in enumerate(POINTS_2D)))
-    obs = observations_from(read_measurements(csv), model, ["ux", "exx"], [2], {"u": 1e-3, "e": 1e-5},
-                            {"*": "block"})
+    data = DataSpec(observables=["ux", "exx"], stages=[2], noise={"u": 1e-3, "e": 1e-5}, regions={"*": "block"})
+    obs = observations_from(read_measurements(csv), model, data)
     backend = CalculixBackend(model, obs.points, obs.quantities, obs.point_regions,
                               CalculixSettings(work_dir=str(tmp_path)))
     params = Parameters.from_config(model.zone_names, {"A": 0.3, "B": 0.2}, (0.0, 1.0))

@@ -17,6 +17,7 @@ from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
 from frictionid.inverse.parameters import Parameters
 from helpers.fits import fit_as_identify, point_observations
+from frictionid.options import ModelSpec
 
 MODEL = {"builder": "block2d", "mesh_size": 1.0, "height": 4.0, "order": 1}
 SIGMA = 5e-4                                             # [mm] DIC noise
@@ -29,7 +30,7 @@ QUANTITIES = ("ux", "uy")
 
 def _data(truth: np.ndarray, stiffer: float = 1.0, **mesh) -> np.ndarray:
     """Noise-free data at ``truth`` from the model with ``mesh`` options and its base ``stiffer`` times stiffer."""
-    model = build_model({**MODEL, **mesh})
+    model = build_model(ModelSpec.from_table({**MODEL, **mesh}))
     base = replace(model.materials["base"], E=model.materials["base"].E * stiffer)
     model = replace(model, materials={**model.materials, "base": base})
     return EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS).predict(truth).values[1]
@@ -38,7 +39,7 @@ def _data(truth: np.ndarray, stiffer: float = 1.0, **mesh) -> np.ndarray:
 def _fits(clean: np.ndarray, mode: str, resolution: float, seeds) -> list:
     """Per seed: (fitted x, stderr, identifiable, at_bound, why, consistent, systematic) as ``identify`` reports
     them (least squares from 0.1, then with ``mode`` "include" the estimate and the refit)."""
-    model = build_model(MODEL)
+    model = build_model(ModelSpec.from_table(MODEL))
     backend = EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS)
     params = Parameters.from_config(model.zone_names, {"A": 0.1, "B": 0.1})
     rows = []

@@ -14,8 +14,8 @@ def test_a_minimal_config_gets_every_default_of_its_tables():
     for table in ("identify", "solver", "design"):
         for key, default in SCHEMA[table].items():
             if default is not None:
-                assert getattr(config, table)[key] == default, f"{table}.{key}"
-    assert config.identify["method"] == "trf" and config.solver["backend"] == "embedded"
+                assert getattr(getattr(config, table), key) == default, f"{table}.{key}"
+    assert config.identify.method == "trf" and config.solver.backend == "embedded"
     assert config.friction["bounds"] == [0.0, 1.0]
 
 

@@ -29,6 +29,7 @@ from frictionid.fem.contact_map import FACING_DEG, GAP_FRACTION
 from frictionid.fem.interface import contact_pairs, contact_setup, model_space
 from frictionid.fem.space import Space
 from frictionid.report.html import report_html
+from frictionid.options import ModelSpec
 
 QUANTITIES = ("ux", "uy", "exx", "exy")
 
@@ -52,7 +53,7 @@ def test_a_target_spanning_both_pads_pairs_each_zone_with_the_pad_it_faces(discr
     relative-displacement rows and zone shares; the pad behind the strip (its face turned the same way as the
     contact node's, 2 mm away) is never a partner."""
     mesh = write_clamp(tmp_path / "clamp.inp", size=0.5)
-    one, two = (build_model(_discretised(model_options(mesh, one_target), discretisation))
+    one, two = (build_model(ModelSpec.from_table(_discretised(model_options(mesh, one_target), discretisation)))
                 for one_target in (True, False))
     assert one.zone_names == two.zone_names == ZONES["T"] + ZONES["B"]
     spanning, apart = _by_node(_pairs(one)), _by_node(_pairs(two))
@@ -70,7 +71,7 @@ def test_a_strip_thinner_than_its_facets_pairs_with_the_facing_pad(tmp_path):
     """A 0.5 mm strip of 0.5 mm facets: the far pad's face (0.5 mm away, as near as the contact facet size, far
     inside any gap tolerance by facet size) is refused by the facing check alone."""
     mesh = write_clamp(tmp_path / "clamp.inp", size=0.5, thickness=0.5)
-    one, two = (build_model(model_options(mesh, one_target)) for one_target in (True, False))
+    one, two = (build_model(ModelSpec.from_table(model_options(mesh, one_target))) for one_target in (True, False))
     spanning, apart = _by_node(_pairs(one)), _by_node(_pairs(two))
     np.testing.assert_allclose(spanning[1], 0.0, atol=1e-12)
     np.testing.assert_allclose(spanning[2], apart[2], atol=1e-12)
@@ -91,7 +92,7 @@ def test_the_contact_map_states_pairs_gaps_facing_and_zones(tmp_path):
     """The map of the spanning interface: 2 x 25 pairs (0.5 mm quads, 12 mm pads), all closed, facing exactly;
     each zone's area is its 4 mm length (plane strain, per mm thickness); tolerance GAP_FRACTION x 0.5 mm."""
     mesh = write_clamp(tmp_path / "clamp.inp", size=0.5)
-    (entry,) = contact_setup(build_model(model_options(mesh, True)))
+    (entry,) = contact_setup(build_model(ModelSpec.from_table(model_options(mesh, True))))
     assert (entry.name, entry.target, entry.discretisation) == ("clamp", "PADS", "node-to-node")
     assert entry.n_pairs == 50 and entry.n_left_out == 0
     assert entry.state == {"closed": 50, "open": 0, "interference": 0}
@@ -110,12 +111,12 @@ def test_the_solver_uses_the_pairs_checked_at_model_build(tmp_path):
     from frictionid.fem.problem import Problem
 
     options = model_options(write_clamp(tmp_path / "clamp.inp", size=1.0), True)
-    model = build_model(options)
+    model = build_model(ModelSpec.from_table(options))
     contact_setup(model)
     checked = contact_pairs(Space.build(model.mesh, model.kind), model)
     problem = Problem.build(model)
     assert problem.pairs is checked and problem.space is model_space(model)
-    fresh = _pairs(build_model({**options, "increments": [1, 4]}))           # another model object
+    fresh = _pairs(build_model(ModelSpec.from_table({**options, "increments": [1, 4]})))        # another model
     assert fresh is not checked
     for name in ("nodes", "gap", "weight", "zone_share", "frames"):
         np.testing.assert_array_equal(getattr(fresh, name), getattr(checked, name))
@@ -129,7 +130,7 @@ def test_an_open_gap_within_the_stated_tolerance_is_mapped_with_its_size_and_sta
     mesh = write_clamp(tmp_path / "clamp.inp", size=0.5, gap=gap)
     options = model_options(mesh, True)
     options["interfaces"][0]["gap_tolerance"] = gap + 0.1
-    (entry,) = contact_setup(build_model(options))
+    (entry,) = contact_setup(build_model(ModelSpec.from_table(options)))
     assert entry.gap == pytest.approx((gap, gap), rel=1e-9) and entry.state["open"] == 50
     assert entry.gap_tolerance == gap + 0.1
 
@@ -224,7 +225,7 @@ def test_simulate_prints_one_contact_line_per_interface_and_the_fields_carry_the
 
 def test_the_report_shows_the_contact_map(tmp_path):
     mesh = write_clamp(tmp_path / "clamp.inp", size=0.5)
-    contact = [entry.as_dict() for entry in contact_setup(build_model(model_options(mesh, True)))]
+    contact = [entry.as_dict() for entry in contact_setup(build_model(ModelSpec.from_table(model_options(mesh, True))))]
     page = report_html({"status": "converged", "parameters": {}, "model": {"contact": contact}}, {})
     section = page[page.index("<h2>Contact set-up</h2>"):]
     section = section[:section.index("</section>")]
@@ -274,9 +275,9 @@ def test_a_zero_displacement_sharing_a_node_with_a_support_is_compatible(tmp_pat
     from frictionid.fem.problem import Problem
 
     options = model_options(write_clamp(tmp_path / "clamp.inp", size=1.0), one_target=False)
-    zero = Problem.build(build_model(_with_left_displacement(options, [0.0, 0.0]))).solve(TRUE)
+    zero = Problem.build(build_model(ModelSpec.from_table(_with_left_displacement(options, [0.0, 0.0])))).solve(TRUE)
     support = {**options, "supports": [*options["supports"], {"boundary": "LOWER_LEFT", "components": ["x"]}]}
-    held = Problem.build(build_model(support)).solve(TRUE)
+    held = Problem.build(build_model(ModelSpec.from_table(support))).solve(TRUE)
     np.testing.assert_allclose(zero.lam, held.lam, rtol=0, atol=1e-9 * np.abs(held.lam).max())
 
 
@@ -304,11 +305,11 @@ def test_an_inp_of_c3d8i_is_computed_with_incompatible_modes_and_a_contradicting
     """Issue 24, finding 11: the deck's C3D8I mean incompatible modes; its C3D8 plain hexahedra; a config element
     that contradicts the deck is computed as configured, with a warning naming both."""
     (tmp_path / "block.inp").write_text((FIXTURES / "block.inp").read_text().replace("TYPE=C3D8,", "TYPE=C3D8I,"))
-    options = {**read_config(FIXTURES / "truth.toml").model, "file": str(tmp_path / "block.inp")}
-    assert build_model(options).element == "incompatible"
-    assert build_model({**options, "file": str(FIXTURES / "block.inp")}).element == "standard"
+    options = {**read_config(FIXTURES / "truth.toml").model.table(), "file": str(tmp_path / "block.inp")}
+    assert build_model(ModelSpec.from_table(options)).element == "incompatible"
+    assert build_model(ModelSpec.from_table({**options, "file": str(FIXTURES / "block.inp")})).element == "standard"
     with caplog.at_level(logging.WARNING, logger="frictionid"):
-        assert build_model({**options, "element": "standard"}).element == "standard"
+        assert build_model(ModelSpec.from_table({**options, "element": "standard"})).element == "standard"
     assert "[model] element = 'standard' contradicts block.inp, whose C3D8I elements mean element 'incompatible'" \
         in caplog.text
 

@@ -15,6 +15,7 @@ from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model, refined
 from frictionid.inverse.parameters import Parameters
 from helpers.fits import fit_as_identify, point_observations
+from frictionid.options import ModelSpec
 
 TRUE = np.array([0.32, 0.18])
 MODEL = {"builder": "block2d", "mesh_size": 1.0, "height": 4.0, "order": 1}
@@ -31,11 +32,12 @@ QUANTITIES = ("ux", "uy")
 
 def _replicates(mode: str):
     """(values, identifiable, inside the 95 % interval, consistent) per replicate."""
-    clean = EmbeddedBackend(build_model({**MODEL, "mesh_size": DATA_MESH}), POINTS, QUANTITIES,
+    clean = EmbeddedBackend(build_model(ModelSpec.from_table({**MODEL, "mesh_size": DATA_MESH})), POINTS, QUANTITIES,
                             REGIONS).predict(TRUE).values[1]
-    model = build_model(MODEL)
+    model = build_model(ModelSpec.from_table(MODEL))
     backend = EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS)
-    EmbeddedBackend(build_model(refined(MODEL)), POINTS, QUANTITIES, REGIONS)   # kept: condensed once, not 100 times
+    # kept: condensed once, not 100 times
+    EmbeddedBackend(build_model(refined(ModelSpec.from_table(MODEL))), POINTS, QUANTITIES, REGIONS)
     params = Parameters.from_config(model.zone_names, {"A": 0.1, "B": 0.1})
     rows = []
     for seed in range(N_REPLICATES):

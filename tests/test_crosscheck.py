@@ -12,6 +12,7 @@ from frictionid.fem.problem import Problem
 from frictionid.inverse.observations import observations_from
 from frictionid.inverse.shift import coefficient_shift, observed_shift
 from frictionid.report.crosscheck import cross_check_table
+from frictionid.options import DataSpec
 
 QUANTITIES = ("ux", "uy", "exx", "eyy", "exy")
 POINTS = np.array([[x, y] for x in (-4.0, 0.0, 4.0) for y in (1.0, 3.0)])
@@ -92,8 +93,8 @@ def test_observed_shift_counts_exactly_the_measured_rows(tmp_path):
              for i, (x, y) in enumerate(POINTS)]
     (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
     model = block_model_2d(mesh_size=2.0, order=1, quads=True, n_zones=2, n_pull=4)
-    observations = observations_from(read_measurements(tmp_path / "m.csv"), model, ["ux", "exx"], [2],
-                                     {"u": 0.0005}, {"*": "block"})
+    data = DataSpec(observables=["ux", "exx"], stages=[2], noise={"u": 0.0005}, regions={"*": "block"})
+    observations = observations_from(read_measurements(tmp_path / "m.csv"), model, data)
     shift = observed_shift(check, observations)
     assert shift.n_rows == 2 * len(POINTS) - 1 and shift.stages == (2,)
     assert shift.noise == {"ux": 0.0005, "exx": 2e-5}

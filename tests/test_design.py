@@ -13,6 +13,7 @@ from frictionid.inverse.design import finest_partition, information_of, merged_s
 from frictionid.inverse.resolution import predicted_stderr
 from frictionid.model.merge import merge_zones
 from helpers import write_config
+from frictionid.options import ModelSpec
 
 # ------------------------------------------------------------------------------------------ selection
 
@@ -77,7 +78,7 @@ REGIONS = ["block", "block", "base", "base"]
 
 
 def test_a_merged_zone_solves_like_its_members_at_one_coefficient():
-    model = build_model(BLOCK2D)
+    model = build_model(ModelSpec.from_table(BLOCK2D))
     merged = merge_zones(model, {"BC": ["B", "C"]})
     assert merged.zone_names == ("A", "BC", "D")
     one = EmbeddedBackend(model, POINTS, ("ux", "uy"), REGIONS).predict(np.array([0.2, 0.3, 0.3, 0.4]), True)
@@ -90,8 +91,8 @@ def test_a_merged_zone_solves_like_its_members_at_one_coefficient():
 
 def test_the_registry_merges_and_refines_alike():
     options = {**BLOCK2D, "merge": {"AB": ["A", "B"]}}
-    assert build_model(options).zone_names == ("AB", "C", "D")
-    assert build_model(refined(options)).zone_names == ("AB", "C", "D")
+    assert build_model(ModelSpec.from_table(options)).zone_names == ("AB", "C", "D")
+    assert build_model(refined(ModelSpec.from_table(options))).zone_names == ("AB", "C", "D")
 
 
 # ------------------------------------------------------------------------------------------ the commands

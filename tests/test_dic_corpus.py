@@ -14,6 +14,7 @@ import pytest
 from frictionid.cli import main
 from frictionid.data import read_measurements
 from frictionid.data.sources import read_sources
+from frictionid.options import DataSpec
 from fixtures.dic import corpus
 from helpers.config import with_data
 
@@ -49,7 +50,7 @@ def test_each_program_reads_to_the_generic_numbers(name, tmp_path):
     program = corpus.PROGRAMS[name]
     generic = read_measurements(CORPUS / "generic.csv")
     labels = corpus.write_program(tmp_path, name, generic)           # the labels the reader must give
-    sources = read_sources({"file": entries(name), "strain": program.strain}, Path)
+    sources = read_sources(DataSpec.from_table({"file": entries(name), "strain": program.strain}), Path)
     m = sources.measurements
     assert m.points == tuple(labels[1] + labels[2])
     assert np.array_equal(m.stage, generic.stage)

@@ -16,6 +16,7 @@ from frictionid.data import read_measurements, write_measurements
 from frictionid.data.dic import read_export
 from frictionid.data.sources import read_data
 from frictionid.errors import InputError
+from frictionid.options import DataSpec
 from fixtures.dic import generate
 from helpers.config import with_data
 
@@ -96,12 +97,12 @@ def test_dice_header_geometry_is_reported_and_the_window_source_said(capsys, tmp
                          (1.5, "strain window: 1.5 mm (square), from [data] strain_window")):
         config = config_from_dict({"data": {"file": "DICe_solution_0001.txt", "observables": ["ux"], "stages": [1],
                                             "strain_window": window}}, need=("data",), base=tmp_path)
-        assert said in check_config_data(config)
+        assert said in check_config_data(config.data, config.resolve, config.where)
     shutil.copy(FIXTURES / "vic3d.csv", tmp_path)
     config = config_from_dict({"data": {"file": "vic3d.csv", "observables": ["ux"], "stages": [1]}}, need=("data",),
                               base=tmp_path)
     assert "strain window: none ([data] strain_window not set, no strain window in the exports' headers)" in \
-        check_config_data(config)
+        check_config_data(config.data, config.resolve, config.where)
 
 
 def test_a_format_is_recognised_from_the_head_or_past_a_long_preamble(tmp_path):
@@ -112,7 +113,7 @@ def test_a_format_is_recognised_from_the_head_or_past_a_long_preamble(tmp_path):
     long = tmp_path / "long.csv"
     long.write_text("# provenance ...\n" * (HEAD_BYTES // 17 + 10) + generic)
     assert read_text(long, n_rows=50).names[:2] == ("point", "x")
-    read = read_data({"file": "long.csv"}, lambda p: tmp_path / p)
+    read = read_data(DataSpec.from_table({"file": "long.csv"}), lambda p: tmp_path / p)
     assert read.digest() == read_measurements(FIXTURES / "generic.csv").digest() and len(read.comments) > 3000
 
 
@@ -175,7 +176,7 @@ def test_strains_of_unstated_measure_need_the_strain_key(capsys):
     out = capsys.readouterr().out
     assert "needed to identify: [data] strain" in out and 'strain = "engineering"' in out
     with pytest.raises(InputError, match="does not say which strain measure"):
-        read_data(config_data(file=str(FIXTURES / "davis.txt")), Path)
+        read_data(DataSpec.from_table(config_data(file=str(FIXTURES / "davis.txt"))), Path)
 
 
 def config_data(**data):
@@ -189,12 +190,12 @@ def test_columns_map_an_unknown_layout(tmp_path):
             zip(generic.points, generic.coordinates, generic.values["ux"])]
     path.write_text("\n".join(["Id;Xpos [µm];Ypos [µm];Ux [mm]"] + rows) + "\n", encoding="latin-1")
     columns = {"point": "Id", "x": "Xpos [µm]", "y": "Ypos", "ux": "Ux [mm]"}     # with or without the unit
-    m = read_data(config_data(file=str(path), columns=columns), Path)
+    m = read_data(DataSpec.from_table(config_data(file=str(path), columns=columns)), Path)
     assert m.points == generic.points and np.all(m.coordinates[:, 2] == 0)
     assert relative_error(m.coordinates[:, :2], generic.coordinates[:, :2] * 1e-3) < RTOL
     assert relative_error(m.values["ux"], generic.values["ux"]) < RTOL
     with pytest.raises(InputError, match="'uu' not among point, x, y, z"):
-        read_data(config_data(file=str(path), columns={**columns, "uu": "Ux"}), Path)
+        read_data(DataSpec.from_table(config_data(file=str(path), columns={**columns, "uu": "Ux"})), Path)
 
 
 def _sigma_export(path, rows):
@@ -220,9 +221,11 @@ def test_sigma_columns_of_an_export_weight_the_values(tmp_path):
     np.testing.assert_array_equal(m.sigma["ux"], [0.5e-3, np.nan, 2.0e-3])
     np.testing.assert_allclose(m.sigma["exx"], [1e-4 * np.exp(2e-3), 2e-4 * np.exp(3e-3), np.nan], rtol=1e-15)
     assert "sigma_ux <- 'sU'" in "\n".join(report.lines()) and report.units["sigma_ux"] == "µm"
-    measured = read_data({"file": [{"path": "s.csv", "stage": 2, "force": 10.0}], "columns": SIGMA_COLUMNS,
-                          "strain": "log"}, lambda p: tmp_path / p)
-    obs = observations_from(measured, block_model_2d(mesh_size=2.0), ["ux", "exx"], [2], {"u": 0.007, "e": 0.003})
+    measured = read_data(DataSpec.from_table({"file": [{"path": "s.csv", "stage": 2, "force": 10.0}],
+                                              "columns": SIGMA_COLUMNS,
+                          "strain": "log"}), lambda p: tmp_path / p)
+    obs = observations_from(measured, block_model_2d(mesh_size=2.0), DataSpec(observables=["ux", "exx"], stages=[2],
+                                                                              noise={"u": 0.007, "e": 0.003}))
     sigma = dict(zip(obs.labels, obs.sigma))
     assert sigma["A:ux@2"] == 0.5e-3 and sigma["B:ux@2"] == 0.007 and sigma["C:ux@2"] == 2.0e-3
     assert sigma["A:exx@2"] == m.sigma["exx"][0] and "C:exx@2" not in sigma
@@ -262,10 +265,12 @@ def test_a_load_cell_column_of_an_export_is_the_stage_force(tmp_path, capsys):
     path = _force_export(tmp_path / "f.csv", ["1.25", "", "1.25"])
     m, report = read_export(path, stage=2, columns=FORCE_COLUMNS)
     assert np.all(m.force == 1250.0) and m.stage_force(2) == 1250.0 and report.units["force"] == "kN"
-    measured = read_data({"file": [{"path": "f.csv", "stage": 2}], "columns": FORCE_COLUMNS}, lambda p: tmp_path / p)
+    measured = read_data(DataSpec.from_table({"file": [{"path": "f.csv", "stage": 2}], "columns": FORCE_COLUMNS}),
+                         lambda p: tmp_path / p)
     assert measured.stage_force(2) == 1250.0
     with pytest.raises(InputError, match="the file gives the force 1250.0 N, the config 1300.0 N"):
-        read_data({"file": [{"path": "f.csv", "stage": 2, "force": 1300.0}], "columns": FORCE_COLUMNS},
+        read_data(DataSpec.from_table({"file": [{"path": "f.csv", "stage": 2, "force": 1300.0}],
+                                       "columns": FORCE_COLUMNS}),
                   lambda p: tmp_path / p)
     _force_export(tmp_path / "g.csv", ["1.25", "1.5", "1.25"])
     with pytest.raises(InputError, match=r"g.csv:3: column 'Force': force 1500.0 N differs from 1250.0 N on line 2"):
@@ -279,11 +284,11 @@ def test_a_load_cell_column_of_an_export_is_the_stage_force(tmp_path, capsys):
 def test_a_list_is_one_file_per_stage_and_tables_give_stage_and_force():
     files = [str(FIXTURES / "vic3d.csv"), {"path": str(FIXTURES / "DICe_solution_0001.txt"), "stage": 3,
                                             "force": 1500.0}]
-    m = read_data(config_data(file=files, forces=[1000.0, 1200.0, 1400.0]), Path)
+    m = read_data(DataSpec.from_table(config_data(file=files, forces=[1000.0, 1200.0, 1400.0])), Path)
     assert m.stages == (1, 3) and m.stage_force(1) == 1000.0 and m.stage_force(3) == 1500.0
     assert m.n_rows == 24
     with pytest.raises(InputError, match="point '2' at stage 1 is also in"):
-        read_data(config_data(file=[{"path": files[0]}, {"path": files[0], "stage": 1}]), Path)
+        read_data(DataSpec.from_table(config_data(file=[{"path": files[0]}, {"path": files[0], "stage": 1}])), Path)
 
 
 def identified(folder: Path, name: str, **data) -> dict:
@@ -366,6 +371,11 @@ def _grid(stage: int = 1):
         [x, y, np.zeros(len(x))]), stage=np.full(len(x), stage), force=np.full(len(x), np.nan), values=values)
 
 
+def _checked(config):
+    """check_config_data's arguments for a config."""
+    return config.data, config.resolve, config.where
+
+
 def _window_config(folder, **data):
     from frictionid.config import config_from_dict
 
@@ -431,7 +441,7 @@ def test_a_dice_header_window_gives_the_operator_of_the_equivalent_config_window
     assert np.abs(H - _operator(generic["circle"])).max() <= 1e-12 * scale
     assert np.abs(H - _operator(generic["square"])).max() > 1e-3 * scale
     assert np.abs(H - _operator(pointwise)).max() > 1e-3 * scale
-    said = check_config_data(_window_config(window_files, file="dice.txt"))
+    said = check_config_data(*_checked(_window_config(window_files, file="dice.txt")))
     assert "strain window 61 px from the header = 1.525 mm (circle, diameter) at 0.025 mm/px" in said
     assert f"strain window: 1.525 mm (circle, diameter), from the header of {window_files / 'dice.txt'}" in said
     section = data_section([], dice.observations, dice.window)["strain_window"]
@@ -445,7 +455,7 @@ def test_without_pixel_coordinates_the_header_window_is_not_used(window_files, c
     from frictionid.data.sources import check_config_data
     from frictionid.preparation import prepare
 
-    said = check_config_data(_window_config(window_files, file="no_pixels.txt"))
+    said = check_config_data(*_checked(_window_config(window_files, file="no_pixels.txt")))
     assert "strain window 61 px from the header, not converted to mm: the file has no pixel coordinates" in said
     assert "strain window: none; " in said
     with pytest.raises(InputError, match=r"no_pixels.txt: the header's strain window \(61 px\) cannot be converted "
@@ -467,7 +477,7 @@ def test_the_config_window_overrides_the_header(window_files):
     assert (dice.window.size, dice.window.shape, dice.window.origin) == (2.0, "square", "[data] strain_window")
     H = _operator(dice)
     assert np.abs(H - _operator(generic)).max() <= 1e-12 * np.abs(H).max()
-    said = check_config_data(_window_config(window_files, file="dice.txt", strain_window=2.0))
+    said = check_config_data(*_checked(_window_config(window_files, file="dice.txt", strain_window=2.0)))
     assert "strain window: 2 mm (square), from [data] strain_window" in said
     assert "gives 61 px = 1.525 mm, a circle; overridden" in said
 
@@ -516,10 +526,11 @@ def test_a_frame_scale_enlarges_the_header_window_and_a_file_without_one_is_refu
     from frictionid.data.sources import read_sources
 
     resolve = lambda p: window_files / p                                       # noqa: E731
-    scaled = read_sources({"file": [{"path": "dice.txt", "transform": {"rotation_deg": 0, "scale": 2.0}}]},
+    scaled = read_sources(DataSpec.from_table({"file": [{"path": "dice.txt", "transform": {"rotation_deg": 0,
+                                                                                           "scale": 2.0}}]}),
                           resolve).window
     assert abs(scaled.size - 2 * WINDOW_PX / PX_PER_MM) <= 1e-12 and scaled.files[0]["frame_scale"] == 2.0
-    mixed = read_sources({"file": ["dice.txt", "generic.csv"]}, resolve).window
+    mixed = read_sources(DataSpec.from_table({"file": ["dice.txt", "generic.csv"]}), resolve).window
     assert mixed.size is None and mixed.for_fit(["ux"]) is mixed
     with pytest.raises(InputError, match=r"dice.txt gives a strain window in its header \(1.525 mm\) and .*"
                                          r"generic.csv none"):
@@ -552,8 +563,8 @@ def test_identify_fits_over_the_header_window(tmp_path):
                        ("generic", {"file": "generic.csv", "strain_window": 2.05, "strain_window_shape": "circle"})):
         config = _window_config(tmp_path, observables=["ux", "exx", "exy"], stages=[2], **data)
         config.friction["zones"] = {"A": 0.25, "B": 0.4}
-        config.identify.update(max_iterations=3)
-        config.run["dir"] = f"run_{name}"
+        config = dataclasses.replace(config, identify=config.identify.with_values(max_iterations=3),
+                                     run=config.run.with_values(dir=f"run_{name}"))
         fits[name] = identify_config(config, write_files=False).to_dict()
     assert fits["dice"]["objective"]["initial"] < 1e-12 < 1.0 < fits["none"]["objective"]["initial"]
     for zone, p in fits["generic"]["parameters"].items():

@@ -16,6 +16,7 @@ from frictionid.data import read_measurements, write_measurements
 from frictionid.data.frames import Frame
 from frictionid.data.sources import read_sources
 from frictionid.errors import InputError
+from frictionid.options import DataSpec
 from fixtures.dic import generate
 from helpers.config import with_data
 
@@ -46,7 +47,7 @@ def test_out_of_plane_scatter_within_the_tolerance_is_projected_and_reported(fir
     largest |z| reported; the coordinates are those of the flat data."""
     _scattered(first, "scattered.csv", 1e-3)
     flat = read_measurements(first / "measured.csv")
-    sources = read_sources({"file": str(first / "scattered.csv")}, Path, model=block2d)
+    sources = read_sources(DataSpec.from_table({"file": str(first / "scattered.csv")}), Path, model=block2d)
     assert np.array_equal(sources.measurements.coordinates, flat.coordinates)
     largest = np.abs(read_measurements(first / "scattered.csv").coordinates[:, 2]).max()
     assert sources.plane.startswith(f"{flat.n_rows} of {flat.n_rows} point rows projected onto the plane z = 0")
@@ -95,7 +96,8 @@ def test_pixel_columns_mapped_as_lengths_are_refused_by_name(tmp_path, capsys, w
     assert f"export.csv:{header}: column {pixel!r} (for " in err and "holds image pixels" in err
     assert "Traceback" not in err
     with pytest.raises(InputError, match="holds image pixels"):
-        read_sources({"file": str(export), "columns": columns, "format": writer.__name__[6:]}, Path)
+        read_sources(DataSpec.from_table({"file": str(export), "columns": columns, "format": writer.__name__[6:]}),
+                     Path)
 
 
 def _face_points(model_frame: Frame):
@@ -113,7 +115,7 @@ def test_a_surface_frame_on_a_flat_face_says_it_cannot_fix_the_in_plane_rotation
     m = generate.synthetic(n)
     path = tmp_path / "face.csv"
     write_measurements(path, _with_coordinates(m, file_xyz))
-    data = {"file": str(path), "transform": {"fit": "surface"}, "noise": {"u": 0.0005}}
+    data = DataSpec(file=str(path), transform={"fit": "surface"}, noise={"u": 0.0005})
     with pytest.raises(InputError, match=r"residual RMS .* times the displacement noise 0.0005 mm: in a plane model .*"
                                          r"a flat face cannot fix the in-plane rotation: use fit = \"points\""):
         read_sources(data, Path, model=block2d)
@@ -187,7 +189,7 @@ def test_check_data_of_a_config_lists_what_its_identification_needs(tmp_path, ca
         out = capsys.readouterr().out
         assert "needed to identify: [data] strain" in out and ("[data] forces" in out) == force
     with pytest.raises(InputError, match="does not say which strain measure"):
-        read_sources({"file": str(tmp_path / "m.csv")}, Path)
+        read_sources(DataSpec.from_table({"file": str(tmp_path / "m.csv")}), Path)
 
 
 def test_a_config_force_that_contradicts_the_nodemap_metadata_is_refused(tmp_path, capsys):
@@ -207,13 +209,14 @@ def test_coordinates_states_what_an_exports_coordinate_columns_hold(tmp_path):
     generic = read_measurements(FIXTURES / "corpus" / "generic.csv").select(stages=[2])
     u = np.column_stack([generic.values[q] for q in ("ux", "uy", "uz")])
     corpus.write_matchid_2024(tmp_path / "m2024.csv", _with_coordinates(generic, generic.coordinates + u))
-    read = read_sources({"file": str(tmp_path / "m2024.csv"), "strain": "green-lagrange",
-                         "coordinates": "deformed"}, Path)
+    read = read_sources(DataSpec.from_table({"file": str(tmp_path / "m2024.csv"), "strain": "green-lagrange",
+                         "coordinates": "deformed"}), Path)
     assert np.abs(read.measurements.coordinates - generic.coordinates).max() < 1e-12
     assert read.files[0]["coordinates"].startswith('deformed positions ([data] coordinates = "deformed")')
     corpus.write_matchid_2023(tmp_path / "m2023.csv", generic)
-    read = read_sources({"file": [{"path": str(tmp_path / "m2023.csv"), "coordinates": "reference"}],
-                         "strain": "log"}, Path)
+    read = read_sources(DataSpec.from_table({"file": [{"path": str(tmp_path / "m2023.csv"),
+                                                       "coordinates": "reference"}],
+                         "strain": "log"}), Path)
     assert np.abs(read.measurements.coordinates - (generic.coordinates + u)).max() < 1e-12
 
 
@@ -238,7 +241,7 @@ def test_a_preamble_padded_by_a_spreadsheet_reads_like_the_export(tmp_path):
     width = lines[5].count(";")
     padded = [line + ";" * (width - line.count(";")) if k < 5 else line for k, line in enumerate(lines)]
     (tmp_path / "padded.csv").write_bytes("\r\n".join(padded).encode())
-    one, two = (read_sources({"file": str(path)}, Path).measurements
+    one, two = (read_sources(DataSpec.from_table({"file": str(path)}), Path).measurements
                 for path in (FIXTURES / "corpus" / "gom_correlate_1.csv", tmp_path / "padded.csv"))
     assert padded[0] == "Project;corpus" + ";" * (width - 1)
     assert one.points == two.points and np.array_equal(one.coordinates, two.coordinates)
@@ -256,7 +259,7 @@ def test_a_plane_surface_frame_a_little_off_the_edges_is_a_warning_not_a_refusal
                             np.c_[rng.uniform(6, 18, n), np.zeros(n), np.zeros(n)]])
     m = generate.synthetic(3 * n)
     write_measurements(tmp_path / "edges.csv", _with_coordinates(m, Frame.of([0, 0, 5.0]).inverse().points(edges)))
-    data = {"file": str(tmp_path / "edges.csv"), "transform": {"fit": "surface"}, "noise": {"u": 0.0005}}
+    data = DataSpec(file=str(tmp_path / "edges.csv"), transform={"fit": "surface"}, noise={"u": 0.0005})
     frame = read_sources(data, Path, model=block2d).frames[0]
     assert frame["warning"].startswith(f"warning: the fitted frame's residual RMS {frame['residual_rms_mm']:.3g} mm")
     assert 0.005 < frame["residual_rms_mm"] < 0.03

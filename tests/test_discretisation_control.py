@@ -16,6 +16,7 @@ from frictionid.config import read_config
 from frictionid.inverse.discretisation_control import control, kind_rms, values
 from frictionid.identification import prepare
 from frictionid.inverse.model_error import observation_kinds
+from frictionid.options import ModelSpec
 
 TRUE = {"A": 0.32, "B": 0.18}
 REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
@@ -55,7 +56,7 @@ def test_the_predicted_error_of_the_chosen_mesh_is_its_error_against_a_finer_one
     assert as_given > 3.0 and record["status"] in ("reached", "not reached")
     assert 0.8 < record["error_as_given"]["u"] / as_given < 1.25
     factor = record["factors"]["element sizes"]
-    assert factor > 1 and chosen.options["mesh_size"] == pytest.approx(2.0 / factor)
+    assert factor > 1 and chosen.options.option("mesh_size") == pytest.approx(2.0 / factor)
     actual = kind_rms(np.abs(values(chosen.model, obs, mu) - obs.y) / obs.sigma, kinds)["u"]
     assert 1.0 <= record["predicted_error"]["u"] / actual < 2.0, (record, actual)
 
@@ -91,9 +92,9 @@ def test_a_model_object_is_fitted_as_given_and_the_record_says_why(measured):
 def test_the_block_refines_the_footprint_and_the_layers_separately():
     from frictionid.inverse.discretisation_control import directions, refinement
     options = {"builder": "block", "mesh_size": 1.0}
-    assert directions(options) == ["footprint divisions", "interface layers"]
-    footprint, layers = (build_model(refinement(options, k)) for k in ((2, 1), (1, 2)))
-    given = build_model(options)
+    assert directions(ModelSpec.from_table(options)) == ["footprint divisions", "interface layers"]
+    footprint, layers = (build_model(refinement(ModelSpec.from_table(options), k)) for k in ((2, 1), (1, 2)))
+    given = build_model(ModelSpec.from_table(options))
     # footprint x2: the contact has (2 * 10 + 1)^2 nodes instead of 11^2, the layers unchanged
     assert np.sum(np.isclose(footprint.mesh.points[:, 2], 0.0)) == 2 * 21 ** 2 + _outside(footprint)
     assert len(np.unique(footprint.mesh.points[:, 2].round(9))) == len(np.unique(given.mesh.points[:, 2].round(9)))

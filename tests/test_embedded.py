@@ -7,6 +7,7 @@ import numpy as np
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.block import block_model_2d
 from frictionid.model import Material
+from frictionid.options import ModelSpec
 
 POINTS = np.array([[-5.0, 2.0], [5.0, 2.0]])
 
@@ -88,6 +89,6 @@ def test_a_cache_folder_keeps_condensations_and_solves_for_a_later_session(tmp_p
 def test_equal_model_tables_share_one_built_model_and_others_do_not():
     from frictionid.builders.registry import build_model
 
-    first = build_model({"builder": "block2d", "mesh_size": 2.0, "n_zones": 3})
-    assert build_model({"n_zones": 3, "mesh_size": 2.0, "builder": "block2d"}) is first
-    assert build_model({"builder": "block2d", "mesh_size": 2.0, "n_zones": 2}) is not first
+    first = build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "n_zones": 3}))
+    assert build_model(ModelSpec.from_table({"n_zones": 3, "mesh_size": 2.0, "builder": "block2d"})) is first
+    assert build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "n_zones": 2})) is not first

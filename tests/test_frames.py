@@ -15,6 +15,7 @@ from frictionid.data.frames import Frame, frame_spec, in_model_frame, rotation_f
 from frictionid.data.sources import read_sources
 from frictionid.data.table import Measurements
 from frictionid.fem.surface import mesh_surface
+from frictionid.options import DataSpec
 from fixtures.dic import generate
 
 ROOT = Path(__file__).parents[1]
@@ -49,7 +50,7 @@ def in_dic_frame(m: Measurements, rotation: np.ndarray, shift) -> Measurements:
 
 
 def read(data: dict, model=None):
-    return read_sources({"observables": ["ux"], "stages": [1], **data}, Path, model=model)
+    return read_sources(DataSpec.from_table({"observables": ["ux"], "stages": [1], **data}), Path, model=model)
 
 
 def test_a_frame_fitted_to_a_rotated_and_shifted_copy_recovers_the_transform(tmp_path):
@@ -226,9 +227,9 @@ def test_check_data_fits_a_frame_to_the_model_surface(tmp_path, capsys):
 def test_the_run_fingerprint_sees_a_file_tables_transform(tmp_path):
     from frictionid.data.sources import data_digest
     path = str(FIXTURES / "generic.csv")
-    plain = data_digest({"file": path}, Path)
-    table = data_digest({"file": [{"path": path}]}, Path)
-    turned = data_digest({"file": [{"path": path, "transform": {"rotation_deg": 90}}]}, Path)
+    plain = data_digest(DataSpec(file=path), Path)
+    table = data_digest(DataSpec(file=[{"path": path}]), Path)
+    turned = data_digest(DataSpec(file=[{"path": path, "transform": {"rotation_deg": 90}}]), Path)
     assert plain == read_digest(path) and len({plain, table, turned}) == 3
 
 

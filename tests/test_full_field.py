@@ -194,6 +194,7 @@ def test_strain_window_reaches_the_fit(tmp_path):
     """[data] strain_window: data whose strains were windowed (w = 2 mm), fitted from the coefficients that made
     them: no misfit with the window, a large one without it; the calculix backend refuses a window."""
     from frictionid.backends import make_backend
+    from frictionid.options import SolverOptions
     from frictionid.backends.embedded import EmbeddedBackend
     from frictionid.config import config_from_dict
     from frictionid.data.measurements import Measurements, write_measurements
@@ -222,7 +223,7 @@ def test_strain_window_reaches_the_fit(tmp_path):
         fits[window] = identify_config(config, write_files=False).to_dict()
     assert fits[2.0]["objective"]["initial"] < 1e-12 and fits[None]["objective"]["initial"] > 1.0
     with pytest.raises(InputError, match="strain_window needs the embedded backend"):
-        make_backend("calculix", model, points, ("exx",), window=2.0)
+        make_backend(model, points, ("exx",), solver=SolverOptions("calculix"), window=2.0)
 
 
 def test_point_misfit_groups_by_point_in_one_pass():
@@ -236,7 +237,9 @@ def test_point_misfit_groups_by_point_in_one_pass():
     names = [f"P{k}" for k in range(300)]
     labels = [f"{names[k]}:{q}@{s}" for s in (1, 2) for k in rng.permutation(300)[:250] for q in ("ux", "uy")]
     labels.append("force@2")
-    obs = SimpleNamespace(labels=tuple(labels), point_labels=tuple(names), points=rng.normal(size=(300, 2)))
+    index = {name: k for k, name in enumerate(names)}
+    point = np.array([index.get(label.rpartition(":")[0], -1) for label in labels])     # Observations.point
+    obs = SimpleNamespace(point=point, point_labels=tuple(names), points=rng.normal(size=(300, 2)))
     r = rng.normal(size=len(labels))
     got = {row["point"]: row["rms"] for row in point_misfit(obs, r)}
     point_of = np.array([label.rpartition(":")[0] for label in labels])

@@ -28,6 +28,7 @@ from frictionid.fem.assembly import load_channels
 from frictionid.fem.space import Space
 from fixtures.user_block import generate
 from helpers.meshes import stacked_rectangles_geo
+from frictionid.options import ModelSpec
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
@@ -49,7 +50,7 @@ def folder(tmp_path):
 
 def options(name: str = "truth.toml") -> dict:
     """The [model] table of a fixture config, its file resolved against the fixture folder."""
-    return read_config(FIXTURES / name).model
+    return read_config(FIXTURES / name).model.table()
 
 
 def points() -> np.ndarray:
@@ -70,8 +71,8 @@ def test_msh_and_inp_give_the_same_model_and_the_block_builders_results():
     """block.msh and block.inp (the same mesh, names in upper case, the plate bottom as a node set) give one
     result; the mesh has the block builder's layout at mesh_size 1.25 (8 divisions per block side, uniform), so
     the builder's results agree within round-off, well inside issue 14's 2 % of range."""
-    from_msh = build_model(options())
-    from_inp = build_model({**options(), "file": str(FIXTURES / "block.inp")})
+    from_msh = build_model(ModelSpec.from_table(options()))
+    from_inp = build_model(ModelSpec.from_table({**options(), "file": str(FIXTURES / "block.inp")}))
     assert from_msh.zone_names == from_inp.zone_names == ("A", "B", "C", "D")
     assert set(from_inp.mesh.regions) == {"plate", "block"} and from_inp.mesh.n_nodes == 3374
     np.testing.assert_array_equal(from_msh.mesh.points, from_inp.mesh.points)
@@ -94,7 +95,7 @@ def test_a_users_27_node_hexahedra_of_the_builders_layout_give_the_builders_resu
     from element_models import write_hex_block
     path = write_hex_block(tmp_path / "hex27.msh", order=2, quarter=2, outer=5, block_z=4, plate_z=2, bump=1.0,
                            z_ratio=1.0)
-    user_model = build_model({**options(), "file": str(path)})
+    user_model = build_model(ModelSpec.from_table({**options(), "file": str(path)}))
     builder_model = block_model(mesh_size=2.5, order=2, block_divisions=4, grading=1.0)
     assert user_model.mesh.cell_type == builder_model.mesh.cell_type == "hexahedron27"
     assert user_model.mesh.n_nodes == builder_model.mesh.n_nodes
@@ -123,7 +124,7 @@ def test_twin_on_the_user_mesh_recovers_the_four_zones(folder):
 
 def test_plane_strain_user_mesh_end_to_end(folder):
     """plane.msh (quadratic triangles): a force per mm of thickness pushes the block, the twin recovers A, B."""
-    model = build_model(options("plane_truth.toml"))
+    model = build_model(ModelSpec.from_table(options("plane_truth.toml")))
     assert model.kind == "plane_strain" and model.mesh.cell_type == "triangle6"
     channels = load_channels(Space.build(model.mesh, model.kind), model)
     force = channels.forces[list(channels.names).index("SurfaceForce(block_top)")].reshape(-1, 2)
@@ -279,13 +280,14 @@ def test_inp_element_type_without_a_cell_is_refused_by_name(tmp_path):
 def test_a_user_mesh_is_refined_by_subdivision(folder):
     """tests/test_subdivide.py has the geometry, the groups and the convergence; here: the option it raises."""
     table = options("plane_identify.toml")
-    assert refined(table)["refine"] == 1 and refined(refined(table))["refine"] == 2
+    once = refined(ModelSpec.from_table(table))
+    assert once.option("refine") == 1 and refined(once).option("refine") == 2
 
 
 def test_relative_file_is_resolved_against_the_config_folder(folder, monkeypatch, tmp_path):
     monkeypatch.chdir(tmp_path)                                           # not the config's folder
     assert tomllib.loads((folder / "truth.toml").read_text())["model"]["file"] == "block.msh"
-    assert read_config(folder / "truth.toml").model["file"] == str(folder.resolve() / "block.msh")
+    assert read_config(folder / "truth.toml").model.option("file") == str(folder.resolve() / "block.msh")
 
 
 def test_a_mesh_file_written_again_builds_a_new_model(tmp_path):
@@ -296,11 +298,11 @@ def test_a_mesh_file_written_again_builds_a_new_model(tmp_path):
     table = {"builder": "mesh", "file": str(path), "kind": "plane_strain",
              "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
              "supports": [{"boundary": "fixed"}]}
-    first = build_model(table)
-    assert build_model(table) is first
+    first = build_model(ModelSpec.from_table(table))
+    assert build_model(ModelSpec.from_table(table)) is first
     (tmp_path / "nodes.inp").write_text(NODES.replace("6, 2, 1", "6, 2, 1.5"))
     path.write_text(DECK.format(type="CPE4", nset="fixed") + "** written again\n")
-    second = build_model(table)
+    second = build_model(ModelSpec.from_table(table))
     assert second is not first and second.mesh.points[:, 1].max() == 1.5
 
 
@@ -313,12 +315,12 @@ def test_an_included_file_written_again_builds_a_new_model(tmp_path):
     table = {"builder": "mesh", "file": str(path), "kind": "plane_strain",
              "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
              "supports": [{"boundary": "fixed"}]}
-    first = build_model(table)
+    first = build_model(ModelSpec.from_table(table))
     assert source_files(path) == [path, tmp_path / "nodes.inp"]
     (tmp_path / "nodes.inp").write_text(NODES.replace("6, 2, 1", "6, 2, 2"))
     stat = (tmp_path / "nodes.inp").stat()
     os.utime(tmp_path / "nodes.inp", ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))   # coarse clocks
-    second = build_model(table)
+    second = build_model(ModelSpec.from_table(table))
     assert second is not first and second.mesh.points[:, 1].max() == 2.0
 
 
@@ -381,7 +383,7 @@ def test_a_user_mesh_of_another_layout_gives_the_block_builders_machine_force(fa
             monkeypatch.setattr(generate, name, value)      # the module is shared: restored after the test
         path = tmp_path / "hex.msh"
         generate.write_block_msh(path)
-    user = predict(build_model({**options(), "file": str(path)}))
+    user = predict(build_model(ModelSpec.from_table({**options(), "file": str(path)})))
     builder = predict(block_model(mesh_size=2.5))
     assert abs(user[-1, -1] - builder[-1, -1]) <= BUILDER_RANGE_TOL * abs(builder[-1, -1])
     assert abs(builder[-1, -1]) > 500.0                                     # the pull slides: sum mu_i N_i

@@ -16,30 +16,36 @@ from frictionid.inverse import model_error
 from frictionid.inverse.model_error import (STRAIN_ORDER, ModelError, convergence_orders, estimate_model_error,
                                             inflated_sigma, observation_kinds, richardson)
 from frictionid.inverse.observations import Observations
+from frictionid.options import ModelSpec
 
 # ------------------------------------------------------------------------------------------ refined options
 
 
 def test_block_refines_its_mesh_size_and_given_divisions_only():
     options = {"builder": "block", "mesh_size": 2.5, "block_divisions": 6, "order": 2, "grading": 3}
-    assert refined(options) == {"builder": "block", "mesh_size": 1.25, "block_divisions": 12, "order": 2,
+    assert refined(ModelSpec.from_table(options)).table() == {"builder": "block", "mesh_size": 1.25,
+                                                              "block_divisions": 12, "order": 2,
                                 "grading": 3}
-    assert refined({"builder": "block"}, 4) == {"builder": "block", "mesh_size": 0.25}   # default 1.0
+    assert refined(ModelSpec.from_table({"builder": "block"}), 4).table() == {"builder": "block",
+                                                                              "mesh_size": 0.25}   # default 1.0
     assert options["mesh_size"] == 2.5                                                    # caller's table kept
 
 
 def test_block2d_refines_mesh_and_contact_size_and_leaves_an_absent_contact_size_to_follow():
-    assert refined({"builder": "block2d", "mesh_size": 2.0, "contact_size": 0.5, "n_zones": 3}) == {
+    assert refined(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "contact_size": 0.5,
+                                         "n_zones": 3})).table() == {
         "builder": "block2d", "mesh_size": 1.0, "contact_size": 0.25, "n_zones": 3}
-    assert refined({"builder": "block2d", "order": 1}) == {"builder": "block2d", "order": 1, "mesh_size": 0.5}
+    assert refined(ModelSpec.from_table({"builder": "block2d", "order": 1})).table() == {"builder": "block2d",
+                                                                                         "order": 1, "mesh_size": 0.5}
 
 
 def test_bolt_refines_all_three_sizes_with_the_builders_defaults_when_absent():
     m24 = default_sizes("M24")
-    assert refined({"builder": "bolt", "size": "M24", "forces": [1.0]}) == {
+    assert refined(ModelSpec.from_table({"builder": "bolt", "size": "M24", "forces": [1.0]})).table() == {
         "builder": "bolt", "size": "M24", "forces": [1.0], "flank_size": 0.05,             # default 0.1
         "contact_size": m24["contact_size"] / 2, "mesh_size": m24["mesh_size"] / 2}
-    assert refined({"builder": "bolt", "flank_size": 0.2, "contact_size": 0.4, "mesh_size": 2.0}, 4) == {
+    assert refined(ModelSpec.from_table({"builder": "bolt", "flank_size": 0.2, "contact_size": 0.4, "mesh_size": 2.0}),
+                   4).table() == {
         "builder": "bolt", "flank_size": 0.05, "contact_size": 0.1, "mesh_size": 0.5}
 
 
@@ -49,7 +55,7 @@ def test_bolt_refines_all_three_sizes_with_the_builders_defaults_when_absent():
     {"builder": "bolt", "size": "M8", "flank_size": 0.3},
 ], ids=["block2d", "block", "bolt"])
 def test_the_refined_model_has_the_coarse_ones_zones_and_stages_and_more_nodes(options):
-    coarse, fine = build_model(options), build_model(refined(options))
+    coarse, fine = build_model(ModelSpec.from_table(options)), build_model(refined(ModelSpec.from_table(options)))
     assert fine.zone_names == coarse.zone_names
     assert fine.stages == coarse.stages
     assert fine.mesh.n_nodes > 2 * coarse.mesh.n_nodes
@@ -65,7 +71,7 @@ def test_the_refined_model_has_the_coarse_ones_zones_and_stages_and_more_nodes(o
 ])
 def test_what_cannot_be_refined_is_refused_naming_the_key(options, factor, key):
     with pytest.raises(InputError, match="refine") as info:
-        refined(options, factor)
+        refined(ModelSpec.from_table(options), factor)
     assert key in str(info.value)
 
 
@@ -106,14 +112,15 @@ def block2d_observations() -> Observations:
 @pytest.fixture(scope="module")
 def block2d():
     obs = block2d_observations()
-    return obs, estimate_model_error(BLOCK2D, obs, MU)
+    return obs, estimate_model_error(ModelSpec.from_table(BLOCK2D), obs, MU)
 
 
 def test_estimate_is_within_a_factor_2_of_the_difference_to_a_much_finer_mesh(block2d):
     obs, error = block2d
-    finest = build_model({**BLOCK2D, "mesh_size": 0.5})        # h / 8
+    finest = build_model(ModelSpec.from_table({**BLOCK2D, "mesh_size": 0.5}))        # h / 8
     backend = EmbeddedBackend(finest, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=False)
-    coarse = EmbeddedBackend(build_model(BLOCK2D), obs.points, obs.quantities, obs.point_regions, obs.reactions)
+    coarse = EmbeddedBackend(build_model(ModelSpec.from_table(BLOCK2D)), obs.points, obs.quantities, obs.point_regions,
+                             obs.reactions)
     actual = np.max([np.abs(obs.predicted(coarse.predict(mu).values) - obs.predicted(backend.predict(mu).values))
                      for mu in MU], axis=0)
     for kind in ("u", "e", "force"):
@@ -125,24 +132,28 @@ def test_estimate_is_within_a_factor_2_of_the_difference_to_a_much_finer_mesh(bl
 
 def test_estimate_keeps_the_largest_error_over_the_coefficient_sets(block2d):
     obs, error = block2d
-    each = [estimate_model_error(BLOCK2D, obs, [mu]).estimate for mu in MU]
+    each = [estimate_model_error(ModelSpec.from_table(BLOCK2D), obs, [mu]).estimate for mu in MU]
     np.testing.assert_allclose(error.estimate, np.maximum(*each), rtol=1e-12)
     assert np.any(each[0] != each[1])
 
 
 def test_given_coarse_values_give_the_same_estimate(block2d):
     obs, error = block2d
-    backend = EmbeddedBackend(build_model(BLOCK2D), obs.points, obs.quantities, obs.point_regions, obs.reactions)
-    given = estimate_model_error(BLOCK2D, obs, MU, coarse_values=[obs.predicted(backend.predict(mu).values)
+    backend = EmbeddedBackend(build_model(ModelSpec.from_table(BLOCK2D)), obs.points, obs.quantities, obs.point_regions,
+                              obs.reactions)
+    given = estimate_model_error(ModelSpec.from_table(BLOCK2D), obs, MU,
+                                 coarse_values=[obs.predicted(backend.predict(mu).values)
                                                                    for mu in MU])
     np.testing.assert_allclose(given.estimate, error.estimate, rtol=1e-12)
 
 
 def test_the_refined_condensation_is_not_kept_and_pushes_no_kept_one_out():
     obs = block2d_observations()
-    EmbeddedBackend(build_model({**BLOCK2D, "mesh_size": 6.0}), obs.points, obs.quantities, obs.point_regions)
+    EmbeddedBackend(build_model(ModelSpec.from_table({**BLOCK2D, "mesh_size": 6.0})), obs.points, obs.quantities,
+                    obs.point_regions)
     kept = list(embedded._RECENT)
-    estimate_model_error({**BLOCK2D, "mesh_size": 5.0}, obs, MU[:1], coarse_values=[np.zeros(obs.n_obs)])
+    estimate_model_error(ModelSpec.from_table({**BLOCK2D, "mesh_size": 5.0}), obs, MU[:1],
+                         coarse_values=[np.zeros(obs.n_obs)])
     assert list(embedded._RECENT) == kept
 
 
@@ -175,13 +186,13 @@ def test_inflated_sigma_adds_the_error_as_variance(block2d):
 
 def test_an_unrefinable_builder_is_refused_before_anything_is_built():
     with pytest.raises(InputError, match="builder = None: the model cannot be refined"):
-        estimate_model_error({"mesh_size": 1.0}, block2d_observations(), MU)
+        estimate_model_error(ModelSpec.from_table({"mesh_size": 1.0}), block2d_observations(), MU)
 
 
 def test_a_refined_model_with_other_zones_is_refused(monkeypatch):
-    monkeypatch.setattr(model_error, "refined", lambda options, factor: {**options, "n_zones": 3})
+    monkeypatch.setattr(model_error, "refined", lambda options, factor: options.with_options(n_zones=3))
     with pytest.raises(InputError, match=r"zones \['A', 'B', 'C'\].*differ"):
-        estimate_model_error({**BLOCK2D, "mesh_size": 5.0}, block2d_observations(), MU)
+        estimate_model_error(ModelSpec.from_table({**BLOCK2D, "mesh_size": 5.0}), block2d_observations(), MU)
 
 
 @pytest.mark.parametrize("mu_points, coarse_values, message", [
@@ -192,13 +203,15 @@ def test_a_refined_model_with_other_zones_is_refused(monkeypatch):
 ])
 def test_bad_coefficients_or_coarse_values_are_refused(mu_points, coarse_values, message):
     with pytest.raises(InputError, match=message):
-        estimate_model_error({**BLOCK2D, "mesh_size": 5.0}, block2d_observations(), mu_points, coarse_values)
+        estimate_model_error(ModelSpec.from_table({**BLOCK2D, "mesh_size": 5.0}), block2d_observations(), mu_points,
+                             coarse_values)
 
 
 @pytest.mark.parametrize("orders", [{"u": 0}, {"e": -1.0}, {"force": "2"}])
 def test_bad_orders_are_refused_naming_the_kind(orders):
     with pytest.raises(InputError, match=f"`orders` '{next(iter(orders))}' must be a positive number"):
-        estimate_model_error({**BLOCK2D, "mesh_size": 5.0}, block2d_observations(), MU, orders=orders)
+        estimate_model_error(ModelSpec.from_table({**BLOCK2D, "mesh_size": 5.0}), block2d_observations(), MU,
+                             orders=orders)
 
 
 def test_the_strain_factor_is_within_sqrt2_of_the_richardson_factor_of_every_order_from_1():
@@ -211,7 +224,7 @@ def test_the_strain_factor_is_within_sqrt2_of_the_richardson_factor_of_every_ord
 
 def test_given_orders_replace_the_defaults(block2d):
     obs, error = block2d
-    twice = estimate_model_error(BLOCK2D, obs, MU, orders={"u": 2})
+    twice = estimate_model_error(ModelSpec.from_table(BLOCK2D), obs, MU, orders={"u": 2})
     u = error.kinds == "u"
     np.testing.assert_allclose(twice.estimate[u], error.estimate[u] * (4 / 3) / 2, rtol=1e-12)
     np.testing.assert_array_equal(twice.estimate[~u], error.estimate[~u])

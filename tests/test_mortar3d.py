@@ -21,6 +21,7 @@ from stacks3d import stack, write_nonmatching_block
 from test_calculix_deck import deck_of
 from helpers import check_sensitivities
 from test_verification import ellipse_fit
+from frictionid.options import ModelSpec
 
 STEEL, ALUMINIUM = Material(210000.0, 0.3), Material(70000.0, 0.33)
 MU = np.array([0.2, 0.35])
@@ -175,7 +176,7 @@ def test_a_users_separately_meshed_block_builds_and_slips_by_coulomb(tmp_path):
     (gross slip) the pull's reaction is sum mu_i N_i (to 0.5 %: the slip directions' small x part) with the press's
     2000 N carried by the zones (to 1e-8). CalculiX on the same mesh: tests/test_mortar3d_calculix.py."""
     write_nonmatching_block(tmp_path / "block.msh")
-    model = build_model({"builder": "mesh", "file": str(tmp_path / "block.msh"), **BLOCK_3D})
+    model = build_model(ModelSpec.from_table({"builder": "mesh", "file": str(tmp_path / "block.msh"), **BLOCK_3D}))
     problem = Problem.build(model)
     assert problem.pairs.n_pairs == 9 ** 2 and problem.pairs.B.getnnz(axis=1).max() > 6 * 3
     mu = np.array([ZONES_3D[z] for z in model.zone_names])

@@ -12,6 +12,7 @@ from frictionid.builders.registry import build_model
 from frictionid.cli import main
 from frictionid.fem import memory
 from helpers import write_config
+from frictionid.options import ModelSpec
 
 TRUE = {"A": 0.32, "B": 0.18}
 
@@ -59,7 +60,7 @@ def test_a_refinement_over_the_memory_allowed_is_not_condensed_and_the_record_sa
     # may take 3 times the fitted model's condensation more: the fit fits, the directional model (about 4 times
     # the nodes, 5 times the memory) does not, so the control condenses none and the model is fitted as given
     monkeypatch.setattr(memory, "resident", lambda: memory.GB)
-    model = build_model({"builder": "block2d", "mesh_size": 2.0, "height": 4.0, "order": 1})
+    model = build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "height": 4.0, "order": 1}))
     allowed = 1.0 + 3.0 * memory.condensation_bytes(2 * model.mesh.n_nodes, 2) / memory.GB
     config = _config(measured, "memory", "refine_target = 1\nrefine_budget = 2\n",
                      f"[solver]\nmax_memory = {allowed:.6f}\n")

@@ -17,6 +17,8 @@ from frictionid.builders.subdivide import CORNERS, SHAPE, node_template, shape_f
 from frictionid.cli import main
 from frictionid.model.mesh import CELL_FACETS, FACET_TYPE
 from helpers.meshes import stacked_rectangles_geo
+from frictionid.options import ModelSpec
+from helpers.differences import central_difference
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 _GAUSS = np.polynomial.legendre.leggauss(5)
@@ -43,13 +45,10 @@ def measure(kind: str, points: np.ndarray, elements: np.ndarray) -> float:
     linear, _ = SHAPE[kind]
     template = node_template(kind, points, elements)
     xi, weights = _rule(linear)
-    d, h = xi.shape[1], 1e-6
-    columns = []
-    for a in range(d):
-        step = np.eye(d)[a] * h
-        dn = (shape_functions(kind, template, xi + step) - shape_functions(kind, template, xi - step)) / (2 * h)
-        columns.append(np.einsum("qn,enx->eqx", dn, points[elements]))
-    jac = np.stack(columns, axis=-1)                                       # (n_el, q, dim, d)
+    d = xi.shape[1]
+    # dN/dxi_a at every quadrature point: the same offset at all of them (shape functions act point by point)
+    dn = central_difference(lambda offset: shape_functions(kind, template, xi + offset), np.zeros(d), 1e-6)
+    jac = np.einsum("qna,enx->eqxa", dn, points[elements])                 # (n_el, q, dim, d)
     return float(np.sum(np.sqrt(np.linalg.det(np.einsum("eqxa,eqxb->eqab", jac, jac))) * weights))
 
 
@@ -58,11 +57,9 @@ def orientation(kind: str, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     linear, _ = SHAPE[kind]
     template = node_template(kind, points, cells)
     centre = np.mean(np.array(CORNERS[linear], dtype=float), axis=0)[None]
-    d, h = centre.shape[1], 1e-6
-    jac = np.stack([np.einsum("qn,enx->ex", shape_functions(kind, template, centre + np.eye(d)[a] * h)
-                              - shape_functions(kind, template, centre - np.eye(d)[a] * h), points[cells])
-                    for a in range(d)], axis=-1)
-    return np.sign(np.linalg.det(jac))
+    dn = central_difference(lambda offset: shape_functions(kind, template, centre + offset)[0],
+                            np.zeros(centre.shape[1]), 1e-6)                # (n_nodes, d) at the centroid
+    return np.sign(np.linalg.det(np.einsum("na,enx->exa", dn, points[cells])))
 
 
 def _gmsh_box(order: int):
@@ -82,14 +79,14 @@ def _gmsh_box(order: int):
 
 
 MESHES = {
-    "triangle": lambda: build_model({"builder": "block2d", "mesh_size": 2.0, "order": 1}).mesh,
-    "triangle6": lambda: build_model({"builder": "block2d", "mesh_size": 2.0, "order": 2}).mesh,
-    "quad": lambda: build_model({"builder": "block2d", "mesh_size": 2.0, "order": 1, "quads": True}).mesh,
-    "quad9": lambda: build_model({"builder": "block2d", "mesh_size": 2.0, "order": 2, "quads": True}).mesh,
+    "triangle": lambda: build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "order": 1})).mesh,
+    "triangle6": lambda: build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "order": 2})).mesh,
+    "quad": lambda: build_model(ModelSpec("block2d", {"mesh_size": 2.0, "order": 1, "quads": True})).mesh,
+    "quad9": lambda: build_model(ModelSpec("block2d", {"mesh_size": 2.0, "order": 2, "quads": True})).mesh,
     "tetra": lambda: _gmsh_box(1),
     "tetra10": lambda: _gmsh_box(2),
-    "hexahedron": lambda: build_model({"builder": "block", "mesh_size": 5.0, "order": 1}).mesh,
-    "hexahedron27": lambda: build_model({"builder": "block", "mesh_size": 5.0, "order": 2}).mesh,
+    "hexahedron": lambda: build_model(ModelSpec.from_table({"builder": "block", "mesh_size": 5.0, "order": 1})).mesh,
+    "hexahedron27": lambda: build_model(ModelSpec.from_table({"builder": "block", "mesh_size": 5.0, "order": 2})).mesh,
 }
 
 
@@ -188,10 +185,10 @@ def test_the_refined_user_mesh_converges_to_the_builders_solution(tmp_path):
 
 def test_a_user_mesh_is_refined_by_subdivision_for_the_model_error(tmp_path, capsys):
     """identify.model_error works for builder = "mesh": the estimate refines the file's mesh once."""
-    assert refined({"builder": "mesh", "file": "joint.msh", "refine": 1}, 4)["refine"] == 3
+    assert refined(ModelSpec.from_table({"builder": "mesh", "file": "joint.msh", "refine": 1}), 4).option("refine") == 3
     table = tomllib.loads((FIXTURES / "identify.toml").read_text())["model"]     # block.inp, the 3-D block
     table["file"] = str(FIXTURES / table["file"])
-    coarse, fine = build_model(table), build_model({**table, "refine": 1})
+    coarse, fine = build_model(ModelSpec.from_table(table)), build_model(ModelSpec.from_table({**table, "refine": 1}))
     assert fine.mesh.n_cells == 8 * coarse.mesh.n_cells and fine.zone_names == coarse.zone_names
     for name, facets in coarse.mesh.boundaries.items():          # loads and zones: 4 facets per facet
         if np.all(facets == facets[:, :1]):                      # the plate bottom, a node set (*NSET) in the .inp
@@ -232,7 +229,7 @@ def test_a_geo_is_meshed_again_with_its_sizes_halved_on_top_of_its_own_factor(tm
              "supports": [{"boundary": "bottom"}],
              "loads": [{"type": "displacement", "boundary": "upper_top", "component": "y", "values": [-0.01]}],
              "interfaces": [{"name": "i", "zones": ["upper_bottom"], "target": "lower_top"}]}
-    coarse, fine = build_model(table), build_model(refined(table))
+    coarse, fine = build_model(ModelSpec.from_table(table)), build_model(refined(ModelSpec.from_table(table)))
     spacing = [np.ptp(m.mesh.points[np.unique(m.mesh.boundaries["upper_top"]), 0])
                / (len(m.mesh.boundaries["upper_top"])) for m in (coarse, fine)]
     assert spacing[0] == pytest.approx(1.0, rel=0.01) and spacing[1] == pytest.approx(0.5, rel=0.01)

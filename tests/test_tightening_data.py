@@ -7,7 +7,9 @@ import pytest
 from frictionid.builders.torsion import turned_rings_model
 from frictionid.data.measurements import Measurements, read_measurements, write_measurements
 from frictionid.errors import InputError
-from frictionid.inverse.observations import channel_reaction, observations_from
+from frictionid.inverse.observations import observations_from
+from frictionid.inverse.reactions import channel_reaction
+from frictionid.options import DataSpec
 
 HEADER = "point,x,y,z,stage,torque,clamp,uz"
 
@@ -57,8 +59,9 @@ def test_a_stage_has_one_torque(tmp_path):
 
 def test_torque_and_clamp_are_observed_as_the_model_reactions():
     model = _rings()
-    obs = observations_from(_data(), model, ["uz", "torque", "clamp"], [1, 2], {"u": 1e-3, "torque": 0.01,
-                            "clamp": 20.0}, reactions={"clamp": "lower_bottom.y"})
+    obs = observations_from(_data(), model, DataSpec(observables=["uz", "torque", "clamp"], stages=[1, 2],
+                                                     noise={"u": 1e-3, "torque": 0.01,
+                            "clamp": 20.0}, reactions={"clamp": "lower_bottom.y"}))
     assert obs.reactions == ("upper_top.torque", "lower_bottom.y")
     assert obs.labels == ("P:uz@1", "P:uz@2", "torque@1", "torque@2", "clamp@1", "clamp@2")
     np.testing.assert_array_equal(obs.row, [0, 0, 1, 1, 2, 2])             # after the point's one row
@@ -67,7 +70,7 @@ def test_torque_and_clamp_are_observed_as_the_model_reactions():
     # the prediction picks each channel's row: reactions appended after the point rows, in obs.reactions' order
     values = np.array([[0.1, 7.0, 8.0], [0.2, 9.0, 10.0]])
     np.testing.assert_array_equal(obs.predicted(values), [0.1, 0.2, 7.0, 9.0, 8.0, 10.0])
-    only = observations_from(_data(), model, ["torque"], [2], {"torque": 0.01})
+    only = observations_from(_data(), model, DataSpec(observables=["torque"], stages=[2], noise={"torque": 0.01}))
     assert only.reactions == ("upper_top.torque",) and only.y.tolist() == [1500.0] and only.row.tolist() == [0]
 
 
@@ -75,21 +78,23 @@ def test_a_channel_needs_its_reaction_and_its_column():
     model = _rings()
     with pytest.raises(InputError, match=r"data\.reactions: the observable 'clamp' \(clamp force \(load cell\)\) "
                                          r"needs the reaction it measures.*lower_bottom\.y"):
-        observations_from(_data(), model, ["clamp"], [1], {"clamp": 20.0})
+        observations_from(_data(), model, DataSpec(observables=["clamp"], stages=[1], noise={"clamp": 20.0}))
     with pytest.raises(InputError, match=r"data\.reactions\.clamp: 'lower_bottom\.z' is not a reaction of the "
                                          r"model \(did you mean 'lower_bottom\.y'\?\)"):
         channel_reaction(model, "clamp", {"clamp": "lower_bottom.z"})
     with pytest.raises(InputError, match=r"data\.reactions: 'clmap' is not a per-stage observable with a reaction "
                                          r"to name \(did you mean 'clamp'\?\); expected torque, clamp"):
-        observations_from(_data(), model, ["torque"], [2], {"torque": 0.01}, reactions={"clmap": "lower_bottom.y"})
+        observations_from(_data(), model, DataSpec(observables=["torque"], stages=[2], noise={"torque": 0.01},
+                                                   reactions={"clmap": "lower_bottom.y"}))
     bare = Measurements(points=("P",), coordinates=[[10.0, 2.0, 0.0]], stage=[1], force=[np.nan],
                         values={"uz": [0.0]}, source="m.csv")
     with pytest.raises(InputError, match="m.csv: data.observables has 'torque' but the data have no column 'torque'"):
-        observations_from(bare, model, ["uz", "torque"], [1], {"u": 1e-3, "torque": 0.01})
+        observations_from(bare, model, DataSpec(observables=["uz", "torque"], stages=[1], noise={"u": 1e-3,
+                                                                                                 "torque": 0.01}))
     gap = _data(torques=(np.nan, 1.5))
     with pytest.raises(InputError, match="no row of stage 1 gives the wrench torque \\(column 'torque'\\)"):
-        observations_from(gap, model, ["torque"], [1, 2], {"torque": 0.01})
+        observations_from(gap, model, DataSpec(observables=["torque"], stages=[1, 2], noise={"torque": 0.01}))
     with pytest.raises(InputError, match="data.noise.torque: must be a positive number"):
-        observations_from(_data(), model, ["torque"], [2], {"torque": -1.0})
+        observations_from(_data(), model, DataSpec(observables=["torque"], stages=[2], noise={"torque": -1.0}))
     with pytest.raises(InputError, match="'force' needs a model driven by one prescribed displacement"):
-        observations_from(_data(), model, ["force"], [2], {})
+        observations_from(_data(), model, DataSpec(observables=["force"], stages=[2], noise={}))

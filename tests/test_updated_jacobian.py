@@ -22,6 +22,7 @@ from frictionid.fem.problem import Problem
 from frictionid.fem.updated_jacobian import StuckInverses, UpdatedSolver
 
 from test_held_pairs import symmetric_model
+from frictionid.options import ModelSpec
 CLAMP = Path(__file__).parent / "fixtures" / "clamp" / "clamp.toml"
 
 
@@ -207,7 +208,7 @@ def test_the_same_replaced_rows_after_a_switch_of_inverses_read_the_new_inverse(
 
 @pytest.fixture(scope="module")
 def clamp():
-    return Problem.build(build_model(read_config(CLAMP).model_options))
+    return Problem.build(build_model(read_config(CLAMP).model_spec))
 
 
 def test_clamp_fixture_gross_slip_pull_force_is_sum_mu_n(clamp):

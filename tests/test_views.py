@@ -16,6 +16,7 @@ from frictionid.data.frames import Frame, rotation_from_degrees
 from frictionid.data.sources import read_sources
 from frictionid.data.table import Measurements
 from frictionid.inverse.observations import Observations
+from frictionid.options import DataSpec
 from fixtures.dic import generate
 
 ROOT = Path(__file__).parents[1]
@@ -103,7 +104,8 @@ def test_a_view_without_its_transform_is_not_the_same_data(first):
     """The views' files really are in other frames: read without the transforms, they are off the model."""
     entries, _ = write_views(first)
     files = [{k: v for k, v in e.items() if k not in ("first_label", "transform")} for e in entries]
-    m = read_sources({"file": files, "observables": ["ux"], "stages": [2]}, lambda p: first / p).measurements
+    m = read_sources(DataSpec.from_table({"file": files, "observables": ["ux"], "stages": [2]}),
+                     lambda p: first / p).measurements
     truth = read_measurements(first / "measured.csv").select(stages=[2])
     assert np.abs(m.coordinates[:, :2] - truth.coordinates[:, :2]).max() > 1.0
     assert m.points[0] == "left/L1" and m.points[-1].startswith("base/")
@@ -113,7 +115,7 @@ def test_two_views_of_a_stage_without_view_names_are_refused(first, capsys):
     entries, _ = write_views(first)
     files = [{"path": entries[0]["path"], "stage": 2}, {"path": entries[0]["path"], "stage": 2}]
     with pytest.raises(Exception, match="each with view = \"name\""):
-        read_sources({"file": files, "observables": ["ux"], "stages": [2]}, lambda p: first / p)
+        read_sources(DataSpec.from_table({"file": files, "observables": ["ux"], "stages": [2]}), lambda p: first / p)
 
 
 @pytest.mark.slow

@@ -15,6 +15,7 @@ from frictionid.cli import main
 from frictionid.config import read_config
 from frictionid.data.measurements import read_measurements
 from frictionid.errors import InputError
+from frictionid.options import ModelSpec
 
 FIXTURES = Path(__file__).parent / "fixtures" / "user_block"
 QUANTITIES = ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz")
@@ -38,7 +39,7 @@ AS_GROUP = {"SW": "A", "SE": "B", "NW": "C", "NE": "D"}
 
 def options(interface: dict | None = None) -> dict:
     """The [model] table of the fixture's truth.toml, its interface replaced by ``interface``."""
-    model = read_config(FIXTURES / "truth.toml").model
+    model = read_config(FIXTURES / "truth.toml").model.table()
     if interface is None:
         return model
     return {**model, "interfaces": [{"name": "block_plate", "target": "plate_top", **interface}]}
@@ -54,7 +55,7 @@ def predict(model, mu: dict) -> np.ndarray:
 @pytest.fixture(scope="module")
 def by_groups():
     """The fixture's model (zones A-D as physical groups) and its results at the truth."""
-    model = build_model(options())
+    model = build_model(ModelSpec.from_table(options()))
     return model, predict(model, TRUTH)
 
 
@@ -63,7 +64,7 @@ def by_groups():
 @pytest.mark.parametrize("rules", [QUADRANT_BOXES, QUADRANT_PLANES], ids=["boxes", "planes"])
 def test_quadrant_rules_are_the_files_zones(rules, by_groups):
     groups, expected = by_groups
-    model = build_model(options({"contact": ["A", "B", "C", "D"], "zone_rules": rules}))
+    model = build_model(ModelSpec.from_table(options({"contact": ["A", "B", "C", "D"], "zone_rules": rules})))
     assert model.zone_names == ("SW", "SE", "NW", "NE")
     assert not {"A", "B", "C", "D"} & set(model.mesh.boundaries)     # the contact groups are not zones
     for zone, group in AS_GROUP.items():
@@ -75,8 +76,8 @@ def test_quadrant_rules_are_the_files_zones(rules, by_groups):
 def test_zones_and_rules_together_split_the_rest(by_groups):
     """``zones`` from the file (A, B) besides rules that split the other boundaries (C, D)."""
     groups, _ = by_groups
-    model = build_model(options({"zones": ["A", "B"], "contact": ["C", "D"],
-                                 "zone_rules": [QUADRANT_BOXES[2], QUADRANT_BOXES[3]]}))
+    model = build_model(ModelSpec.from_table(options({"zones": ["A", "B"], "contact": ["C", "D"],
+                                 "zone_rules": [QUADRANT_BOXES[2], QUADRANT_BOXES[3]]})))
     assert model.zone_names == ("A", "B", "NW", "NE")
     for zone, group in {"A": "A", "B": "B", "NW": "C", "NE": "D"}.items():
         np.testing.assert_array_equal(model.mesh.boundaries[zone], groups.mesh.boundaries[group])
@@ -86,8 +87,8 @@ def test_front_and_rear_is_the_quadrant_model_with_equal_neighbours(by_groups):
     """A coarser partition of the same mesh: rear (y <= 0) and front. With mu_A = mu_B = rear and mu_C = mu_D =
     front the quadrant model is the same contact problem (a node on a border gets the area-weighted mean)."""
     groups, _ = by_groups
-    model = build_model(options({"contact": ["A", "B", "C", "D"], "zone_rules": [
-        {"name": "rear", "plane": {"point": [0, 0, 0], "normal": [0, -1, 0]}}, {"name": "front", "all": True}]}))
+    model = build_model(ModelSpec.from_table(options({"contact": ["A", "B", "C", "D"], "zone_rules": [
+        {"name": "rear", "plane": {"point": [0, 0, 0], "normal": [0, -1, 0]}}, {"name": "front", "all": True}]})))
     assert model.zone_names == ("rear", "front")
     assert [len(model.mesh.boundaries[z]) for z in model.zone_names] == [32, 32]
     got = predict(model, {"rear": 0.2, "front": 0.4})
@@ -102,13 +103,13 @@ def test_supports_and_loads_may_name_zones_made_by_rules(by_groups):
     groups, _ = by_groups
     held = {"type": "displacement", "boundary": "SW", "component": "z", "values": [0.0, 0.0]}
     table = options({"contact": ["A", "B", "C", "D"], "zone_rules": QUADRANT_BOXES})
-    model = build_model({**table, "loads": [*table["loads"], held],
-                         "supports": [*table["supports"], {"boundary": "NE", "components": ["z"]}]})
+    model = build_model(ModelSpec.from_table({**table, "loads": [*table["loads"], held],
+                         "supports": [*table["supports"], {"boundary": "NE", "components": ["z"]}]}))
     assert model.loads[-1].boundary == "SW" and model.supports[-1].boundary == "NE"
     np.testing.assert_array_equal(model.mesh.boundary_nodes("SW"), groups.mesh.boundary_nodes("A"))
     np.testing.assert_array_equal(model.mesh.boundary_nodes("NE"), groups.mesh.boundary_nodes("D"))
     with pytest.raises(InputError, match="no boundary or node set of that name"):
-        build_model({**table, "supports": [{"boundary": "SWW", "components": ["z"]}]})
+        build_model(ModelSpec.from_table({**table, "supports": [{"boundary": "SWW", "components": ["z"]}]}))
 
 
 # ------------------------------------------------------------------------------------ each rule kind

@@ -43,6 +43,7 @@ from frictionid.fem.locate import region_at
 from frictionid.fem.space import Space
 from frictionid.identification import identify_config
 from frictionid.studies.bolt import FORCES, NOISE, OPTIONS, START, TRUE_MU
+from frictionid.options import ModelSpec
 
 QUANTITIES = ("ux", "uy")
 #: the grids' target numbers of points (the study's ten default flank points come first)
@@ -139,8 +140,8 @@ def _run(out: Path, flank: float, data_flank: float, sizes, merge: bool = False,
     start = time.perf_counter()
     layout = bolt_layout("M20")
     options = {"builder": "bolt", "size": "M20", "forces": list(FORCES)}
-    model = build_model({**options, "flank_size": flank})
-    data_model = build_model({**options, "flank_size": data_flank})
+    model = build_model(ModelSpec.from_table({**options, "flank_size": flank}))
+    data_model = build_model(ModelSpec.from_table({**options, "flank_size": data_flank}))
     spaces = [Space.build(m.mesh, m.kind, m.element) for m in (model, data_model)]
     sets = {"10 default": (measurement_points(layout), ["bolt"] * 10)}
     targets = {"10 default": 10}

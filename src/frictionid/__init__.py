@@ -23,7 +23,7 @@ _EXPORTS = {
     "Config": "frictionid.config", "read_config": "frictionid.config", "config_from_dict": "frictionid.config",
     "Measurements": "frictionid.data.measurements", "read_measurements": "frictionid.data.measurements",
     "write_measurements": "frictionid.data.measurements",
-    "Model": "frictionid.model", "build_model": "frictionid.builders.registry",
+    "Model": "frictionid.model", "build_model": "frictionid.builders.registry", "ModelSpec": "frictionid.options",
     "block_model": "frictionid.builders.block", "block_model_2d": "frictionid.builders.block",
     "bolt_model": "frictionid.builders.bolt",
     "simulate": "frictionid.simulation",

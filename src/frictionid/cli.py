@@ -82,7 +82,7 @@ def _run_identify(args) -> int:
         result = identify_config(config, resume=args.resume, echo=_echo)
     except KeyboardInterrupt:
         print(f"frictionid: interrupted; every finished evaluation is stored in "
-              f"{config.resolve(config.run['dir'])}; continue with --resume", file=sys.stderr)
+              f"{config.resolve(config.run.dir)}; continue with --resume", file=sys.stderr)
         return 1
     print(result.fit_report())
     print(f"results in {result.run_dir}")
@@ -145,8 +145,8 @@ def _run_check_data(args) -> int:
     from .config import read_config
 
     config = read_config(args.file, need=("data",))
-    model = build_model(config.model_options) if fits_surface(config.data) else None
-    print(check_config_data(config, model))
+    model = build_model(config.model_spec) if fits_surface(config.data) else None
+    print(check_config_data(config.data, config.resolve, config.where, model))
     return 0
 
 

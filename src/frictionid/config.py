@@ -14,31 +14,26 @@ import tomli_w
 
 from .data.table import CHANNELS, QUANTITIES
 from .errors import InputError
+from .options import (DEFAULT_BOUNDS, DataSpec, DesignOptions, IdentifyOptions, ModelSpec, RunOptions,
+                      SolverOptions, defaults)
 
 log = logging.getLogger(__name__)
 
 REQUIRED = object()   # marks a key without a default
 
-#: allowed keys per table, with their defaults
+def _schema(kind, required: tuple[str, ...] = ()) -> dict:
+    return {**defaults(kind), **{key: REQUIRED for key in required}}
+
+
+#: allowed keys per table, with their defaults (the option objects' own, frictionid.options)
 SCHEMA = {
     "model": {"builder": REQUIRED},                  # builder options are checked against the builder
-    "friction": {"zones": REQUIRED, "bounds": [0.0, 1.0], "fixed": {}, "merge": {}},
-    "data": {"file": REQUIRED, "observables": REQUIRED, "stages": REQUIRED, "noise": {}, "regions": {},
-             "format": None, "columns": None, "strain": None, "forces": None, "transform": None,
-             "relative_to": None, "strain_window": None, "strain_window_shape": None, "reactions": {},
-             "plane_tolerance": None, "coordinates": None},
-    "solver": {"backend": "embedded", "ccx": "ccx", "timeout": 3600.0, "keep_work": False, "work_dir": None,
-               "threads": 1, "contact": "surface-to-surface", "normal_stiffness": None, "stick_slope": None,
-               "load_scale": 1.0, "factorisation": "auto", "increments": "fixed", "sliding": "small",
-               "max_memory": None},
-    "identify": {"method": "trf", "jacobian": "analytic", "max_iterations": 50, "tol": 1e-10,
-                 "step": 1e-4, "power": 2.0, "tikhonov": 0.0, "prior": None, "penalty": 0.0, "options": {},
-                 "resolution": 0.02, "suggestions": 5, "loss": "linear", "loss_scale": 3.0,
-                 "model_error": "off", "refine_target": 0.5, "refine_budget": 2, "starts": 1, "seed": 0,
-                 "profile": False, "profile_points": 11},
-    "run": {"dir": REQUIRED, "workers": 1, "scheduler": None, "retries": 2, "fields": True},
-    "design": {"points": 10, "candidates": None, "n_candidates": 400, "regions": None, "criterion": "A",
-               "tolerance": None},
+    "friction": {"zones": REQUIRED, "bounds": list(DEFAULT_BOUNDS), "fixed": {}, "merge": {}},
+    "data": _schema(DataSpec, ("file", "observables", "stages")),
+    "solver": _schema(SolverOptions),
+    "identify": _schema(IdentifyOptions),
+    "run": _schema(RunOptions, ("dir",)),
+    "design": _schema(DesignOptions),
 }
 OPEN_TABLES = {"model"}
 #: a message about a config key: it starts with a table's name ("data.noise.u: ...", "[friction] zones: ...")
@@ -73,6 +68,7 @@ TYPES = {
     "solver.ccx": (str, "the name or path of the ccx executable"),
     "solver.timeout": ((int, float), "a number of seconds"),
     "solver.work_dir": (str, "a folder name"),
+    "solver.keep_work": (bool, "true or false (keep every ccx work folder)"),
     "solver.threads": (int, "a whole number"),
     "solver.contact": (str, '"surface-to-surface" or "node-to-surface"'),
     "solver.normal_stiffness": ((int, float), "a number [N/mm^3]"),
@@ -176,7 +172,8 @@ def _check_subtables(tables: dict, path: Path) -> None:
 
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
-CHOICES = {"solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive"),
+CHOICES = {"solver.contact": ("surface-to-surface", "node-to-surface"),
+           "solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive"),
            "solver.sliding": ("small", "finite")}
 
 
@@ -211,25 +208,26 @@ def _check_choices(tables: dict, path: Path) -> None:
 
 @dataclass(frozen=True)
 class Config:
-    """A validated configuration: one dict per table with defaults filled in; paths are absolute."""
+    """A validated configuration: each table made once into its frozen option object (frictionid.options);
+    ``friction`` stays a table until the model's zones make it Parameters; paths are absolute."""
 
     path: Path
     text: str
-    model: dict
+    model: ModelSpec
     friction: dict
-    data: dict
-    solver: dict
-    identify: dict
-    run: dict
-    design: dict
+    data: DataSpec
+    solver: SolverOptions
+    identify: IdentifyOptions
+    run: RunOptions
+    design: DesignOptions
     name: str | None = None
 
     @property
-    def model_options(self) -> dict:
-        """The [model] table the model is built from: with ``[friction] merge`` given, carrying it as ``merge``
-        (so that a refined model merges alike, :func:`frictionid.builders.registry.build_model`)."""
+    def model_spec(self) -> ModelSpec:
+        """The [model] the model is built from: with ``[friction] merge`` given, carrying it (so that a refined
+        model merges alike, :func:`frictionid.builders.registry.build_model`)."""
         merge = self.friction.get("merge")
-        return {**self.model, "merge": merge} if merge else dict(self.model)
+        return ModelSpec(self.model.builder, self.model.keywords, merge) if merge else self.model
 
     @property
     def where(self) -> str:
@@ -294,7 +292,7 @@ def config_from_dict(tables: dict, need: tuple[str, ...] = ("model", "friction")
     validated the same way; relative paths resolve against ``base``, messages start with ``name``.
 
     >>> config = config_from_dict({"model": {"builder": "block2d"}, "friction": {"zones": {"A": 0.1, "B": 0.1}}})
-    >>> config.identify["method"], config.friction["bounds"]
+    >>> config.identify.method, config.friction["bounds"]
     ('trf', [0.0, 1.0])
     """
     if not isinstance(tables, dict):
@@ -340,4 +338,9 @@ def _validated(raw: dict, path: Path, text: str, need: tuple[str, ...], name: st
             raise InputError(f"{where}: missing key data.{key}")
     if "run" in need and "dir" not in tables["run"]:
         raise InputError(f"{where}: missing key run.dir")
-    return Config(path=path, text=text, **tables, name=name)
+    if tables["solver"].get("work_dir"):                   # ccx's work folders: relative to the config's folder
+        tables["solver"]["work_dir"] = str((path.parent / tables["solver"]["work_dir"]).resolve())
+    return Config(path=path, text=text, model=ModelSpec.from_table(tables["model"]), friction=tables["friction"],
+                  data=DataSpec.from_table(tables["data"]), solver=SolverOptions.from_table(tables["solver"]),
+                  identify=IdentifyOptions.from_table(tables["identify"]), run=RunOptions.from_table(tables["run"]),
+                  design=DesignOptions.from_table(tables["design"]), name=name)

@@ -12,7 +12,6 @@ import time
 
 import numpy as np
 
-from .backends import solver_options
 from .backends.calculix.backend import CalculixBackend, CalculixSettings
 from .backends.comparison import CrossCheck
 from .builders.registry import build_model
@@ -20,11 +19,12 @@ from .data.sources import read_data
 from .errors import InputError
 from .fem.locate import PointsOutside
 from .fem.problem import Problem
-from .inverse.observations import FORCE, machine_force, observations_from, region_of_points
+from .inverse.observations import default_quantities, observations_from, split_observables
+from .inverse.point_regions import region_of_points
+from .inverse.reactions import FORCE, machine_force
 from .inverse.parameters import Parameters
 from .inverse.shift import CoefficientShift, coefficient_shift, observed_shift
 from .model import Model
-from .simulation import DEFAULT_QUANTITIES
 
 #: cells per region whose centroids are the default observation points
 DEFAULT_CELLS_PER_REGION = 8
@@ -73,30 +73,30 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     Otherwise the shift counts every observable at every point and [data] stage (default: all), weighted by
     [data] noise. Returns (check, shift or None, a note saying why there is no shift).
     """
-    model = build_model(config.model_options, f"{config.where}: [model]")
+    model = build_model(config.model_spec, f"{config.where}: [model]")
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
-    data, noise = config.data, config.data.get("noise")
-    observables = tuple(data.get("observables") or ())
+    data, noise = config.data, config.data.noise
+    observables = tuple(data.observables or ())
     force = machine_force(model) if FORCE in observables else None
-    quantities = tuple(q for q in observables if q != FORCE) or tuple(DEFAULT_QUANTITIES[model.dim])
-    source = read_data(data, config.resolve, f"{config.where}: [data]", model) if data.get("file") else None
+    quantities = split_observables(observables)[0] or default_quantities(model)
+    source = read_data(data, config.resolve, f"{config.where}: [data]", model) if data.file else None
     observations = None
     if source is not None and noise and all(q in source.values for q in quantities) and \
             (force is None or not np.all(np.isnan(source.force))):
-        observations = observations_from(source, model, observables, data.get("stages")
-                                         or list(range(1, model.n_stages + 1)), noise, data.get("regions"))
+        stages = data.stages or range(1, model.n_stages + 1)
+        observations = observations_from(source, model, data.with_values(observables=observables, stages=stages))
         points, regions, labels = observations.points, list(observations.point_regions), observations.point_labels
     elif source is not None:
         labels = list(dict.fromkeys(source.points))
         first = {p: i for i, p in reversed(list(enumerate(source.points)))}
         points = np.array([source.coordinates[first[p]][:model.dim] for p in labels])
-        region_of = region_of_points(data.get("regions"), labels, model.mesh.region_names)
+        region_of = region_of_points(data.regions, labels, model.mesh.region_names)
         regions = [region_of[p] for p in labels]
     else:
         points, regions = default_points(model)
-    settings = CalculixSettings.from_options(solver_options(config), f"{config.path}: [solver]")
-    name = f"{config.path.name} (builder {config.model.get('builder')!r})"
+    settings = CalculixSettings.from_solver(config.solver)
+    name = f"{config.path.name} (builder {config.model.builder!r})"
     try:
         check = cross_check(model, mu.full(mu.x0), points, quantities, regions, settings, name)
     except PointsOutside as exc:
@@ -109,6 +109,6 @@ def cross_check_config(config) -> tuple[CrossCheck, CoefficientShift | None, str
     if observations is not None:
         return check, observed_shift(check, observations), ""
     try:
-        return check, coefficient_shift(check, noise, data.get("stages"), quantities, force), ""
+        return check, coefficient_shift(check, noise, data.stages, quantities, force), ""
     except InputError as exc:
         raise InputError(f"{config.path}: {exc}") from None

@@ -7,11 +7,10 @@ import logging
 import tempfile
 import time
 from dataclasses import replace
-from functools import partial
 from pathlib import Path
 
 
-from .backends import make_backend, solver_options
+from .backends import make_backend
 from .config import Config, config_from_dict
 from .data.measurements import Measurements
 from .errors import InputError, SolverError
@@ -111,7 +110,7 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
     if run_dir is not None:
         return identify_config(config, resume, echo=echo, setup=setup)
     with tempfile.TemporaryDirectory(prefix="frictionid-") as folder:
-        result = identify_config(replace(config, run={**config.run, "dir": folder}), echo=echo, setup=setup,
+        result = identify_config(replace(config, run=config.run.with_values(dir=folder)), echo=echo, setup=setup,
                                  write_files=False)
     return replace(result, run_dir=None)
 
@@ -126,36 +125,36 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     evaluator)`` after each iteration with all zones' coefficients mu; ``setup`` is :func:`prepare`'s
     (built here when not given); ``write_files=False`` keeps only the store (no result.json, plots, report).
     """
-    run_dir = check_folder(config.resolve(config.run["dir"]), f"{config.where}: run.dir",
+    run_dir = check_folder(config.resolve(config.run.dir), f"{config.where}: run.dir",
                            input_files(config), RUN_FILES if write_files else ())
     setup = setup or prepare(config, echo=echo)
     start = time.perf_counter()
     obs = setup.observations
-    max_memory = config.solver.get("max_memory")
+    max_memory = config.solver.max_memory
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
-                     float(config.identify["refine_target"]), int(config.identify["refine_budget"]), max_memory,
-                     echo, strain_window(setup.window, obs), config.solver["backend"])
-    sliding = config.solver["sliding"]
+                     config.identify.refine_target, config.identify.refine_budget, max_memory,
+                     echo, strain_window(setup.window, obs), config.solver.backend)
+    sliding = config.solver.sliding
     contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo,
                                                                                    sliding)
     setup = replace(setup, model=chosen.model, model_options=chosen.options, contact=contact,
                     discretisation=chosen.record)
-    if config.solver["backend"] == "embedded":
-        log.info(memory.check(setup.model, "model", max_memory, config.solver.get("factorisation", "auto")).line())
-        if config.identify["model_error"] != "off":       # refused now rather than after the fit
+    if config.solver.backend == "embedded":
+        log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
+        if config.identify.model_error != "off":       # refused now rather than after the fit
             memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
-        backend = make_backend(config.solver["backend"], setup.model, obs.points, obs.quantities, obs.point_regions,
-                               solver_options(config), f"{config.where}: [solver]", obs.reactions,
+        backend = make_backend(setup.model, obs.points, obs.quantities, obs.point_regions, config.solver,
+                               f"{config.where}: [solver]", obs.reactions,
                                strain_window(setup.window, obs))
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
     backend_s = time.perf_counter() - condensed
-    echo(f"{config.solver['backend']} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "
-         f"({backend_s:.1f} s{', condensed' if config.solver['backend'] == 'embedded' else ''})")
-    executor = make_executor(backend, int(config.run["workers"]), config.run["scheduler"],
-                             int(config.run["retries"]), f"{config.where}:")
+    echo(f"{config.solver.backend} backend ready: {obs.n_obs:,} observations at {len(obs.points)} points "
+         f"({backend_s:.1f} s{', condensed' if config.solver.backend == 'embedded' else ''})")
+    executor = make_executor(backend, config.run.workers, config.run.scheduler,
+                             config.run.retries, f"{config.where}:")
     try:
         store = RunStore.open(run_dir, config.text, setup.fingerprint, resume)
     except BaseException:
@@ -184,15 +183,15 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
     leaves result.json (with ``write_files``; the store keeps the result either way)."""
     try:
-        factory = partial(make_backend, "embedded") if evaluator.backend.has_sensitivities else None
-        report = prefit(evaluator, setup.model, float(config.identify["resolution"]),
-                        int(config.identify["suggestions"]), factory)
+        factory = make_backend if evaluator.backend.has_sensitivities else None       # the embedded backend
+        report = prefit(evaluator, setup.model, config.identify.resolution,
+                        config.identify.suggestions, factory)
         on_prefit(report)
         outcome, starts = multistart.optimise_starts(problem, lambda problem: _optimise(problem, config), evaluator,
-                                                     store, config.identify["starts"], config.identify["seed"],
+                                                     store, config.identify.starts, config.identify.seed,
                                                      iteration_lines, echo)
         error = None
-        if config.identify["model_error"] != "off":
+        if config.identify.model_error != "off":
             echo(f"fit {outcome.status}; model error: the model refined by 2 at the start and the fitted point ...")
             error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
             echo(f"model error: RMS {error.summary['all']['rms']:.3g} noise levels, largest "
@@ -211,16 +210,16 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     held.check_bounds(result, echo)
     if starts:
         result["starts"] = starts
-    zones = profile.profiled_zones(config.identify["profile"], setup.parameters.free_names, f"{config.where}:")
+    zones = profile.profiled_zones(config.identify.profile, setup.parameters.free_names, f"{config.where}:")
     if zones:
-        echo(f"profiles of {', '.join(zones)}: {int(config.identify['profile_points'])} refits each ...")
+        echo(f"profiles of {', '.join(zones)}: {config.identify.profile_points} refits each ...")
         result["profiles"] = held.profiles(zones, result)
     result["timings"] = solve_timings(store, backend_s)
     store.put_result(result)
     store.set_status(result["status"])
     if write_files:
         write_outputs(run_dir, result, store, config.text, setup.data_file)
-        if config.run["fields"]:
+        if config.run.fields:
             export_fields(evaluator.backend, [result["parameters"][z]["value"] for z in setup.model.zone_names],
                           run_dir / "fields", echo)
     return result
@@ -228,8 +227,8 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
 
 def _optimise(problem: LeastSquares, config: Config) -> OptimiseResult:
     ident = config.identify
-    return optimise(problem, ident["method"], max_iterations=int(ident["max_iterations"]), tol=float(ident["tol"]),
-                    options=dict(ident["options"]))
+    return optimise(problem, ident.method, max_iterations=ident.max_iterations, tol=ident.tol,
+                    options=ident.method_options)
 
 
 def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
@@ -241,7 +240,7 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
 
     try:
         return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
-                                config.identify["model_error"], refit, config.solver.get("max_memory"))
+                                config.identify.model_error, refit, config.solver.max_memory)
     except InputError as exc:       # after the fit: stored as a failed run, the fit kept (_stopped)
         raise SolverError(str(exc)) from None
 

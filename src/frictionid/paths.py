@@ -21,12 +21,12 @@ def input_files(config) -> list[Path]:
     from .data.sources import data_paths
 
     files = [] if config.name is not None else [config.path]
-    if config.data.get("file") is not None:
+    if config.data.file is not None:
         try:
             files += data_paths(config.data, config.resolve)
         except (KeyError, TypeError):       # a malformed entry: [data]'s own check names it
             pass
-    mesh = config.model.get("file")
+    mesh = config.model.option("file")
     if isinstance(mesh, str) and os.path.isfile(mesh):
         files += list(source_files(mesh))
     return files

@@ -32,7 +32,7 @@ from .data.table import CHANNELS, QUANTITIES, Measurements
 from .errors import InputError
 from .preparation import prepare
 from .inverse.design import CRITERIA, finest_partition, information_of, select_points
-from .inverse.observations import noise_of
+from .inverse.observations import noise_of, split_observables
 from .inverse.resolution import predicted_stderr, resolution
 from .model import Model
 from .paths import check_folder, input_files
@@ -150,46 +150,46 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
     """Run the design a config describes (module docstring); writes design.json, chosen_points.csv and
     sensitivity.png to ``out`` (default <run.dir>/design) and returns design.json's content."""
     where, table = config.where, config.design
-    folder = check_folder(out if out is not None else config.resolve(config.run["dir"]) / "design",
+    folder = check_folder(out if out is not None else config.resolve(config.run.dir) / "design",
                           "design --out" if out is not None else f"{where}: run.dir", input_files(config),
                           DESIGN_FILES)
-    n_points = int(table["points"] if n_points is None else n_points)
-    if table["candidates"] not in (None, *KINDS):
-        raise InputError(f"{where}: design.candidates = {table['candidates']!r} is not one of {list(KINDS)}")
-    if table["criterion"] not in CRITERIA:
-        raise InputError(f"{where}: design.criterion = {table['criterion']!r} is not one of {list(CRITERIA)}")
-    if int(table["n_candidates"]) < n_points:
-        raise InputError(f"{where}: design.n_candidates = {table['n_candidates']} is fewer than the "
+    n_points = int(table.points if n_points is None else n_points)
+    if table.candidates not in (None, *KINDS):
+        raise InputError(f"{where}: design.candidates = {table.candidates!r} is not one of {list(KINDS)}")
+    if table.criterion not in CRITERIA:
+        raise InputError(f"{where}: design.criterion = {table.criterion!r} is not one of {list(CRITERIA)}")
+    if int(table.n_candidates) < n_points:
+        raise InputError(f"{where}: design.n_candidates = {table.n_candidates} is fewer than the "
                          f"{n_points} points to choose")
     with config.naming_keys():
-        model = build_model(config.model_options, f"{where}: [model]")
+        model = build_model(config.model_spec, f"{where}: [model]")
         setup = prepare(config, model, planned_measurements(config, model), echo=echo)
     params, obs = setup.parameters, setup.observations
-    kind = table["candidates"] or ("surface" if model.dim == 3 else "section")
-    quantities = tuple(q for q in config.data["observables"] if q != "force")
-    noise = config.data.get("noise") or {}
+    kind = table.candidates or ("surface" if model.dim == 3 else "section")
+    quantities = split_observables(config.data.observables)[0]
+    noise = config.data.noise or {}
     sigma = [noise_of(q, noise) for q in quantities]
     missing = [q for q, s in zip(quantities, sigma) if s is None]
     if missing:
         raise InputError(f"{where}: design needs the noise of every observed quantity; data.noise gives none for "
                          f"{missing} (e.g. noise = {{ u = 0.0005, e = 2e-5 }})")
-    stages = [int(s) for s in config.data["stages"]]
+    stages = [int(s) for s in config.data.stages]
     names, free, mu = params.free_names, params.free, params.full(params.x0)
-    tolerance = float(table["tolerance"] or config.identify["resolution"])
+    tolerance = float(table.tolerance or config.identify.resolution)
 
     backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=False)
     planned_jac = obs.derivatives(backend.predict(mu, True).derivatives)[:, free] / obs.sigma[:, None]
     planned = resolution(planned_jac, names, tolerance)
     echo(_summary(f"planned ({len(obs.points)} points)", planned.stderr, names, tolerance))
 
-    points, regions = candidate_locations(model, kind, int(table["n_candidates"]), table["regions"])
+    points, regions = candidate_locations(model, kind, int(table.n_candidates), table.regions)
     points, regions = np.concatenate([obs.points, points]), list(obs.point_regions) + list(regions)
     rows = weighted_rows(model, points, regions, quantities, stages, sigma, mu, free)
     candidates = Candidates(points, tuple(regions), rows)
-    chosen = select_points(rows, n_points, table["criterion"])
+    chosen = select_points(rows, n_points, table.criterion)
     chosen_info = information_of(rows, chosen)
     chosen_se = predicted_stderr(chosen_info)
-    echo(_summary(f"chosen ({n_points} of {len(points)} {kind} candidates, {table['criterion']}-optimal)",
+    echo(_summary(f"chosen ({n_points} of {len(points)} {kind} candidates, {table.criterion}-optimal)",
                   chosen_se, names, tolerance))
     neighbours, interface_of = _zone_relations(model, names)
     partitions = {}
@@ -213,7 +213,7 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
               "planned": {"n_points": len(obs.points), "stderr": clean(planned.stderr),
                           "partition": partitions["planned"].as_dict()},
               "chosen": {"n_points": n_points, "candidates": kind, "n_candidates": len(points),
-                         "criterion": table["criterion"], "stderr": clean(chosen_se),
+                         "criterion": table.criterion, "stderr": clean(chosen_se),
                          "points": {label: {"xyz": points[k].tolist(), "region": regions[k]}
                                     for label, k in zip(labels, chosen)},
                          "partition": partitions["chosen"].as_dict(), "regions": region_table},
@@ -228,7 +228,7 @@ def planned_measurements(config: Config, model: Model) -> Measurements:
     """The planned points of ``[data] file`` at every ``[data] stages`` with placeholder values (zeros) of every
     observable: a plan needs where the points are, not what they measured. A CSV whose header has point, x, y, z
     is read as a points file (other columns, stage included, are not used); any other file as identify reads it."""
-    files = config.data["file"]
+    files = config.data.file
     path = config.resolve(files) if isinstance(files, str) else None
     if path is not None and _points_header(path) is not None:
         labels, xyz = read_points(path)
@@ -236,15 +236,15 @@ def planned_measurements(config: Config, model: Model) -> Measurements:
         measured = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
         first = dict(zip(reversed(measured.points), range(len(measured.points) - 1, -1, -1)))
         labels, xyz = list(first), measured.coordinates[list(first.values())]
-    stages = [int(s) for s in config.data["stages"]]
+    stages = [int(s) for s in config.data.stages]
     n = len(labels)
-    observed = config.data["observables"]
+    observed = config.data.observables
     zeros = np.zeros(n * len(stages))
     return Measurements(points=tuple(labels) * len(stages), coordinates=np.tile(xyz, (len(stages), 1)),
                         stage=np.repeat(stages, n), force=zeros.copy(),
                         values={q: zeros.copy() for q in observed if q in QUANTITIES},
                         channels={c: zeros.copy() for c in observed if c in CHANNELS},
-                        source=str(path or config.data["file"]))
+                        source=str(path or config.data.file))
 
 
 def _points_header(path: Path) -> list[str] | None:

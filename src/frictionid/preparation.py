@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .backends import check_backend, solver_options
+from .backends import check_backend
 from .builders.registry import build_model
 from .config import Config
 from .data.dic.window import choose as choose_window
@@ -30,20 +30,21 @@ from .inverse.optimisers import check_method
 from .inverse.parameters import Parameters
 from .model import Model
 from .model_checks import checked_contact, model_line
+from .options import IdentifyOptions, ModelSpec
 from .run.executor import check_scheduler
 
 
 @dataclass(frozen=True)
 class Setup:
     """Everything an identification needs, built and validated before anything runs; ``model_options`` is the
-    [model] table the model was built from ({} for a model given as an object), ``data_file`` the measurement
+    [model] the model was built from (None for a model given as an object), ``data_file`` the measurement
     file (None for measurements given as an object)."""
 
     model: object
     observations: object
     parameters: Parameters
     fingerprint: str
-    model_options: dict
+    model_options: ModelSpec | None
     data_file: Path | None = None
     frames: tuple = ()
     #: the fit's DIC strain window (:class:`~frictionid.data.dic.window.WindowChoice`), None: none
@@ -61,12 +62,12 @@ def fingerprint(config: Config, model: Model | None = None, measurements: Measur
     """Hash of everything that determines forward results: model (its [model] table, or the model's own
     fingerprint when given as an object), data (file bytes, or the content of given measurements),
     observables, solver."""
-    data = {k: v for k, v in config.data.items() if k != "file"}
-    content = {"model": config.model if model is None else model.fingerprint(), "data": data,
+    data = {k: v for k, v in config.data.table().items() if k != "file"}
+    content = {"model": config.model.table() if model is None else model.fingerprint(), "data": data,
                "data_bytes": data_digest(config.data, config.resolve)
                if measurements is None else measurements.digest(),
-               "solver": config.solver, "fixed": config.friction.get("fixed", {}),
-               "jacobian": config.identify["jacobian"], "step": config.identify["step"]}
+               "solver": config.solver.table(), "fixed": config.friction.get("fixed", {}),
+               "jacobian": config.identify.jacobian, "step": config.identify.step}
     return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
 
 
@@ -81,34 +82,33 @@ def prepare(config: Config, model: Model | None = None, measurements: Measuremen
 def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     ident, where = config.identify, config.where
     # types and ranges of every key are config.py's (TYPES, RANGES); the names a key takes, their owners'
-    if ident["jacobian"] not in JACOBIANS:
-        raise InputError(f"{where}: identify.jacobian = {ident['jacobian']!r} is not one of {list(JACOBIANS)}")
-    check_backend(config.solver["backend"], ident["jacobian"], solver_options(config), f"{where}: [solver]",
-                  float(ident["step"]))
-    check_scheduler(config.run.get("scheduler"), f"{where}:")
-    given_model, model_options = model, config.model_options if model is None else {}
+    if ident.jacobian not in JACOBIANS:
+        raise InputError(f"{where}: identify.jacobian = {ident.jacobian!r} is not one of {list(JACOBIANS)}")
+    check_backend(config.solver, ident.jacobian, f"{where}: [solver]", ident.step)
+    check_scheduler(config.run.scheduler, f"{where}:")
+    given_model, model_options = model, config.model_spec if model is None else None
     if model is None:
         start = time.perf_counter()
         model = build_model(model_options, f"{where}: [model]")
-        echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
-    contact = checked_contact(model, where, echo, config.solver["sliding"])
+        echo(model_line(model, config.model.builder, time.perf_counter() - start))
+    contact = checked_contact(model, where, echo, config.solver.sliding)
     if parameters is None:
         parameters = Parameters.from_config(model.zone_names, config.friction["zones"], config.friction["bounds"],
                                             config.friction.get("fixed"))
     else:
         parameters = parameters.ordered_as(model.zone_names, f"{where}: parameters")
     _check_identify(config, ident, len(parameters.free_names), list(parameters.free_names))
-    multistart.start_points(ident["starts"], parameters.x0, parameters.lower, parameters.upper, int(ident["seed"]),
+    multistart.start_points(ident.starts, parameters.x0, parameters.lower, parameters.upper, ident.seed,
                             parameters.free_names, f"{where}:")
-    profile.profiled_zones(ident["profile"], parameters.free_names, f"{where}:")
+    profile.profiled_zones(ident.profile, parameters.free_names, f"{where}:")
     check_options(ident, model_options, f"{where}:")
-    memory.limit(config.solver.get("max_memory"), f"{where}: [solver]")
-    if ident["model_error"] != "off" and config.solver["backend"] != "embedded":
-        raise InputError(f"{where}: identify.model_error = {ident['model_error']!r} needs the embedded "
+    memory.limit(config.solver.max_memory, f"{where}: [solver]")
+    if ident.model_error != "off" and config.solver.backend != "embedded":
+        raise InputError(f"{where}: identify.model_error = {ident.model_error!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
     data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None
     given, frames, relative, specimens, files = measurements, [], {}, {}, []
-    window = choose_window(config.data.get("strain_window"), config.data.get("strain_window_shape"), [])
+    window = choose_window(config.data.strain_window, config.data.strain_window_shape, [])
     if measurements is None:
         sources = read_sources(config.data, config.resolve, where, model)
         measurements, frames, relative = sources.measurements, sources.frames, sources.relative
@@ -122,27 +122,25 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
             echo(f"{frame['file']}: {frame['line']}")
         if window.origin == "export header":
             echo(window.lines[0])
-    window = window.for_fit(config.data["observables"])
-    observations = observations_from(measurements, model, config.data["observables"], config.data["stages"],
-                                     config.data.get("noise"), config.data.get("regions"), relative, specimens,
-                                     config.data.get("reactions"))
+    window = window.for_fit(config.data.observables)
+    observations = observations_from(measurements, model, config.data, relative, specimens)
     return Setup(model, observations, parameters, fingerprint(config, given_model, given), model_options,
                  data_file, tuple(frames), window, tuple(files), contact)
 
 
-def _check_identify(config: Config, ident: dict, n_free: int, free: list[str]) -> None:
+def _check_identify(config: Config, ident: IdentifyOptions, n_free: int, free: list[str]) -> None:
     """The [identify] keys that need the number of free zones: prior, loss, the method's options."""
-    where, prior = config.where, ident["prior"]
+    where, prior = config.where, ident.prior
     if prior is not None and not (isinstance(prior, (int, float)) and not isinstance(prior, bool)
                                   or isinstance(prior, list) and len(prior) == n_free
                                   and all(isinstance(v, (int, float)) for v in prior)):
         raise InputError(f"{where}: identify.prior must be a number or a list of {n_free} numbers (one per free "
                          f"zone {free}), got {prior!r}")
-    if ident["loss"] not in ROBUST_WEIGHTS or ident["loss"] != "linear" and ident["method"] != "trf":
-        raise InputError(f"{where}: identify.loss = {ident['loss']!r} must be one of {sorted(ROBUST_WEIGHTS)}"
+    if ident.loss not in ROBUST_WEIGHTS or ident.loss != "linear" and ident.method != "trf":
+        raise InputError(f"{where}: identify.loss = {ident.loss!r} must be one of {sorted(ROBUST_WEIGHTS)}"
                          " (a robust loss only with method = \"trf\")")
     try:
-        check_method(ident["method"], dict(ident["options"]), ident["max_iterations"], ident["tol"], n_free)
+        check_method(ident.method, dict(ident.options), ident.max_iterations, ident.tol, n_free)
     except InputError as exc:
         raise InputError(f"{where}: [identify] {exc}") from None
 

@@ -169,7 +169,7 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
     prefit ``report``, the counts of solves and the history."""
     params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
     free = list(params.free_names)
-    stats = fit_statistics(evaluator, problem, outcome.x, float(config.identify["resolution"]), error)
+    stats = fit_statistics(evaluator, problem, outcome.x, config.identify.resolution, error)
     r, f, weights, adequacy, unc = stats.r, stats.f, stats.weights, stats.adequacy, stats.uncertainty
     why = contact_reasons(evaluator.backend, params.full(outcome.x), sorted(set(obs.stage.tolist())), free, unc)
     parameters = {}
@@ -188,8 +188,8 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
                 entry["stderr_systematic"] = float(stats.systematic[k])
         parameters[p.name] = entry
     return {
-        "status": outcome.status, "message": outcome.message, "method": config.identify["method"],
-        "jacobian": config.identify["jacobian"], "backend": config.solver["backend"], "parameters": parameters,
+        "status": outcome.status, "message": outcome.message, "method": config.identify.method,
+        "jacobian": config.identify.jacobian, "backend": config.solver.backend, "parameters": parameters,
         "objective": {"initial": float(outcome.history_objective[0]), "final": float(outcome.objective)},
         "fit": {"n_obs": obs.n_obs, "chi2": unc.chi2, "dof": unc.dof, "noise_known": obs.noise_known,
                 "error_scale": float(np.sqrt(unc.scale)), **adequacy.as_dict(free),
@@ -200,11 +200,11 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
                                   "sigma": float(s) if obs.noise_known else None}
                                  for label, y, v, s in zip(obs.labels, obs.y, f, obs.sigma)],
                 "model_error": None if error is None else {
-                    "mode": config.identify["model_error"], **error.as_dict(),
+                    "mode": config.identify.model_error, **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
-        "model": {**setup.model_options, "contact": [entry.as_dict() for entry in setup.contact],
-                  "discretisation": setup.discretisation},
+        "model": {**(setup.model_options.table() if setup.model_options else {}),
+                  "contact": [entry.as_dict() for entry in setup.contact], "discretisation": setup.discretisation},
         "data": data_section(setup.frames, obs, setup.window, setup.files),
         "identifiability": {"singular_values": unc.singular_values.tolist(),
                             "directions": {name: unc.directions[i].tolist() for i, name in enumerate(free)},
@@ -236,8 +236,8 @@ def stopped_result(config, setup, evaluator, iterations, status: str, message: s
     none), the counts, the reason."""
     x = iterations[-1].x if iterations else setup.parameters.x0
     mu = setup.parameters.full(np.asarray(x))
-    return {"status": status, "message": message, "method": config.identify["method"],
-            "jacobian": config.identify["jacobian"], "backend": config.solver["backend"],
+    return {"status": status, "message": message, "method": config.identify.method,
+            "jacobian": config.identify.jacobian, "backend": config.solver.backend,
             "parameters": {p.name: {"value": float(v), "initial": p.value, "fixed": not p.vary,
                                     **({"bounds": [p.min, p.max]} if p.vary else {})}
                            for p, v in zip(setup.parameters.items, mu)},

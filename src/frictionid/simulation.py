@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .backends import check_backend, make_backend, solver_options
+from .backends import check_backend, make_backend
 from .builders.registry import build_model
 from .config import Config
 from .data.measurements import Measurements, write_measurements
@@ -17,13 +17,13 @@ from .errors import InputError
 from .model_checks import checked_contact, model_line
 from .fem.locate import PointsOutside
 from .data.table import CHANNELS
-from .inverse.observations import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys, region_of_points
+from .inverse.observations import default_quantities, split_observables
+from .inverse.point_regions import region_of_points
+from .inverse.reactions import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys
 from .inverse.parameters import Parameters
 from .paths import check_file, check_folder, input_files
 from .report.vtu import export_fields
 
-DEFAULT_QUANTITIES = {2: ("ux", "uy", "exx", "eyy", "exy"), 3: ("ux", "uy", "uz", "exx", "eyy", "ezz", "exy",
-                                                                   "eyz", "exz")}
 
 
 def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
@@ -43,13 +43,13 @@ def simulate(config: Config, out: str | Path, echo=lambda text: None) -> Path:
 def _simulate(config: Config, out, echo) -> Path:
     inputs = input_files(config)
     out = check_file(out, inputs, "output file")
-    if config.run["fields"]:
+    if config.run.fields:
         check_folder(fields_folder(out), "output fields folder", inputs)
-    check_backend(config.solver["backend"], None, solver_options(config), f"{config.where}: [solver]")
+    check_backend(config.solver, None, f"{config.where}: [solver]")
     start = time.perf_counter()
-    model = build_model(config.model_options, f"{config.where}: [model]")
-    echo(model_line(model, config.model.get("builder"), time.perf_counter() - start))
-    checked_contact(model, config.where, echo, config.solver["sliding"])
+    model = build_model(config.model_spec, f"{config.where}: [model]")
+    echo(model_line(model, config.model.builder, time.perf_counter() - start))
+    checked_contact(model, config.where, echo, config.solver.sliding)
     friction = config.friction
     mu = Parameters.from_config(model.zone_names, friction["zones"], (0.0, 1e6), friction.get("fixed"))
     source = read_data(config.data, config.resolve, f"{config.where}: [data]", model)
@@ -58,23 +58,21 @@ def _simulate(config: Config, out, echo) -> Path:
     xyz = np.array([source.coordinates[first[p]] for p in labels])
     if model.kind != "3d" and np.any(np.abs(xyz[:, 2]) > PLANE_TOL * max(1.0, float(np.abs(xyz).max()))):
         raise InputError(f"{source.source}: simulate on a {model.kind} model needs points with z = 0")
-    quantities = tuple(q for q in config.data.get("observables") or DEFAULT_QUANTITIES[model.dim]
-                       if q not in STAGE_OBSERVABLES)
-    region_of = region_of_points(config.data.get("regions"), labels, model.mesh.region_names)
+    quantities = split_observables(config.data.observables or default_quantities(model))[0]
+    region_of = region_of_points(config.data.regions, labels, model.mesh.region_names)
     channels = {}
-    check_reaction_keys(config.data.get("reactions"), f"{config.where}: [data] reactions")
+    check_reaction_keys(config.data.reactions, f"{config.where}: [data] reactions")
     for channel in STAGE_OBSERVABLES:
         try:
-            channels[channel] = channel_reaction(model, channel, config.data.get("reactions"),
+            channels[channel] = channel_reaction(model, channel, config.data.reactions,
                                                  f"{config.where}: [data] reactions")
         except InputError:      # e.g. loaded by a prescribed force: no machine force to report
-            if channel in (config.data.get("reactions") or {}):
+            if channel in (config.data.reactions or {}):
                 raise
     reactions = tuple(channels.values())
     try:
-        backend = make_backend(config.solver["backend"], model, xyz[:, :model.dim], quantities,
-                               [region_of[p] for p in labels], solver_options(config),
-                               f"{config.where}: [solver]", reactions)
+        backend = make_backend(model, xyz[:, :model.dim], quantities, [region_of[p] for p in labels],
+                               config.solver, f"{config.where}: [solver]", reactions)
     except PointsOutside as exc:
         raise exc.named(labels, source.source) from None
     prediction = backend.predict(mu.full(mu.x0))
@@ -88,14 +86,14 @@ def _simulate(config: Config, out, echo) -> Path:
         stage=np.repeat(np.arange(1, n_stages + 1), n_points), force=np.repeat(force, n_points),
         values={q: values[:, :, k].ravel() for k, q in enumerate(quantities)}, sigma={},
         comments=(f"frictionid simulate {config.path.name}: {model.kind} model, builder "
-                  f"{config.model.get('builder')!r}", "units: mm, N; strains dimensionless (tensor shear)",
+                  f"{config.model.builder!r}", "units: mm, N; strains dimensionless (tensor shear)",
                   "coefficients: " + ", ".join(f"{n}={v:g}" for n, v in zip(mu.names, mu.full(mu.x0))),
                   *(f"{c}: {CHANNELS[c][0]} [{CHANNELS[c][1]}], reaction {channels[c]}" for c in CHANNELS
                     if c in channels)),
         source=str(out), channels={c: np.repeat(sums[c] / CHANNELS[c][2], n_points) for c in CHANNELS if c in sums})
     out.parent.mkdir(parents=True, exist_ok=True)
     write_measurements(out, measurements)
-    if config.run["fields"]:
+    if config.run.fields:
         export_fields(backend, mu.full(mu.x0), fields_folder(out), echo)
     return Path(out)
 

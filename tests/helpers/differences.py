@@ -5,20 +5,21 @@ from __future__ import annotations
 import numpy as np
 
 
-def central_difference(f, x: np.ndarray, h: float) -> np.ndarray:
-    """(f(x + h e_k) - f(x - h e_k)) / 2h for every k, stacked on a last axis: shape f(x).shape + (len(x),).
+def central_difference(f, x: np.ndarray, h: float, columns=None) -> np.ndarray:
+    """(f(x + h e_k) - f(x - h e_k)) / 2h for every k (or the k of ``columns``), stacked on a last axis: shape
+    f(x).shape + (number of columns,).
 
     >>> central_difference(lambda x: np.array([x[0] ** 2, x[0] * x[1]]), np.array([1.0, 2.0]), 1e-3).round(9)
     array([[2., 0.],
            [2., 1.]])
     """
     x = np.asarray(x, dtype=float)
-    columns = []
-    for k in range(len(x)):
+    differences = []
+    for k in range(len(x)) if columns is None else columns:
         step = np.zeros_like(x)
         step[k] = h
-        columns.append((np.asarray(f(x + step)) - np.asarray(f(x - step))) / (2 * h))
-    return np.stack(columns, axis=-1)
+        differences.append((np.asarray(f(x + step)) - np.asarray(f(x - step))) / (2 * h))
+    return np.stack(differences, axis=-1)
 
 
 def check_sensitivities(problem, mu, h: float = 1e-6):

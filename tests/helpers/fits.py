@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from frictionid.inverse.discretisation import with_model_error
+from frictionid.options import ModelSpec
 from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.least_squares import LeastSquares
 from frictionid.inverse.observations import Observations
@@ -37,6 +38,6 @@ def fit_as_identify(backend, model, model_table: dict, params, obs: Observations
     outcome, problem = fit(params.x0)
     error = None
     if mode != "off":
-        error, outcome = with_model_error(evaluator, params, model_table, model, outcome, mode,
+        error, outcome = with_model_error(evaluator, params, ModelSpec.from_table(model_table), model, outcome, mode,
                                           lambda x0, offset: fit(x0)[0])
     return outcome, fit_statistics(evaluator, problem, outcome.x, resolution, error)

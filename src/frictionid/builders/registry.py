@@ -9,6 +9,7 @@ import os
 from ..errors import InputError
 from ..model import Model
 from ..model.merge import merge_zones
+from ..options import ModelSpec
 from .block import block_model, block_model_2d
 from .bolt import bolt_model, default_sizes
 from .mesh import mesh_model, source_files
@@ -27,9 +28,9 @@ _BUILT: dict = {}
 N_BUILT = 4
 
 
-def build_model(options: dict, where: str = "[model]") -> Model:
-    """The model a [model] table describes: ``builder`` plus that builder's keyword options, and ``merge`` (zones
-    made one, :func:`frictionid.model.merge.merge_zones`; an identification puts ``[friction] merge`` there, so
+def build_model(spec: ModelSpec, where: str = "[model]") -> Model:
+    """The model a [model] describes: ``builder`` called with its keyword options, and the zones of ``merge``
+    made one (:func:`frictionid.model.merge.merge_zones`; an identification puts ``[friction] merge`` there, so
     that a refined model merges alike).
 
     The last :data:`N_BUILT` models are kept, so the runs of one session that describe the same model (a study's
@@ -37,6 +38,7 @@ def build_model(options: dict, where: str = "[model]") -> Model:
     time of the file and of every file it includes too (:func:`source_files`), so a mesh file or an included one
     written again builds a new model.
     """
+    options = spec.table()
     key = repr(sorted(options.items()))
     if isinstance(options.get("file"), str) and os.path.isfile(options["file"]):
         for path in source_files(options["file"]):
@@ -45,7 +47,7 @@ def build_model(options: dict, where: str = "[model]") -> Model:
     if key in _BUILT:
         _BUILT[key] = _BUILT.pop(key)                          # most recently used last
         return _BUILT[key]
-    model = _build(dict(options), where)
+    model = _build(options, where)
     while len(_BUILT) >= N_BUILT:
         _BUILT.pop(next(iter(_BUILT)))
     _BUILT[key] = model
@@ -110,13 +112,13 @@ def _number(where: str, key: str, value):
     return value
 
 
-def refined(options: dict, factor: int = 2, where: str = "[model]") -> dict:
-    """The [model] table of the same builder with every element size divided by ``factor``.
+def refined(spec: ModelSpec, factor: int = 2, where: str = "[model]") -> ModelSpec:
+    """The [model] of the same builder with every element size divided by ``factor``.
 
     block: ``mesh_size`` / factor and ``block_divisions`` * factor (when given); block2d: ``mesh_size`` and
     ``contact_size`` / factor; bolt: ``flank_size``, ``contact_size`` and ``mesh_size`` / factor. A size the
-    table leaves out is taken from the builder's default (block2d's ``contact_size`` then stays out: it follows
-    ``mesh_size``). Other options are unchanged; the caller's table is not modified.
+    options leave out is taken from the builder's default (block2d's ``contact_size`` then stays out: it follows
+    ``mesh_size``). Other options are unchanged.
 
     Raises
     ------
@@ -127,16 +129,17 @@ def refined(options: dict, factor: int = 2, where: str = "[model]") -> dict:
 
     Examples
     --------
-    >>> refined({"builder": "block", "mesh_size": 2.5, "block_divisions": 6, "order": 2})
+    >>> block = ModelSpec.from_table({"builder": "block", "mesh_size": 2.5, "block_divisions": 6, "order": 2})
+    >>> refined(block).table()
     {'builder': 'block', 'mesh_size': 1.25, 'block_divisions': 12, 'order': 2}
-    >>> refined({"builder": "bolt", "flank_size": 0.2})["contact_size"]
+    >>> refined(ModelSpec.from_table({"builder": "bolt", "flank_size": 0.2})).option("contact_size")
     0.25
     """
     if isinstance(factor, bool) or not isinstance(factor, int) or factor < 2:
         raise InputError(f"refinement `factor` must be an integer >= 2, got {factor!r}")
-    name = options.get("builder")
+    name, options = spec.builder, spec.table()
     if name == "mesh":
-        return _refined_mesh(options, factor, where)
+        return ModelSpec.from_table(_refined_mesh(options, factor, where))
     if name not in SIZE_OPTIONS:
         raise InputError(f"{where} builder = {name!r}: the model cannot be refined automatically (only the "
                          f"builders {sorted(SIZE_OPTIONS)} have element-size options, and builder 'mesh' is "
@@ -149,4 +152,4 @@ def refined(options: dict, factor: int = 2, where: str = "[model]") -> dict:
     for key in COUNT_OPTIONS.get(name, ()):
         if options.get(key) is not None:
             out[key] = _number(where, key, options[key]) * factor
-    return out
+    return ModelSpec.from_table(out)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..options import DataSpec
 from .dic import is_generic, read_export, read_text
 from .dic.window import FileWindow, HeaderWindow, WindowChoice, choose
 from .frame_fit import fit_to_points, fit_to_surface, residual_check
@@ -57,22 +58,22 @@ class Entry:
         return VIEW_SEPARATOR.join(p for p in (self.specimen, self.view, label) if p is not None)
 
 
-def entries(data: dict, resolve, where: str = "[data]") -> list[Entry]:
-    """The files of ``data["file"]`` in order; ``resolve`` turns a config path into a Path.
+def entries(data: DataSpec, resolve, where: str = "[data]") -> list[Entry]:
+    """The files of ``data.file`` in order; ``resolve`` turns a config path into a Path.
 
     A string is one file (an export in it is stage 1); a list gives one file per stage in stage order, each a
     string or a table ``{ path = "...", stage = 2, force = 1200.0, format = "...", columns = {...},
     view = "front", transform = {...}, relative_to = "12" }``; ``[data] transform`` and ``relative_to`` hold for
     the entries that give none.
     """
-    files = data["file"]
+    files = data.file
     items = files if isinstance(files, list) else [files]
     if not items:
         raise InputError(f"{where}: [data] file is an empty list; give at least one file")
     return [_entry(item, position, data, resolve, where) for position, item in enumerate(items, start=1)]
 
 
-def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
+def _entry(item, position: int, data: DataSpec, resolve, where: str) -> Entry:
     if isinstance(item, str):
         item = {"path": item}
     if not isinstance(item, dict) or not isinstance(item.get("path"), str):
@@ -88,22 +89,22 @@ def _entry(item, position: int, data: dict, resolve, where: str) -> Entry:
     if isinstance(stage, bool) or not isinstance(stage, int) or stage < 1:
         raise InputError(f"{where}: [data] file entry {position}: stage must be a positive whole number, "
                          f"got {stage!r}")
-    force = item.get("force", _listed_force(data.get("forces"), stage, where))
+    force = item.get("force", _listed_force(data.forces, stage, where))
     if force is not None and (isinstance(force, bool) or not isinstance(force, (int, float))
                               or not math.isfinite(force)):
         raise InputError(f"{where}: [data] force of stage {stage} must be a finite number [N], got {force!r}")
     transform, key = (item["transform"], f"{where}: [data] file entry {position} transform") \
-        if "transform" in item else (data.get("transform"), f"{where}: [data] transform")
+        if "transform" in item else (data.transform, f"{where}: [data] transform")
     return Entry(resolve(item["path"]), stage,
-                 None if force is None else float(force), item.get("format", data.get("format")),
-                 item.get("columns", data.get("columns")) or None, _name(item, "view", position, where),
+                 None if force is None else float(force), item.get("format", data.format),
+                 item.get("columns", data.columns) or None, _name(item, "view", position, where),
                  None if transform is None else frame_spec(transform, key),
-                 _relative_to(item.get("relative_to", data.get("relative_to")), position, where),
+                 _relative_to(item.get("relative_to", data.relative_to), position, where),
                  _name(item, "specimen", position, where), _coordinates(item, data, position, where))
 
 
-def _coordinates(item: dict, data: dict, position: int, where: str) -> str | None:
-    value = item.get("coordinates", data.get("coordinates"))
+def _coordinates(item: dict, data: DataSpec, position: int, where: str) -> str | None:
+    value = item.get("coordinates", data.coordinates)
     if value is not None and value not in COORDINATES:
         raise InputError(f"{where}: [data] file entry {position}: coordinates must be \"reference\" or "
                          f"\"deformed\" (what the export's coordinate columns hold), got {value!r}")
@@ -156,18 +157,19 @@ class Sources:
     plane: str | None = None
 
 
-def read_data(data: dict, resolve, where: str = "[data]", model=None) -> Measurements:
+def read_data(data: DataSpec, resolve, where: str = "[data]", model=None) -> Measurements:
     """Every file of ``[data] file`` read into one table (see :func:`read_sources`)."""
     return read_sources(data, resolve, where, model).measurements
 
 
-def read_data_reported(data: dict, resolve, where: str = "[data]", model=None) -> tuple[Measurements, list[str]]:
+def read_data_reported(data: DataSpec, resolve, where: str = "[data]",
+                       model=None) -> tuple[Measurements, list[str]]:
     """Every file of ``[data] file`` read into one table, and what was recognised in each (report lines)."""
     sources = read_sources(data, resolve, where, model)
     return sources.measurements, sources.lines
 
 
-def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: bool = False) -> Sources:
+def read_sources(data: DataSpec, resolve, where: str = "[data]", model=None, check: bool = False) -> Sources:
     """Every file of ``[data] file`` read into one table in the model's frame, with what was recognised.
 
     ``model`` gives the surface a frame is fitted to (``fit = "surface"``); it is not needed otherwise. With
@@ -186,17 +188,17 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
         raise InputError(f"{where}: [data] file: some entries name a specimen and some do not; give every file its "
                          "specimen")
     for entry in listed:
-        measurements, report, generic, flavour, header, read = _read(entry, data.get("strain"), check, where)
+        measurements, report, generic, flavour, header, read = _read(entry, data.strain, check, where)
         if read is not None:
             files.append(read.as_dict())
             needed += [f"{n}: {entry.path}" for n in read.needed]
-        forces = {s: _listed_force(data.get("forces"), s, where) for s in measurements.stages} if generic \
+        forces = {s: _listed_force(data.forces, s, where) for s in measurements.stages} if generic \
             else {entry.stage: entry.force}
         measurements = _with_forces(measurements, {s: f for s, f in forces.items() if f is not None})
         strains = any(q[0] == "e" for q in measurements.quantities)
         frame = None
         if entry.transform is not None:
-            measurements, frame = _framed(entry, measurements, model, fitted, data.get("noise"))
+            measurements, frame = _framed(entry, measurements, model, fitted, data.noise)
             frames.append(frame)
             report = report + [f"  {frame['line']}"]
             log.info("%s: %s", entry.path, frame["line"])
@@ -211,12 +213,13 @@ def read_sources(data: dict, resolve, where: str = "[data]", model=None, check: 
         parts.append(_with_view(entry, measurements))
         lines += report + ([f"  points labelled '{entry.label('<point>')}'"] if entry.view or entry.specimen
                            else [])
-    window = choose(data.get("strain_window"), data.get("strain_window_shape"), windows)
+    window = choose(data.strain_window, data.strain_window_shape, windows)
     joined, plane = _joined(parts), None
     if model is not None and model.kind == "plane_strain":
-        joined, plane = onto_plane(joined, plane_tolerance(data.get("plane_tolerance"), where), model.kind)
+        joined, plane = onto_plane(joined, plane_tolerance(data.plane_tolerance, where), model.kind)
         lines += [plane] if plane else []
-    if check and "force" in data.get("observables", ["force"]) and np.any(np.isnan(joined.force)):
+    observed = data.observables if data.observables is not None else ("force",)
+    if check and "force" in observed and np.any(np.isnan(joined.force)):
         stages = sorted({int(s) for s in joined.stage[np.isnan(joined.force)]})
         needed.append(f"[data] forces (or a file's force), where force is observed: no machine force for stage(s) "
                       f"{', '.join(map(str, stages))}")
@@ -352,18 +355,18 @@ def _joined(parts: list[Measurements]) -> Measurements:
                   for c in dict.fromkeys(c for m in parts for c in m.channels)})
 
 
-def data_paths(data: dict, resolve) -> list[Path]:
+def data_paths(data: DataSpec, resolve) -> list[Path]:
     """The files ``[data] file`` names, in order."""
-    files = data["file"]
+    files = data.file
     items = files if isinstance(files, list) else [files]
     return [resolve(i["path"] if isinstance(i, dict) else i) for i in items]
 
 
-def data_digest(data: dict, resolve) -> str:
+def data_digest(data: DataSpec, resolve) -> str:
     """SHA-256 of the bytes of every file of ``[data] file`` and of what its table says besides the path (stage,
     force, view, transform, ...), so that a run is not resumed with another frame; one file named by a string:
     the hash of its bytes, as before."""
-    files = data["file"]
+    files = data.file
     items = files if isinstance(files, list) else [files]
     paths = data_paths(data, resolve)
     if len(paths) == 1 and isinstance(items[0], str):
@@ -380,7 +383,7 @@ def data_digest(data: dict, resolve) -> str:
 def check_data(path, format: str | None = None, strain: str | None = None) -> str:
     """What ``frictionid check-data FILE`` prints: what was recognised (flavour, columns, units, strain measure,
     valid and dropped points) and the summary of the measurements. An export is shown as stage 1."""
-    sources = read_sources({"file": str(path), "format": format, "strain": strain}, Path, check=True)
+    sources = read_sources(DataSpec(file=str(path), format=format, strain=strain), Path, check=True)
     return "\n".join(sources.lines + [sources.measurements.summary()] + needed_lines(sources.needed))
 
 
@@ -392,18 +395,19 @@ def needed_lines(needed: list[str]) -> list[str]:
     return [f"needed to identify: {keys}"] + [f"  {n}" for n in needed]
 
 
-def fits_surface(data: dict) -> bool:
+def fits_surface(data: DataSpec) -> bool:
     """Whether a transform of ``[data]`` is fitted to the model's surface (so reading it needs the model)."""
-    files = data.get("file")
-    tables = [data.get("transform")] + [i.get("transform") for i in (files if isinstance(files, list) else [])
+    files = data.file
+    tables = [data.transform] + [i.get("transform") for i in (files if isinstance(files, list) else [])
                                         if isinstance(i, dict)]
     return any(isinstance(t, dict) and t.get("fit") == "surface" for t in tables)
 
 
-def check_config_data(config, model=None) -> str:
-    """What ``frictionid check-data CONFIG.toml`` prints: every file of the config's ``[data]`` as identify reads
-    it (frames given or fitted with their residuals, views, relative points) and the summary of the whole."""
-    sources = read_sources(config.data, config.resolve, config.where, model, check=True)
+def check_config_data(data: DataSpec, resolve, where: str = "[data]", model=None) -> str:
+    """What ``frictionid check-data CONFIG.toml`` prints: every file of a config's ``[data]`` as identify reads
+    it (frames given or fitted with their residuals, views, relative points) and the summary of the whole;
+    ``resolve`` turns the config's paths into Paths, ``where`` names the config in messages."""
+    sources = read_sources(data, resolve, where, model, check=True)
     relative = sorted(set(sources.relative.values()))
     return "\n".join(sources.lines + ([f"displacements relative to point(s) {', '.join(relative)}"] if relative
                                        else []) + list(sources.window.lines) + [sources.measurements.summary()]

@@ -22,6 +22,7 @@ import numpy as np
 from scipy import stats
 
 from .mistakes import noise_hint, scale_hints, swap_hints
+from .observations import label_parts
 
 #: chi-square quantile above which the stated noise does not explain the misfit
 CONFIDENCE = 0.99
@@ -117,8 +118,7 @@ def parts(label: str) -> tuple[str, str, str]:
     >>> parts("F12:exx@2"), parts("force@3")
     (('F', 'exx', '2'), ('force', 'force', '3'))
     """
-    body, _, stage = label.rpartition("@")
-    point, _, quantity = body.rpartition(":")
+    point, quantity, stage = label_parts(label)
     if not point:
         return quantity, quantity, stage
     return re.sub(r"\d+$", "", point) or point, quantity, stage
@@ -142,7 +142,7 @@ def point_group(label: str, regions: dict | None = None) -> str:
     ('F', 'region block', 'force')
     """
     group, _, _ = parts(label)
-    point = label.rpartition("@")[0].rpartition(":")[0]
+    point = label_parts(label)[0]
     if group != point or not point.isdigit():
         return group
     region = (regions or {}).get(point)
@@ -193,7 +193,8 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
         with np.errstate(divide="ignore", invalid="ignore"):
             sigma = np.where(r != 0, np.abs(f - y) / np.abs(r), 1.0) if sigma is None else np.asarray(sigma, float)
         quantities = [q for _, q, _ in split]
-        swapped = swap_hints(labels, quantities, y, f, sigma, chi2)
+        swapped = swap_hints([(point, stage) for point, _, stage in map(label_parts, labels)], quantities, y, f,
+                             sigma, chi2)
         mistakes = list(swapped.values()) + scale_hints(quantities, y, f, sigma,
                                                         {q: g.share for q, g in by_quantity.items()}, model_kind,
                                                         {q for pair in swapped for q in pair})

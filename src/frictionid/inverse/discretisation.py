@@ -28,15 +28,16 @@ from scipy.optimize import brentq
 
 from ..builders.registry import refined
 from ..errors import InputError
+from ..options import IdentifyOptions, ModelSpec
 from .model_error import estimate_model_error, inflated_sigma
 
 log = logging.getLogger(__name__)
 MODES = ("off", "estimate", "include")
 
 
-def check_options(identify: dict, model_options: dict, where: str) -> None:
+def check_options(identify: IdentifyOptions, model_options: ModelSpec | None, where: str) -> None:
     """Refuse a bad model_error / refine setting, and either on a model that cannot be refined, before any run."""
-    mode, target, budget = identify["model_error"], identify["refine_target"], identify["refine_budget"]
+    mode, target, budget = identify.model_error, identify.refine_target, identify.refine_budget
     if mode not in MODES:
         raise InputError(f"{where} identify.model_error = {mode!r} is not one of {list(MODES)}")
     if not target >= 0:
@@ -45,13 +46,13 @@ def check_options(identify: dict, model_options: dict, where: str) -> None:
         raise InputError(f"{where} identify.refine_budget must be at least 1, got {budget!r}")
     if mode != "off":                   # refine_target on a model that cannot be refined: the control says so
         try:
-            refined(model_options)
+            refined(model_options or ModelSpec(None))
         except InputError as exc:
             raise InputError(f"{where} identify.model_error needs a model frictionid can refine: "
                              f"{exc}") from None
 
 
-def with_model_error(evaluator, parameters, model_options: dict, model, outcome, mode: str, refit,
+def with_model_error(evaluator, parameters, model_options: ModelSpec, model, outcome, mode: str, refit,
                      max_memory: float | None = None, progress=None):
     """The discretisation error at the start and the fitted point of ``outcome`` (one extra condensation), and
     with mode "include" the fit continued from its end with sigma_eff^2 = sigma^2 + (k e)^2, k from

@@ -37,6 +37,7 @@ from ..backends.embedded import EmbeddedBackend
 from ..builders.registry import _default, build_model, refined
 from ..fem import memory
 from ..fem.locate import PointsOutside
+from ..options import ModelSpec
 from .model_error import ELEMENT_ORDER, convergence_orders, observation_kinds
 
 log = logging.getLogger(__name__)
@@ -46,35 +47,35 @@ log = logging.getLogger(__name__)
 class Control:
     """What the control decided: the [model] table and model to fit, and the record for result.json."""
 
-    options: dict
+    options: ModelSpec | None
     model: object
     record: dict
 
 
-def directions(options: dict) -> list[str]:
-    """The independent refinement directions of a [model] table's builder.
+def directions(spec: ModelSpec) -> list[str]:
+    """The independent refinement directions of a [model]'s builder.
 
-    >>> directions({"builder": "block"}), directions({"builder": "block2d"})
+    >>> directions(ModelSpec("block")), directions(ModelSpec("block2d"))
     (['footprint divisions', 'interface layers'], ['element sizes'])
     """
-    return ["footprint divisions", "interface layers"] if options.get("builder") == "block" else ["element sizes"]
+    return ["footprint divisions", "interface layers"] if spec.builder == "block" else ["element sizes"]
 
 
-def refinement(options: dict, factors: tuple[int, ...]) -> dict:
-    """The [model] table refined by ``factors`` (one per :func:`directions` entry; 1: unchanged).
+def refinement(spec: ModelSpec, factors: tuple[int, ...]) -> ModelSpec:
+    """The [model] refined by ``factors`` (one per :func:`directions` entry; 1: unchanged).
 
     block: ``block_divisions`` times the first (the footprint's element size at the contact edges divided by
     it), the layers (``mesh_size``, the footprint kept) divided by the second; others: every size divided
     (:func:`frictionid.builders.registry.refined`).
 
-    >>> refinement({"builder": "block", "mesh_size": 1.0}, (2, 1))
+    >>> refinement(ModelSpec.from_table({"builder": "block", "mesh_size": 1.0}), (2, 1)).table()
     {'builder': 'block', 'mesh_size': 1.0, 'block_divisions': 20}
     """
-    if options.get("builder") == "block":
-        size = float(options.get("mesh_size", _default("block", options, "mesh_size")))
-        divisions = options.get("block_divisions") or 2 * max(1, round(5.0 / size))
-        return {**options, "mesh_size": size / factors[1], "block_divisions": divisions * factors[0]}
-    return dict(options) if factors[0] == 1 else refined(options, factors[0])
+    if spec.builder == "block":
+        size = float(spec.option("mesh_size", _default("block", spec.table(), "mesh_size")))
+        divisions = spec.option("block_divisions") or 2 * max(1, round(5.0 / size))
+        return spec.with_options(mesh_size=size / factors[1], block_divisions=divisions * factors[0])
+    return spec if factors[0] == 1 else refined(spec, factors[0])
 
 
 def kind_rms(in_noise: np.ndarray, kinds: np.ndarray) -> dict:
@@ -99,7 +100,7 @@ def _skipped(target, why: str, progress) -> dict:
     return {"target": target, "status": "skipped", "why": why, "seconds": 0.0}
 
 
-def control(model_options: dict, model, observations, mu, target: float, budget: int = 2,
+def control(model_options: ModelSpec | None, model, observations, mu, target: float, budget: int = 2,
             max_memory: float | None = None, progress=None, window=None, backend: str = "embedded") -> Control:
     """The model to fit: ``model`` itself, or the cheapest refinement of it whose predicted error at ``mu`` (all
     zones, model order) is within ``target`` noise levels RMS in every quantity kind (module docstring).
@@ -116,7 +117,7 @@ def control(model_options: dict, model, observations, mu, target: float, budget:
     progress = progress or (lambda text: None)
     if not target > 0:
         return Control(model_options, model, {"target": target, "status": "off", "seconds": 0.0})
-    if backend != "embedded" or not model_options or model_options.get("builder") not in \
+    if backend != "embedded" or model_options is None or model_options.builder not in \
             ("block", "block2d", "bolt", "mesh"):
         why = f"backend {backend!r} (the estimate needs the embedded backend)" if backend != "embedded" else \
             "the model is not a builder's [model] table frictionid can refine"
@@ -140,7 +141,7 @@ def control(model_options: dict, model, observations, mu, target: float, budget:
         progress(cost.line() + "; condensing")
         terms.append((coarse - values(fine_model, observations, mu, window)) * gain / (gain - 1.0))
         sizes.append(fine_model.mesh.n_nodes)
-        steps.append({"direction": name, "options": options, "n_nodes": int(fine_model.mesh.n_nodes),
+        steps.append({"direction": name, "options": options.table(), "n_nodes": int(fine_model.mesh.n_nodes),
                       "rms": kind_rms(np.abs(terms[-1]) / observations.sigma, kinds),
                       "memory_gb": round(cost.needed / memory.GB, 2), "seconds": round(time.perf_counter() - begun, 1)})
         progress(f"discretisation control: error from the {name}: {_rms_text(steps[-1]['rms'])} noise levels RMS "
@@ -154,7 +155,7 @@ def control(model_options: dict, model, observations, mu, target: float, budget:
     seconds = time.perf_counter() - start
     record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
               "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
-              "options": options, "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
+              "options": options.table(), "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
               "seconds": round(seconds, 1)}
     progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
              f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
@@ -169,7 +170,7 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     base = model.mesh.n_nodes
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
-        if model_options.get("builder") == "mesh" and any(k not in (1, 2, 4) for k in factors):
+        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors):
             continue
         error = sum(term / float(k) ** np.log2(gain) for term, k in zip(terms, factors))
         rms = kind_rms(np.abs(error) / sigma, kinds)

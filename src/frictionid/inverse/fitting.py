@@ -4,35 +4,36 @@ sees, for the identification and for its refits with a zone held."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 
 import numpy as np
 
 from ..backends.base import Backend
+from ..options import IdentifyOptions
 from .evaluator import Evaluator
 from .least_squares import LeastSquares
 from .observations import Observations
 from .parameters import Parameters
 
 
-def make_evaluator(backend: Backend, observations: Observations, parameters: Parameters, store, ident: Mapping,
+def make_evaluator(backend: Backend, observations: Observations, parameters: Parameters, store, ident: IdentifyOptions,
                    executor=None, prior=None) -> Evaluator:
     """The evaluator of ``parameters``' free coefficients with identify.jacobian, step, tikhonov, penalty and
     prior (``prior`` given: instead of identify.prior, e.g. a refit's with the held zone left out)."""
-    return Evaluator(backend, observations, parameters, store, ident["jacobian"], float(ident["step"]),
-                     float(ident["tikhonov"]), ident["prior"] if prior is None else prior,
-                     float(ident["penalty"]), executor=executor)
+    return Evaluator(backend, observations, parameters, store, ident.jacobian, ident.step,
+                     ident.tikhonov, ident.prior if prior is None else prior,
+                     ident.penalty, executor=executor)
 
 
-def make_least_squares(evaluator: Evaluator, ident: Mapping, on_iteration: Callable = lambda *args: None,
+def make_least_squares(evaluator: Evaluator, ident: IdentifyOptions, on_iteration: Callable = lambda *args: None,
                        x0: np.ndarray | None = None) -> LeastSquares:
     """The least-squares problem of ``evaluator``'s free coefficients within their bounds, from ``x0`` (default
     the parameters' start), with identify.power, loss and loss_scale; ``on_iteration(iteration, x, objective)``
     after each iteration."""
     params = evaluator.params
     return LeastSquares(evaluator.residuals, evaluator.jacobian, params.x0 if x0 is None else x0, params.lower,
-                        params.upper, params.free_names, float(ident["power"]), on_iteration,
-                        evaluator.obs.noise_known, ident["loss"], float(ident["loss_scale"]))
+                        params.upper, params.free_names, ident.power, on_iteration,
+                        evaluator.obs.noise_known, ident.loss, ident.loss_scale)
 
 
 def recorded(evaluator: Evaluator, store, progress: Callable, offset: int = 0) -> Callable:

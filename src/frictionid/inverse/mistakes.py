@@ -109,10 +109,11 @@ def scale_hints(quantities, y, f, sigma, shares: dict, model_kind: str | None = 
     return hints
 
 
-def swap_hints(labels, quantities, y, f, sigma, chi2: float) -> dict[tuple[str, str], str]:
+def swap_hints(keys, quantities, y, f, sigma, chi2: float) -> dict[tuple[str, str], str]:
     """A hint for each pair of components whose measured columns, exchanged (with either sign), fit the model
-    far better than as read, where the pair carries at least half of ``chi2``: pair -> hint."""
-    keys = [label.replace(f":{q}@", "@", 1) for label, q in zip(labels, quantities)]
+    far better than as read, where the pair carries at least half of ``chi2``: pair -> hint. ``keys``: the
+    (point, stage) of each observation, ``quantities`` its quantity."""
+    keys = list(keys)
     index = {(k, q): i for i, (k, q) in enumerate(zip(keys, quantities))}
     hints = {}
     for a, b in PAIRS:

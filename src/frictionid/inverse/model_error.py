@@ -59,7 +59,8 @@ from ..errors import InputError
 from ..fem import memory
 from ..fem.locate import PointsOutside
 from ..model import Model
-from .observations import FORCE, Observations, _kind
+from ..options import ModelSpec
+from .observations import FORCE, Observations
 
 log = logging.getLogger(__name__)
 
@@ -106,10 +107,7 @@ def richardson(coarse: np.ndarray, fine: np.ndarray, order, factor: int = 2) -> 
 
 def observation_kinds(observations: Observations) -> np.ndarray:
     """(n_obs,) quantity kind of each observation: "u", "e" or "force" (the rows after the point rows)."""
-    quantities = observations.quantities
-    n_point_rows = len(observations.points) * len(quantities)
-    return np.array([FORCE if row >= n_point_rows else _kind(quantities[row % len(quantities)])
-                     for row in observations.row])
+    return np.where(observations.point < 0, FORCE, observations.kind).astype(str)
 
 
 def _summary(values: np.ndarray) -> dict:
@@ -147,7 +145,7 @@ class ModelError:
     stages: np.ndarray
     orders: dict
     factor: int
-    refined_options: dict
+    refined_options: ModelSpec
     n_points: int
     seconds: float
     scale: float = 1.0
@@ -164,7 +162,7 @@ class ModelError:
     def as_dict(self) -> dict:
         """JSON-ready: per-observation lists, the orders, the refined options and the summaries (in noise)."""
         return {"estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(), "orders": dict(self.orders),
-                "factor": self.factor, "refined_options": dict(self.refined_options), "n_points": self.n_points,
+                "factor": self.factor, "refined_options": self.refined_options.table(), "n_points": self.n_points,
                 "seconds": self.seconds, "scale": self.scale, "summary": self.summary,
                 "signed": None if self.signed is None else self.signed.tolist(),
                 "before_include": None if self.before is None else self.before.tolist()}
@@ -227,14 +225,14 @@ def _checked_orders(orders: dict, kinds: np.ndarray) -> dict:
     return used
 
 
-def estimate_model_error(model_options: dict, observations: Observations, mu_points, coarse_values=None,
+def estimate_model_error(model_options: ModelSpec, observations: Observations, mu_points, coarse_values=None,
                          factor: int = 2, model: Model | None = None, orders: dict | None = None,
                          max_memory: float | None = None, progress=None) -> ModelError:
     """Richardson estimate of the model's discretisation error at each observation (module docstring).
 
     Parameters
     ----------
-    model_options : the [model] table of the model the identification uses (see :func:`~frictionid.builders.
+    model_options : the [model] of the model the identification uses (see :func:`~frictionid.builders.
         registry.refined`)
     observations : Observations
     mu_points : list of (n_zones,) coefficient sets (all zones, model order), e.g. an identification's start and
@@ -261,7 +259,8 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
         When the model cannot be refined (builder without size options), refines into other zones or stages, or
         its condensation would take more memory than ``max_memory``.
     """
-    fine_options = refined(model_options, factor)
+    fine_spec = refined(model_options, factor)
+    fine_options = fine_spec.table()
     coarse_model = model if model is not None else build_model(model_options)
     mu_points = _checked_points(mu_points, coarse_model.n_zones)
     coarse = None if coarse_values is None else _checked_values(coarse_values, len(mu_points), observations.n_obs)
@@ -273,7 +272,7 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
     memory.check_growth(coarse_model, factor, what, max_memory)
     start = time.perf_counter()
     progress(f"{what}: building its mesh")
-    fine_model = build_model(fine_options, "[model] (refined)")
+    fine_model = build_model(fine_spec, "[model] (refined)")
     _same_problem(coarse_model, fine_model, fine_options)
     progress(memory.check(fine_model, what, max_memory).line() + "; condensing")
     fine = _predictions(fine_model, observations, mu_points, keep=False)
@@ -287,5 +286,5 @@ def estimate_model_error(model_options: dict, observations: Observations, mu_poi
     errors = [richardson(c, f, p, factor) for c, f in zip(coarse, fine)]
     estimate = np.max(np.abs(errors), axis=0)
     return ModelError(estimate=estimate, in_noise=estimate / observations.sigma, kinds=kinds,
-                      stages=observations.stage + 1, orders=orders, factor=factor, refined_options=fine_options,
+                      stages=observations.stage + 1, orders=orders, factor=factor, refined_options=fine_spec,
                       n_points=len(mu_points), seconds=seconds, signed=errors[-1])

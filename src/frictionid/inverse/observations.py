@@ -2,99 +2,54 @@
 
 from __future__ import annotations
 
-import difflib
-import fnmatch
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..data.table import CHANNELS, DISPLACEMENTS, PLANE_TOL
 from ..errors import InputError
-from ..model import Displacement, Model, Rotation
-from ..model.model import component_index, reaction_label
-
-#: the observable for the measurement file's `force` column: the machine force of each stage [N]
-FORCE = "force"
-#: observables of one value per stage, each a reaction sum of the model: the machine force and the channels of
-#: a tightening test (`torque`, `clamp` columns; :data:`frictionid.data.table.CHANNELS`)
-STAGE_OBSERVABLES = (FORCE,) + tuple(CHANNELS)
+from ..fem.points import QUANTITIES
+from ..model import Model
+from ..options import DataSpec
+from .point_regions import region_of_points
+from .reactions import FORCE, STAGE_OBSERVABLES, channel_reaction
 
 
 def _kind(quantity: str) -> str:
     return quantity if quantity in STAGE_OBSERVABLES else "u" if quantity in DISPLACEMENTS else "e"
 
 
-def machine_force(model: Model) -> str:
-    """Label ("boundary.axis") of the reaction sum the machine's load cell measures.
+def label_parts(label: str) -> tuple[str, str, str]:
+    """(point, quantity, stage) of an observation label as :func:`observations_from` writes them: "point:quantity@
+    stage", or "quantity@stage" for a per-stage observable (point ""; a specimen's "S1/force@2" keeps its
+    prefix in the quantity). Code that has the :class:`Observations` reads its arrays; this reads result.json.
 
-    It is the reaction of the one boundary component driven by a non-zero prescribed displacement (the block
-    test: "block_top.y"), in the model's frame: positive when the machine pushes the body in +axis.
-
-    Raises
-    ------
-    InputError
-        When the model has no such component (e.g. it is loaded by a prescribed force, which is then known and
-        not measured) or more than one.
+    >>> label_parts("F12:exx@2"), label_parts("force@3")
+    (('F12', 'exx', '2'), ('', 'force', '3'))
     """
-    driven = list(dict.fromkeys(
-        reaction_label(load.boundary, component_index(load.component, model.dim, load.boundary))
-        for load in model.loads if isinstance(load, Displacement) and any(v != 0 for v in load.values)))
-    if len(driven) != 1:
-        raise InputError(f"data.observables: 'force' needs a model driven by one prescribed displacement whose "
-                         f"reaction the machine measures; this model drives {driven or 'none'}")
-    return driven[0]
+    body, _, stage = label.rpartition("@")
+    point, _, quantity = body.rpartition(":")
+    return point, quantity, stage
 
 
-def check_reaction_keys(reactions: dict | None, where: str = "data.reactions") -> dict:
-    """The ``[data] reactions`` table, its keys checked to be channels (:data:`~frictionid.data.table.CHANNELS`).
+def split_observables(observables) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(point quantities, per-stage observables) of a ``[data] observables`` list, each in its given order: the
+    quantities measured at points (displacements, strains) and the reaction sums of one value per stage
+    (:data:`STAGE_OBSERVABLES`: force, torque, clamp).
 
-    >>> check_reaction_keys({"clamp": "plate1_rim.y"})
-    {'clamp': 'plate1_rim.y'}
+    >>> split_observables(["ux", "torque", "exx", "force"])
+    (('ux', 'exx'), ('torque', 'force'))
     """
-    reactions = dict(reactions or {})
-    unknown = [key for key in reactions if key not in CHANNELS]
-    if unknown:
-        close = difflib.get_close_matches(str(unknown[0]), list(CHANNELS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"{where}: {unknown[0]!r} is not a per-stage observable with a reaction to name{hint}; "
-                         f"expected {', '.join(CHANNELS)}")
-    return reactions
+    observables = tuple(observables)
+    return (tuple(q for q in observables if q not in STAGE_OBSERVABLES),
+            tuple(q for q in observables if q in STAGE_OBSERVABLES))
 
 
-def channel_reaction(model: Model, channel: str, reactions: dict | None = None,
-                     where: str = "data.reactions") -> str:
-    """Label of the reaction sum of ``model`` that the per-stage observable ``channel`` measures.
-
-    "force": :func:`machine_force`. "torque", "clamp": the label ``reactions`` (the ``[data] reactions`` table)
-    gives for it, e.g. ``{ clamp = "plate1_rim.y" }``; without one, "torque" is the torque about the axis of the
-    one boundary turned by a prescribed rotation (the tightening bolt: "nut_outer.torque") and "clamp" has no
-    default (where the load cell sits is the rig's choice).
-
-    Raises
-    ------
-    InputError
-        A channel with no reaction to measure, or a label that is not one of the model's reactions.
-    """
-    reactions = check_reaction_keys(reactions, where)
-    if channel == FORCE:
-        return machine_force(model)
-    label = reactions.get(channel)
-    if label is None and channel == "torque":
-        turned = list(dict.fromkeys(reaction_label(load.boundary, 2, model.kind) for load in model.loads
-                                    if isinstance(load, Rotation)))
-        label = turned[0] if len(turned) == 1 else None
-    if label is None:
-        example = model.reaction_labels[0] if model.reaction_labels else "boundary.y"
-        raise InputError(f"{where}: the observable {channel!r} ({CHANNELS[channel][0]}) needs the reaction it "
-                         f"measures, e.g. reactions = {{ {channel} = \"{example}\" }}; the model's reactions are "
-                         f"{list(model.reaction_labels)}")
-    if label not in model.reaction_labels:
-        close = difflib.get_close_matches(str(label), list(model.reaction_labels), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise InputError(f"{where}.{channel}: {label!r} is not a reaction of the model{hint}; the model's "
-                         f"reactions are {list(model.reaction_labels)}")
-    return label
+def default_quantities(model: Model) -> tuple[str, ...]:
+    """The point quantities a model of its kind gives (:data:`frictionid.fem.points.QUANTITIES`) but plane
+    strain's ezz, zero by definition: what ``frictionid simulate`` writes and the cross-check compares when
+    ``[data] observables`` names none (an axisymmetric model's ezz is its hoop strain, u_r / r)."""
+    return tuple(q for q in QUANTITIES[model.kind] if not (q == "ezz" and model.kind == "plane_strain"))
 
 
 @dataclass(frozen=True)
@@ -118,6 +73,11 @@ class Observations:
     point_labels : the measurement file's label of each point; source : that file, for messages
     minus_row : (n_obs,) backend row subtracted from ``row``'s value (-1: none): a displacement measured relative
         to a reference point's ([data] relative_to) is predicted as the difference of the two points' values
+    channels : the per-stage observable of each reaction row ("force", "torque", "clamp"; default "force")
+
+    Per observation, from the rows (the labels are for people and files; code reads these): ``point`` (index
+    into ``points``, -1 for a per-stage observable), ``quantity`` (the quantity or the per-stage observable),
+    ``kind`` ("u", "e", or the per-stage observable).
     """
 
     points: np.ndarray
@@ -133,10 +93,37 @@ class Observations:
     point_labels: tuple[str, ...] = ()
     source: str = ""
     minus_row: np.ndarray | None = None
+    channels: tuple[str, ...] = ()
 
     @property
     def n_obs(self) -> int:
         return len(self.y)
+
+    @property
+    def n_point_rows(self) -> int:
+        """Backend rows of the points (the reaction rows follow)."""
+        return len(self.points) * len(self.quantities)
+
+    @property
+    def point(self) -> np.ndarray:
+        """(n_obs,) index into ``points`` of each observation; -1 for a per-stage observable."""
+        row = np.asarray(self.row, dtype=np.int64)
+        return np.where(row < self.n_point_rows, row // max(len(self.quantities), 1), -1)
+
+    @property
+    def quantity(self) -> np.ndarray:
+        """(n_obs,) the quantity ("ux", "exx", ...) or per-stage observable ("force", ...) of each observation."""
+        channels = self.channels or (FORCE,) * len(self.reactions)
+        names = np.array(list(self.quantities) + list(channels) or [""], dtype=object)
+        row = np.asarray(self.row, dtype=np.int64)
+        at = np.where(row < self.n_point_rows, row % max(len(self.quantities), 1),
+                      len(self.quantities) + row - self.n_point_rows)
+        return names[at]
+
+    @property
+    def kind(self) -> np.ndarray:
+        """(n_obs,) "u" (a displacement), "e" (a strain) or the per-stage observable of each observation."""
+        return np.array([_kind(q) for q in self.quantity], dtype=object)
 
     @property
     def weight(self) -> np.ndarray:
@@ -182,102 +169,6 @@ def _coordinates(measurements, model: Model):
     return measurements, measurements.coordinates
 
 
-def _is_pattern(key: str) -> bool:
-    return any(c in key for c in "*?[")
-
-
-def _specificity(pattern: str) -> int:
-    """Literal characters of a glob pattern (those outside ``*``, ``?`` and ``[...]``): "*" has 0."""
-    return sum(1 for _ in _literal_parts(pattern))
-
-
-def _literal_parts(pattern: str):
-    """The literal characters of a glob pattern, one by one."""
-    i = 0
-    while i < len(pattern):
-        if pattern[i] == "[" and "]" in pattern[i + 2:]:
-            i = pattern.index("]", i + 2) + 1
-        elif pattern[i] in "*?":
-            i += 1
-        else:
-            yield pattern[i]
-            i += 1
-
-
-def region_of_points(regions: dict | None, labels, region_names, where: str = "data.regions") -> dict:
-    """The region each point label is read from, by the rules of a ``[data] regions`` table.
-
-    A key is a point label or a glob pattern (:func:`fnmatch.fnmatchcase`: ``*``, ``?``, ``[...]``). A label
-    takes the value of its exact key; else of the matching pattern with the most literal characters (so
-    ``"*"`` comes last); two matching patterns equally specific with different regions are an error. Labels
-    no key matches get None (any cell).
-
-    Parameters
-    ----------
-    regions : mapping key -> region name
-    labels : every point label of the data
-    region_names : the model's regions
-    where : how messages name the table
-
-    Raises
-    ------
-    InputError
-        A key that matches no label (naming labels that exist), a value that is not one of the model's regions
-        (with a "did you mean"), or a label two patterns claim equally.
-
-    >>> region_of_points({"B*": "block", "B7": "base", "*": "base"}, ["B1", "B7", "P1"], ["block", "base"])
-    {'B1': 'block', 'B7': 'base', 'P1': 'base'}
-    """
-    regions, labels = dict(regions or {}), list(dict.fromkeys(labels))
-    matches = {key: [] for key in regions if _is_pattern(key)}        # labels of each pattern, one match per pattern
-    for key in matches:
-        match = re.compile(fnmatch.translate(key)).match
-        matches[key] = list(labels) if key == "*" else [label for label in labels if match(label)]   # "*": all
-    known = set(labels)
-    for key, value in regions.items():
-        if not isinstance(value, str) or value not in region_names:
-            close = difflib.get_close_matches(str(value), list(region_names), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise InputError(f"{where}.{key}: {value!r} is not a region of the model{hint}; the model has "
-                             f"{list(region_names)}")
-        if key not in known and not matches.get(key):
-            shown = ", ".join(labels[:5]) + (f", ... ({len(labels)} points)" if len(labels) > 5 else "")
-            raise InputError(f"{where}: key {key!r} matches no point of the data (points: {shown}); a key is a "
-                             "point label or a pattern such as \"B*\"")
-    return _regions_of(labels, regions, matches, where)
-
-
-def _regions_of(labels: list, regions: dict, matches: dict, where: str) -> dict:
-    """Each label's region: its exact key, else its most specific matching pattern (ties with different regions
-    are an error naming the first such label), else None."""
-    found = {label: regions[label] for label in labels if label in regions}
-    levels: dict = {}                                          # specificity -> patterns, in the table's order
-    for key in matches:
-        levels.setdefault(_specificity(key), []).append(key)
-    tied: dict = {}                                            # label -> the equally specific patterns claiming it
-    for level in sorted(levels, reverse=True):
-        if len(levels[level]) == 1:                            # one pattern (e.g. "*"): no tie possible
-            key = levels[level][0]
-            found.update(dict.fromkeys([label for label in matches[key] if label not in found], regions[key]))
-            continue
-        claims: dict = {}
-        for key in levels[level]:
-            for label in matches[key]:
-                if label not in found:
-                    claims.setdefault(label, []).append(key)
-        for label, keys in claims.items():
-            if len({regions[k] for k in keys}) > 1:
-                tied[label] = keys
-            found[label] = regions[keys[0]]
-    if tied:
-        label = next(label for label in labels if label in tied)
-        raise InputError(f"{where}: point {label!r} matches the patterns {tied[label]}, equally specific, with "
-                         "different regions; name the point itself or make one pattern longer")
-    regions_of = dict.fromkeys(labels)                      # None (any cell) unless a key gave one
-    regions_of.update(found)
-    return regions_of
-
-
 def noise_of(quantity: str, noise: dict) -> float | None:
     """The stated noise of ``quantity`` from a data.noise table: its own key, else its kind's ("u", "e",
     "force"); None when neither is given.
@@ -300,26 +191,27 @@ def _sigma(measurements, quantity: str, rows: np.ndarray, noise: dict) -> np.nda
     return sigma
 
 
-def observations_from(measurements, model: Model, observables, stages, noise: dict | None = None,
-                      regions: dict | None = None, relative: dict | None = None,
-                      specimens: dict | None = None, reactions: dict | None = None) -> Observations:
-    """Select ``observables`` at ``stages`` (1-based, as in the file) and map them onto the model.
+def observations_from(measurements, model: Model, data: DataSpec, relative: dict | None = None,
+                      specimens: dict | None = None) -> Observations:
+    """Select ``data.observables`` at ``data.stages`` (1-based, as in the file) and map them onto the model.
 
-    ``regions`` is the ``[data] regions`` table, resolved by :func:`region_of_points` against every point of the
-    file (also those of stages not fitted). ``relative`` (point label -> reference label, from ``[data]
-    relative_to``): that point's displacements are fitted as its displacement minus the reference's at the same
-    stage, in the data and in the model (the reference's own displacements are then not fitted). ``specimens``
-    (point label -> specimen): each specimen's machine force is an observation of its own (of the same model
-    reaction: specimens share the model and its load path). The per-stage observables ``torque`` and ``clamp``
-    (columns of that name, file units N m and N; noise in the same units) are reaction sums of the model too, found
-    by :func:`channel_reaction` from ``reactions`` (the ``[data] reactions`` table)."""
-    noise, regions, relative = dict(noise or {}), dict(regions or {}), dict(relative or {})
+    ``data.regions`` (the ``[data] regions`` table) is resolved by :func:`region_of_points` against every point
+    of the file (also those of stages not fitted); ``data.noise`` weights the rows the file gives no sigma.
+    ``relative`` (point label -> reference label, from ``[data] relative_to``): that point's displacements are
+    fitted as its displacement minus the reference's at the same stage, in the data and in the model (the
+    reference's own displacements are then not fitted). ``specimens`` (point label -> specimen): each specimen's
+    machine force is an observation of its own (of the same model reaction: specimens share the model and its
+    load path). The per-stage observables ``torque`` and ``clamp`` (columns of that name, file units N m and N;
+    noise in the same units) are reaction sums of the model too, found by :func:`channel_reaction` from
+    ``data.reactions`` (the ``[data] reactions`` table)."""
+    observables, stages, reactions = data.observables, data.stages, data.reactions
+    noise, regions, relative = dict(data.noise or {}), dict(data.regions or {}), dict(relative or {})
     for stage in stages:
         if not isinstance(stage, int) or not 1 <= stage <= model.n_stages:
             raise InputError(f"data.stages: stage {stage!r} is not one of the model's stages 1..{model.n_stages}")
     channels = [c for c in STAGE_OBSERVABLES if c in observables]
     reactions = tuple(channel_reaction(model, c, reactions) for c in channels)
-    observables = [q for q in observables if q not in STAGE_OBSERVABLES]
+    observables = list(split_observables(observables)[0])
     wanted = list(observables)
     if model.kind == "axisymmetric" and "ux" in wanted and "uz" in measurements.quantities and "uz" not in wanted:
         wanted.append("uz")                                  # u_r = (ux x + uz z) / r needs both
@@ -379,13 +271,15 @@ def observations_from(measurements, model: Model, observables, stages, noise: di
     sigma = np.array(sigma)
     noise_known = not np.any(np.isnan(sigma))
     kinds = {_kind(q) for q in quantities} | set(channels)
+    observations = Observations(
+        points=points, point_regions=tuple(map(region_of.__getitem__, labels_of)), quantities=quantities,
+        row=np.array(row), stage=np.array(stage), y=np.array(y), sigma=np.where(np.isnan(sigma), 1.0, sigma),
+        labels=tuple(labels), noise_known=noise_known, reactions=reactions, point_labels=tuple(labels_of),
+        source=str(measurements.source), minus_row=np.array(minus, dtype=np.int64) if relative else None,
+        channels=tuple(channels))
     if not noise_known and len(kinds) > 1:
-        raise InputError(_unweighted(labels, sigma))
-    return Observations(points=points, point_regions=tuple(map(region_of.__getitem__, labels_of)),
-                        quantities=quantities, row=np.array(row), stage=np.array(stage), y=np.array(y),
-                        sigma=np.where(np.isnan(sigma), 1.0, sigma), labels=tuple(labels), noise_known=noise_known,
-                        reactions=reactions, point_labels=tuple(labels_of), source=str(measurements.source),
-                        minus_row=np.array(minus, dtype=np.int64) if relative else None)
+        raise InputError(_unweighted(observations.quantity, sigma))
+    return observations
 
 
 #: what a data.noise key of each kind of observable is, for messages
@@ -393,10 +287,9 @@ _NOISE_EXAMPLES = {"u": ("u = 0.0005", "mm"), "e": ("e = 1e-5", "strain"), FORCE
                    "torque": ("torque = 0.1", "N m"), "clamp": ("clamp = 10.0", "N")}
 
 
-def _unweighted(labels, sigma: np.ndarray) -> str:
-    """The message for observables of different kinds (units) fitted together where some have no stated noise:
-    it names those."""
-    quantities = [label.rpartition("@")[0].rpartition(":")[2].rpartition("/")[2] for label in labels]
+def _unweighted(quantities, sigma: np.ndarray) -> str:
+    """The message for observables of different kinds (units) fitted together where some have no stated noise
+    (``quantities``, ``sigma``: per observation): it names those."""
     missing = list(dict.fromkeys(q for q, s in zip(quantities, sigma) if np.isnan(s)))
     given = list(dict.fromkeys(q for q, s in zip(quantities, sigma) if not np.isnan(s)))
     keys = list(dict.fromkeys(_kind(q) for q in missing))

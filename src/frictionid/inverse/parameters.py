@@ -7,9 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-
-#: bounds of a coefficient when none are given
-DEFAULT_BOUNDS = (0.0, 1.0)
+from ..options import DEFAULT_BOUNDS
 
 
 @dataclass(frozen=True)
@@ -22,8 +20,8 @@ class Parameter:
 
     name: str
     value: float
-    min: float = 0.0
-    max: float = 1.0
+    min: float = DEFAULT_BOUNDS[0]
+    max: float = DEFAULT_BOUNDS[1]
     vary: bool = True
 
     def __post_init__(self):
@@ -79,7 +77,8 @@ class Parameters:
             value = _number(held, f"{where} fixed.{name}")
             if value < 0:
                 raise InputError(f"{where} fixed.{name} = {value}: a friction coefficient cannot be negative")
-            items.append(Parameter(name, value, min(value, 0.0), max(value, 1.0), vary=False))
+            items.append(Parameter(name, value, min(value, DEFAULT_BOUNDS[0]), max(value, DEFAULT_BOUNDS[1]),
+                                   vary=False))
         if not any(p.vary for p in items):
             raise InputError(f"{where}: every zone is fixed; nothing to identify")
         return cls(tuple(items))

@@ -94,13 +94,13 @@ def candidate_points(model: Model, observed: np.ndarray, n_max: int = 120) -> tu
 
 def _point_rows(obs: Observations) -> np.ndarray:
     """(n_obs,) bool: observations of a quantity at a point (not a reaction row such as the machine force)."""
-    return obs.row < len(obs.points) * len(obs.quantities)
+    return obs.point >= 0
 
 
 def _sigma_of(obs: Observations, quantity: str) -> float | None:
     """Median standard deviation of the observed point quantities of the same kind (displacement or strain)."""
     at_points = _point_rows(obs)
-    observed = [obs.quantities[r % len(obs.quantities)] for r in obs.row[at_points]]
+    observed = obs.quantity[at_points]
     same = np.array([(q in DISPLACEMENTS) == (quantity in DISPLACEMENTS) for q in observed], dtype=bool)
     return float(np.median(obs.sigma[at_points][same])) if same.any() else None
 
@@ -119,7 +119,7 @@ def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.n
     derivatives = backend_factory(model, points, quantities, regions).predict(mu, True).derivatives
     at_points = _point_rows(obs)
     n_q = len(quantities)
-    observed = set(zip(obs.row[at_points] // max(len(obs.quantities), 1), obs.stage[at_points]))
+    observed = set(zip(obs.point[at_points], obs.stage[at_points]))
     groups = []
     for stage in range(model.n_stages):
         for p, xyz in enumerate(points):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..options import IdentifyOptions
 from .evaluator import Evaluator
 from .fitting import make_evaluator, make_least_squares
 from . import profile
@@ -13,10 +14,10 @@ from . import profile
 
 class HeldRefits:
     """The refits of an identification: ``optimise(problem)`` runs its optimiser on a least-squares problem;
-    ``ident`` is its [identify] table. The refits' iterations are not the run's history; their solves count as
+    ``ident`` is its [identify] options. The refits' iterations are not the run's history; their solves count as
     its work, and are stored (a resumed run replays them)."""
 
-    def __init__(self, evaluator: Evaluator, params, store, ident: dict, optimise):
+    def __init__(self, evaluator: Evaluator, params, store, ident: IdentifyOptions, optimise):
         self.evaluator, self.params, self.store, self.ident, self.optimise = evaluator, params, store, ident, optimise
         self.names = list(params.free_names)
 
@@ -43,7 +44,7 @@ class HeldRefits:
         """identify.profile: result.json ``profiles`` of ``zones`` (:func:`frictionid.inverse.profile.profiles`)."""
         fitted, stderr, s2 = self._fitted(result)
         return profile.profiles(zones, self.names, self.params, fitted, stderr, self.chi2_of, self.refit,
-                                self.evaluator.executor.parallel, int(self.ident["profile_points"]), s2)
+                                self.evaluator.executor.parallel, self.ident.profile_points, s2)
 
     def check_bounds(self, result: dict, echo=lambda text: None) -> None:
         """Every zone claimed on a bound gets its check in ``parameters.<zone>.bound_check``; one that fails it
@@ -52,12 +53,12 @@ class HeldRefits:
         zones = [z for z, p in result["parameters"].items() if p.get("at_bound") and p.get("identifiable")]
         if not zones:
             return
-        echo(f"bound check of {', '.join(zones)} (claimed on a bound): {int(self.ident['profile_points'])} "
+        echo(f"bound check of {', '.join(zones)} (claimed on a bound): {self.ident.profile_points} "
              "refits each ...")
         fitted, stderr, s2 = self._fitted(result)
         checks = profile.bound_checks(zones, self.names, self.params, fitted, stderr,
-                                      float(self.ident["resolution"]), self.chi2_of, self.refit,
-                                      self.evaluator.executor.parallel, int(self.ident["profile_points"]), s2)
+                                      self.ident.resolution, self.chi2_of, self.refit,
+                                      self.evaluator.executor.parallel, self.ident.profile_points, s2)
         for zone, check in checks.items():
             entry = result["parameters"][zone]
             entry["bound_check"] = check

@@ -86,8 +86,7 @@ def observed_shift(check: CrossCheck, observations) -> CoefficientShift:
     reaction = [check.reaction_labels.index(label) for label in observations.reactions]
     column = np.array([row if row < n_point_rows else n_point_rows + reaction[row - n_point_rows]
                        for row in observations.row])
-    n_q = len(observations.quantities)
-    kinds = np.array([observations.quantities[row % n_q] if row < n_point_rows else FORCE for row in observations.row])
+    kinds = np.where(observations.point < 0, FORCE, observations.quantity).astype(str)
     noise = {}
     for q in dict.fromkeys(kinds):
         values = np.unique(observations.sigma[kinds == q])

@@ -57,11 +57,10 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:
     """Per measurement point: its label, model coordinates [mm] and RMS weighted residual (noise units)."""
-    index = {label: i for i, label in enumerate(obs.point_labels)}
-    point = np.array([index.get(label.rpartition(":")[0], -1) for label in obs.labels], dtype=np.int64)
+    point, n_points = obs.point, len(obs.point_labels)
     seen = point >= 0                                   # the machine force ("force@2") belongs to no point
-    count = np.bincount(point[seen], minlength=len(index))
-    total = np.bincount(point[seen], weights=np.asarray(r, dtype=float)[seen] ** 2, minlength=len(index))
+    count = np.bincount(point[seen], minlength=n_points)
+    total = np.bincount(point[seen], weights=np.asarray(r, dtype=float)[seen] ** 2, minlength=n_points)
     return [{"point": label, "xyz": [float(v) for v in xyz], "rms": float(np.sqrt(total[i] / count[i]))}
             for i, (label, xyz) in enumerate(zip(obs.point_labels, obs.points)) if count[i]]
 

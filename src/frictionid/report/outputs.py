@@ -10,6 +10,7 @@ from pathlib import Path
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from ..inverse.observations import label_parts
 from .html import write_html
 
 
@@ -53,8 +54,7 @@ def write_observations(path: Path, observations: list[dict]) -> Path:
         writer = csv.writer(handle)
         writer.writerow(["point", "quantity", "stage", "measured", "model", "residual", "sigma", "residual_sigma"])
         for row in observations:
-            point, _, rest = row["label"].rpartition(":")
-            quantity, _, stage = rest.partition("@")
+            point, quantity, stage = label_parts(row["label"])
             residual, sigma = row["model"] - row["measured"], row.get("sigma")
             writer.writerow([point, quantity, stage, repr(row["measured"]), repr(row["model"]), repr(residual),
                              "" if sigma is None else repr(sigma), "" if not sigma else repr(residual / sigma)])
@@ -148,7 +148,7 @@ def fit_figure(observations: list[dict]) -> Figure:
     as in result.json's ``fit.observations`` (label "point:quantity@stage" or "force@stage")."""
     panels: dict[str, list[dict]] = {}
     for o in observations:
-        quantity = o["label"].rpartition("@")[0].rpartition(":")[2]
+        quantity = label_parts(o["label"])[1]
         panels.setdefault(quantity, []).append(o)
     fig = Figure(figsize=(10, 2.6 * len(panels)))
     axes = fig.subplots(len(panels), 1, squeeze=False)

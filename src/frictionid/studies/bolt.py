@@ -24,12 +24,14 @@ from ..builders.registry import build_model
 from ..config import read_config
 from ..data.measurements import Measurements, write_measurements
 from ..errors import InputError
+from ..options import DEFAULT_BOUNDS, ModelSpec
 from ..identification import identify_config
 from ..preparation import prepare
 from ..report.html import NEAR_BOUND
 from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads
 from ..report.outputs import write_outputs
 from ..report.tables import prefit_summary, result_summary
+from ..options import DEFAULT_BOUNDS, ModelSpec
 
 #: the coefficients the data are made with (thread zones; outer A-C, inner D-F, section 1 at the bearing face)
 TRUE_MU = {"A": 0.14, "B": 0.18, "C": 0.22, "D": 0.12, "E": 0.16, "F": 0.20}
@@ -38,7 +40,7 @@ NOISE = 0.0005
 FORCES = (10000.0, 30000.0)
 START = 0.1
 #: friction.bounds of the demo's configs (they set none: the config default)
-BOUNDS = (0.0, 1.0)
+BOUNDS = DEFAULT_BOUNDS
 METHODS = (("trf", "analytic"), ("gradient-descent", "forward"))
 #: per-method options: trf stops once an iteration lowers J by less than 0.1 % (J is a chi-square here: the
 #: unresolved zones otherwise drift along their flat valley for dozens of iterations) or the coefficients change
@@ -124,7 +126,7 @@ def _mesh_sequence(settings: Settings, points: np.ndarray, true: dict, initial: 
     rows, kept = [], None
     for size in sorted(set(settings.sequence) | {settings.data_flank, settings.flank}, reverse=True):
         start = time.perf_counter()
-        model = build_model({"builder": "bolt", "size": "M20", "forces": list(FORCES), "flank_size": size})
+        model = build_model(ModelSpec("bolt", {"size": "M20", "forces": list(FORCES), "flank_size": size}))
         mu, mu0 = (np.array([c[z] for z in model.zone_names]) for c in (true, initial))
         backend = EmbeddedBackend(model, points, QUANTITIES, ["bolt"] * len(points))
         rows.append(MeshRow(size, model.mesh.n_nodes, backend.problem.pairs.n_pairs, backend.predict(mu).values,
@@ -238,8 +240,8 @@ def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:
                                                             + " ".join(f"{v:.4f}" for v in m[:6])),
                           on_prefit=lambda report: echo(prefit_summary(report.as_dict())))
         result = {**result.to_dict(), "truth": dict(TRUE_MU)}      # the plots and report.html then show the true values
-        write_outputs(config.resolve(config.run["dir"]), result, None, config.text,
-                      config.resolve(config.data["file"]))
+        write_outputs(config.resolve(config.run.dir), result, None, config.text,
+                      config.resolve(config.data.file))
         runs[name] = (path, result)
     echo("\n" + result_summary(runs["trf"][1]))
     obs_of = prepare(read_config(runs["trf"][0], need=("model", "friction", "data", "run"))).observations.predicted

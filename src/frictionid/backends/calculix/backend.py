@@ -16,6 +16,7 @@ from ...fem.interface import contact_pairs as embedded_pairs
 from ...fem.points import point_operator
 from ...fem.space import Space
 from ...model import Model
+from ...options import SolverOptions
 from ..base import Prediction
 from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck, zone_columns
 from .elements import calculix_cells, fill_dropped_nodes
@@ -68,40 +69,11 @@ class CalculixSettings:
     load_scale: float = 1.0
 
     @classmethod
-    def from_options(cls, options: dict, where: str = "[solver]") -> "CalculixSettings":
-        """Settings from a dict of [solver] keys (``backend`` and the embedded backend's ``factorisation``,
-        ``increments``, ``sliding`` and ``max_memory`` ignored: CalculiX's contact follows the deformation), each
-        checked with a clear message."""
-        known = {f.name for f in fields(cls)}
-        values = {}
-        for key, value in options.items():
-            if key in ("backend", "factorisation", "increments", "sliding", "max_memory"):
-                continue
-            if key not in known:
-                raise InputError(f"{where} {key}: not an option of the calculix backend; options are {sorted(known)}")
-            values[key] = value
-        settings = cls(**values)
-        settings.validate(where)
-        return settings
-
-    def validate(self, where: str = "[solver]") -> None:
-        def positive(name, value):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise InputError(f"{where} {name} must be a number > 0, got {value!r}")
-
-        positive("timeout", self.timeout)
-        positive("load_scale", self.load_scale)
-        if isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1:
-            raise InputError(f"{where} threads must be a whole number >= 1, got {self.threads!r}")
-        if self.contact not in _PAIR_TYPES:
-            raise InputError(f"{where} contact = {self.contact!r} is not one of {sorted(_PAIR_TYPES)}")
-        for name in ("normal_stiffness", "stick_slope"):
-            if getattr(self, name) is not None:
-                positive(name, getattr(self, name))
-        if not isinstance(self.keep_work, bool):
-            raise InputError(f"{where} keep_work must be true or false, got {self.keep_work!r}")
-        if not isinstance(self.ccx, str) or not self.ccx:
-            raise InputError(f"{where} ccx must be the name or path of the ccx executable, got {self.ccx!r}")
+    def from_solver(cls, solver: SolverOptions) -> "CalculixSettings":
+        """The settings among the [solver] options (config.py has checked them); the embedded backend's
+        ``factorisation``, ``increments``, ``sliding`` and ``max_memory`` are not CalculiX's (its contact follows
+        the deformation)."""
+        return cls(**{f.name: getattr(solver, f.name) for f in fields(cls)})
 
     def contact_settings(self, model: Model) -> ContactSettings:
         """Penalty slopes for a model: the given ones or ``min(PENALTY_FACTOR * E_min / h, PENALTY_CAP)``."""
@@ -187,7 +159,6 @@ class CalculixBackend:
                  settings: CalculixSettings | None = None, reactions: tuple[str, ...] = ()):
         self.model = model
         self.settings = settings or CalculixSettings()
-        self.settings.validate()
         self.space = Space.build(model.mesh, model.kind, model.element)
         if self.settings.load_scale != 1:
             _check_proportional(self.space, model)
