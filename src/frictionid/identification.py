@@ -139,10 +139,10 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo,
                                                                                    sliding)
     setup = replace(setup, model=chosen.model, model_options=chosen.options, contact=contact,
-                    discretisation=chosen.record)
+                    discretisation=chosen.record, remaining_error=chosen.remaining)
     if config.solver["backend"] == "embedded":
         log.info(memory.check(setup.model, "model", max_memory, config.solver.get("factorisation", "auto")).line())
-        if config.identify["model_error"] != "off":       # refused now rather than after the fit
+        if config.identify["model_error"] != "off" and setup.remaining_error is None:   # refused now, not after
             memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
@@ -193,7 +193,9 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                                                      iteration_lines, echo)
         error = None
         if config.identify["model_error"] != "off":
-            echo(f"fit {outcome.status}; model error: the model refined by 2 at the start and the fitted point ...")
+            echo(f"fit {outcome.status}; model error: " + ("the discretisation control's prediction for the fitted "
+                 "model" if setup.remaining_error is not None else "the model refined by 2 at the start and the "
+                 "fitted point") + " ...")
             error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
             echo(f"model error: RMS {error.summary['all']['rms']:.3g} noise levels, largest "
                  f"{error.summary['all']['max']:.3g} ({error.seconds:.1f} s)")
@@ -241,7 +243,8 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
 
     try:
         return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
-                                config.identify["model_error"], refit, config.solver.get("max_memory"))
+                                config.identify["model_error"], refit, config.solver.get("max_memory"),
+                                remaining=setup.remaining_error)
     except InputError as exc:       # after the fit: stored as a failed run, the fit kept (_stopped)
         raise SolverError(str(exc)) from None
 
