@@ -16,7 +16,7 @@ from frictionid.inverse import remaining_error
 from frictionid.inverse.evaluator import Evaluator
 from frictionid.inverse.least_squares import LeastSquares
 from frictionid.inverse.optimisers import optimise
-from frictionid.inverse.uncertainty import estimate
+from frictionid.inverse.uncertainty import SYSTEMATIC_LIMIT, estimate
 from frictionid.preparation import prepare
 
 TRUE = {"A": 0.32, "B": 0.18}
@@ -93,13 +93,17 @@ def test_the_fit_on_the_refined_mesh_carries_the_controls_remaining_error(measur
 
 def test_a_zone_whose_systematic_error_exceeds_its_statistical_one_is_not_claimed():
     """Two resolved zones (statistical standard errors 0.01 and 0.0071), the second with a systematic error of
-    0.02: its interval is widened (hypot) and it is not claimed, with the reason; the first, with 0.005, is claimed
-    with its widened interval."""
+    0.02: its interval is widened (hypot) and, with the control's limit (default mode), it is not claimed, with the
+    reason; the first, with 0.005, is claimed with its widened interval. Without the limit (include mode, whose
+    systematic part the misfit calibrates) both are claimed."""
     jac = np.array([[100.0, 0.0], [0.0, 100.0], [0.0, 100.0]])
     x = np.array([0.3, 0.2])
     unc = estimate(jac, np.zeros(3), x, np.zeros(2), np.ones(2), noise_known=True, tolerance=0.05,
-                   names=("A", "B"), systematic=np.array([0.005, 0.02]))
+                   names=("A", "B"), systematic=np.array([0.005, 0.02]), systematic_limit=SYSTEMATIC_LIMIT)
     assert unc.identifiable.tolist() == [True, False]
+    widened = estimate(jac, np.zeros(3), x, np.zeros(2), np.ones(2), noise_known=True, tolerance=0.05,
+                       names=("A", "B"), systematic=np.array([0.005, 0.02]))     # include mode: widened only
+    assert widened.identifiable.tolist() == [True, True]
     np.testing.assert_allclose(unc.stderr, [np.hypot(0.01, 0.005), np.hypot(0.01 / np.sqrt(2), 0.02)])
     assert "remaining discretisation error moves it by up to 0.02, more than its statistical standard error " \
            "0.00707" in unc.why[1]

@@ -12,7 +12,7 @@ from .adequacy import Adequacy, assess, bias_shift
 from .evaluator import Evaluator
 from .least_squares import LeastSquares, robust_weights
 from .remaining_error import systematic as remaining_systematic
-from .uncertainty import Uncertainty, at_bounds, estimate, systematic_error
+from .uncertainty import SYSTEMATIC_LIMIT, Uncertainty, at_bounds, estimate, systematic_error
 
 
 @dataclass(frozen=True)
@@ -52,16 +52,19 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner,
                       sigma=obs.sigma, regions=dict(zip(obs.point_labels, obs.point_regions)),
                       model_kind=getattr(model, "kind", None))
-    shift = systematic = offset = None
+    shift = systematic = offset = limit = None
     if error is not None and error.signed is not None:
         shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
         if error.before is not None:                   # "include": the error's effect is part of the interval
             systematic = systematic_error(shift, error.scale, error.before, x)
     if remaining is not None:
         offset, left = remaining_systematic(jac, np.sqrt(weights) * obs.weight, remaining, inner)
-        systematic = left if systematic is None else np.fmax(systematic, left)
+        if systematic is None:                          # a prediction the misfit did not check: claims limited
+            systematic, limit = left, SYSTEMATIC_LIMIT
+        else:
+            systematic = np.fmax(systematic, left)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
-                   shift, systematic)
+                   shift, systematic, limit)
     return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic, offset)
 
 

@@ -16,8 +16,10 @@ a bound in a fit the stated noise does not explain and, where the discretisation
 error does not move it by more than SHIFT_LIMIT standard errors; every other one gets a reason (``why``). With
 the model error included in the weights (:func:`systematic_error`), or the discretisation control's remaining
 error propagated to the coefficients (:mod:`.remaining_error`), a systematic part is added to the standard error
-in quadrature, and a zone whose systematic part exceeds SYSTEMATIC_LIMIT times its statistical standard error is
-not claimed (its interval would rest on the error estimate, known to a factor of about 2). A parameter claimed on a bound still needs its profile-likelihood check
+in quadrature. The control's part is a prediction the misfit never checked (include mode scales its estimate by
+the misfit and measures how far the refit moved): without include, a zone whose systematic part exceeds
+SYSTEMATIC_LIMIT times its statistical standard error is not claimed (its interval would rest on that
+prediction, known to a factor of about 2). A parameter claimed on a bound still needs its profile-likelihood check
 (:func:`frictionid.inverse.profile.bound_verdict`), made by the identification.
 """
 
@@ -33,7 +35,8 @@ from .resolution import predicted_stderr
 
 #: |correlation| above which a poorly resolved zone is said to be confounded with its partner
 STRONG_CORRELATION = 0.9
-#: a zone whose systematic standard error exceeds this many statistical ones is not claimed
+#: a zone whose systematic standard error, predicted and not checked against the misfit (the discretisation
+#: control's, :mod:`.remaining_error`), exceeds this many statistical ones is not claimed
 SYSTEMATIC_LIMIT = 1.0
 
 
@@ -67,7 +70,7 @@ def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
 
 def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
              tolerance: float | None = None, names=None, adequacy=None, model_shift=None,
-             systematic=None) -> Uncertainty:
+             systematic=None, systematic_limit: float | None = None) -> Uncertainty:
     """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x.
 
     ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds);
@@ -76,7 +79,8 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
     the estimated discretisation error moved each coefficient (:func:`~.adequacy.bias_shift`; nan unknown): a
     zone moved by more than SHIFT_LIMIT standard errors is not identifiable; ``systematic``: (n_free,) standard
     error of a systematic part (the model error's effect on each coefficient, :func:`systematic_error`), added
-    in quadrature to the statistical one.
+    in quadrature to the statistical one; ``systematic_limit``: a zone whose systematic error exceeds this many
+    statistical standard errors is not claimed (None: the systematic part only widens the interval).
 
     Examples
     --------
@@ -117,7 +121,8 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
         moved = np.nan_to_num(np.abs(shift) / se, nan=0.0) > SHIFT_LIMIT
     unexplained = bound & (adequacy is not None and adequacy.consistent is False)
     model_made = (se > limit) & (systematic > statistical)
-    dominated = ~model_made & (systematic > SYSTEMATIC_LIMIT * np.nan_to_num(statistical, nan=np.inf))
+    dominated = ~model_made & (np.zeros(n_free, dtype=bool) if systematic_limit is None else
+                               systematic > systematic_limit * np.nan_to_num(statistical, nan=np.inf))
     identifiable = (se <= limit) & ~affected & ~moved & ~unexplained & ~dominated
     why = tuple("" if identifiable[k] else
                 adequacy.why_affected(k, names) if affected[k] else
