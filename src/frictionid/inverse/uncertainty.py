@@ -130,9 +130,10 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
                 if unexplained[k] else
                 _why_systematic(systematic[k], statistical[k]) if dominated[k] and se[k] <= limit[k] else
                 f"standard error {se[k]:.3g} > {limit[k]:g}, {systematic[k]:.3g} of it systematic: the mesh's "
-                "estimated discretisation error moves it (by the estimate's coefficient shift or by including the "
-                "error in the weights): refine the mesh (identify.refine_target) or observe where the model "
-                "converges" if model_made[k] else
+                "estimated discretisation error moves it (" + ("the remaining error the discretisation control "
+                "predicts for the fitted mesh" if systematic_limit is not None else "by the estimate's coefficient "
+                "shift or by including the error in the weights") + "): refine the mesh (identify.refine_target) or "
+                "observe where the model converges" if model_made[k] else
                 _why_unresolved(k, jac, se, limit[k], correlation, vt, s, names) if not moved[k] else
                 f"the mesh's estimated discretisation error moves it by {shift[k]:+.3g} ({abs(shift[k]) / se[k]:.1f} "
                 "standard errors): refine the mesh (identify.refine_target) or observe where the model converges"
