@@ -3,17 +3,21 @@
 claim the zone, the largest error of a claim in standard errors and the coverage of the claimed 95 % intervals.
 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_acceptance.py N [--modes default,include,u,u-include]
-        [--max-memory GB] [--out DIR] [--first K] [--chosen JSON]
+        [--max-memory GB] [--out DIR] [--first K] [--reference CSV]
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
 machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
 force only; "u-include" that with "include". Truth A 0.35, B 0.20, C 0.45, D 0.15.
 
-The control's choice depends on the points, the stated noise and the start values, not on a replicate's values:
-it runs in the first replicate of the first mode of each set of observables, and every other fit of that set
-(later replicates, the "include" mode) is on the [model] table it chose with refine_target = 0 (their record
-says "off"; the first's says what the control did). Their condensation is the first's, kept in the process. Replicate k is generate.py's ``replicate(values,
-force, k)`` of the noise-free measured.csv (replicate 0 is measured_noisy.csv).
+The control's choice and its predicted remaining error depend on the model, the points, the stated noise and the
+start values, never on the measured values (``discretisation_control.control`` does not read them;
+tests/test_remaining_error.py checks it). So it runs once per set of observables, at the start values 0.1 of the
+config, and every fit of that set (all replicates, the "include" mode) gets that same decision: the model it
+chose and the remaining error the result's systematic errors come from. It is kept in ``--out`` (control_<set>.npz
+and .json) for later invocations, and the condensations in ``--out``/cache (embedded.use_cache). The first
+replicate of a mode starts at 0.1; later ones start at the first's fitted values (the same minimum, fewer
+iterations). Replicate k is generate.py's ``replicate(values, force, k)`` of the noise-free ``--reference``
+(default the fixture's measured.csv; replicate 0 of it is measured_noisy.csv).
 """
 
 from __future__ import annotations
@@ -29,8 +33,14 @@ import numpy as np
 
 import _tests  # noqa: F401  (tests/ importable)
 from fixtures.dense_block import generate
+from frictionid import identification
+from frictionid.backends.embedded import use_cache
+from frictionid.builders.registry import build_model
 from frictionid.config import read_config
 from frictionid.identification import identify_config
+from frictionid.options import ModelSpec
+from frictionid.inverse.discretisation_control import Control
+from frictionid.inverse.remaining_error import RemainingError
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "fixtures" / "dense_block"
@@ -53,8 +63,8 @@ def read_values(path: Path):
     return labels, xyz, values, force
 
 
-def write_replicate(k: int, out: Path) -> Path:
-    labels, xyz, values, force = read_values(FIXTURE / "measured.csv")
+def write_replicate(k: int, out: Path, reference: Path) -> Path:
+    labels, xyz, values, force = read_values(reference)
     noisy, noisy_force = generate.replicate(values, force, k)
     path = out / f"replicate_{k}.csv"
     generate.write_csv(path, [f"dense_block noise replicate {k} (benchmarks/dense_acceptance.py)"], labels, xyz,
@@ -62,24 +72,58 @@ def write_replicate(k: int, out: Path) -> Path:
     return path
 
 
-def config_text(data: Path, observables: str, model_error: str, model: dict | None, run: Path,
-                max_memory: float | None) -> str:
-    table = model or {"builder": "block"}
-    model_lines = "".join(f"{k} = {json.dumps(v)}\n" for k, v in table.items())
-    return ("[model]\n" + model_lines + "[friction]\nzones = { A = 0.1, B = 0.1, C = 0.1, D = 0.1 }\n"
+def config_text(data: Path, observables: str, model_error: str, run: Path, max_memory: float | None,
+                start: dict) -> str:
+    zones = ", ".join(f"{z} = {v:.6g}" for z, v in start.items())
+    return ('[model]\nbuilder = "block"\n[friction]\nzones = { ' + zones + ' }\n'
             f'[data]\nfile = "{data}"\nobservables = {observables}\nstages = [1, 2]\n'
             'noise = { u = 0.0005, e = 2e-5, force = 1.0 }\nregions = { "plate:*" = "plate", "*" = "block" }\n'
             'strain_window = 2.0\nstrain_window_shape = "circle"\n'
-            f'[identify]\nmodel_error = "{model_error}"\n' + ("refine_target = 0\n" if model else "")
-            + (f"[solver]\nmax_memory = {max_memory}\n" if max_memory else "") + f'[run]\ndir = "{run}"\n')
+            f'[identify]\nmodel_error = "{model_error}"\n'
+            + (f"[solver]\nmax_memory = {max_memory}\n" if max_memory else "") + f'[run]\ndir = "{run}"\nfields = false\n')
 
 
-def fit(mode: str, k: int, out: Path, model: dict | None, max_memory: float | None) -> dict:
+class KeptControl:
+    """identification.control replaced by one decision per set of observables (module docstring), kept on disk."""
+
+    def __init__(self, out: Path, original):
+        self.out, self.original, self.group, self.made = out, original, None, {}
+
+    def __call__(self, model_options, model, observations, mu, target, budget=2, max_memory=None, progress=None,
+                 window=None, backend="embedded"):
+        progress = progress or (lambda text: None)
+        if self.group in self.made:
+            progress("discretisation control: the decision of this set of observables reused (it does not read "
+                     "the measured values)")
+            return self.made[self.group]
+        stem = self.out / f"control_{self.group}"
+        if stem.with_suffix(".json").exists():
+            kept = json.loads(stem.with_suffix(".json").read_text())
+            arrays = np.load(stem.with_suffix(".npz"))
+            if arrays["nominal"].shape != (observations.n_obs,):
+                sys.exit(f"{stem}: kept for {arrays['nominal'].shape} observations, these are {observations.n_obs}")
+            spec = ModelSpec.from_table(kept["options"])
+            chosen = Control(spec, build_model(spec), kept["record"],
+                             RemainingError(arrays["nominal"], arrays["slow"], kept["orders"]))
+            progress(f"discretisation control: kept decision read from {stem}.json")
+        else:
+            chosen = self.original(model_options, model, observations, mu, target, budget, max_memory, progress,
+                                   window, backend)
+            if chosen.remaining is not None:
+                np.savez(stem.with_suffix(".npz"), nominal=chosen.remaining.nominal, slow=chosen.remaining.slow)
+                stem.with_suffix(".json").write_text(json.dumps({"options": chosen.options.table(), "record": chosen.record,
+                                                                 "orders": chosen.remaining.orders}, default=float))
+        self.made[self.group] = chosen
+        return chosen
+
+
+def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None, start: dict) -> dict:
     observables, model_error = MODES[mode]
-    data = write_replicate(k, out)
+    data = write_replicate(k, out, reference)
     path = out / f"{mode}_{k}.toml"
-    path.write_text(config_text(data, OBSERVABLES[observables], model_error, model, out / f"run_{mode}_{k}",
-                                max_memory))
+    path.write_text(config_text(data, OBSERVABLES[observables], model_error, out / f"run_{mode}_{k}", max_memory,
+                                start))
+    identification.control.group = observables
     start = time.perf_counter()
     result = identify_config(read_config(path), echo=lambda text: print(f"  [{mode} {k}] {text}", flush=True))
     row = {"mode": mode, "replicate": k, "seconds": round(time.perf_counter() - start, 1),
@@ -88,13 +132,15 @@ def fit(mode: str, k: int, out: Path, model: dict | None, max_memory: float | No
         off = None if not p["stderr"] else (p["value"] - TRUTH[zone]) / p["stderr"]
         low, high = p["ci95"] if p.get("ci95") else (math.nan, math.nan)
         row["zones"][zone] = {"value": p["value"], "stderr": p["stderr"], "claimed": bool(p["identifiable"]),
-                              "off_se": off, "covered": bool(low <= TRUTH[zone] <= high), "why": p.get("why")}
+                              "off_se": off, "covered": bool(low <= TRUTH[zone] <= high), "why": p.get("why"),
+                              "systematic": p.get("stderr_systematic"), "bias": p.get("discretisation_bias")}
     return row
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| mode | zone | replicates | values (min / median / max) | claimed | largest claimed error [se] | "
-             "claimed 95 % covering | claimed within 0.02 |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| mode | zone | replicates | values (min / median / max) | standard error (systematic part) | claimed | "
+             "largest claimed error [se] | claimed 95 % covering | claimed within 0.02 |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for mode in dict.fromkeys(r["mode"] for r in rows):
         mine = [r for r in rows if r["mode"] == mode]
         for zone in TRUTH:
@@ -104,9 +150,11 @@ def table(rows: list[dict]) -> str:
             worst = max((abs(e["off_se"]) for e in claimed if e["off_se"] is not None), default=float("nan"))
             covered = sum(e["covered"] for e in claimed)
             near = sum(abs(e["value"] - TRUTH[zone]) <= 0.02 for e in claimed)
+            se = np.array([e["stderr"] or np.nan for e in z])
+            sys_ = np.array([e.get("systematic") or 0.0 for e in z])
             lines.append(f"| {mode} | {zone} ({TRUTH[zone]}) | {len(z)} | {v.min():.4f} / {np.median(v):.4f} / "
-                         f"{v.max():.4f} | {len(claimed)} | {worst:.2f} | {covered} / {len(claimed)} | "
-                         f"{near} / {len(claimed)} |")
+                         f"{v.max():.4f} | {np.nanmedian(se):.4f} ({np.median(sys_):.4f}) | {len(claimed)} | "
+                         f"{worst:.2f} | {covered} / {len(claimed)} | {near} / {len(claimed)} |")
     return "\n".join(lines)
 
 
@@ -117,25 +165,23 @@ def main(argv=None) -> int:
     parser.add_argument("--max-memory", type=float, default=None, help="[solver] max_memory [GB]")
     parser.add_argument("--out", type=Path, default=Path("/tmp/dense_acceptance"))
     parser.add_argument("--first", type=int, default=0, help="first replicate")
-    parser.add_argument("--chosen", default=None,
-                        help='the [model] table a run of the control chose for these observables, as JSON (e.g. '
-                             '\'{"builder": "block", "mesh_size": 0.5, "block_divisions": 10}\'): no control run')
+    parser.add_argument("--reference", type=Path, default=FIXTURE / "measured.csv",
+                        help="the noise-free reference the replicates are drawn around")
     parser.add_argument("--merge", type=Path, nargs="*", default=[],
                         help="rows.json files of earlier runs: their rows join the printed table (0 replicates: "
                              "only print it)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    given = json.loads(args.chosen) if args.chosen else None
-    rows, chosen = [], {}
+    use_cache(args.out / "cache")
+    identification.control = KeptControl(args.out, identification.control)
+    rows = []
     for mode in args.modes.split(","):
-        group = MODES[mode][0]
-        if given is not None:
-            chosen.setdefault(group, given)
+        start = dict.fromkeys(TRUTH, 0.1)
         for k in range(args.first, args.first + args.replicates):
-            row = fit(mode, k, args.out, chosen.get(group), args.max_memory)
-            if group not in chosen:
-                chosen[group] = {key: v for key, v in row["model"].items() if key not in ("contact", "discretisation")}
+            row = fit(mode, k, args.out, args.reference, args.max_memory, start)
+            if k == args.first:
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
+                start = {z: min(max(e["value"], 0.01), 0.99) for z, e in row["zones"].items()}
             rows.append(row)
             print(f"{mode} {k}: chi2/dof {row['reduced_chi2']:.3g}, " + ", ".join(
                 f"{z} {e['value']:.4f} +- {e['stderr'] or float('nan'):.4f}{' claimed' if e['claimed'] else ''}"

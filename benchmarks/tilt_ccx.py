@@ -39,7 +39,7 @@ from frictionid.backends.calculix.parse import read_dat, read_frd
 
 #: mesh levels: divisions per half side (block; the plate gets one more), block layers, plate layers, the
 #: first block / plate layer [mm]
-LEVELS = {1: (4, 8, 5, 0.4, 0.3), 2: (5, 10, 6, 0.3, 0.25), 3: (6, 12, 7, 0.25, 0.2)}
+LEVELS = {1: (4, 8, 5, 0.4, 0.3), 2: (5, 10, 6, 0.3, 0.25), 3: (6, 12, 7, 0.25, 0.2), 4: (8, 16, 9, 0.19, 0.15)}
 GROWTH = 1.5
 
 

@@ -137,11 +137,17 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     sliding = config.solver.sliding
     contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo,
                                                                                    sliding)
+    refined = chosen.model is not setup.model
     setup = replace(setup, model=chosen.model, model_options=chosen.options, contact=contact,
-                    discretisation=chosen.record)
+                    discretisation=chosen.record, remaining_error=chosen.remaining)
     if config.solver.backend == "embedded":
-        log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
-        if config.identify.model_error != "off":       # refused now rather than after the fit
+        if refined:     # the control checked this model against max_memory when it chose it; a second check a
+            # moment later sees only the process's resident memory drift (and refused its choice by 0.2 GB)
+            log.info(memory.estimate(setup.model, "model (checked by the discretisation control)", max_memory,
+                                     config.solver.factorisation).line())
+        else:
+            log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
+        if config.identify.model_error != "off" and setup.remaining_error is None:   # refused now, not after
             memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
@@ -192,7 +198,9 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
                                                      iteration_lines, echo)
         error = None
         if config.identify.model_error != "off":
-            echo(f"fit {outcome.status}; model error: the model refined by 2 at the start and the fitted point ...")
+            echo(f"fit {outcome.status}; model error: " + ("the discretisation control's prediction for the fitted "
+                 "model" if setup.remaining_error is not None else "the model refined by 2 at the start and the "
+                 "fitted point") + " ...")
             error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
             echo(f"model error: RMS {error.summary['all']['rms']:.3g} noise levels, largest "
                  f"{error.summary['all']['max']:.3g} ({error.seconds:.1f} s)")
@@ -240,7 +248,8 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
 
     try:
         return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
-                                config.identify.model_error, refit, config.solver.max_memory)
+                                config.identify.model_error, refit, config.solver.max_memory,
+                                remaining=setup.remaining_error)
     except InputError as exc:       # after the fit: stored as a failed run, the fit kept (_stopped)
         raise SolverError(str(exc)) from None
 

@@ -56,6 +56,9 @@ class Setup:
     #: what the discretisation control did (:mod:`~frictionid.inverse.discretisation_control`): result.json's
     #: ``model.discretisation``
     discretisation: dict | None = None
+    #: the error the control predicts for the fitted model, per observation
+    #: (:class:`~frictionid.inverse.remaining_error.RemainingError`; None when it did not run)
+    remaining_error: object = None
 
 
 def fingerprint(config: Config, model: Model | None = None, measurements: Measurements | None = None) -> str:

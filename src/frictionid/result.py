@@ -169,7 +169,8 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
     prefit ``report``, the counts of solves and the history."""
     params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
     free = list(params.free_names)
-    stats = fit_statistics(evaluator, problem, outcome.x, config.identify.resolution, error)
+    stats = fit_statistics(evaluator, problem, outcome.x, config.identify.resolution, error,
+                           setup.remaining_error)
     r, f, weights, adequacy, unc = stats.r, stats.f, stats.weights, stats.adequacy, stats.uncertainty
     why = contact_reasons(evaluator.backend, params.full(outcome.x), sorted(set(obs.stage.tolist())), free, unc)
     parameters = {}
@@ -186,6 +187,9 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
                 entry["why"] = why[k]
             if stats.systematic is not None:
                 entry["stderr_systematic"] = float(stats.systematic[k])
+            if stats.discretisation_bias is not None:
+                entry["discretisation_bias"] = None if not np.isfinite(stats.discretisation_bias[k]) else \
+                    float(stats.discretisation_bias[k])
         parameters[p.name] = entry
     return {
         "status": outcome.status, "message": outcome.message, "method": config.identify.method,

@@ -29,7 +29,7 @@ from scipy.optimize import brentq
 from ..builders.registry import refined
 from ..errors import InputError
 from ..options import IdentifyOptions, ModelSpec
-from .model_error import estimate_model_error, inflated_sigma
+from .model_error import estimate_model_error, from_control, inflated_sigma
 
 log = logging.getLogger(__name__)
 MODES = ("off", "estimate", "include")
@@ -53,7 +53,7 @@ def check_options(identify: IdentifyOptions, model_options: ModelSpec | None, wh
 
 
 def with_model_error(evaluator, parameters, model_options: ModelSpec, model, outcome, mode: str, refit,
-                     max_memory: float | None = None, progress=None):
+                     max_memory: float | None = None, progress=None, remaining=None):
     """The discretisation error at the start and the fitted point of ``outcome`` (one extra condensation), and
     with mode "include" the fit continued from its end with sigma_eff^2 = sigma^2 + (k e)^2, k from
     :func:`error_scale`.
@@ -61,12 +61,18 @@ def with_model_error(evaluator, parameters, model_options: ModelSpec, model, out
     ``refit(x0, offset)`` runs the optimiser from x0 with the evaluator's (new) weights, numbering its
     iterations from ``offset``. Returns the :class:`ModelError` and the outcome to report (fit and refit joined).
     ``max_memory`` [GB] and ``progress``: as :func:`~frictionid.inverse.model_error.estimate_model_error`.
+    ``remaining``: the discretisation control's prediction for the fitted model
+    (:class:`~frictionid.inverse.remaining_error.RemainingError`), when it ran: then it is the estimate
+    (:func:`~frictionid.inverse.model_error.from_control`) and the model is not refined again.
     """
     points = [parameters.x0, outcome.x]
     obs = evaluator.obs
-    error = estimate_model_error(model_options, obs, [parameters.full(x) for x in points],
-                                 coarse_values=[evaluator.model_values(x) for x in points], model=model,
-                                 max_memory=max_memory, progress=progress)
+    if remaining is not None:
+        error = from_control(remaining, obs, model_options)
+    else:
+        error = estimate_model_error(model_options, obs, [parameters.full(x) for x in points],
+                                     coarse_values=[evaluator.model_values(x) for x in points], model=model,
+                                     max_memory=max_memory, progress=progress)
     if mode != "include":
         return error, outcome
     scale = error_scale(evaluator.model_values(outcome.x) - obs.y, obs.sigma, error.estimate, len(outcome.x))

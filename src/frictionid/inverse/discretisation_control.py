@@ -39,6 +39,7 @@ from ..fem import memory
 from ..fem.locate import PointsOutside
 from ..options import ModelSpec
 from .model_error import ELEMENT_ORDER, convergence_orders, observation_kinds
+from .remaining_error import RemainingError, remaining
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +51,8 @@ class Control:
     options: ModelSpec | None
     model: object
     record: dict
+    #: the error the fitted model keeps, per observation (:mod:`.remaining_error`); None when the control did not run
+    remaining: RemainingError | None = None
 
 
 def directions(spec: ModelSpec) -> list[str]:
@@ -129,7 +132,7 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     progress(f"discretisation control: the model's error at the start values by refining it in each of "
              f"{len(names)} direction(s) ({', '.join(names)}), target {target:g} noise levels RMS per quantity kind")
     coarse = values(model, observations, mu, window, keep=True)
-    terms, sizes, steps = [], [], []
+    differences, terms, sizes, steps = [], [], [], []
     for d, name in enumerate(names):
         begun = time.perf_counter()
         options = refinement(model_options, tuple(2 if j == d else 1 for j in range(len(names))))
@@ -139,7 +142,8 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
             return Control(model_options, model, _skipped(target, f"{cost.line()}: more than [solver] max_memory "
                                                                   "allows, not condensed", progress))
         progress(cost.line() + "; condensing")
-        terms.append((coarse - values(fine_model, observations, mu, window)) * gain / (gain - 1.0))
+        differences.append(coarse - values(fine_model, observations, mu, window))
+        terms.append(differences[-1] * gain / (gain - 1.0))
         sizes.append(fine_model.mesh.n_nodes)
         steps.append({"direction": name, "options": options.table(), "n_nodes": int(fine_model.mesh.n_nodes),
                       "rms": kind_rms(np.abs(terms[-1]) / observations.sigma, kinds),
@@ -152,16 +156,17 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     given = kind_rms(np.abs(np.sum(terms, axis=0)) / observations.sigma, kinds)
     status = "not needed" if max(given.values()) <= target else \
         "reached" if max(rms.values()) <= target else "not reached"
+    left = remaining(differences, factors, np.log2(gain), orders)
     seconds = time.perf_counter() - start
     record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
               "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
               "options": options.table(), "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
-              "seconds": round(seconds, 1)}
+              "predicted_error_slow": left.summary(observations.sigma, kinds)["slow"], "seconds": round(seconds, 1)}
     progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
              f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
              f"levels RMS: target {target:g} {status}; the control took {seconds:.1f} s")
     log.info("discretisation control: %s", record)
-    return Control(options, fitted, record)
+    return Control(options, fitted, record, left)
 
 
 def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_memory, factors_tried):

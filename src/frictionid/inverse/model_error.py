@@ -151,6 +151,9 @@ class ModelError:
     scale: float = 1.0
     signed: np.ndarray | None = None
     before: np.ndarray | None = None
+    #: where the estimate comes from: the model refined by ``factor`` ("richardson") or the discretisation
+    #: control's prediction for the fitted model ("discretisation control", :func:`from_control`)
+    source: str = "richardson"
     summary: dict = field(init=False)
 
     def __post_init__(self):
@@ -161,11 +164,25 @@ class ModelError:
 
     def as_dict(self) -> dict:
         """JSON-ready: per-observation lists, the orders, the refined options and the summaries (in noise)."""
-        return {"estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(), "orders": dict(self.orders),
-                "factor": self.factor, "refined_options": self.refined_options.table(), "n_points": self.n_points,
+        return {"source": self.source, "estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(),
+                "orders": dict(self.orders), "factor": self.factor, "refined_options": self.refined_options.table(),
+                "n_points": self.n_points,
                 "seconds": self.seconds, "scale": self.scale, "summary": self.summary,
                 "signed": None if self.signed is None else self.signed.tolist(),
                 "before_include": None if self.before is None else self.before.tolist()}
+
+
+def from_control(remaining, observations: Observations, options: ModelSpec) -> ModelError:
+    """The discretisation control's predicted error of the fitted model
+    (:class:`~frictionid.inverse.remaining_error.RemainingError`) as a :class:`ModelError`: its magnitude at the
+    control's orders as the estimate, signed as ``signed``; no extra condensation (``factor`` 1, the fitted
+    ``options``). Made at the start values, like the control's decision."""
+    kinds = observation_kinds(observations)
+    estimate = np.abs(np.asarray(remaining.nominal, dtype=float))
+    return ModelError(estimate=estimate, in_noise=estimate / observations.sigma, kinds=kinds,
+                      stages=observations.stage + 1, orders=dict(remaining.orders), factor=1,
+                      refined_options=options, n_points=1, seconds=0.0, signed=np.array(remaining.nominal),
+                      source="discretisation control")
 
 
 def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:

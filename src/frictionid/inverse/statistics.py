@@ -11,7 +11,8 @@ from ..backends.base import Backend
 from .adequacy import Adequacy, assess, bias_shift
 from .evaluator import Evaluator
 from .least_squares import LeastSquares, robust_weights
-from .uncertainty import Uncertainty, at_bounds, estimate, systematic_error
+from .remaining_error import systematic as remaining_systematic
+from .uncertainty import SYSTEMATIC_LIMIT, Uncertainty, at_bounds, estimate, systematic_error
 
 
 @dataclass(frozen=True)
@@ -25,15 +26,21 @@ class FitStatistics:
     adequacy: Adequacy
     uncertainty: Uncertainty
     model_shift: np.ndarray | None = None
-    #: (n_free,) systematic standard error in the uncertainty (model error included), None otherwise
+    #: (n_free,) systematic standard error in the uncertainty (model error included, or the discretisation
+    #: control's remaining error propagated), None otherwise
     systematic: np.ndarray | None = None
+    #: (n_free,) the fitted-minus-converged offset the control's remaining error predicts (nan on a bound), or None
+    discretisation_bias: np.ndarray | None = None
 
 
 def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, resolution: float,
-                   error=None) -> FitStatistics:
+                   error=None, remaining=None) -> FitStatistics:
     """Adequacy and uncertainty of the free coefficients x with the evaluator's observations and weights;
     ``error``: the :class:`~frictionid.inverse.model_error.ModelError` estimated for this fit, if any (the
-    coefficient shift its signed error causes decides, with the rest, which zones are identifiable)."""
+    coefficient shift its signed error causes decides, with the rest, which zones are identifiable);
+    ``remaining``: the discretisation control's :class:`~frictionid.inverse.remaining_error.RemainingError` of
+    the fitted model, if it ran: its effect on the coefficients is a systematic error (the larger of it and the
+    "include" mode's where both exist)."""
     params, obs = evaluator.params, evaluator.obs
     r = evaluator.residuals(x)[:obs.n_obs]
     jac = evaluator.jacobian(x)[:obs.n_obs]
@@ -45,14 +52,20 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner,
                       sigma=obs.sigma, regions=dict(zip(obs.point_labels, obs.point_regions)),
                       model_kind=getattr(model, "kind", None))
-    shift = systematic = None
+    shift = systematic = offset = limit = None
     if error is not None and error.signed is not None:
         shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
         if error.before is not None:                   # "include": the error's effect is part of the interval
             systematic = systematic_error(shift, error.scale, error.before, x)
+    if remaining is not None:
+        offset, left = remaining_systematic(jac, np.sqrt(weights) * obs.weight, remaining, inner)
+        if systematic is None:                          # a prediction the misfit did not check: claims limited
+            systematic, limit = left, SYSTEMATIC_LIMIT
+        else:
+            systematic = np.fmax(systematic, left)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
-                   shift, systematic)
-    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic)
+                   shift, systematic, limit)
+    return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic, offset)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:

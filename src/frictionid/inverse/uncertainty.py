@@ -14,8 +14,12 @@ A parameter is reported identifiable when its standard error is within a toleran
 its bound interval), the data do not contradict each other about it (:attr:`.Adequacy.affected`), it is not on
 a bound in a fit the stated noise does not explain and, where the discretisation error was estimated, that
 error does not move it by more than SHIFT_LIMIT standard errors; every other one gets a reason (``why``). With
-the model error included in the weights, a systematic part (:func:`systematic_error`) is added to the standard
-error in quadrature. A parameter claimed on a bound still needs its profile-likelihood check
+the model error included in the weights (:func:`systematic_error`), or the discretisation control's remaining
+error propagated to the coefficients (:mod:`.remaining_error`), a systematic part is added to the standard error
+in quadrature. The control's part is a prediction the misfit never checked (include mode scales its estimate by
+the misfit and measures how far the refit moved): without include, a zone whose systematic part exceeds
+SYSTEMATIC_LIMIT times its statistical standard error is not claimed (its interval would rest on that
+prediction, known to a factor of about 2). A parameter claimed on a bound still needs its profile-likelihood check
 (:func:`frictionid.inverse.profile.bound_verdict`), made by the identification.
 """
 
@@ -31,6 +35,9 @@ from .resolution import predicted_stderr
 
 #: |correlation| above which a poorly resolved zone is said to be confounded with its partner
 STRONG_CORRELATION = 0.9
+#: a zone whose systematic standard error, predicted and not checked against the misfit (the discretisation
+#: control's, :mod:`.remaining_error`), exceeds this many statistical ones is not claimed
+SYSTEMATIC_LIMIT = 1.0
 
 
 @dataclass(frozen=True)
@@ -63,7 +70,7 @@ def at_bounds(x, lower, upper, rtol: float = 1e-8) -> np.ndarray:
 
 def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
              tolerance: float | None = None, names=None, adequacy=None, model_shift=None,
-             systematic=None) -> Uncertainty:
+             systematic=None, systematic_limit: float | None = None) -> Uncertainty:
     """Uncertainty from weighted residuals r (n_obs,) and their Jacobian (n_obs, n_free) at the solution x.
 
     ``tolerance``: the largest standard error of an identifiable parameter (default: a quarter of its bounds);
@@ -72,7 +79,8 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
     the estimated discretisation error moved each coefficient (:func:`~.adequacy.bias_shift`; nan unknown): a
     zone moved by more than SHIFT_LIMIT standard errors is not identifiable; ``systematic``: (n_free,) standard
     error of a systematic part (the model error's effect on each coefficient, :func:`systematic_error`), added
-    in quadrature to the statistical one.
+    in quadrature to the statistical one; ``systematic_limit``: a zone whose systematic error exceeds this many
+    statistical standard errors is not claimed (None: the systematic part only widens the interval).
 
     Examples
     --------
@@ -112,21 +120,33 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
     with np.errstate(invalid="ignore", divide="ignore"):
         moved = np.nan_to_num(np.abs(shift) / se, nan=0.0) > SHIFT_LIMIT
     unexplained = bound & (adequacy is not None and adequacy.consistent is False)
-    identifiable = (se <= limit) & ~affected & ~moved & ~unexplained
     model_made = (se > limit) & (systematic > statistical)
+    dominated = ~model_made & (np.zeros(n_free, dtype=bool) if systematic_limit is None else
+                               systematic > systematic_limit * np.nan_to_num(statistical, nan=np.inf))
+    identifiable = (se <= limit) & ~affected & ~moved & ~unexplained & ~dominated
     why = tuple("" if identifiable[k] else
                 adequacy.why_affected(k, names) if affected[k] else
                 _why_bound(lower[k] if x[k] - lower[k] <= upper[k] - x[k] else upper[k], adequacy)
                 if unexplained[k] else
+                _why_systematic(systematic[k], statistical[k]) if dominated[k] and se[k] <= limit[k] else
                 f"standard error {se[k]:.3g} > {limit[k]:g}, {systematic[k]:.3g} of it systematic: the mesh's "
-                "estimated discretisation error moves it (by the estimate's coefficient shift or by including the "
-                "error in the weights): refine the mesh (identify.refine_target) or observe where the model "
-                "converges" if model_made[k] else
+                "estimated discretisation error moves it (" + ("the remaining error the discretisation control "
+                "predicts for the fitted mesh" if systematic_limit is not None else "by the estimate's coefficient "
+                "shift or by including the error in the weights") + "): refine the mesh (identify.refine_target) or "
+                "observe where the model converges" if model_made[k] else
                 _why_unresolved(k, jac, se, limit[k], correlation, vt, s, names) if not moved[k] else
                 f"the mesh's estimated discretisation error moves it by {shift[k]:+.3g} ({abs(shift[k]) / se[k]:.1f} "
                 "standard errors): refine the mesh (identify.refine_target) or observe where the model converges"
                 for k in range(n_free))
     return Uncertainty(stderr, ci95, bound, identifiable, correlation, s, vt.T, chi2, dof, message, scale, why)
+
+
+def _why_systematic(systematic: float, statistical: float) -> str:
+    """Why a resolved zone whose systematic error exceeds its statistical one is not claimed."""
+    return (f"the model's remaining discretisation error moves it by up to {systematic:.3g}, more than its "
+            f"statistical standard error {statistical:.3g}: its interval would rest on that estimate, known to a "
+            "factor of about 2 (docs/fit-quality.md); refine further (identify.refine_target, refine_budget, "
+            "[solver] max_memory) or observe where the model converges")
 
 
 def _why_bound(value: float, adequacy) -> str:

@@ -1,0 +1,117 @@
+"""How converged the dense block reference is: level-to-level differences of its exports in noise levels.
+
+Reads the noise-free exports (``measured.csv``) of tests/fixtures/dense_block/generate.py at several mesh levels of
+benchmarks/tilt_ccx.py (same points, same deck, ccx's small-sliding limit) and prints, per stage and per kind
+(displacements, strains, machine force), the RMS and the largest difference between consecutive levels in
+noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared where the file has them.
+
+With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
+three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS),
+the observed order p per stage and kind from the ratio of the two differences' RMS,
+
+    rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
+
+and the finest level's error as (f_c - f_b) h_c^p / (h_b^p - h_c^p) per value (its RMS and largest value printed).
+The order is searched in [0.25, 4]; an order at a limit is printed as such (the estimate is then only a scale).
+
+    PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py 1=/tmp/i25/dense_l1 2=tests/fixtures/dense_block \\
+        3=/tmp/i25/dense_l3 4=/tmp/i25/dense_l4
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from _measure import emit
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("dense_generate", ROOT / "tests" / "fixtures" / "dense_block" / "generate.py")
+dense = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(dense)
+LEVELS = dense.tilt.LEVELS
+KINDS = {"u": (slice(0, 3), dense.NOISE_U), "e": (slice(3, 9), dense.NOISE_E)}
+
+
+def read(folder: Path, name: str = "measured.csv") -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(labels, values (2, n, 9) with NaN for empty cells, force (2,)) of an export."""
+    lines = [line for line in (folder / name).read_text().splitlines() if not line.startswith("#")]
+    rows = [line.split(",") for line in lines[1:]]
+    cell = lambda v: float(v) if v else np.nan
+    stage = np.array([int(r[4]) for r in rows])
+    labels = [r[0] for r in rows if r[4] == "1"]
+    values = np.array([[cell(v) for v in r[6:15]] for r in rows])
+    force = np.array([float(next(r[5] for r in rows if int(r[4]) == s)) for s in (1, 2)])
+    return labels, np.stack([values[stage == 1], values[stage == 2]]), force
+
+
+def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray]]:
+    """Per kind, per stage: the observed values in noise levels (flattened, empty cells dropped)."""
+    out = {}
+    for kind, (cols, noise) in KINDS.items():
+        out[kind] = [v[~np.isnan(v)] / noise for v in values[:, :, cols].reshape(2, -1)]
+    out["force"] = [np.array([f / dense.NOISE_F]) for f in force]
+    return out
+
+
+def rms(v: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(v ** 2)))
+
+
+def observed_order(d_ab: float, d_bc: float, h: tuple[float, float, float]) -> tuple[float, str]:
+    """Order p with (h_a^p - h_b^p) / (h_b^p - h_c^p) = d_ab / d_bc, by bisection on [0.25, 4]."""
+    ratio = lambda p: (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p)
+    target = d_ab / d_bc
+    lo, hi = 0.25, 4.0
+    if target <= ratio(lo):
+        return lo, "order at its lower limit (differences not shrinking)"
+    if target >= ratio(hi):
+        return hi, "order at its upper limit"
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ratio(mid) < target else (lo, mid)
+    return 0.5 * (lo + hi), ""
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
+    parser.add_argument("--out", type=Path, help="append the JSON lines here")
+    args = parser.parse_args(argv)
+    levels = sorted((int(a.split("=")[0]), Path(a.split("=", 1)[1])) for a in args.exports)
+    data = {}
+    for level, folder in levels:
+        labels, values, force = read(folder)
+        data[level] = (labels, in_noise(values, force))
+    reference = data[levels[0][0]][0]
+    if any(data[level][0] != reference for level, _ in levels):
+        sys.exit("the exports do not hold the same points")
+    h = {level: 1.0 / LEVELS[level][0] for level, _ in levels}
+    order = [level for level, _ in levels]
+    for coarse, fine in zip(order, order[1:]):
+        row = {"levels": [coarse, fine]}
+        for kind in ("u", "e", "force"):
+            for s in (0, 1):
+                d = data[fine][1][kind][s] - data[coarse][1][kind][s]
+                row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
+        emit(row, args.out)
+    if len(order) >= 3:
+        a, b, c = order[-3:]
+        row = {"richardson_of_level": c, "from_levels": [a, b, c]}
+        for kind in ("u", "e", "force"):
+            for s in (0, 1):
+                fa, fb, fc = (data[level][1][kind][s] for level in (a, b, c))
+                p, note = observed_order(rms(fb - fa), rms(fc - fb), (h[a], h[b], h[c]))
+                error = (fc - fb) * h[c] ** p / (h[b] ** p - h[c] ** p)
+                row[f"{kind}{s + 1}"] = {"order": round(p, 2), "error_rms": round(rms(error), 3),
+                                         "error_max": round(float(np.abs(error).max()), 3), **({"note": note} if note else {})}
+        emit(row, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
