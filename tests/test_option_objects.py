@@ -74,6 +74,7 @@ DICTS = {
     "inverse.least_squares:OptimiseResult.options": RECORD,
     "inverse.mistakes:scale_hints.shares": PER_NAME, "inverse.mistakes:noise_hint.rms": PER_NAME,
     "inverse.model_error:ModelError.orders": PER_NAME, "inverse.model_error:estimate_model_error.orders": PER_NAME,
+    "inverse.remaining_error:RemainingError.orders": PER_NAME, "inverse.remaining_error:remaining.kind_orders": PER_NAME,
     "inverse.reactions:check_reaction_keys.reactions": PER_NAME + " (data.reactions)",
     "inverse.reactions:channel_reaction.reactions": PER_NAME + " (data.reactions)",
     "inverse.point_regions:region_of_points.regions": PER_NAME + " (data.regions)",
