@@ -4,10 +4,10 @@ interface, a run interrupted). ``python tests/same_result_cases.py OUT`` writes 
 result.json to OUT/<case>.json; tests/test_same_result.py runs the cases and compares them with the files in
 tests/fixtures/same_result, made so (the discretisation control off, as tests/conftest.py has it) after the split of
 identification.py by job and the contact solver's capacitance updates (which moved these results by at most
-2.4e-10 relative, 1e-12 in the coefficients, from those of 5aa774a, before the split). The two example cases
-(examples/hub and examples/parts3d run as their READMEs say) were written by the code of 087f188, before the config
-tables became typed option objects (``PYTHONPATH=<that checkout>/src:tests python tests/same_result_cases.py
-tests/fixtures/same_result example_hub example_parts3d``)."""
+2.4e-10 relative, 1e-12 in the coefficients, from those of 5aa774a, before the split). The example cases
+(examples/hub, examples/parts3d and examples/bolt-m20/tightening run as their READMEs say) were written by the code
+of 087f188, before the config tables became typed option objects (``PYTHONPATH=<that checkout>/src:tests python tests/same_result_cases.py
+tests/fixtures/same_result example_hub example_parts3d example_tightening``)."""
 
 from __future__ import annotations
 
@@ -73,23 +73,27 @@ def run_case(folder: Path, name: str) -> dict:
 
 
 #: the other examples with an identify.toml, run as their READMEs run them (in a copy: ``python mesh.py`` where the
-#: example has one, simulate truth.toml, identify identify.toml): example name -> the run folder its config names
-EXAMPLES = {"hub": "runs/hub", "parts3d": "runs/parts3d"}
+#: example has one, simulate truth.toml, identify identify.toml): case name -> the example's folder under examples/
+#: and the run folder its config names
+EXAMPLES = {"hub": ("hub", "runs/hub"), "parts3d": ("parts3d", "runs/parts3d"),
+            "tightening": ("bolt-m20/tightening", "runs/tightening")}
 
 NAMES = (*CASES, "api", *(f"example_{name}" for name in EXAMPLES))
 
 
 def run_example(folder: Path, name: str) -> dict:
-    """result.json of examples/``name`` run in a copy of it under ``folder``, with its documented commands."""
+    """result.json of the example of case ``name`` run in a copy of it under ``folder``, with its documented
+    commands."""
     from frictionid.cli import main
 
+    source, run = EXAMPLES[name]
     copy = folder / name
-    shutil.copytree(ROOT / "examples" / name, copy, dirs_exist_ok=True)
+    shutil.copytree(ROOT / "examples" / source, copy, dirs_exist_ok=True)
     if (copy / "mesh.py").exists():
         _run_in(copy)
     assert main(["simulate", str(copy / "truth.toml"), "--out", str(copy / "measured.csv")]) == 0
     assert main(["identify", str(copy / "identify.toml")]) == 0
-    text = (copy / EXAMPLES[name] / "result.json").read_text()
+    text = (copy / run / "result.json").read_text()
     return json.loads(text.replace(json.dumps(str(copy))[1:-1], "<example>"))      # the copy's folder named alike
 
 
