@@ -93,8 +93,8 @@ def geometry(coords: np.ndarray, rs, facet_type: str):
 
 
 def project_along(coords: np.ndarray, facet_type: str, points: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) cut the facet (coords (k, 3))
-    or each point's facet (coords (q, k, 3)).
+    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) or each point's direction (q, 3)
+    cut the facet (coords (k, 3)) or each point's facet (coords (q, k, 3)).
 
     Newton on x(r, s) - t direction = point; NaN where it does not converge (the line misses a curved facet's
     extension). The parameters may lie outside the reference facet (the caller decides).
@@ -106,7 +106,7 @@ def project_along(coords: np.ndarray, facet_type: str, points: np.ndarray, direc
         for _ in range(_NEWTON_STEPS):
             x, tangents, _ = geometry(coords, rs, facet_type)
             residual = x - t[:, None] * direction - points
-            jacobian = np.concatenate([tangents, np.broadcast_to(-direction[:, None], (len(points), 3, 1))], axis=2)
+            jacobian = np.concatenate([tangents, np.broadcast_to(-direction[..., None], (len(points), 3, 1))], axis=2)
             step = np.linalg.solve(jacobian, -residual[..., None])[..., 0]
             rs, t = rs + step[:, :2], t + step[:, 2]
             converged = np.abs(step[:, :2]).max(axis=1) < _NEWTON_TOL
