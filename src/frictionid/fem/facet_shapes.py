@@ -108,13 +108,15 @@ def project_along(coords: np.ndarray, facet_type: str, points: np.ndarray, direc
     active = np.arange(n)
     with np.errstate(divide="ignore", invalid="ignore"):
         for _ in range(_NEWTON_STEPS):
-            N, dN = shape_functions(rs[active], facet_type)
-            on = coords[active]
-            residual = np.einsum("qk,qkd->qd", N, on) - t[active, None] * direction[active] - points[active]
-            tangents = np.einsum("qkp,qkd->pqd", dN, on)
-            step = _solve3(tangents[0], tangents[1], -direction[active], -residual)
-            rs[active] += step[:, :2]
-            t[active] += step[:, 2]
+            every = len(active) == n                     # then no copies of the points' facets
+            at = slice(None) if every else active
+            N, dN = shape_functions(rs[at], facet_type)
+            on = coords if every else coords[active]
+            residual = np.matmul(N[:, None, :], on)[:, 0] - t[at, None] * direction[at] - points[at]
+            tangents = np.matmul(np.swapaxes(dN, 1, 2), on)                     # (q, 2, 3)
+            step = _solve3(tangents[:, 0], tangents[:, 1], -direction[at], -residual)
+            rs[at] += step[:, :2]
+            t[at] += step[:, 2]
             done = np.abs(step[:, :2]).max(axis=1) < _NEWTON_TOL
             converged[active[done]] = True
             active = active[~done]

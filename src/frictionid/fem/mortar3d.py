@@ -73,14 +73,14 @@ def _outward_sign(mesh, facets: np.ndarray) -> np.ndarray:
     on = np.zeros(mesh.n_nodes, bool)
     on[facets[:, :n_corners]] = True
     near = np.flatnonzero(on[cell_corners].sum(axis=1) >= n_corners)
-    cell_of_face = {}
-    for local in CELL_FACETS[mesh.cell_type]:
-        for cell, face in zip(near, np.sort(cell_corners[near][:, list(local)], axis=1).tolist()):
-            cell_of_face[tuple(face)] = cell
-    try:
-        cells = np.array([cell_of_face[tuple(f)] for f in np.sort(facets[:, :n_corners], axis=1).tolist()])
-    except KeyError:
-        raise InputError("mortar: a contact or target facet is not a face of any cell") from None
+    faces = np.vstack([np.sort(cell_corners[near][:, list(local)], axis=1) for local in CELL_FACETS[mesh.cell_type]])
+    owner = np.tile(near, len(CELL_FACETS[mesh.cell_type]))
+    _, same = np.unique(np.vstack([faces, np.sort(facets[:, :n_corners], axis=1)]), axis=0, return_inverse=True)
+    cell_of = np.full(same.max(initial=-1) + 1, -1)
+    cell_of[same[:len(faces)]] = owner
+    cells = cell_of[same[len(faces):]]
+    if np.any(cells < 0):
+        raise InputError("mortar: a contact or target facet is not a face of any cell")
     centre, _, normal = geometry_many(mesh.points[facets], mesh.facet_type, CENTRE[mesh.facet_type])
     inward = mesh.points[cell_corners[cells]].mean(axis=1) - centre
     return np.where(np.einsum("fd,fd->f", normal, inward) < 0, 1.0, -1.0)
