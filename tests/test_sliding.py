@@ -199,10 +199,10 @@ def test_a_slide_past_the_end_of_the_target_is_reported_with_the_node():
 
 def test_keeping_a_coupling_while_the_pairs_move_under_its_fraction_of_a_facet_keeps_the_path(monkeypatch):
     """The seed's block test in plane strain (2 mm at 2000 N/mm, 20 increments, soft epoxy base): keeping a
-    coupling while every pair moves by at most RECOUPLE_FRACTION (3e-4) of its facet since the coupling's
-    configuration builds 62 couplings instead of 92 (re-coupled until the fixed point converges), and changes
-    the reactions by 3.0e-5 of the largest and the displacements at 6 points by 6.7e-6 of their range (measured;
-    1e-3 of a facet: 53 couplings, 5.0e-5 / 1.1e-5; 3e-3: 38 couplings, 1.8e-4 / 1.2e-4)."""
+    coupling while every pair moves by at most RECOUPLE_FRACTION (1e-4) of its facet since the coupling's
+    configuration builds 72 couplings instead of 92 (re-coupled until the fixed point converges) and changes the
+    reactions by 8.7e-6 of the largest and the displacements at 6 points by 2.1e-6 of their range (measured;
+    3e-4 of a facet: 62 couplings, 3.0e-5 / 6.7e-6; 3e-3: 38 couplings, 1.8e-4 / 1.2e-4, over the 1e-4 here)."""
     from frictionid.builders.block import block_model_2d
     from frictionid.fem import sliding
 
@@ -218,7 +218,7 @@ def test_keeping_a_coupling_while_the_pairs_move_under_its_fraction_of_a_facet_k
     n_kept, built[:] = len(built), []
     monkeypatch.setattr(sliding, "RECOUPLE_FRACTION", 0.0)
     reference = problem.solve(mu)
-    assert n_kept < 0.75 * len(built)
+    assert n_kept < 0.85 * len(built)
     np.testing.assert_allclose(kept.reactions, reference.reactions, rtol=0,
                                atol=1e-4 * np.abs(reference.reactions).max())
     observed = np.asarray(reference.observations)

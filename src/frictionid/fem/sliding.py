@@ -47,7 +47,7 @@ MAX_PASSES = 12
 #: tangential displacement since the configuration the coupling was evaluated at stays within this fraction of
 #: the smallest facet edge at the pair (:func:`facet_lengths`); 0: re-couple every increment until the fixed
 #: point converges to FIXED_POINT_RTOL
-RECOUPLE_FRACTION = 3e-4
+RECOUPLE_FRACTION = 1e-4
 #: gap [mm] given to a pair whose node the target no longer covers: it stays open
 UNCOVERED_GAP = 1e12
 
