@@ -98,9 +98,10 @@ def geometry_many(coords: np.ndarray, facet_type: str, rs):
 
 class _Side:
     """One side of an interface: facets (n, k), coords (n, k, 3) [mm], sign (n,) (+1: parameter normal outward),
-    zone (n,), node_normal (n_nodes, 3) averaged unit outward normals (zero off the side)."""
+    zone (n,), node_normal (n_nodes, 3) averaged unit outward normals (zero off the side; None without
+    ``node_normals``: the master side's are not used)."""
 
-    def __init__(self, mesh, facets: np.ndarray, zone: np.ndarray):
+    def __init__(self, mesh, facets: np.ndarray, zone: np.ndarray, node_normals: bool = True):
         self.facet_type = mesh.facet_type
         self.facets, self.zone = facets, zone
         self.coords = mesh.points[facets]
@@ -110,6 +111,13 @@ class _Side:
             bad = int(np.flatnonzero(~np.isfinite(normal).all(axis=1))[0])
             raise InputError(f"mortar: facet with nodes {facets[bad].tolist()} has zero area")
         self.normal = self.sign[:, None] * normal
+        corners = self.coords[:, :CORNERS[self.facet_type]]
+        self.radius = np.linalg.norm(corners - self.centre[:, None], axis=2).max(axis=1)
+        self.node_normal = self._node_normals(mesh, normal) if node_normals else None
+
+    def _node_normals(self, mesh, normal: np.ndarray) -> np.ndarray:
+        """(n_nodes, 3) averaged unit outward normals at the side's nodes, zero elsewhere."""
+        facets = self.facets
         total = np.zeros((mesh.n_nodes, 3))
         for node, rs in enumerate(NODE_PARAMETERS[self.facet_type]):
             at_node = geometry_many(self.coords, self.facet_type, rs)[2]
@@ -117,9 +125,7 @@ class _Side:
             np.add.at(total, facets[:, node], self.sign[:, None] * at_node)
         on = np.linalg.norm(total, axis=1) > 0
         total[on] /= np.linalg.norm(total[on], axis=1)[:, None]
-        self.node_normal = total
-        corners = self.coords[:, :CORNERS[self.facet_type]]
-        self.radius = np.linalg.norm(corners - self.centre[:, None], axis=2).max(axis=1)
+        return total
 
 
 def dual_coefficients(coords: np.ndarray, facet_type: str):
@@ -238,7 +244,7 @@ def _sides(model: Model, interface_index: int):
     if np.intersect1d(np.unique(target), slave.facets).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
-    master = _Side(mesh, target, np.zeros(len(target), dtype=int))
+    master = _Side(mesh, target, np.zeros(len(target), dtype=int), node_normals=False)
     return slave, master, [model.zone_names.index(z) for z in interface.zones]
 
 
