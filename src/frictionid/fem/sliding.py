@@ -106,8 +106,11 @@ def aligned(reference: ContactPairs, current: ContactPairs) -> ContactPairs:
     """``current`` with the pairs of ``reference`` in its order: a node the target no longer covers gets the
     reference frame, no target and the gap :data:`UNCOVERED_GAP` (it stays open); new nodes are left out."""
     dim, n_dofs = reference.dim, reference.B.shape[1]
-    index = {int(n): i for i, n in enumerate(current.nodes)}
-    found = np.array([index.get(int(n), -1) for n in reference.nodes], dtype=int)
+    found = np.full(reference.n_pairs, -1)                  # index in current of each reference pair's node
+    if current.n_pairs:
+        order = np.argsort(current.nodes)
+        at = np.minimum(np.searchsorted(current.nodes[order], reference.nodes), current.n_pairs - 1)
+        found = np.where(current.nodes[order][at] == reference.nodes, order[at], -1)
     if len(current.nodes) > np.count_nonzero(found >= 0):
         log.info("finite sliding: %d newly covered contact nodes are not paired (the pairs are those of the "
                  "undeformed configuration)", len(current.nodes) - np.count_nonzero(found >= 0))
