@@ -15,9 +15,13 @@ configuration X + u_ref, first u_ref = u_{n-1} + (u_{n-1} - u_{n-2}); the increm
     g = g_n + B_N,n (u - u_ref),     ds = B_T,n (u - u_{n-1})     (slip increment in the current frame)
 
 then u_ref = u_n and again, until the interface displacements change by at most :data:`FIXED_POINT_RTOL` of the
-increment's largest interface displacement increment. Sensitivities: the path's direct differentiation with
-the coupling of each increment held (dB/du du/dmu left out), the previous increment's displacements carried
-as interface forces ``f_I = Bhat^T lam``.
+increment's largest interface displacement increment, or every pair moved by at most :data:`RECOUPLE_FRACTION`
+of its facet since u_ref (then the coupling is also kept for the next increment while that holds).
+
+Sensitivities: the path's direct differentiation with the coupling of each increment held, the previous
+increment's displacements carried as interface forces ``f_I = Bhat^T lam``; then (:data:`PATH_SENSITIVITIES`
+"consistent") the coupling's change with the displacements, dB/du du/dmu, added by a fixed point whose products
+are forward differences of the increment in its coupling's configuration (:func:`_with_coupling_change`).
 """
 
 from __future__ import annotations
@@ -274,7 +278,9 @@ def _with_coupling_change(problem, builder, state: _State, coupling: Coupling, s
             new[:, z] += (_interface_x(moved, path.x) - y) / h
         change, s = np.abs(new - s).max(), new
         if change <= SENSITIVITY_RTOL * np.abs(s).max():
-            break
+            return s
+    log.warning("finite sliding, %s: the sensitivities with the coupling's change still moved by %.2g of the largest "
+                "after %d passes", where, change / max(np.abs(s).max(), 1e-300), MAX_PASSES)
     return s
 
 
