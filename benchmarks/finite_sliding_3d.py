@@ -1,7 +1,10 @@
 """Finite sliding in 3-D (fem/sliding.py with the 3-D dual mortar) against the CalculiX backend (surface-to-surface
 contact, which follows the deformation) on the seed's block test: 3-D block pulled 2 mm at 2000 N, four zones, at
 several mesh sizes of the block builder (default grading and elements); per mesh: pull reaction (finite and small
-sliding against ccx), displacements at the DIC points in % of ccx's range, forward-solve times and their ratio.
+sliding against ccx), displacements at the DIC points in % of ccx's range, forward-solve times and their ratio;
+the forward solve also re-coupled until every increment's fixed point converges (RECOUPLE_FRACTION 0) and, so,
+with the mortar integrated facet by facet (the former builder, tests/mortar3d_facets.py): couplings built, times
+and the change of the results.
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/finite_sliding_3d.py [mesh_size ...]   (default 5 2.5)
 """
@@ -17,9 +20,11 @@ import numpy as np
 
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 from frictionid.builders.block import block_model
+from frictionid.fem import mortar3d, sliding
 from frictionid.fem.problem import Problem
 
 import _tests  # noqa: F401  (tests/ importable)
+import mortar3d_facets
 from sliding3d_case import MU, POINTS, QUANTITIES, REGIONS
 
 
@@ -28,15 +33,31 @@ def cpu_now() -> float:
     return time.process_time() + children.ru_utime + children.ru_stime
 
 
+def counted_solve(problem, fraction=None, integrate=None):
+    """Wall and CPU time [s] of one finite-sliding forward solve, the couplings it built and its solution; with
+    ``fraction`` as RECOUPLE_FRACTION and ``integrate`` as the 3-D mortar's integration if given."""
+    saved = sliding.RECOUPLE_FRACTION, mortar3d._integrate, sliding.Coupling.__init__
+    built = []
+    sliding.Coupling.__init__ = lambda self, *a: built.append(1) or saved[2](self, *a)
+    sliding.RECOUPLE_FRACTION = saved[0] if fraction is None else fraction
+    mortar3d._integrate = integrate or saved[1]
+    try:
+        wall, cpu = time.perf_counter(), cpu_now()
+        solution = problem.solve(MU)
+        return time.perf_counter() - wall, cpu_now() - cpu, len(built), solution
+    finally:
+        sliding.RECOUPLE_FRACTION, mortar3d._integrate, sliding.Coupling.__init__ = saved
+
+
 def one_mesh(mesh_size: float, n_pull: int):
     model = block_model(pull=2.0, force=2000.0, mesh_size=mesh_size, n_pull=n_pull)
     pull = model.reaction_labels.index("block_top.y")
     start = time.perf_counter()
     finite = Problem.build(model, points=POINTS, quantities=QUANTITIES, regions=REGIONS, sliding="finite")
     condensation = time.perf_counter() - start
-    wall, cpu = time.perf_counter(), cpu_now()
-    got = finite.solve(MU)
-    wall, cpu = time.perf_counter() - wall, cpu_now() - cpu
+    wall, cpu, n_couplings, got = counted_solve(finite)
+    converged = counted_solve(finite, fraction=0.0)
+    former = counted_solve(finite, fraction=0.0, integrate=mortar3d_facets.integrate)
     small = Problem.build(model, points=POINTS, quantities=QUANTITIES, regions=REGIONS).solve(MU, max_slip=None)
     with tempfile.TemporaryDirectory() as tmp:
         backend = CalculixBackend(model, POINTS, QUANTITIES, REGIONS, CalculixSettings(work_dir=tmp))
@@ -58,9 +79,16 @@ def one_mesh(mesh_size: float, n_pull: int):
           f"{ccx.zone_tangential_force[-1].sum():9.2f} N, zone normal forces "
           + " / ".join(f"{v:.1f}" for v in ccx.zone_normal_force[-1]) + " N (finite sliding: "
           + " / ".join(f"{v:.1f}" for v in got.zone_normal_force[-1]) + " N)")
-    print(f"  times: condensation {condensation:.2f} s; forward finite {wall:.2f} s wall {cpu:.2f} s CPU; "
-          f"ccx {ccx_wall:.2f} s wall {ccx_cpu:.2f} s CPU; ratio ccx / finite {ccx_wall / wall:.1f} wall "
-          f"{ccx_cpu / cpu:.1f} CPU", flush=True)
+    print(f"  times: condensation {condensation:.2f} s; forward finite {wall:.2f} s wall {cpu:.2f} s CPU "
+          f"({n_couplings} couplings); ccx {ccx_wall:.2f} s wall {ccx_cpu:.2f} s CPU; ratio ccx / finite "
+          f"{ccx_wall / wall:.1f} wall {ccx_cpu / cpu:.1f} CPU")
+    observed = np.asarray(got.observations)
+    for name, (w, c, n, s) in (("re-coupled to convergence", converged), ("the same, mortar facet by facet", former)):
+        print(f"  forward finite, {name}: {w:.2f} s wall {c:.2f} s CPU ({n} couplings; ccx / it {ccx_cpu / c:.1f} "
+              f"CPU); reactions differ by {np.abs(s.reactions - got.reactions).max() / np.abs(s.reactions).max():.1e} "
+              f"of the largest, displacements at the points by "
+              f"{np.abs(np.asarray(s.observations) - observed).max() / np.ptp(observed):.1e} of their range")
+    print(f"  load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
 
 
 def main(*mesh_sizes: float):

@@ -232,10 +232,97 @@ def test_clipping_a_vertex_inside_only_by_the_tolerance_keeps_the_crossing_on_it
     """A subject vertex within the tolerance outside a window edge counts as inside; when the next vertex lies
     farther outside, the crossing is that vertex, not a point extrapolated off the segment (a block's facet slid
     over the plate facet under it, edges nearly coincident, once got 2.11 mm^2 of a 1.57 mm^2 facet)."""
-    from frictionid.fem.clipping import clip, signed_area
+    from frictionid.fem.clipping import clip, signed_areas
     tol = 1e-10
-    window = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    subject = np.array([[0.2, -0.5 * tol], [0.8, -2.0 * tol], [0.8, 0.9], [0.2, 0.9]])
-    piece = clip(subject, window, tol=tol)
+    window = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]])
+    subject = np.array([[[0.2, -0.5 * tol], [0.8, -2.0 * tol], [0.8, 0.9], [0.2, 0.9]]])
+    piece, count = clip(subject, window, tol=tol)
+    piece = piece[0, :count[0]]
     assert np.all((piece[:, 0] >= 0.2 - 1e-12) & (piece[:, 0] <= 0.8 + 1e-12))
-    np.testing.assert_allclose(signed_area(piece), 0.6 * 0.9, atol=1e-9)
+    np.testing.assert_allclose(signed_areas(piece[None])[0], 0.6 * 0.9, atol=1e-9)
+
+
+def test_batched_clipping_equals_clipping_one_polygon_at_a_time():
+    """2000 random convex triangles and quadrilaterals (a third of them sharing the window's vertices, so edges
+    coincide) clipped at once: the same vertices, in the same order, as the scalar Sutherland-Hodgman."""
+    from mortar3d_facets import clip as clip_one
+    from frictionid.fem.clipping import clip, counter_clockwise
+    rng = np.random.default_rng(3)
+
+    def polygon(n, centre):
+        angles = np.sort(rng.uniform(0, 2 * np.pi, n))
+        return centre + np.column_stack([np.cos(angles), np.sin(angles)])
+
+    subjects, windows = [], []
+    for _ in range(2000):
+        n, k = rng.choice([3, 4], size=2)
+        window = polygon(k, np.zeros(2))
+        subject = window[:n] if (n <= k and rng.random() < 0.33) else polygon(n, 0.7 * rng.normal(size=2))
+        subjects.append(counter_clockwise(subject[None])[0])
+        windows.append(window)
+    n_empty = 0
+    for n, k in ((3, 3), (3, 4), (4, 3), (4, 4)):
+        chosen = [i for i in range(len(subjects)) if (len(subjects[i]), len(windows[i])) == (n, k)]
+        pieces, counts = clip(np.array([subjects[i] for i in chosen]), np.array([windows[i] for i in chosen]),
+                              tol=1e-10)
+        for i, piece, count in zip(chosen, pieces, counts):
+            expected = clip_one(subjects[i], windows[i], tol=1e-10)
+            n_empty += len(expected) == 0
+            assert count == len(expected)
+            np.testing.assert_allclose(piece[:count], expected, rtol=0, atol=1e-15)
+    assert 0 < n_empty < 1000
+
+
+def _bent(mesh, amplitude):
+    """The mesh moved by a smooth non-affine field (a bent, sheared, wavy interface) of the given amplitude [mm]."""
+    x, y, z = mesh.points.T
+    shift = amplitude * np.column_stack([np.sin(3 * y + 1) + 0.5 * z, np.cos(2 * x) * (1 + z),
+                                         np.sin(2 * x + y) + 0.3 * x * y])
+    return Mesh(mesh.points + shift, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries))
+
+
+def _slid(mesh, offset):
+    """The upper body moved by offset (3,) [mm] and turned by 10 degrees about z: its contact side overhangs the
+    target's edges, partly uncovered."""
+    points = np.array(mesh.points)
+    upper = np.unique(mesh.cells[mesh.regions["upper"]])
+    c, s = np.cos(np.radians(10)), np.sin(np.radians(10))
+    centre = np.array([1.0, 1.0, 0.0])
+    points[upper] = (points[upper] - centre) @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]]) + centre + offset
+    return Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries))
+
+
+def _tilted(mesh, slope):
+    """The upper body turned about the x axis (y = z = 0): its bottom rises as slope * y [mm]."""
+    points = np.array(mesh.points)
+    upper = np.unique(mesh.cells[mesh.regions["upper"]])
+    points[upper, 2] += slope * points[upper, 1]
+    return Mesh(points, mesh.cell_type, mesh.cells, dict(mesh.regions), dict(mesh.boundaries))
+
+
+@pytest.mark.parametrize("change", ["none", "bent", "slid", "tilted"])
+@pytest.mark.parametrize("case", list(NON_MATCHING))
+def test_vectorised_coupling_equals_the_facet_by_facet_integration(case, change):
+    """All candidate facet pairs integrated at once give the facet-by-facet loop's (tests/mortar3d_facets.py)
+    mortar matrix, gap integrals and zone weights to 1e-13 of their largest: every facet type, non-matching,
+    bent (curved, non-parallel facets with gaps of both signs), slid and turned (partly covered nodes), and tilted
+    (the gap growing to 0.02 mm across the interface) with a search distance of 0.01 mm, which drops the facet
+    pairs with gaps beyond it."""
+    from mortar3d_facets import integrate
+    from frictionid.fem import mortar3d
+
+    mesh = {"none": _mesh(case), "bent": _bent(_mesh(case), 0.01), "tilted": _tilted(_mesh(case), 0.01),
+            "slid": _slid(_mesh(case), np.array([0.37, -0.21, 0.003]))}[change]
+    model = Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface())
+    slave, master, columns = mortar3d._sides(model, 0)
+    search = float(2 * max(slave.radius.max(), master.radius.max()))
+    if change == "tilted":
+        search = 0.01
+    got, expected = (f(slave, master, mesh.n_nodes, search, len(columns)) for f in (mortar3d._integrate, integrate))
+    coupled = np.count_nonzero(expected[0].getnnz(axis=1)) / len(np.unique(slave.facets))
+    assert 0.2 < coupled < 0.8 if change == "tilted" else coupled > 0.8
+    scale = np.abs(expected[0]).max()
+    np.testing.assert_allclose(got[0].toarray(), expected[0].toarray(), rtol=0, atol=1e-13 * scale)
+    # gap integrals [mm^3]: round-off on the scale of a facet's area times its size
+    np.testing.assert_allclose(got[1], expected[1], rtol=0, atol=1e-13 * slave.radius.max() * scale)
+    np.testing.assert_array_equal(got[2], expected[2])

@@ -93,23 +93,43 @@ def geometry(coords: np.ndarray, rs, facet_type: str):
 
 
 def project_along(coords: np.ndarray, facet_type: str, points: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) cut the facet (coords (k, 3))
-    or each point's facet (coords (q, k, 3)).
+    """Parameters (q, 2) where the lines through points (q, 3) along direction (3,) or each point's direction (q, 3)
+    cut the facet (coords (k, 3)) or each point's facet (coords (q, k, 3)).
 
-    Newton on x(r, s) - t direction = point; NaN where it does not converge (the line misses a curved facet's
-    extension). The parameters may lie outside the reference facet (the caller decides).
+    Newton on x(r, s) - t direction = point, each point until its own step is below 1e-12; NaN where it does not
+    converge (the line misses a curved facet's extension). The parameters may lie outside the reference facet
+    (the caller decides).
     """
-    rs = np.tile(CENTRE[facet_type], (len(points), 1))
-    t = np.zeros(len(points))
-    converged = np.zeros(len(points), bool)
+    n = len(points)
+    coords = np.broadcast_to(coords, (n, *np.shape(coords)[-2:]))
+    direction = np.broadcast_to(direction, (n, 3))
+    rs, t = np.tile(CENTRE[facet_type], (n, 1)), np.zeros(n)
+    converged = np.zeros(n, bool)
+    active = np.arange(n)
     with np.errstate(divide="ignore", invalid="ignore"):
         for _ in range(_NEWTON_STEPS):
-            x, tangents, _ = geometry(coords, rs, facet_type)
-            residual = x - t[:, None] * direction - points
-            jacobian = np.concatenate([tangents, np.broadcast_to(-direction[:, None], (len(points), 3, 1))], axis=2)
-            step = np.linalg.solve(jacobian, -residual[..., None])[..., 0]
-            rs, t = rs + step[:, :2], t + step[:, 2]
-            converged = np.abs(step[:, :2]).max(axis=1) < _NEWTON_TOL
-            if converged.all():
-                return rs
+            every = len(active) == n                     # then no copies of the points' facets
+            at = slice(None) if every else active
+            N, dN = shape_functions(rs[at], facet_type)
+            on = coords if every else coords[active]
+            residual = np.matmul(N[:, None, :], on)[:, 0] - t[at, None] * direction[at] - points[at]
+            tangents = np.matmul(np.swapaxes(dN, 1, 2), on)                     # (q, 2, 3)
+            step = _solve3(tangents[:, 0], tangents[:, 1], -direction[at], -residual)
+            rs[at] += step[:, :2]
+            t[at] += step[:, 2]
+            done = np.abs(step[:, :2]).max(axis=1) < _NEWTON_TOL
+            converged[active[done]] = True
+            active = active[~done]
+            if not len(active):
+                break
     return np.where(converged[:, None], rs, np.nan)
+
+
+def _solve3(a: np.ndarray, b: np.ndarray, c: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solutions (q, 3) of [a b c] x = rhs, the columns a, b, c (q, 3) each (Cramer's rule; NaN or inf where
+    singular)."""
+    def det(u, v, w):
+        return (u[:, 0] * (v[:, 1] * w[:, 2] - v[:, 2] * w[:, 1]) - u[:, 1] * (v[:, 0] * w[:, 2] - v[:, 2] * w[:, 0])
+                + u[:, 2] * (v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]))
+
+    return np.column_stack([det(rhs, b, c), det(a, rhs, c), det(a, b, rhs)]) / det(a, b, c)[:, None]

@@ -41,7 +41,7 @@ from scipy.spatial import cKDTree
 from ..errors import InputError
 from ..model import Model
 from ..model.mesh import CELL_FACETS
-from .clipping import clip, counter_clockwise, signed_area
+from .clipping import clip, counter_clockwise, signed_areas
 from .facet_shapes import CENTRE, CORNERS, NODE_PARAMETERS, facet_quadrature, geometry, project_along, \
     shape_functions, triangle_quadrature
 from .node_to_node import TRI6_ALPHA, surface_transform
@@ -73,14 +73,14 @@ def _outward_sign(mesh, facets: np.ndarray) -> np.ndarray:
     on = np.zeros(mesh.n_nodes, bool)
     on[facets[:, :n_corners]] = True
     near = np.flatnonzero(on[cell_corners].sum(axis=1) >= n_corners)
-    cell_of_face = {}
-    for local in CELL_FACETS[mesh.cell_type]:
-        for cell, face in zip(near, np.sort(cell_corners[near][:, list(local)], axis=1).tolist()):
-            cell_of_face[tuple(face)] = cell
-    try:
-        cells = np.array([cell_of_face[tuple(f)] for f in np.sort(facets[:, :n_corners], axis=1).tolist()])
-    except KeyError:
-        raise InputError("mortar: a contact or target facet is not a face of any cell") from None
+    faces = np.vstack([np.sort(cell_corners[near][:, list(local)], axis=1) for local in CELL_FACETS[mesh.cell_type]])
+    owner = np.tile(near, len(CELL_FACETS[mesh.cell_type]))
+    _, same = np.unique(np.vstack([faces, np.sort(facets[:, :n_corners], axis=1)]), axis=0, return_inverse=True)
+    cell_of = np.full(same.max(initial=-1) + 1, -1)
+    cell_of[same[:len(faces)]] = owner
+    cells = cell_of[same[len(faces):]]
+    if np.any(cells < 0):
+        raise InputError("mortar: a contact or target facet is not a face of any cell")
     centre, _, normal = geometry_many(mesh.points[facets], mesh.facet_type, CENTRE[mesh.facet_type])
     inward = mesh.points[cell_corners[cells]].mean(axis=1) - centre
     return np.where(np.einsum("fd,fd->f", normal, inward) < 0, 1.0, -1.0)
@@ -98,9 +98,10 @@ def geometry_many(coords: np.ndarray, facet_type: str, rs):
 
 class _Side:
     """One side of an interface: facets (n, k), coords (n, k, 3) [mm], sign (n,) (+1: parameter normal outward),
-    zone (n,), node_normal (n_nodes, 3) averaged unit outward normals (zero off the side)."""
+    zone (n,), node_normal (n_nodes, 3) averaged unit outward normals (zero off the side; None without
+    ``node_normals``: the master side's are not used)."""
 
-    def __init__(self, mesh, facets: np.ndarray, zone: np.ndarray):
+    def __init__(self, mesh, facets: np.ndarray, zone: np.ndarray, node_normals: bool = True):
         self.facet_type = mesh.facet_type
         self.facets, self.zone = facets, zone
         self.coords = mesh.points[facets]
@@ -110,6 +111,13 @@ class _Side:
             bad = int(np.flatnonzero(~np.isfinite(normal).all(axis=1))[0])
             raise InputError(f"mortar: facet with nodes {facets[bad].tolist()} has zero area")
         self.normal = self.sign[:, None] * normal
+        corners = self.coords[:, :CORNERS[self.facet_type]]
+        self.radius = np.linalg.norm(corners - self.centre[:, None], axis=2).max(axis=1)
+        self.node_normal = self._node_normals(mesh, normal) if node_normals else None
+
+    def _node_normals(self, mesh, normal: np.ndarray) -> np.ndarray:
+        """(n_nodes, 3) averaged unit outward normals at the side's nodes, zero elsewhere."""
+        facets = self.facets
         total = np.zeros((mesh.n_nodes, 3))
         for node, rs in enumerate(NODE_PARAMETERS[self.facet_type]):
             at_node = geometry_many(self.coords, self.facet_type, rs)[2]
@@ -117,9 +125,7 @@ class _Side:
             np.add.at(total, facets[:, node], self.sign[:, None] * at_node)
         on = np.linalg.norm(total, axis=1) > 0
         total[on] /= np.linalg.norm(total[on], axis=1)[:, None]
-        self.node_normal = total
-        corners = self.coords[:, :CORNERS[self.facet_type]]
-        self.radius = np.linalg.norm(corners - self.centre[:, None], axis=2).max(axis=1)
+        return total
 
 
 def dual_coefficients(coords: np.ndarray, facet_type: str):
@@ -137,105 +143,89 @@ def dual_coefficients(coords: np.ndarray, facet_type: str):
     return integral[:, :, None] * np.linalg.inv(mass), integral
 
 
-def _plane(normal: np.ndarray) -> np.ndarray:
-    """(2, 3) orthonormal in-plane axes e1, e2 with e1 x e2 = normal."""
-    e1 = np.eye(3)[np.argmin(np.abs(normal))]
-    e1 = e1 - (e1 @ normal) * normal
-    e1 /= np.linalg.norm(e1)
-    return np.array([e1, np.cross(normal, e1)])
+def _planes(normal: np.ndarray) -> np.ndarray:
+    """(n, 2, 3) orthonormal in-plane axes e1, e2 with e1 x e2 = normal, of unit normals (n, 3)."""
+    e1 = np.eye(3)[np.argmin(np.abs(normal), axis=1)]
+    e1 = e1 - np.einsum("nd,nd->n", e1, normal)[:, None] * normal
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    return np.stack([e1, np.cross(normal, e1)], axis=1)
 
 
-def _pieces(polygon: np.ndarray):
-    """Integration points (q, 2) and weights (q,) [mm^2] on a convex plane polygon (fan of triangles)."""
-    points, weights = [], []
-    for i in range(1, len(polygon) - 1):
-        triangle = polygon[[0, i, i + 1]]
-        points.append(_TRI_POINTS @ triangle)
-        weights.append(_TRI_WEIGHTS * abs(signed_area(triangle)))
-    return np.concatenate(points), np.concatenate(weights)
-
-
-def _clipped(slave: _Side, s: int, master: _Side, candidates: np.ndarray):
-    """Integration points (q, 3) [mm] on slave facet s's plane, weights (q,) [mm^2] and the master facet (q,) of
-    each: the pieces of the candidates' projections that the slave facet's projection clips."""
-    x0, axes = slave.centre[s], _plane(slave.normal[s])
-    polygon = counter_clockwise((slave.coords[s, :CORNERS[slave.facet_type]] - x0) @ axes.T)
-    points, weights, owners = [np.zeros((0, 2))], [np.zeros(0)], [np.zeros(0, int)]
-    for m in candidates:
-        window = (master.coords[m, :CORNERS[master.facet_type]] - x0) @ axes.T
-        piece = clip(counter_clockwise(window), polygon, tol=1e-10 * slave.radius[s])
-        if len(piece) == 0 or signed_area(piece) < _SLIVER * signed_area(polygon):
-            continue
-        plane_points, weight = _pieces(piece)
-        points.append(plane_points)
-        weights.append(weight)
-        owners.append(np.full(len(weight), m))
-    return x0 + np.concatenate(points) @ axes, np.concatenate(weights), np.concatenate(owners)
-
-
-def _facet_blocks(slave: _Side, s: int, dual: np.ndarray, master: _Side, candidates: np.ndarray,
-                  search_distance: float):
-    """The master facets coupled to slave facet s, their mortar blocks (n, k_s, k_m) and the gap integrals
-    (k_s,) of the slave facet's nodes. A master facet is dropped where a point does not project onto it or its
-    gap exceeds search_distance."""
-    points, weight, owner = _clipped(slave, s, master, candidates)
-    n0 = slave.normal[s]
-    xi = project_along(slave.coords[s], slave.facet_type, points, n0)
-    eta = project_along(master.coords[owner], master.facet_type, points, n0)
-    x_slave, _, n_facet = geometry(slave.coords[s], np.nan_to_num(xi), slave.facet_type)
-    N_slave, _ = shape_functions(np.nan_to_num(xi), slave.facet_type)
-    N_master, _ = shape_functions(np.nan_to_num(eta), master.facet_type)
-    normal = N_slave @ slave.node_normal[slave.facets[s]]
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    gap = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", N_master, master.coords[owner]) - x_slave, normal)
-    facets, local = np.unique(owner, return_inverse=True)
-    bad = np.isnan(xi).any(axis=1) | np.isnan(eta).any(axis=1) | (np.abs(gap) > search_distance)
-    if bad.any():
-        logger.debug("mortar: slave facet %d: master facets %s not projected or too far", s,
-                     np.unique(owner[bad]).tolist())
-    kept = ~np.isin(local, np.unique(local[bad]))
-    psi = N_slave @ local_transform(slave.facet_type).T @ dual[s].T
-    psi *= (weight / np.abs(n_facet @ n0) * kept)[:, None]
-    blocks = np.zeros((len(facets), psi.shape[1], N_master.shape[1]))
-    np.add.at(blocks, local, psi[:, :, None] * N_master[:, None, :])
-    used = np.isin(np.arange(len(facets)), local[kept])
-    return facets[used], blocks[used], psi.T @ np.where(kept, gap, 0.0)
-
-
-def _candidates(slave: _Side, master: _Side, search_distance: float) -> list[np.ndarray]:
-    """For each slave facet, the facing master facets whose projections onto its plane can overlap it (centres
-    within the sum of the facets' radii in the plane) within search_distance across it."""
+def _candidates(slave: _Side, master: _Side, search_distance: float):
+    """Slave and master facet (n,) of every pair whose projections onto the slave facet's plane can overlap
+    (centres within the sum of the facets' radii in the plane), facing each other within search_distance across
+    the slave facet; by slave facet."""
     tree = cKDTree(master.centre)
-    reach = slave.radius + master.radius.max() + search_distance
-    out = []
-    for s, found in enumerate(tree.query_ball_point(slave.centre, reach)):
-        found = np.asarray(found, dtype=int)
-        offset = master.centre[found] - slave.centre[s]
-        across = offset @ slave.normal[s]
-        along = np.linalg.norm(offset - across[:, None] * slave.normal[s], axis=1)
-        near = (along <= (slave.radius[s] + master.radius[found]) * (1 + 1e-9)) \
-            & (np.abs(across) <= search_distance + master.radius[found])
-        out.append(found[near & (master.normal[found] @ slave.normal[s] < 0)])
-    return out
+    found = tree.query_ball_point(slave.centre, slave.radius + master.radius.max() + search_distance)
+    s = np.repeat(np.arange(len(found)), [len(f) for f in found])
+    m = np.concatenate([np.asarray(f, dtype=int) for f in found]) if len(found) else np.zeros(0, int)
+    offset = master.centre[m] - slave.centre[s]
+    across = np.einsum("pd,pd->p", offset, slave.normal[s])
+    along = np.linalg.norm(offset - across[:, None] * slave.normal[s], axis=1)
+    near = (along <= (slave.radius[s] + master.radius[m]) * (1 + 1e-9)) \
+        & (np.abs(across) <= search_distance + master.radius[m]) \
+        & (np.einsum("pd,pd->p", master.normal[m], slave.normal[s]) < 0)
+    return s[near], m[near]
+
+
+def _clipped(slave: _Side, master: _Side, s: np.ndarray, m: np.ndarray):
+    """Integration points (q, 3) [mm] on the slave facets' planes, their weights (q,) [mm^2] and pair (q,) (an
+    index into s, m): the pieces of the master facets m's projections that the slave facets s's projections clip,
+    each split into a fan of triangles. Pieces smaller than :data:`_SLIVER` of the slave facet are dropped."""
+    x0, axes = slave.centre[s], _planes(slave.normal)[s]
+    to_plane = lambda coords: np.einsum("pkd,ped->pke", coords - x0[:, None], axes)   # noqa: E731
+    polygon = counter_clockwise(to_plane(slave.coords[s, :CORNERS[slave.facet_type]]))
+    window = counter_clockwise(to_plane(master.coords[m, :CORNERS[master.facet_type]]))
+    piece, count = clip(window, polygon, tol=1e-10 * slave.radius[s])
+    count = np.where(signed_areas(piece, count) < _SLIVER * signed_areas(polygon), 0, count)
+    # fan: triangle t has the vertices 0, t + 1, t + 2 of the piece
+    pair, t = np.nonzero(np.arange(piece.shape[1] - 2) < count[:, None] - 2)
+    triangles = piece[pair[:, None], np.column_stack([np.zeros_like(t), t + 1, t + 2])]         # (n_tri, 3, 2)
+    area = np.abs(signed_areas(triangles))
+    points = np.einsum("qa,tae->tqe", _TRI_POINTS, triangles)
+    plane = x0[pair][:, None] + np.einsum("tqe,ted->tqd", points, axes[pair])
+    return plane.reshape(-1, 3), (area[:, None] * _TRI_WEIGHTS).ravel(), np.repeat(pair, len(_TRI_WEIGHTS))
 
 
 def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float, n_zones: int):
-    """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,) and int N^_i split by zone (n_nodes, n_zones)."""
+    """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,) and int N^_i split by zone (n_nodes, n_zones).
+
+    Every candidate pair of slave and master facets at once. A pair is dropped where one of its points does not
+    project onto the master facet or its gap exceeds search_distance."""
     dual, integral = dual_coefficients(slave.coords, slave.facet_type)
-    rows, cols, values = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
-    gap = np.zeros(n_nodes)
+    s, m = _candidates(slave, master, search_distance)
+    points, weight, pair = _clipped(slave, master, s, m)
+    s_q, m_q, n0 = s[pair], m[pair], slave.normal[s[pair]]
+    xi = project_along(slave.coords[s_q], slave.facet_type, points, n0)
+    eta = project_along(master.coords[m_q], master.facet_type, points, n0)
+    x_slave, _, n_facet = geometry(slave.coords[s_q], np.nan_to_num(xi), slave.facet_type)
+    N_slave, _ = shape_functions(np.nan_to_num(xi), slave.facet_type)
+    N_master, _ = shape_functions(np.nan_to_num(eta), master.facet_type)
+    normal = np.einsum("qk,qkd->qd", N_slave, slave.node_normal[slave.facets[s_q]])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    gap = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", N_master, master.coords[m_q]) - x_slave, normal)
+    bad = np.isnan(xi).any(axis=1) | np.isnan(eta).any(axis=1) | (np.abs(gap) > search_distance)
+    dropped = np.zeros(len(s), bool)
+    dropped[pair[bad]] = True
+    if dropped.any():
+        logger.debug("mortar: %d facet pairs not projected or too far", int(dropped.sum()))
+    kept = ~dropped[pair]
+    psi = np.einsum("qk,qik->qi", N_slave @ local_transform(slave.facet_type).T, dual[s_q])
+    psi *= (weight / np.abs(np.einsum("qd,qd->q", n_facet, n0)) * kept)[:, None]
+    gap_integral = np.bincount(slave.facets[s_q].ravel(), (psi * np.where(kept, gap, 0.0)[:, None]).ravel(),
+                               minlength=n_nodes)
+    # the points are grouped by pair: sum each pair's block over its own run of points
+    used = np.unique(pair[kept])
+    starts = np.searchsorted(pair, used)
+    blocks = np.add.reduceat(psi[:, :, None] * N_master[:, None, :], starts, axis=0) if len(used) else \
+        np.zeros((0, psi.shape[1], N_master.shape[1]))
     k_s, k_m = slave.facets.shape[1], master.facets.shape[1]
-    for s, candidates in enumerate(_candidates(slave, master, search_distance)):
-        facets, blocks, gap_integral = _facet_blocks(slave, s, dual, master, candidates, search_distance)
-        rows.append(np.tile(np.repeat(slave.facets[s], k_m), len(facets)))
-        cols.append(np.tile(master.facets[facets], (1, k_s)).ravel())
-        values.append(blocks.ravel())
-        np.add.at(gap, slave.facets[s], gap_integral)
-    mortar = sp.csr_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
-                           shape=(n_nodes, n_nodes))
+    rows = np.repeat(slave.facets[s[used]], k_m, axis=1)
+    cols = np.tile(master.facets[m[used]], (1, k_s))
+    mortar = sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(n_nodes, n_nodes))
     by_zone = np.zeros((n_nodes, n_zones))
     np.add.at(by_zone, (slave.facets, np.broadcast_to(slave.zone[:, None], slave.facets.shape)), integral)
-    return mortar, gap, by_zone
+    return mortar, gap_integral, by_zone
 
 
 def _sides(model: Model, interface_index: int):
@@ -254,7 +244,7 @@ def _sides(model: Model, interface_index: int):
     if np.intersect1d(np.unique(target), slave.facets).size:
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
-    master = _Side(mesh, target, np.zeros(len(target), dtype=int))
+    master = _Side(mesh, target, np.zeros(len(target), dtype=int), node_normals=False)
     return slave, master, [model.zone_names.index(z) for z in interface.zones]
 
 

@@ -15,9 +15,13 @@ configuration X + u_ref, first u_ref = u_{n-1} + (u_{n-1} - u_{n-2}); the increm
     g = g_n + B_N,n (u - u_ref),     ds = B_T,n (u - u_{n-1})     (slip increment in the current frame)
 
 then u_ref = u_n and again, until the interface displacements change by at most :data:`FIXED_POINT_RTOL` of the
-increment's largest interface displacement increment. Sensitivities: the path's direct differentiation with
-the coupling of each increment held (dB/du du/dmu left out), the previous increment's displacements carried
-as interface forces ``f_I = Bhat^T lam``.
+increment's largest interface displacement increment, or every pair moved by at most :data:`RECOUPLE_FRACTION`
+of its facet since u_ref (then the coupling is also kept for the next increment while that holds).
+
+Sensitivities: the path's direct differentiation with the coupling of each increment held, the previous
+increment's displacements carried as interface forces ``f_I = Bhat^T lam``; then (:data:`PATH_SENSITIVITIES`
+"consistent") the coupling's change with the displacements, dB/du du/dmu, added by a fixed point whose products
+are forward differences of the increment in its coupling's configuration (:func:`_with_coupling_change`).
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ import scipy.sparse as sp
 from ..errors import InputError, SolverError
 from ..model import Model
 from .condense import Affine, Condensed
+from .facet_shapes import CORNERS
 from .loadpath import LoadPathSolver
 from .pairs import ContactPairs, relative_operator
 from .space import Space
@@ -42,6 +47,19 @@ log = logging.getLogger(__name__)
 #: largest interface displacement increment
 FIXED_POINT_RTOL = 1e-4
 MAX_PASSES = 12
+#: an increment is also accepted, and its coupling kept for the next increments, while every pair's relative
+#: tangential displacement since the configuration the coupling was evaluated at stays within this fraction of
+#: the smallest facet edge at the pair (:func:`facet_lengths`); 0: re-couple every increment until the fixed
+#: point converges to FIXED_POINT_RTOL
+RECOUPLE_FRACTION = 1e-4
+#: the sensitivities of the path: "consistent" (with the coupling's change with the displacements,
+#: :func:`_with_coupling_change`) or "held" (each increment's coupling held, dB/du du/dmu left out)
+PATH_SENSITIVITIES = "consistent"
+#: the consistent sensitivities' fixed point stops when a pass changes them by at most this share of the largest
+SENSITIVITY_RTOL = 1e-6
+#: central differences of an increment in its coupling's configuration: the interface nodes moved by this at most
+#: [mm] along the direction
+COUPLING_STEP = 1e-6
 #: gap [mm] given to a pair whose node the target no longer covers: it stays open
 UNCOVERED_GAP = 1e12
 
@@ -92,8 +110,11 @@ def aligned(reference: ContactPairs, current: ContactPairs) -> ContactPairs:
     """``current`` with the pairs of ``reference`` in its order: a node the target no longer covers gets the
     reference frame, no target and the gap :data:`UNCOVERED_GAP` (it stays open); new nodes are left out."""
     dim, n_dofs = reference.dim, reference.B.shape[1]
-    index = {int(n): i for i, n in enumerate(current.nodes)}
-    found = np.array([index.get(int(n), -1) for n in reference.nodes], dtype=int)
+    found = np.full(reference.n_pairs, -1)                  # index in current of each reference pair's node
+    if current.n_pairs:
+        order = np.argsort(current.nodes)
+        at = np.minimum(np.searchsorted(current.nodes[order], reference.nodes), current.n_pairs - 1)
+        found = np.where(current.nodes[order][at] == reference.nodes, order[at], -1)
     if len(current.nodes) > np.count_nonzero(found >= 0):
         log.info("finite sliding: %d newly covered contact nodes are not paired (the pairs are those of the "
                  "undeformed configuration)", len(current.nodes) - np.count_nonzero(found >= 0))
@@ -129,6 +150,8 @@ class Coupling:
 
     def __init__(self, problem, builder: CouplingBuilder, u_ref: np.ndarray):
         points = problem.model.mesh.points
+        #: the displacements [mm] of the configuration the coupling was evaluated at
+        self.u_ref = u_ref
         current = aligned(problem.pairs, builder(points + u_ref.reshape(points.shape)))
         #: pairs whose node the target does not cover in this configuration
         self.lost = frozenset(np.flatnonzero(current.gap >= UNCOVERED_GAP).tolist())
@@ -149,17 +172,57 @@ class _State:
         self.contact = None
         self.slip = np.zeros((pairs.n_pairs, pairs.dim - 1))
         self.dx_I = None                     # (n_I + m, n_z) d(f_I, alpha)/dmu
+        self.coupling = None                 # the coupling of the last increment
+        self.n_couplings = 0                 # couplings built along the path
 
 
-def _increment(problem, builder, state: _State, start, end, mu_pair, sensitivities, where):
+def facet_lengths(problem) -> np.ndarray:
+    """(n_pairs,) [mm] the shortest corner-to-corner facet edge at each pair: of the contact facets at its node and
+    of the target facets of its interface that share a node with the undeformed coupling."""
+    mesh, pairs = problem.model.mesh, problem.pairs
+    n_corners = 2 if mesh.points.shape[1] == 2 else CORNERS[mesh.facet_type]
+
+    def shortest_edges(facets):
+        corners = mesh.points[facets[:, :n_corners]]
+        return np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=2).min(axis=1)
+
+    length = np.full(pairs.n_pairs, np.inf)
+    at_node = np.full(mesh.n_nodes, np.inf)
+    coupled = np.zeros(mesh.n_nodes, bool)
+    coupled[np.unique(pairs.B.indices) // pairs.dim] = True
+    for index, interface in enumerate(problem.model.interfaces):
+        for zone in interface.zones:
+            facets = mesh.boundary(zone)
+            np.minimum.at(at_node, facets, np.repeat(shortest_edges(facets)[:, None], facets.shape[1], axis=1))
+        target = mesh.boundary(interface.target)
+        near = target[coupled[target].any(axis=1)]
+        mine = pairs.interface == index
+        length[mine] = np.minimum(at_node[pairs.nodes[mine]], shortest_edges(near).min(initial=np.inf))
+    return length
+
+
+def _moved(coupling: Coupling, u: np.ndarray, lengths: np.ndarray) -> float:
+    """The largest relative displacement of a pair since the coupling's configuration, in facet lengths."""
+    pairs = coupling.pairs
+    w = (pairs.B @ (u - coupling.u_ref)).reshape(-1, pairs.dim)
+    return float(np.max(np.linalg.norm(w, axis=1) / lengths, initial=0.0))
+
+
+def _increment(problem, builder, state: _State, start, end, mu_pair, sensitivities, where, lengths):
     """Solve one nominal increment by fixed-point re-coupling, the first coupling at the configuration the last
-    increment's displacement increment extrapolates to; (coupling, path, u, (Newton iterations, cuts, passes))."""
+    increment's displacement increment extrapolates to (or the last increment's coupling, kept while the pairs
+    slide by at most :data:`RECOUPLE_FRACTION` of their facets since it); (coupling, path, u, (Newton iterations,
+    cuts, passes))."""
     T = selection(problem.interface_dofs, len(state.u))
     u_ref, dofs = state.u + state.du, problem.interface_dofs
+    keep = RECOUPLE_FRACTION > 0 and state.coupling is not None
+    coupling = state.coupling if keep and _moved(state.coupling, u_ref, lengths) <= RECOUPLE_FRACTION else None
     n_newton = n_cuts = 0
     lost = []                            # per pass: the pairs the target does not cover
     for n_pass in range(1, MAX_PASSES + 1):
-        coupling = Coupling(problem, builder, u_ref)
+        if coupling is None:
+            coupling = Coupling(problem, builder, u_ref)
+            state.n_couplings += 1
         lost.append(coupling.lost)
         solver, pairs = coupling.solver, coupling.pairs
         path = solver.start()
@@ -171,11 +234,12 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
         step = solver.step(path, start, end, mu_pair, sensitivities, where)
         n_newton, n_cuts = n_newton + step.n_newton, n_cuts + step.n_cuts
         u = problem.condensed.displacement(T, problem.channels.displacements, end, _interface_x(coupling, path.x))
-        change = np.max(np.abs(u[dofs] - u_ref[dofs]), initial=0.0)
+        change = np.max(np.abs(u[dofs] - coupling.u_ref[dofs]), initial=0.0)
         scale = np.max(np.abs(u[dofs] - state.u[dofs]), initial=0.0)
-        u_ref = u
-        if change <= FIXED_POINT_RTOL * scale:
+        if change <= FIXED_POINT_RTOL * scale or (
+                RECOUPLE_FRACTION > 0 and _moved(coupling, u, lengths) <= RECOUPLE_FRACTION):
             return coupling, path, u, (n_newton, n_cuts, n_pass)
+        u_ref, coupling = u, None
     toggled = sorted(frozenset().union(*lost) - frozenset.intersection(*lost))
     cause = "" if not toggled else (
         f"; contact node(s) {problem.pairs.nodes[toggled].tolist()} (first at "
@@ -183,6 +247,41 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
         "the target surface over the whole slide")
     raise SolverError(f"finite sliding did not converge in {where}: the re-coupled interface displacements "
                       f"still moved {change:.3g} mm after {MAX_PASSES} passes" + cause)
+
+
+def _with_coupling_change(problem, builder, state: _State, coupling: Coupling, start, end, mu_pair, where,
+                          held: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """d(f_I, alpha)/dmu (n_I + m, n_z) of the increment with the coupling's change with the displacements.
+
+    The increment's solution y = (f_I, alpha) depends on mu directly and through the previous increment (``held``:
+    that derivative with the coupling held) and on the configuration c its coupling is evaluated at, c = u(y) at
+    the fixed point: ``s = held + dy/dc U s``, U = du_I/dy. Solved by fixed-point passes, each product
+    ``dy/dc v`` by a forward difference: the increment solved, from the previous increment's state as the
+    increment itself, with a coupling at ``c + h v`` (the interface nodes moved by at most
+    :data:`COUPLING_STEP`), against its solution y at c.
+    """
+    dofs, dim = problem.interface_dofs, coupling.pairs.dim
+    U = problem.condensed.gap_ops.full
+    s = held
+    for _ in range(MAX_PASSES):
+        v = U @ s
+        new = held.copy()
+        for z in np.flatnonzero(np.abs(v).max(axis=0) > 0):
+            h = COUPLING_STEP / np.abs(v[:, z]).max()
+            u = coupling.u_ref.copy()
+            u[dofs] += h * v[:, z]
+            moved = Coupling(problem, builder, u)
+            path = moved.solver.start()
+            path.x, path.state = state.x.copy(), state.contact
+            path.w_T = (moved.pairs.B @ state.u).reshape(-1, dim)[:, 1:]
+            moved.solver.step(path, start, end, mu_pair, False, where)
+            new[:, z] += (_interface_x(moved, path.x) - y) / h
+        change, s = np.abs(new - s).max(), new
+        if change <= SENSITIVITY_RTOL * np.abs(s).max():
+            return s
+    log.warning("finite sliding, %s: the sensitivities with the coupling's change still moved by %.2g of the largest "
+                "after %d passes", where, change / max(np.abs(s).max(), 1e-300), MAX_PASSES)
+    return s
 
 
 def _interface_x(coupling: Coupling, x: np.ndarray) -> np.ndarray:
@@ -210,10 +309,11 @@ def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
                                                  "n_newton", "n_cuts", "f_I")}
     previous = np.zeros(amps.shape[1])
     n_w = ref.n_pairs * ref.dim
+    lengths = facet_lengths(problem)
     for i, (stage, amp) in enumerate(zip(stages, amps)):
         where = f"stage {stage + 1} ({problem.model.stages[stage].name}), increment {i + 1}"
         coupling, path, u, (n_newton, n_cuts, n_pass) = _increment(problem, builder, state, previous, amp, mu_pair,
-                                                                   sensitivities, where)
+                                                                   sensitivities, where, lengths)
         log.debug("%s: %d re-coupling passes, %d Newton iterations", where, n_pass, n_newton)
         w_new, w_old = coupling.pairs.B @ u, coupling.pairs.B @ state.u
         state.slip = state.slip + (w_new - w_old).reshape(-1, ref.dim)[:, 1:]
@@ -226,11 +326,15 @@ def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
                            ("n_newton", n_newton), ("n_cuts", n_cuts), ("f_I", x_I[:len(problem.interface_dofs)])):
             rec[key].append(value)
         if sensitivities:
-            rec["d_obs"].append(ops.obs_ops.full @ path.S)
-            rec["d_reac"].append(ops.reac_ops.full @ path.S)
             state.dx_I = np.vstack([coupling.B_I.T @ path.S[:n_w], path.S[n_w:]])
-        state.u, state.du, state.x, state.contact = u, u - state.u, path.x, path.state
+            if PATH_SENSITIVITIES == "consistent":
+                state.dx_I = _with_coupling_change(problem, builder, state, coupling, previous, amp, mu_pair, where,
+                                                   state.dx_I, x_I)
+            rec["d_obs"].append(c.obs_ops.full @ state.dx_I)
+            rec["d_reac"].append(c.reac_ops.full @ state.dx_I)
+        state.u, state.du, state.x, state.contact, state.coupling = u, u - state.u, path.x, path.state, coupling
         previous = amp
+    log.debug("finite sliding: %d couplings built for %d increments", state.n_couplings, len(stages))
     out = {k: np.array(v) for k, v in rec.items()}
     d_obs = out["d_obs"] if sensitivities else None
     d_reac = out["d_reac"] if sensitivities else None
