@@ -6,8 +6,8 @@ dw = W dlam + W_a dalpha, and the floating bodies' equilibrium W_a^T dlam = b_eq
 sparse solve (:class:`frictionid.fem.condense_implicit.Compliance`), so J x costs one solve; GMRES (right
 preconditioned, :func:`gmres`) iterates on it to a relative residual of :data:`RTOL`.
 
-Preconditioner. The rows of J split into constraint rows A (P row zero, Q row r e_k: a closed pair's normal, a stuck
-pair's free tangential direction: r w_k = b_k) and the others U (open pairs, slipping pairs' tangential rows, held
+Preconditioner. The rows of J split into constraint rows A (P row zero, Q row q e_k, q > 0: a closed pair's normal,
+a stuck pair's free tangential direction: r w_k = b_k, q = r as linearise makes them) and the others U (open pairs, slipping pairs' tangential rows, held
 directions), which are local: with P_UU taken as the identity and w_A = b_A / r from the pair's constraint rows,
 
     lam_U = c_U - P_UA lam_A,   c_U = b_U - Q_UA b_A / r
@@ -49,6 +49,9 @@ MAX_ITERATIONS = 80
 ACCEPT_RTOL = 1e-9
 #: rho = PENALTY * r (module docstring)
 PENALTY = 1e3
+#: the preconditioner accounts for the gaps the U rows' forces c_U open at the constraint rows (one more solve
+#: per iteration); False: GMRES does
+LOCAL_FORCES = False
 #: a pattern keeps the factor of another that differs from it in at most this fraction of the factor's rows
 REUSE_FRACTION = 0.05
 
@@ -178,7 +181,7 @@ class KrylovSolver:
             return np.column_stack([self(P, Q, column) for column in b.T]) if b.shape[1] else b.copy()
         self.n_calls += 1
         precondition = self._preconditioner(P, Q)
-        x, relative, iterations = gmres(lambda v: self.product(P, Q, v), precondition, b)
+        x, relative, iterations = gmres(lambda v: self.product(P, Q, v), precondition, b, RTOL, MAX_ITERATIONS)
         self.n_iterations += iterations
         if not relative <= ACCEPT_RTOL:
             log.debug("GMRES stopped at relative residual %.3g after %d iterations", relative, iterations)
@@ -189,9 +192,11 @@ class KrylovSolver:
         """v -> an approximate J^-1 v (module docstring)."""
         n_pairs, dim = P.shape[:2]
         n_w = n_pairs * dim
-        eye = np.eye(dim)
-        A = (np.all(P == 0.0, axis=2) & np.all(Q == self.r * eye[None], axis=2)).ravel()
+        eye = np.eye(dim, dtype=bool)
+        diagonal = np.einsum("nii->ni", Q)
+        A = (np.all(P == 0.0, axis=2) & np.all(np.where(eye, True, Q == 0.0), axis=2) & (diagonal > 0)).ravel()
         U = ~A
+        q = np.where(A, diagonal.ravel(), 1.0)                 # constraint rows q w_k = b_k (q = r from linearise)
         rows = (dim * np.arange(n_pairs)[:, None, None] + np.arange(dim)[None, :, None]).repeat(dim, axis=2)
         cols = rows.transpose(0, 2, 1)
         coupling = U[rows] & A[cols]                                      # (n_pairs, dim, dim) U row, A column
@@ -205,9 +210,9 @@ class KrylovSolver:
 
         def apply(v):
             v_lam = v[:n_w]
-            c = np.where(U, v_lam - Q_UA @ (v_lam * A) / self.r, 0.0)
-            y = np.where(A, v_lam / self.r, 0.0)
-            if np.any(c):
+            c = np.where(U, v_lam - Q_UA @ np.where(A, v_lam / q, 0.0), 0.0)
+            y = np.where(A, v_lam / q, 0.0)
+            if LOCAL_FORCES and np.any(c):
                 y -= np.where(A, self.W @ c, 0.0)
             Mz = M(y)
             alpha = np.zeros(m)
