@@ -148,3 +148,16 @@ def test_a_solve_that_does_not_converge_is_nan(monkeypatch):
 def test_unknown_contact_solve_names_the_argument():
     with pytest.raises(InputError, match="`contact` must be one of 'auto', 'dense', 'implicit', got 'sparse'"):
         Problem.build(block_model_2d(mesh_size=4.0, contact_size=2.0), contact="sparse")
+
+
+def test_memory_estimate_counts_a_second_factor_instead_of_dense_blocks(monkeypatch):
+    """Above IMPLICIT_ABOVE contact dofs the estimate carries no dense contact blocks but the penalised factor,
+    counted as a second factorisation of the stiffness."""
+    from frictionid.fem import condense_implicit, memory
+    model = block_model(mesh_size=5.0)
+    dense = memory.estimate(model, "model")
+    monkeypatch.setattr(condense_implicit, "IMPLICIT_ABOVE", 0)
+    implicit = memory.estimate(model, "model")
+    factor = memory.condensation_bytes(implicit.n_dofs, 3)
+    assert implicit.needed - dense.needed == pytest.approx(factor - memory.contact_bytes(
+        memory.contact_pairs(model), 3), rel=0.05)

@@ -29,6 +29,9 @@ log = logging.getLogger(__name__)
 
 #: pairs whose diagonal blocks of W are computed for the contact scale r (dim solves each)
 SCALE_PAIRS = 8
+#: Problem.build(contact="auto") takes this path above this many contact dofs (dim x pairs, small sliding): the
+#: dense path's n_w^3 work passes a minute there (docs/bolt-study.md, "What limits a 3-D solve")
+IMPLICIT_ABOVE = 6000
 
 
 class Compliance:

@@ -15,7 +15,7 @@ from ..errors import InputError, SolverError
 from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
-from .condense_implicit import condense_implicit, is_implicit
+from .condense_implicit import IMPLICIT_ABOVE, condense_implicit, is_implicit
 from .contact import free_tangents, held_normals
 from .contact_krylov import KrylovSolver
 from .interface import contact_pairs, model_space
@@ -115,10 +115,9 @@ class PointLabels(Sequence):
         return f"PointLabels({self.n_points}, {self.quantities})"
 
 
-#: values of Problem.build's ``contact``; "auto" takes "implicit" above this many contact dofs (dim x pairs), where
-#: the dense operators' n_w^3 work passes a minute (docs/bolt-study.md, "What limits a 3-D solve")
+#: values of Problem.build's ``contact``; "auto" takes "implicit" above
+#: :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs
 CONTACT_SOLVES = ("auto", "dense", "implicit")
-IMPLICIT_ABOVE = 6000
 #: how :meth:`Problem.solve` steps through each stage
 INCREMENTS = ("fixed", "adaptive")
 #: adaptive increments: the step doubles after an increment Newton solved in at most this many iterations, no cut,
