@@ -29,9 +29,10 @@ log = logging.getLogger(__name__)
 
 #: pairs whose diagonal blocks of W are computed for the contact scale r (dim solves each)
 SCALE_PAIRS = 8
-#: Problem.build(contact="auto") takes this path above this many contact dofs (dim x pairs, small sliding): the
-#: dense path's n_w^3 work passes a minute there (docs/bolt-study.md, "What limits a 3-D solve")
-IMPLICIT_ABOVE = 6000
+#: Problem.build(contact="auto") takes this path above this many contact dofs (dim x pairs, small sliding), for
+#: memory: the dense path holds about 4 n_w^2 doubles (4.6 GB here) and does n_w^3 work (about 8 CPU minutes);
+#: this path is not faster on the sizes measured (docs/bolt-study.md, "What limits a 3-D solve")
+IMPLICIT_ABOVE = 12000
 
 
 class Compliance:
