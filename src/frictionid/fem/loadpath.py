@@ -35,6 +35,9 @@ _LINEAR = "updated"
 
 def contact_scale(condensed: Condensed) -> float:
     """r = 1 / mean(diag W) [N/mm], the scale of the Alart-Curnier equations."""
+    mean = getattr(condensed.gap_ops.on_lam, "mean_diagonal", None)     # W applied, not stored (condense_implicit)
+    if mean is not None:
+        return 1.0 / mean
     diag = np.diag(condensed.gap_ops.on_lam)
     return 1.0 / np.mean(diag) if diag.size else 1.0
 
@@ -74,7 +77,7 @@ class LoadPathSolver:
     """Solves a condensed problem along the load path for one vector of zone coefficients."""
 
     def __init__(self, condensed: Condensed, pairs: ContactPairs, rtol: float = 1e-10,
-                 stuck: StuckInverses | None = None):
+                 stuck: StuckInverses | None = None, linear=None):
         self.c, self.pairs = condensed, pairs
         self.Wfull = condensed.gap_ops.full
         self.Wa_T = condensed.equilibrium.on_lam
@@ -82,10 +85,12 @@ class LoadPathSolver:
         self.rtol = rtol
         #: projectors onto the tangential directions the supports leave free (None: all free); those the stuck
         #: inverses were made with (the same model) where given
-        self.free_T = stuck.free_T if stuck is not None else free_tangents(pairs.B, condensed.free, pairs.dim)
-        #: J^-1 by corrections of the inverses ``stuck`` (:func:`stuck_inverses`); None: dense solves
-        self.updated = UpdatedSolver(stuck) if stuck is not None and stuck.base is not None \
-            and _LINEAR == "updated" else None
+        self.free_T = stuck.free_T if stuck is not None else linear.free_T if linear is not None else \
+            free_tangents(pairs.B, condensed.free, pairs.dim)
+        #: J^-1 by corrections of the inverses ``stuck`` (:func:`stuck_inverses`), or by ``linear`` (a solver with
+        #: UpdatedSolver's interface: fem/contact_krylov.py); None: dense solves
+        self.updated = linear if linear is not None else UpdatedSolver(stuck) if stuck is not None \
+            and stuck.base is not None and _LINEAR == "updated" else None
 
     def start(self) -> _Path:
         """The unloaded state the load path starts from."""

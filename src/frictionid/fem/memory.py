@@ -15,6 +15,9 @@ operator W (n_w^2), the Schur complement's per-body factor and its triangular so
 two-body interface) and the load path's stuck Jacobian and its inverse (n_w^2 each) hold about
 :data:`CONTACT_WORDS` n_w^2 doubles at the peak. The block's anchors have a few hundred contact pairs, where this is
 negligible; the 3-D bolt's thread has thousands, where it dominates (5,777 pairs, 17,331 contact dofs: 9.0 GB).
+Above :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs the condensation never forms them
+(fem/condense_implicit.py); the load path's penalised factor (fem/contact_krylov.py) comes on top instead,
+counted as a second factorisation of the stiffness.
 
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 """
@@ -138,8 +141,12 @@ def estimate(model, what: str, max_memory: float | None = None, factorisation: s
     method = "superlu" if factorisation == "superlu" or not available() else "cholmod"
     # a refinement grows the interfaces' pairs by at most the nodes' factor to the power (dim - 1) / dim
     pairs = contact_pairs(model) * grown ** ((dim - 1) / dim)
-    return MemoryEstimate(what, n_nodes, n_dofs, resident() + condensation_bytes(n_dofs, dim, method)
-                          + contact_bytes(int(pairs), n_components), limit(max_memory))
+    from .condense_implicit import IMPLICIT_ABOVE
+
+    dense = n_components * pairs <= IMPLICIT_ABOVE
+    contact = contact_bytes(int(pairs), n_components) if dense else condensation_bytes(n_dofs, dim, method)
+    return MemoryEstimate(what, n_nodes, n_dofs, resident() + condensation_bytes(n_dofs, dim, method) + contact,
+                          limit(max_memory))
 
 
 def check(model, what: str, max_memory: float | None = None, factorisation: str = "auto",

@@ -15,9 +15,12 @@ from ..errors import InputError, SolverError
 from ..model import Model
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
+from .condense_implicit import IMPLICIT_ABOVE, condense_implicit, is_implicit
+from .contact import free_tangents, held_normals
+from .contact_krylov import KrylovSolver
 from .interface import contact_pairs, model_space
 from . import loadpath
-from .loadpath import LoadPathSolver, stuck_inverses
+from .loadpath import LoadPathSolver, contact_scale, stuck_inverses
 from .pairs import ContactPairs
 from .rigid import free_rigid_modes
 from .solution import ExpandedRows, Solution
@@ -112,6 +115,9 @@ class PointLabels(Sequence):
         return f"PointLabels({self.n_points}, {self.quantities})"
 
 
+#: values of Problem.build's ``contact``; "auto" takes "implicit" above
+#: :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs
+CONTACT_SOLVES = ("auto", "dense", "implicit")
 #: how :meth:`Problem.solve` steps through each stage
 INCREMENTS = ("fixed", "adaptive")
 #: adaptive increments: the step doubles after an increment Newton solved in at most this many iterations, no cut,
@@ -184,7 +190,8 @@ class Problem:
     @classmethod
     def build(cls, model: Model, observe: sp.spmatrix | None = None, observation_labels: tuple[str, ...] = (),
               points=None, quantities=("ux", "uy"), regions=None, compress: bool = True,
-              window: float | None = None, factorisation: str = "auto", sliding: str = "small") -> "Problem":
+              window: float | None = None, factorisation: str = "auto", sliding: str = "small",
+              contact: str = "auto") -> "Problem":
         """Assemble, discretise the interfaces and condense.
 
         Parameters
@@ -206,6 +213,10 @@ class Problem:
             Contact pairs fixed in the undeformed configuration, or re-coupled in the deformed configuration at
             every increment (:mod:`frictionid.fem.sliding`; plane strain, axisymmetric and 3-D, dual mortar on every
             interface).
+        contact : "auto" | "dense" | "implicit"
+            The contact compliance W formed densely (fem/condense.py, the load path's stuck inverses), or applied
+            by the stiffness factor with the Newton systems solved by GMRES (fem/condense_implicit.py,
+            fem/contact_krylov.py); "auto": implicit above :data:`IMPLICIT_ABOVE` contact dofs (small sliding).
         """
         space = model_space(model)
         if points is not None and observe is not None:
@@ -234,8 +245,15 @@ class Problem:
         labels_obs = observation_labels if isinstance(observation_labels, PointLabels) else \
             tuple(observation_labels) or tuple(f"obs{i}" for i in range(n_rows))
         coupled = pairs.B if dofs is None else selection(dofs, space.n_dofs)
-        condensed = condense(stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
-                             factorisation=factorisation)
+        if contact not in CONTACT_SOLVES:
+            raise InputError(f"`contact` must be one of {', '.join(map(repr, CONTACT_SOLVES))}, got {contact!r}")
+        implicit = contact == "implicit" or \
+            (contact == "auto" and sliding == "small" and pairs.B.shape[0] > IMPLICIT_ABOVE)
+        if implicit and sliding == "finite":
+            raise InputError("`contact` 'implicit' takes small sliding only ([solver] sliding = \"small\")")
+        condensed = (condense_implicit if implicit else condense)(
+            stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
+            factorisation=factorisation)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
     def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
@@ -317,17 +335,29 @@ class Problem:
         made at the first solve and kept: they depend on the model only."""
         return stuck_inverses(self.condensed, self.pairs)
 
+    @functools.cached_property
+    def _krylov(self):
+        """The Newton systems' iterative solver where W is applied, not stored (fem/contact_krylov.py), kept: its
+        penalised factor serves the next solves."""
+        pairs, c = self.pairs, self.condensed
+        return KrylovSolver(c, contact_scale(c), free_tangents(pairs.B, c.free, pairs.dim),
+                            held_normals(pairs.B, c.free, pairs.dim), pairs.dim)
+
     def __getstate__(self):
         state = dict(self.__dict__)
         state.pop("_stuck_inverses", None)                 # made again where needed, not shipped
+        state.pop("_krylov", None)
         return state
 
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None, adaptive: bool = False) -> Solution:
         if self.sliding == "finite":
             from .sliding import solve_finite
             return solve_finite(self, mu, sensitivities)
-        stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
-        solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck)
+        if is_implicit(self.condensed):
+            solver = LoadPathSolver(self.condensed, self.pairs, linear=self._krylov)
+        else:
+            stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
+            solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck)
         path = solver.start()
         mu_pair = self.pairs.mu(mu)
         records, stages, amps = [], [], []
