@@ -20,6 +20,7 @@ from frictionid.fem.condense_implicit import is_implicit
 from frictionid.fem.contact import OPEN, SLIP, STICK, Increment, jacobian, linearise
 from frictionid.fem.loadpath import LoadPathSolver
 from frictionid.fem.problem import Problem
+from frictionid.options import ModelSpec
 
 from clamp_case import model_options, write_clamp
 from test_held_pairs import symmetric_model
@@ -87,7 +88,7 @@ def test_floating_body_and_held_tangential_directions_same_as_dense():
 def test_clamp_same_as_dense(tmp_path):
     """The clamp (builder "mesh" on a CalculiX deck, six zones, 2-D, the upper pad floating vertically), pressed,
     then pulled to gross slip; at 0.5 mm elements (a coarser mesh than the benchmark's .geo clamp)."""
-    model = build_model(model_options(write_clamp(tmp_path / "clamp.inp", size=0.5), one_target=False))
+    model = build_model(ModelSpec.from_table(model_options(write_clamp(tmp_path / "clamp.inp", size=0.5), one_target=False)))
     mu = np.array([0.15, 0.2, 0.25, 0.18, 0.22, 0.3])
     (dense_problem, _), (dense, solved) = _both(model, mu)
     assert dense_problem.condensed.n_modes > 0

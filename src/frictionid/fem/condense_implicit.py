@@ -29,10 +29,11 @@ log = logging.getLogger(__name__)
 
 #: pairs whose diagonal blocks of W are computed for the contact scale r (dim solves each)
 SCALE_PAIRS = 8
-#: Problem.build(contact="auto") takes this path above this many contact dofs (dim x pairs, small sliding), for
-#: memory: the dense path holds about 4 n_w^2 doubles (4.6 GB here) and does n_w^3 work (about 8 CPU minutes);
-#: this path is not faster on the sizes measured (docs/bolt-study.md, "What limits a 3-D solve")
-IMPLICIT_ABOVE = 12000
+#: Problem.build(contact="auto") takes this path above this many contact dofs (dim x pairs, small sliding): never
+#: for now. It saves the dense path's 4 n_w^2 doubles, but on every size measured it was 10-100x slower than the
+#: dense path (docs/bolt-study.md, "What limits a 3-D solve"), so it is taken only when asked for
+#: (``contact="implicit"``)
+IMPLICIT_ABOVE = float("inf")
 
 
 class Compliance:

@@ -175,6 +175,10 @@ class KrylovSolver:
         top = np.einsum("nij,nj->ni", P, x[:n_w].reshape(n_pairs, dim)) + np.einsum("nij,nj->ni", Q, w)
         return np.concatenate([top.ravel(), self.Wa_T @ x[:n_w]])
 
+    def times_W(self, x) -> np.ndarray:
+        """Wfull x (the interface's product; W applied by the stiffness factor)."""
+        return self.Wfull @ x
+
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
         """J^-1 b, b (n,) or (n, n_rhs); ``check`` is accepted for the interface (GMRES always checks)."""
         if b.ndim == 2:

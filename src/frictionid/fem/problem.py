@@ -216,7 +216,8 @@ class Problem:
         contact : "auto" | "dense" | "implicit"
             The contact compliance W formed densely (fem/condense.py, the load path's stuck inverses), or applied
             by the stiffness factor with the Newton systems solved by GMRES (fem/condense_implicit.py,
-            fem/contact_krylov.py); "auto": implicit above :data:`IMPLICIT_ABOVE` contact dofs (small sliding).
+            fem/contact_krylov.py); "auto": implicit above :data:`IMPLICIT_ABOVE` contact dofs (small sliding; infinite for now:
+            the implicit path is slower at every size measured).
         """
         space = model_space(model)
         if points is not None and observe is not None:
