@@ -6,7 +6,8 @@ the forward solve also re-coupled until every increment's fixed point converges 
 with the mortar integrated facet by facet (the former builder, tests/mortar3d_facets.py): couplings built, times
 and the change of the results.
 
-Run: PYTHONPATH=src .venv/bin/python benchmarks/finite_sliding_3d.py [mesh_size ...]   (default 5 2.5)
+Run: PYTHONPATH=src .venv/bin/python benchmarks/finite_sliding_3d.py [--n-pull N] [mesh_size ...]
+(default 5 2.5; N the pull's increments, default 10)
 """
 
 import os
@@ -90,11 +91,17 @@ def one_mesh(mesh_size: float, n_pull: int):
     print(f"  load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
 
 
-def main(*mesh_sizes: float):
+def main(*mesh_sizes: float, n_pull: int = 10):
     for h in mesh_sizes or (5.0, 2.5):
-        one_mesh(h, n_pull=10)
+        one_mesh(h, n_pull=n_pull)
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
 
 
 if __name__ == "__main__":
-    main(*(float(a) for a in sys.argv[1:]))
+    arguments = sys.argv[1:]
+    increments = 10
+    if "--n-pull" in arguments:             # the pull's increments, for both codes (CalculiX's path needs many)
+        at = arguments.index("--n-pull")
+        increments = int(arguments[at + 1])
+        del arguments[at:at + 2]
+    main(*(float(a) for a in arguments), n_pull=increments)

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from frictionid.builders.registry import build_model  # noqa: E402
+from frictionid.options import ModelSpec  # noqa: E402
 
 COLOURS = plt.get_cmap("tab10").colors
 
@@ -23,7 +24,7 @@ def _zone_facets(model):
 
 
 def block(ax):
-    model = build_model({"builder": "block", "mesh_size": 2.5})
+    model = build_model(ModelSpec.from_table({"builder": "block", "mesh_size": 2.5}))
     for k, (zone, facets) in enumerate(_zone_facets(model)):
         xy = facets[:, :, :2].reshape(-1, 2)
         ax.fill([xy[:, 0].min(), xy[:, 0].max(), xy[:, 0].max(), xy[:, 0].min()],
@@ -37,7 +38,7 @@ def block(ax):
 
 
 def block2d(ax):
-    model = build_model({"builder": "block2d", "mesh_size": 2.0, "n_zones": 3})
+    model = build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "n_zones": 3}))
     ax.add_patch(plt.Rectangle((-20, -5), 40, 5, color="0.85"))
     ax.add_patch(plt.Rectangle((-5, 0), 10, 10, color="0.65"))
     for k, (zone, facets) in enumerate(_zone_facets(model)):
@@ -51,7 +52,7 @@ def block2d(ax):
 
 
 def bolt(ax):
-    model = build_model({"builder": "bolt", "flank_size": 0.2})
+    model = build_model(ModelSpec.from_table({"builder": "bolt", "flank_size": 0.2}))
     mesh = model.mesh
     for name in ("bolt_free", "bolt_root", "bolt_crest", "nut_free", "nut_thread", "nut_load"):
         for facet in mesh.points[mesh.boundaries[name]][:, [0, 1]] if name in mesh.boundaries else []:
