@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as la
@@ -208,6 +209,32 @@ class Condensed:
         return u
 
 
+class Partition(NamedTuple):
+    """The operators of :func:`condense` split into free dofs f and prescribed dofs p."""
+
+    free: np.ndarray
+    prescribed: np.ndarray
+    K_ff: sp.csr_matrix
+    K_fp: sp.csr_matrix
+    K_pf: sp.csr_matrix
+    K_pp: sp.csr_matrix
+    modes: np.ndarray
+    B_f: sp.csr_matrix
+    B_p: sp.csr_matrix
+    O_f: sp.csr_matrix
+    O_p: sp.csr_matrix
+
+
+def partition(K: sp.spmatrix, B: sp.spmatrix, channels: LoadChannels, modes: np.ndarray,
+              observe: sp.spmatrix) -> Partition:
+    """K, the rigid modes, B and the observation rows split by the channels' prescribed dofs."""
+    p = channels.prescribed
+    f = np.setdiff1d(np.arange(K.shape[0]), p)
+    K = K.tocsr()
+    return Partition(f, p, K[f][:, f], K[f][:, p], K[p][:, f], K[p][:, p], modes[f], B[:, f].tocsr(),
+                     B[:, p].tocsr(), observe[:, f].tocsr(), observe[:, p].tocsr())
+
+
 def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: np.ndarray,
              observe: sp.csr_matrix, reaction_sums: sp.csr_matrix, dim: int = 2,
              factorisation: str = "auto") -> Condensed:
@@ -220,14 +247,7 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     observe : (n_obs, n_dofs) observation rows; reaction_sums : (n_reac, n_prescribed) sums of reactions
     factorisation : one of :data:`FACTORISATIONS` (see the module docstring)
     """
-    n = K.shape[0]
-    p = channels.prescribed
-    f = np.setdiff1d(np.arange(n), p)
-    K = K.tocsr()
-    K_ff, K_fp, K_pf, K_pp = K[f][:, f], K[f][:, p], K[p][:, f], K[p][:, p]
-    R = modes[f]
-    B_f, B_p = B[:, f].tocsr(), B[:, p].tocsr()
-    O_f, O_p = observe[:, f].tocsr(), observe[:, p].tocsr()
+    f, p, K_ff, K_fp, K_pf, K_pp, R, B_f, B_p, O_f, O_p = partition(K, B, channels, modes, observe)
     rows = sp.vstack([B_f, O_f]).tocsr()
     if factorisation_name(factorisation) == "cholmod":
         inverse = GeneralisedInverse(K_ff, R, last=np.unique(rows.indices), nodes=f // dim)

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .assembly import LoadChannels
-from .condense import Affine, Condensed, GeneralisedInverse, factorisation_name
+from .condense import Affine, Condensed, GeneralisedInverse, factorisation_name, partition
 
 log = logging.getLogger(__name__)
 
@@ -100,14 +100,7 @@ def condense_implicit(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels
                       observe: sp.csr_matrix, reaction_sums: sp.csr_matrix, dim: int = 2,
                       factorisation: str = "auto") -> Condensed:
     """The operators of :func:`frictionid.fem.condense.condense` (same arguments) with W applied, not formed."""
-    n = K.shape[0]
-    p = channels.prescribed
-    f = np.setdiff1d(np.arange(n), p)
-    K = K.tocsr()
-    K_ff, K_fp, K_pf, K_pp = K[f][:, f], K[f][:, p], K[p][:, f], K[p][:, p]
-    R = modes[f]
-    B_f, B_p = B[:, f].tocsr(), B[:, p].tocsr()
-    O_f, O_p = observe[:, f].tocsr(), observe[:, p].tocsr()
+    f, p, K_ff, K_fp, K_pf, K_pp, R, B_f, B_p, O_f, O_p = partition(K, B, channels, modes, observe)
     if factorisation_name(factorisation) == "cholmod":
         inverse = GeneralisedInverse(K_ff, R, last=np.zeros(0, int), nodes=f // dim)
     else:
