@@ -2,6 +2,8 @@
 3-zone block2d model at 1 mm, six uy/ux observation points on the block's sides and the base top, its true
 coefficients, and the [model] / regions lines of its configs."""
 
+from pathlib import Path
+
 from helpers.config import config_text, toml_value
 
 #: the coefficients the twin data are simulated with
@@ -31,3 +33,30 @@ def data_table(file: str, noise: float = 0.0005, observables=("ux", "uy")) -> di
     """The [data] table of a fit of ``file`` at stage 2 with a displacement noise [mm]."""
     return {"file": file, "observables": list(observables), "stages": [2], "noise": {"u": noise},
             "regions": REGION_TABLE}
+
+
+#: the two-zone case of the discretisation control's tests: linear triangles, data from a mesh 8 times finer
+CONTROL_TRUE = {"A": 0.32, "B": 0.18}
+
+
+def control_config(folder: Path, name: str, mesh: float, zones: dict, data: str, identify: str = "") -> Path:
+    """``folder``/<name>.toml: the two-zone block2d (height 4, linear triangles of ``mesh`` mm) fitted to ``data``
+    (ux, uy of stage 2 at the six points, noise 0.2 um), [identify] lines ``identify``, run.dir runs/<name>."""
+    path = folder / f"{name}.toml"
+    table = ", ".join(f"{k} = {v}" for k, v in zones.items())
+    path.write_text(f'[model]\nbuilder = "block2d"\nheight = 4.0\norder = 1\nmesh_size = {mesh}\n'
+                    f"[friction]\nzones = {{ {table} }}\n"
+                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0002 }}\n'
+                    + REGIONS + f"[identify]\n{identify}" + f'[run]\ndir = "runs/{name}"\n')
+    return path
+
+
+def control_data(folder: Path) -> Path:
+    """``folder`` with points.csv and measured.csv: noise-free data of the six points at CONTROL_TRUE from linear
+    triangles of 0.25 mm."""
+    from frictionid.cli import main
+
+    (folder / "points.csv").write_text(points_csv(stage=2, quantities=("ux", "uy")))
+    assert main(["simulate", str(control_config(folder, "truth", 0.25, CONTROL_TRUE, "points.csv")),
+                 "--out", str(folder / "measured.csv")]) == 0
+    return folder

@@ -2,12 +2,11 @@
 kind): its estimate against a much finer mesh, the refinement it chooses, the record and the switch."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from block2d_case import points_csv
+from block2d_case import CONTROL_TRUE as TRUE, control_config as _config, control_data
 from frictionid import identify
 from frictionid.builders.block import block_model_2d
 from frictionid.builders.registry import build_model
@@ -18,28 +17,11 @@ from frictionid.identification import prepare
 from frictionid.inverse.model_error import observation_kinds
 from frictionid.options import ModelSpec
 
-TRUE = {"A": 0.32, "B": 0.18}
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
-MODEL = '[model]\nbuilder = "block2d"\nheight = 4.0\norder = 1\nmesh_size = '
-
-
-def _config(folder: Path, name: str, mesh: float, zones: dict, data: str, identify: str = "") -> Path:
-    path = folder / f"{name}.toml"
-    table = ", ".join(f"{k} = {v}" for k, v in zones.items())
-    path.write_text(f"{MODEL}{mesh}\n[friction]\nzones = {{ {table} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0002 }}\n'
-                    + REGIONS + f"[identify]\n{identify}" + f'[run]\ndir = "runs/{name}"\n')
-    return path
-
 
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory):
     """Noise-free data from linear triangles 8 times finer than the fits' 2 mm (a real discretisation error)."""
-    folder = tmp_path_factory.mktemp("control")
-    (folder / "points.csv").write_text(points_csv(stage=2, quantities=("ux", "uy")))
-    assert main(["simulate", str(_config(folder, "truth", 0.25, TRUE, "points.csv")),
-                 "--out", str(folder / "measured.csv")]) == 0
-    return folder
+    return control_data(tmp_path_factory.mktemp("control"))
 
 
 def test_the_predicted_error_of_the_chosen_mesh_is_its_error_against_a_finer_one(measured):

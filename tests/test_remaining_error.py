@@ -3,12 +3,11 @@ linearised bias against a brute-force refit, the control's prediction against th
 rule of a zone whose systematic error exceeds its statistical one."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from block2d_case import points_csv
+from block2d_case import CONTROL_TRUE as TRUE, control_config as _config, control_data
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.cli import main
 from frictionid.config import read_config
@@ -19,28 +18,11 @@ from frictionid.inverse.optimisers import optimise
 from frictionid.inverse.uncertainty import SYSTEMATIC_LIMIT, estimate
 from frictionid.preparation import prepare
 
-TRUE = {"A": 0.32, "B": 0.18}
-REGIONS = 'regions = { P1 = "block", P2 = "block", P3 = "block", P4 = "block", P5 = "base", P6 = "base" }\n'
-
-
-def _config(folder: Path, name: str, mesh: float, zones: dict, data: str, identify: str = "") -> Path:
-    path = folder / f"{name}.toml"
-    table = ", ".join(f"{k} = {v}" for k, v in zones.items())
-    path.write_text(f'[model]\nbuilder = "block2d"\nheight = 4.0\norder = 1\nmesh_size = {mesh}\n'
-                    f"[friction]\nzones = {{ {table} }}\n"
-                    f'[data]\nfile = "{data}"\nobservables = ["ux", "uy"]\nstages = [2]\nnoise = {{ u = 0.0002 }}\n'
-                    + REGIONS + f"[identify]\n{identify}" + f'[run]\ndir = "runs/{name}"\n')
-    return path
-
 
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory):
     """Noise-free data of six points from linear triangles of 0.25 mm (8 times finer than the fits' 2 mm)."""
-    folder = tmp_path_factory.mktemp("remaining")
-    (folder / "points.csv").write_text(points_csv(stage=2, quantities=("ux", "uy")))
-    assert main(["simulate", str(_config(folder, "truth", 0.25, TRUE, "points.csv")),
-                 "--out", str(folder / "measured.csv")]) == 0
-    return folder
+    return control_data(tmp_path_factory.mktemp("remaining"))
 
 
 def _fit(model, obs, params):
