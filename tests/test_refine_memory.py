@@ -17,9 +17,9 @@ from frictionid.options import ModelSpec
 TRUE = {"A": 0.32, "B": 0.18}
 
 
-def _config(folder: Path, name: str, identify: str, solver: str = "") -> Path:
+def _config(folder: Path, name: str, identify: str, solver: str = "", mesh_size: float = 2.0) -> Path:
     return write_config(folder / f"{name}.toml", solver + f'[run]\ndir = "runs/{name}"\n',
-                        model={"builder": "block2d", "mesh_size": 2.0, "height": 4.0, "order": 1},
+                        model={"builder": "block2d", "mesh_size": mesh_size, "height": 4.0, "order": 1},
                         friction={"zones": {"A": 0.1, "B": 0.1}}, data=data_table("measured.csv", noise=0.0001),
                         identify=identify)
 
@@ -104,3 +104,54 @@ def test_the_estimate_counts_the_contact_pairs_and_their_dense_blocks():
         rest = estimate.needed - memory.contact_bytes(n_pairs, dim)
         assert rest == pytest.approx(memory.resident() + memory.condensation_bytes(estimate.n_dofs, dim), rel=0.05)
         assert memory.contact_bytes(n_pairs, dim) == memory.CONTACT_WORDS * 8 * (dim * n_pairs) ** 2
+
+
+def test_peak_measures_what_a_piece_of_work_took_above_what_was_held():
+    import numpy as np
+    held = np.ones(10_000_000)                                       # 80 MB held before: not counted
+    with memory.Peak() as took:
+        block = np.ones(25_000_000)                                  # 200 MB
+        del block
+    if took.above is None:
+        pytest.skip("this system cannot reset the process's peak memory")
+    assert 0.95 * 200e6 <= took.above <= 1.3 * 200e6, took.above
+    assert held.sum() == 1e7
+
+
+def test_the_scale_multiplies_the_condensations_part_only():
+    from frictionid.builders.block import block_model
+    model = block_model(mesh_size=5.0)
+    one, two = memory.estimate(model, "model"), memory.estimate(model, "model", scale=2.0)
+    assert two.above == pytest.approx(2.0 * one.above, rel=1e-12)
+    assert two.held == pytest.approx(one.held, rel=0.05)
+
+
+@pytest.mark.discretisation_control
+def test_the_control_measures_its_builds_and_scales_the_law_by_what_they_took(measured, capsys, monkeypatch):
+    # a law that estimates a thousandth of what a condensation takes: the builds measure more, and the record and
+    # the progress carry the ratio that the refinements' estimates are scaled by
+    for name in ("condensation_bytes", "contact_bytes"):
+        law = getattr(memory, name)
+        monkeypatch.setattr(memory, name, lambda *args, law=law, **kw: law(*args, **kw) / 1000.0)
+    # (models of some MB: the peak of a build of a few hundred kB is lost among the freed memory it reuses)
+    config = _config(measured, "scaled", "refine_target = 1000\nrefine_budget = 1\n", mesh_size=0.5)
+    assert main(["identify", str(config)]) == 0
+    out = capsys.readouterr().out
+    record = json.loads((measured / "runs/scaled/result.json").read_text())["model"]["discretisation"]
+    if record["directions"][0]["measured_gb"] is None:
+        pytest.skip("this system cannot reset the process's peak memory")
+    assert record["memory_scale"] > 2.0
+    assert f"took up to {record['memory_scale']:.2f} times the memory law's estimate" in out
+    assert record["directions"][0]["measured_gb"] >= record["directions"][0]["memory_gb"]
+
+
+def test_the_process_peak_survives_the_resets_of_a_measured_build():
+    import numpy as np
+    with memory.Peak():
+        block = np.ones(40_000_000)                                  # 320 MB
+        del block
+    with memory.Peak() as took:                                      # the kernel's peak starts anew here
+        pass
+    if took.above is None:
+        pytest.skip("this system cannot reset the process's peak memory")
+    assert memory.process_peak() >= memory.resident() + 0.9 * 320e6

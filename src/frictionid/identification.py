@@ -144,7 +144,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
         if refined:     # the control checked this model against max_memory when it chose it; a second check a
             # moment later sees only the process's resident memory drift (and refused its choice by 0.2 GB)
             log.info(memory.estimate(setup.model, "model (checked by the discretisation control)", max_memory,
-                                     config.solver.factorisation).line())
+                                     config.solver.factorisation, scale=chosen.record["memory_scale"]).line())
         else:
             log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
         if config.identify.model_error != "off" and setup.remaining_error is None:   # refused now, not after

@@ -131,27 +131,38 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     gain = 2.0 ** np.array([orders[k] for k in kinds])
     progress(f"discretisation control: the model's error at the start values by refining it in each of "
              f"{len(names)} direction(s) ({', '.join(names)}), target {target:g} noise levels RMS per quantity kind")
-    coarse = values(model, observations, mu, window, keep=True)
+    ratios = []                          # measured / estimated peak of each build (fem/memory.py, Peak)
+    with memory.Peak() as took:
+        coarse = values(model, observations, mu, window, keep=True)
+    _calibrate(ratios, took, memory.estimate(model, "model", max_memory))
     differences, terms, sizes, steps = [], [], [], []
     for d, name in enumerate(names):
         begun = time.perf_counter()
         options = refinement(model_options, tuple(2 if j == d else 1 for j in range(len(names))))
         fine_model = build_model(options, f"[model] ({name} x2)")
-        cost = memory.estimate(fine_model, f"discretisation control: {name} x2", max_memory)
+        cost = memory.estimate(fine_model, f"discretisation control: {name} x2", max_memory, scale=_scale(ratios))
         if not cost.fits:
             return Control(model_options, model, _skipped(target, f"{cost.line()}: more than [solver] max_memory "
                                                                   "allows, not condensed", progress))
         progress(cost.line() + "; condensing")
-        differences.append(coarse - values(fine_model, observations, mu, window))
+        with memory.Peak() as took:
+            differences.append(coarse - values(fine_model, observations, mu, window))
+        _calibrate(ratios, took, memory.estimate(fine_model, "", max_memory))
         terms.append(differences[-1] * gain / (gain - 1.0))
         sizes.append(fine_model.mesh.n_nodes)
         steps.append({"direction": name, "options": options.table(), "n_nodes": int(fine_model.mesh.n_nodes),
                       "rms": kind_rms(np.abs(terms[-1]) / observations.sigma, kinds),
-                      "memory_gb": round(cost.needed / memory.GB, 2), "seconds": round(time.perf_counter() - begun, 1)})
+                      "memory_gb": round(cost.needed / memory.GB, 2),
+                      "measured_gb": None if took.above is None else round((cost.held + took.above) / memory.GB, 2),
+                      "seconds": round(time.perf_counter() - begun, 1)})
         progress(f"discretisation control: error from the {name}: {_rms_text(steps[-1]['rms'])} noise levels RMS "
                  f"({steps[-1]['seconds']:.1f} s)")
+    scale = _scale(ratios)
+    if scale > 1.0:
+        progress(f"discretisation control: the builds took up to {scale:.2f} times the memory law's estimate; the "
+                 "refinements' estimates are scaled by it")
     chosen = _choose(model_options, model, terms, sizes, gain, observations.sigma, kinds, target, max_memory,
-                     range(1, 2 ** budget + 1))
+                     range(1, 2 ** budget + 1), scale)
     factors, options, fitted, rms = chosen
     given = kind_rms(np.abs(np.sum(terms, axis=0)) / observations.sigma, kinds)
     status = "not needed" if max(given.values()) <= target else \
@@ -161,7 +172,8 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
               "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
               "options": options.table(), "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
-              "predicted_error_slow": left.summary(observations.sigma, kinds)["slow"], "seconds": round(seconds, 1)}
+              "predicted_error_slow": left.summary(observations.sigma, kinds)["slow"], "memory_scale": round(scale, 3),
+              "seconds": round(seconds, 1)}
     progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
              f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
              f"levels RMS: target {target:g} {status}; the control took {seconds:.1f} s")
@@ -169,9 +181,21 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     return Control(options, fitted, record, left)
 
 
-def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_memory, factors_tried):
+def _calibrate(ratios: list, took: memory.Peak, cost: memory.MemoryEstimate) -> None:
+    """Add a build's measured peak over its estimate (nothing where the peak cannot be measured)."""
+    if took.above is not None and cost.above > 0:
+        ratios.append(took.above / cost.above)
+
+
+def _scale(ratios: list) -> float:
+    """The factor on the memory law for models not built yet: the largest measured ratio, never below 1."""
+    return max([1.0, *ratios])
+
+
+def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_memory, factors_tried,
+            scale: float = 1.0):
     """(factors, options, model, predicted rms per kind) of the cheapest refinement within the target that fits
-    in memory, else of the smallest worst-kind error that does."""
+    in memory (its estimate times ``scale``), else of the smallest worst-kind error that does."""
     base = model.mesh.n_nodes
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
@@ -185,11 +209,11 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     for _, _, factors, rms, nodes in sorted(rows, key=lambda row: row[:2]):
         if all(k == 1 for k in factors):
             return factors, model_options, model, rms
-        if not memory.estimate(model, "discretisation control", max_memory, n_nodes=int(nodes)).fits:
+        if not memory.estimate(model, "discretisation control", max_memory, n_nodes=int(nodes), scale=scale).fits:
             continue                                   # refused on its predicted size, before meshing
         options = refinement(model_options, factors)
         candidate = build_model(options, "[model] (refined)")
-        if memory.estimate(candidate, "discretisation control", max_memory).fits:
+        if memory.estimate(candidate, "discretisation control", max_memory, scale=scale).fits:
             return factors, options, candidate, rms
     raise AssertionError("unreachable: the model as given is always a candidate")
 
