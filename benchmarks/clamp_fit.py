@@ -4,8 +4,9 @@ residual), then `frictionid identify` fits all six zones from several starts wit
 (x_scale 1.0, x_scale "se": the standard errors the start's Jacobian predicts, tr_solver "lsmr"), with
 Levenberg-Marquardt ("lm", unbounded), with the stop on the step left tightened (se_step 0.001, 0.01), and with it
 off (se_step 0: scipy's own tests at tol 1e-10) as the reference minimum.
-Prints per run: iterations, solves with sensitivities, final objective, wall time, and the largest coefficient
-difference from the reference run from the same start; then the table of all runs side by side.
+Prints per run: iterations, solves with sensitivities, final objective, wall time, the largest coefficient
+difference from the reference run from the same start and why the fit stopped; then the table of all runs side by
+side.
 
 Data: ux, uy at 42 points (22 on the strip's side, 10 on each pad) at the ends of stages 2-4, noise 0.5 um for the
 weights; truth U1..L3 = 0.15, 0.2, 0.25, 0.18, 0.22, 0.3.
@@ -98,7 +99,8 @@ def main(starts: list[float], variants: dict = VARIANTS) -> None:
                 print(f"start {start}, {name}: {result['status']}, {result['n_iterations']} iterations, "
                       f"{result['n_sensitivity_solves']} solves, objective {result['objective']['final']:.8g}, "
                       f"{result['wall_time_s']:.0f} s; largest difference from the reference {difference:.1e}; "
-                      + ", ".join(f"{k} {v:.6f}" for k, v in mu.items()), flush=True)
+                      + ", ".join(f"{k} {v:.6f}" for k, v in mu.items()) + f"; stop: {result['message']}",
+                      flush=True)
         print("\niterations, solves with sensitivities, largest coefficient difference from the reference")
         print("| start | " + " | ".join(variants) + " |")
         print("|---" * (len(variants) + 1) + "|")
