@@ -2,16 +2,18 @@
 mesh (contact size 0.25 mm instead of 0.5, bodies 2 mm instead of 4: model error, so the minimum has a nonzero
 residual), then `frictionid identify` fits all six zones from several starts with trf's default and its options
 (x_scale 1.0, x_scale "se": the standard errors the start's Jacobian predicts, tr_solver "lsmr"), with
-Levenberg-Marquardt ("lm", unbounded), and with the default tightened (se_step 0.001) as the reference minimum.
-Prints per run: iterations, solves with sensitivities, final objective, wall time, and the largest coefficient
-difference from the tightened run from the same start; then the table of all runs side by side.
+Levenberg-Marquardt ("lm", unbounded), with the stop on the step left tightened (se_step 0.001, 0.01), and with it
+off (se_step 0: scipy's own tests at tol 1e-10) as the reference minimum.
+Prints per run: iterations, solves with sensitivities, final objective, wall time, the largest coefficient
+difference from the reference run from the same start and why the fit stopped; then the table of all runs side by
+side.
 
 Data: ux, uy at 42 points (22 on the strip's side, 10 on each pad) at the ends of stages 2-4, noise 0.5 um for the
 weights; truth U1..L3 = 0.15, 0.2, 0.25, 0.18, 0.22, 0.3.
 
 Run: .venv/bin/python benchmarks/clamp_fit.py [--variants N,...] [start ...]   (default starts 0.1 0.02 0.6, every
-variant; --variants 0,1: the reference and the default only, by their position below; 17 to 30 s per fit
-measured on 2 shared cores)
+variant; --variants 0,1,2: the reference, the default and se_step 0.001, by their position below; 5 to 30 s per
+fit measured on 2 shared cores)
 """
 
 import json
@@ -24,11 +26,13 @@ from pathlib import Path
 CLAMP = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "clamp"
 FRICTIONID = str(Path(sys.executable).with_name("frictionid"))
 TRUTH = {"U1": 0.15, "U2": 0.2, "U3": 0.25, "L1": 0.18, "L2": 0.22, "L3": 0.3}
-#: [identify] method and options compared; the first is the reference (the default tightened), the second the
-#: default
+#: [identify] method and options compared; the first is the reference (no stop on the step left), the second
+#: the default
 VARIANTS = {
-    "reference (se_step 0.001)": ("trf", "options = { se_step = 0.001 }\n"),
+    "reference (se_step 0)": ("trf", "options = { se_step = 0.0 }\n"),
     "default (trf, x_scale jac)": ("trf", ""),
+    "se_step 0.001": ("trf", "options = { se_step = 0.001 }\n"),
+    "se_step 0.01": ("trf", "options = { se_step = 0.01 }\n"),
     "x_scale 1.0": ("trf", "options = { x_scale = 1.0 }\n"),
     'x_scale "se"': ("trf", 'options = { x_scale = "se" }\n'),
     'tr_solver "lsmr"': ("trf", 'options = { tr_solver = "lsmr" }\n'),
@@ -95,7 +99,8 @@ def main(starts: list[float], variants: dict = VARIANTS) -> None:
                 print(f"start {start}, {name}: {result['status']}, {result['n_iterations']} iterations, "
                       f"{result['n_sensitivity_solves']} solves, objective {result['objective']['final']:.8g}, "
                       f"{result['wall_time_s']:.0f} s; largest difference from the reference {difference:.1e}; "
-                      + ", ".join(f"{k} {v:.6f}" for k, v in mu.items()), flush=True)
+                      + ", ".join(f"{k} {v:.6f}" for k, v in mu.items()) + f"; stop: {result['message']}",
+                      flush=True)
         print("\niterations, solves with sensitivities, largest coefficient difference from the reference")
         print("| start | " + " | ".join(variants) + " |")
         print("|---" * (len(variants) + 1) + "|")
