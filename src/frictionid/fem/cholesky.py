@@ -65,8 +65,8 @@ def fill_reducing_order(K: sp.spmatrix, nodes: np.ndarray) -> np.ndarray:
         return np.asarray(amd.order(_kvxopt_lower(K)), dtype=int).ravel()
     numbers, node_of_row = np.unique(nodes, return_inverse=True)
     to_node = sp.csr_matrix((np.ones(n), (node_of_row, np.arange(n))), shape=(len(numbers), n))
-    coo = sp.coo_matrix(K)
-    pattern = sp.csr_matrix((np.ones(coo.nnz), (coo.row, coo.col)), shape=K.shape)
+    K = sp.csr_matrix(K)
+    pattern = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)   # K's index arrays, shared
     graph = (to_node @ pattern @ to_node.T).tocsr()
     graph.setdiag(0)
     graph.eliminate_zeros()

@@ -248,6 +248,7 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     factorisation : one of :data:`FACTORISATIONS` (see the module docstring)
     """
     f, p, K_ff, K_fp, K_pf, K_pp, R, B_f, B_p, O_f, O_p = partition(K, B, channels, modes, observe)
+    del K          # the caller's temporary: its partition is all that is used, and the factor needs the memory
     rows = sp.vstack([B_f, O_f]).tocsr()
     if factorisation_name(factorisation) == "cholmod":
         inverse = GeneralisedInverse(K_ff, R, last=np.unique(rows.indices), nodes=f // dim)
