@@ -129,8 +129,13 @@ class GeneralisedInverse:
         out = np.zeros((rows.shape[0], n_w))
         for start in bar(range(0, n_w, _BLOCK), -(-n_w // _BLOCK), f"condensation ({n_w} columns)"):
             cols = slice(start, min(start + _BLOCK, n_w))
-            out[:, cols] = rows @ self._solve_kept(rows[cols].T.toarray())
+            out[:, cols] = rows @ self._solve_kept_sparse(rows[cols].T)
         return out
+
+    def _solve_kept_sparse(self, b: sp.spmatrix) -> np.ndarray:
+        if self.cholesky is not None:
+            return self.cholesky.solve_sparse(b)
+        return self._solve_kept(b.toarray())
 
     def _solve_kept(self, b: np.ndarray) -> np.ndarray:
         if self.cholesky is not None:
