@@ -22,6 +22,15 @@ from frictionid.builders.bolt3d import measurement_points_3d
 from frictionid.fem.problem import Problem
 
 
+def ten_points(layout) -> np.ndarray:
+    """(10, 3) [mm] the seed's P1-P5 on flanks 1 and 2, moved 0.1 mm radially into the bolt tooth: the tets are
+    straight-sided, the points on the exact helicoid lie up to a few um outside the mesh's chords."""
+    points = measurement_points_3d(layout)
+    radius = np.hypot(points[:, 0], points[:, 2])
+    points[:, [0, 2]] *= ((radius - 0.1) / radius)[:, None]
+    return points
+
+
 def main(options: dict, cache: str | None = None):
     figures = {}
     options = {"model": "3d", **options}
@@ -36,11 +45,7 @@ def main(options: dict, cache: str | None = None):
     layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
                          options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
                          options.get("bearing_diameter"), options.get("thread_length"))
-    points = measurement_points_3d(layout)
-    # 0.1 mm radially into the bolt tooth: the tets are straight-sided, the points on the exact helicoid lie up to
-    # a few um outside the mesh's chords
-    radius = np.hypot(points[:, 0], points[:, 2])
-    points[:, [0, 2]] *= ((radius - 0.1) / radius)[:, None]
+    points = ten_points(layout)
     print(f"3-D M20 bolt-nut {json.dumps(options)}: {model.mesh.n_nodes:,} nodes, {3 * model.mesh.n_nodes:,} dofs;"
           f" build {figures['build']:.1f} s, peak so far {peak_memory_mb():.0f} MB", flush=True)
     with timed(figures, "condense"):

@@ -2,9 +2,10 @@
 engaged thread (3-D: per turn, a turn from the seam opposite theta = 0 round to it) and bolt elongation (uy of the
 bolt end's centre minus that of the head's centre), at the same machine force and coefficients.
 
-Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl]
+Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
-benchmarks/bolt3d.py). Run it under /usr/bin/time -v for the peak.
+benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "cholmod_solves"). Run it under
+/usr/bin/time -v for the peak.
 """
 
 import json
@@ -31,10 +32,10 @@ def elongation_points(layout, dim: int) -> np.ndarray:
     return np.array([[0.0, y, 0.0][:dim] for y in ends])
 
 
-def solved(model, layout, dim: int):
+def solved(model, layout, dim: int, factorisation: str = "auto"):
     start = time.perf_counter()
     problem = Problem.build(model, points=elongation_points(layout, dim), quantities=("uy",),
-                            regions=["bolt", "bolt"])
+                            regions=["bolt", "bolt"], factorisation=factorisation)
     built = time.perf_counter() - start
     solution = problem.solve(np.full(len(model.zone_names), MU))
     loads = thread_loads(model, solution)
@@ -45,7 +46,7 @@ def solved(model, layout, dim: int):
     return loads, float(uy[1] - uy[0])
 
 
-def main(options: dict, cache: str | None = None):
+def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
     layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
                          options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
                          options.get("bearing_diameter"), options.get("thread_length"))
@@ -59,7 +60,7 @@ def main(options: dict, cache: str | None = None):
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
     print(f"3-D {json.dumps(three)} against the axisymmetric model {json.dumps(axi)}, mu = {MU} everywhere")
     loads2, elongation2 = solved(bolt_model(**axi), layout, 2)
-    loads3, elongation3 = solved(model3, layout, 3)
+    loads3, elongation3 = solved(model3, layout, 3, factorisation)
     print(f"  machine force {loads2.applied:.0f} / {loads3.applied:.0f} N; thread forces sum to "
           f"{loads2.force.sum():.0f} / {loads3.force.sum():.0f} N (axisymmetric / 3-D)")
     for i in range(max(loads2.n_threads, loads3.n_threads)):
@@ -72,4 +73,4 @@ def main(options: dict, cache: str | None = None):
 
 
 if __name__ == "__main__":
-    main(json.loads(sys.argv[1]), sys.argv[2] if len(sys.argv) > 2 else None)
+    main(json.loads(sys.argv[1]), *sys.argv[2:4])

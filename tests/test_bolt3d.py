@@ -5,14 +5,17 @@ areas against the helicoid's, the window and the jaws, bad input.
 The meshed model is a short one (two engaged pitches, the bolt threaded from a pitch below the nut, coarse); its
 CAD and mesh take minutes on a shared machine, so the tests that need it are marked slow."""
 
+import logging
 import math
 
+import gmsh
 import numpy as np
 import pytest
 
 from frictionid.builders.bolt import bolt_model
 from frictionid.builders.bolt3d import WINDOW_CENTRE, WINDOW_WIDTH, measurement_points_3d
 from frictionid.builders.bolt3d_geometry import groove_section
+from frictionid.builders.bolt3d_mesh import mesh_with_fallback
 from frictionid.builders.bolt_layout import bolt_layout
 from frictionid.builders.registry import build_model
 from frictionid.errors import InputError
@@ -194,3 +197,47 @@ def test_window_and_jaw_faces(model, layout):
     jaws = model.mesh.points[model.mesh.boundary_nodes("nut_jaws")]
     np.testing.assert_allclose(np.abs(jaws[:, 2]), s.nut_s / 2, atol=1e-9)
     assert (jaws[:, 2] > 0).any() and (jaws[:, 2] < 0).any()
+
+
+
+def _failing_mesher(monkeypatch, failures: int) -> list[float]:
+    """gmsh's volume meshing made to fail with its PLC error the first ``failures`` times (after the surface
+    mesh, as a real failure); returns the list that records Mesh.Algorithm3D at each attempt."""
+    tried, generate = [], gmsh.model.mesh.generate
+
+    def flaky(dim):
+        tried.append(gmsh.option.getNumber("Mesh.Algorithm3D"))
+        if len(tried) <= failures:
+            generate(2)
+            raise Exception("PLC Error:  A segment and a facet intersect at point")
+        generate(dim)
+
+    monkeypatch.setattr(gmsh.model.mesh, "generate", flaky)
+    return tried
+
+
+def _box():
+    gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+    gmsh.model.occ.synchronize()
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+
+
+def _tetrahedra() -> int:
+    _, tags, _ = gmsh.model.mesh.getElements(3)
+    return sum(len(t) for t in tags)
+
+
+def test_volume_mesher_falls_back_to_frontal(monkeypatch, caplog):
+    """Delaunay failing with a PLC error: a new session, Frontal meshes it, and the log says so."""
+    tried = _failing_mesher(monkeypatch, 1)
+    with caplog.at_level(logging.WARNING, logger="frictionid.builders.bolt3d_mesh"):
+        n_tets = mesh_with_fallback(_box, _tetrahedra, "box")
+    assert tried == [1, 4] and n_tets > 0
+    assert "box: gmsh's Delaunay 3-D mesher failed (PLC Error" in caplog.text and "trying Frontal" in caplog.text
+
+
+def test_volume_mesher_says_when_every_algorithm_fails(monkeypatch):
+    tried = _failing_mesher(monkeypatch, 2)
+    with pytest.raises(InputError, match=r"box: gmsh could not mesh the volumes \(Delaunay: PLC Error.*Frontal: PLC"):
+        mesh_with_fallback(_box, _tetrahedra, "box")
+    assert tried == [1, 4]

@@ -96,6 +96,20 @@ def test_cholmod_solves_no_column_of_the_operators(monkeypatch):
         condense(*args, factorisation="superlu")
 
 
+def test_cholmod_solves_gives_superlus_operators_by_solves(monkeypatch):
+    """"cholmod_solves": CHOLMOD's factor with no dofs ordered last, the operators by solves in blocks of
+    columns (the progress bar runs), equal to SuperLU's to 1e-10."""
+    _, args = _inputs(block_model(mesh_size=5.0, element="standard"))
+    reference = condense(*args, factorisation="superlu")
+    blocks = []
+    real = condense_module.bar
+    monkeypatch.setattr(condense_module, "bar", lambda *a, **k: blocks.append(a[1]) or real(*a, **k))
+    got = condense(*args, factorisation="cholmod_solves")
+    assert got.inverse.cholesky is not None and len(got.inverse.cholesky.last) == 0
+    assert blocks == [-(-args[1].shape[0] // condense_module._BLOCK)]
+    assert relative_difference(reference, got, reaction_terms(reference, args)) < 1e-10
+
+
 def test_the_displacement_field_after_the_factor_was_dropped(both):
     """Condensing drops the CHOLMOD factor (kvxopt's getfactor spoils it); the field needs it again."""
     problem, args, lu, chol = both
@@ -131,7 +145,7 @@ def test_auto_takes_cholmod_and_superlu_where_kvxopt_is_missing(monkeypatch):
 
 
 def test_an_unknown_factorisation_is_named():
-    with pytest.raises(InputError, match=r"`factorisation` must be one of 'auto', 'cholmod', 'superlu', got 'lu'"):
+    with pytest.raises(InputError, match=r"`factorisation` must be one of 'auto', 'cholmod', 'superlu', 'cholmod_solves', got 'lu'"):
         condense_module.factorisation_name("lu")
 
 

@@ -4,12 +4,14 @@ given its own copies of the nodes it shares with a body before it (node-to-node 
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
 import gmsh
 import numpy as np
 
+from ..errors import InputError
 from ..model import Mesh
 from .bolt3d_geometry import (Window, countersink, cylinder, direction, groove, hexagon_prism)
 from .bolt_layout import BoltLayout
@@ -27,6 +29,11 @@ ROOT_GROWTH = 2.5
 #: a window reaching within this many pitches of the nut crest D1/2 is cut through to the bore
 THROUGH = 0.1
 _TOL = 2e-3  # [mm] distance under which a face point lies on an analytic surface (the lofts: < 1 um)
+#: gmsh's 3-D algorithms tried in turn: Delaunay (its default), then Frontal, which meshed the short model without
+#: window and jaws where Delaunay failed every time with "PLC Error: A segment and a facet intersect"
+ALGORITHMS_3D = ((1, "Delaunay"), (4, "Frontal"))
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -263,10 +270,35 @@ def _owner(name: str) -> str:
     return "bolt"
 
 
+def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
+    """``read()`` of the volume mesh of the gmsh model that ``make()`` sets up in a fresh gmsh session, meshed by
+    the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds. A failure is logged and the next
+    algorithm starts from a new session (after a failed Delaunay, Frontal in the same session, mesh cleared,
+    returned no tetrahedra). InputError naming ``source`` when every algorithm fails."""
+    failures = []
+    for i, (number, name) in enumerate(algorithms):
+        with gmsh_session(source):
+            make()
+            gmsh.option.setNumber("Mesh.Algorithm3D", number)
+            try:
+                gmsh.model.mesh.generate(3)
+            except Exception as error:  # gmsh raises a bare Exception with its own message
+                failures.append(f"{name}: {str(error).strip()}")
+                following = f"; trying {algorithms[i + 1][1]}" if i + 1 < len(algorithms) else ""
+                log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, name, str(error).strip(), following)
+                continue
+            log.info("%s: meshed by gmsh's %s 3-D mesher", source, name)
+            return read()
+    raise InputError(f"{source}: gmsh could not mesh the volumes ({'; '.join(failures)}); other element sizes "
+                     "(flank_size, contact_size, mesh_size) may mesh")
+
+
 def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> Mesh:
     """The tetra10 mesh of bolt, nut and plates with the named groups of :func:`frictionid.builders.bolt3d.
     bolt3d_model`, each body with its own nodes (conforming, node-to-node interfaces)."""
-    with gmsh_session("bolt3d"):
+    source = f"3-D bolt model {layout.size.name}"
+
+    def make():
         volumes = _fragment(layout, options, engaged_top)
         names = _classify(layout, options, volumes)
         root = min(options.flank_size, options.root_size)
@@ -280,11 +312,14 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
         for name, tags in names.items():
             if tags and name != "thread_shared":
                 gmsh.model.addPhysicalGroup(2, tags, name=name)
-        gmsh.model.mesh.generate(3)
+
+    def read():
         gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
         # straight-sided: mid-side nodes snapped onto the curved faces inverted tets at the nut crest's corners
         # (the facet basis' inverse mapping did not converge on "nut_contact")
         gmsh.option.setNumber("Mesh.SecondOrderLinear", 1)
         gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh(f"3-D bolt model {layout.size.name}")
+        return mesh_from_gmsh(source)
+
+    mesh = mesh_with_fallback(make, read, source)
     return separate_bodies(mesh, {name: _owner(name) for name in mesh.boundaries})

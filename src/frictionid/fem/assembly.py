@@ -54,6 +54,11 @@ def torsion_shears(u, r) -> tuple:
     return 0.5 * (u.grad[2][0] - u[2] / r), 0.5 * u.grad[2][1]
 
 
+#: cells per assembly chunk beyond which the stiffness is summed chunk by chunk: scikit-fem keeps every element
+#: matrix in memory at once (16 bytes per entry with its indices: 150,000 tetra10 cells take 2.2 GB, and their
+#: renumbering as many again); smaller meshes are assembled in one call, unchanged to the last bit
+CHUNK_CELLS = 20_000
+
 FORMS = {"axisymmetric": _axisymmetric, "axisymmetric_twist": _axisymmetric_twist}
 
 
@@ -67,7 +72,14 @@ def stiffness(space: Space, model: Model) -> sp.csr_matrix:
     lam = np.repeat(per_cell[:, :1], n_qp, axis=1)
     mu = np.repeat(per_cell[:, 1:], n_qp, axis=1)
     form = FORMS.get(model.kind, _elasticity)
-    return space.to_dofs(skfem.asm(form, space.basis, lam=lam, mu=mu))
+    n_cells = len(lam)
+    if n_cells <= CHUNK_CELLS:
+        return space.to_dofs(skfem.asm(form, space.basis, lam=lam, mu=mu))
+    K = None
+    for cells in np.array_split(np.arange(n_cells), -(-n_cells // CHUNK_CELLS)):
+        part = space.to_dofs(skfem.asm(form, space.basis.with_elements(cells), lam=lam[cells], mu=mu[cells]))
+        K = part if K is None else K + part
+    return K
 
 
 @dataclass(frozen=True)

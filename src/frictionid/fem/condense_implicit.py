@@ -101,7 +101,7 @@ def condense_implicit(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels
                       factorisation: str = "auto") -> Condensed:
     """The operators of :func:`frictionid.fem.condense.condense` (same arguments) with W applied, not formed."""
     f, p, K_ff, K_fp, K_pf, K_pp, R, B_f, B_p, O_f, O_p = partition(K, B, channels, modes, observe)
-    if factorisation_name(factorisation) == "cholmod":
+    if factorisation_name(factorisation) in ("cholmod", "cholmod_solves"):
         inverse = GeneralisedInverse(K_ff, R, last=np.zeros(0, int), nodes=f // dim)
     else:
         inverse = GeneralisedInverse(K_ff, R, "COLAMD" if dim == 2 else "MMD_AT_PLUS_A")
