@@ -16,6 +16,11 @@ The order is searched in [0.25, 4]; an order at a limit is printed as such (the 
 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py 1=/tmp/i25/dense_l1 2=tests/fixtures/dense_block \\
         3=/tmp/i25/dense_l3 4=/tmp/i25/dense_l4
+
+Each row also gives ``slide``: the change of the block faces' mean uy at the end of the pull, in noise levels
+(the block's rigid slide). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
+after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
+convergence criteria), the same numbers per variant.
 """
 
 from __future__ import annotations
@@ -58,6 +63,23 @@ def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray
     return out
 
 
+def slide(labels: list[str], values: np.ndarray) -> float:
+    """The block faces' mean uy at the end of the pull, in noise levels."""
+    faces = np.array([not label.startswith("plate") for label in labels])
+    return float(np.mean(values[1, faces, 1]) / dense.NOISE_U)
+
+
+def differences(coarse, fine) -> dict:
+    """RMS and largest difference fine - coarse per kind and stage, and the slide's change, in noise levels."""
+    row = {}
+    for kind in ("u", "e", "force"):
+        for s in (0, 1):
+            d = fine[1][kind][s] - coarse[1][kind][s]
+            row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
+    row["slide"] = round(fine[2] - coarse[2], 3)
+    return row
+
+
 def rms(v: np.ndarray) -> float:
     return float(np.sqrt(np.mean(v ** 2)))
 
@@ -82,23 +104,24 @@ def main(argv=None) -> int:
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
     args = parser.parse_args(argv)
-    levels = sorted((int(a.split("=")[0]), Path(a.split("=", 1)[1])) for a in args.exports)
+    named = [(a.split("=", 1)[0], Path(a.split("=", 1)[1])) for a in args.exports]
     data = {}
-    for level, folder in levels:
+    for name, folder in named:
         labels, values, force = read(folder)
-        data[level] = (labels, in_noise(values, force))
-    reference = data[levels[0][0]][0]
-    if any(data[level][0] != reference for level, _ in levels):
+        data[name] = (labels, in_noise(values, force), slide(labels, values))
+    if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
+    if not all(name.isdigit() for name, _ in named):
+        base = named[0][0]
+        for name, _ in named[1:]:
+            emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
+        return 0
+    levels = sorted((int(name), folder) for name, folder in named)
+    data = {int(name): value for name, value in data.items()}
     h = {level: 1.0 / LEVELS[level][0] for level, _ in levels}
     order = [level for level, _ in levels]
     for coarse, fine in zip(order, order[1:]):
-        row = {"levels": [coarse, fine]}
-        for kind in ("u", "e", "force"):
-            for s in (0, 1):
-                d = data[fine][1][kind][s] - data[coarse][1][kind][s]
-                row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
-        emit(row, args.out)
+        emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
     if len(order) >= 3:
         a, b, c = order[-3:]
         row = {"richardson_of_level": c, "from_levels": [a, b, c]}

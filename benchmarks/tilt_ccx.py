@@ -82,14 +82,16 @@ def at_height(block, disp: dict, x: float, y: float, z: float) -> np.ndarray:
 
 
 def run(level: int, scale: float, penalty: float | None, stick: float | None, element: str, work: Path,
-        n_pull: int = 10) -> dict:
+        n_pull: int = 10, field: str | None = None) -> dict:
     plate, block, h = meshes(level)
     penalty = penalty or gen.PENALTY_FACTOR * gen.E_PLATE / h
     stick = stick or gen.STICK_FACTOR * gen.E_PLATE / h
     gen.PRESSURE, gen.PULL = 20.0 * scale, 0.2 * scale
     work.mkdir(parents=True, exist_ok=True)
-    (work / f"{gen.JOB}.inp").write_text(gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull,
-                                                         element=element))
+    deck = gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull, element=element)
+    if field:                                               # ccx's convergence criteria (*CONTROLS, FIELD) per step
+        deck = deck.replace("*STATIC\n", f"*CONTROLS, PARAMETERS=FIELD\n{field}\n*STATIC\n")
+    (work / f"{gen.JOB}.inp").write_text(deck)
     env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
     start = time.perf_counter()
     with open(work / "ccx.log", "w") as log:
@@ -104,7 +106,7 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
     normal = {z: abs(contact[z][max(contact[z])]["force"][2]) / scale for z in gen.MU}
     totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
     um = lambda v: 1e3 * float(v)
-    return {"level": level, "scale": scale, "n_pull": n_pull, "penalty": penalty, "stick": stick, "element": element,
+    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "penalty": penalty, "stick": stick, "element": element,
             "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
             "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
             "N": {z: round(normal[z], 2) for z in gen.MU},
@@ -121,6 +123,8 @@ def main(argv=None) -> int:
     parser.add_argument("--stick", type=float, help="stick slope [N/mm^3] (default 50 E_plate / h)")
     parser.add_argument("--element", default="C3D8I")
     parser.add_argument("--pull-increments", type=int, default=10, help="least number of pull increments")
+    parser.add_argument("--field", help="ccx's *CONTROLS, PARAMETERS=FIELD line, e.g. '5e-5, 1e-4' (R_n, C_n; "
+                        "ccx's defaults 0.005, 0.01)")
     parser.add_argument("--work", type=Path, required=True)
     parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
     parser.add_argument("--count", action="store_true", help="print the node count only")
@@ -129,7 +133,8 @@ def main(argv=None) -> int:
         plate, block, h = meshes(args.level)
         print(f"level {args.level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
         return 0
-    result = run(args.level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments)
+    result = run(args.level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments,
+                 args.field)
     emit(result, args.out)
     return 0
 
