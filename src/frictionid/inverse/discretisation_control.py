@@ -16,7 +16,8 @@ memory where Richardson from the uniform halving does not.
 The refinement (k_1, k_2, ...) then has the predicted error sum_d e_d / k_d^p. Where every quantity kind is within
 the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to 2^``identify.refine_budget``, size predicted from the
 directional models' sizes) whose prediction is within the target in every kind is built and fitted, after
-:func:`frictionid.fem.memory.check`; when none is, the one with the smallest largest-kind error that fits in
+:func:`frictionid.fem.memory.check`, the memory law scaled by the largest ratio of measured to estimated peak of
+the control's own builds (:class:`frictionid.fem.memory.Peak`); when none is, the one with the smallest largest-kind error that fits in
 memory, and the record says the target was not reached. A model that cannot be refined (a model object, another
 backend) is fitted as it is, and the record says why.
 
