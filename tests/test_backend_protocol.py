@@ -26,7 +26,7 @@ def test_the_embedded_backend_is_a_backend_and_predicts_a_prediction(block2d):
 
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="needs ccx (CalculiX) on PATH")
 def test_the_calculix_backend_is_a_backend(block2d):
-    backend = make_backend(block2d, block2d.mesh.points[:1], ("ux",), solver=SolverOptions("calculix"))
+    backend = make_backend(block2d, block2d.mesh.points[:1], ("ux",), solver=SolverOptions(backend="calculix"))
     assert isinstance(backend, Backend) and not backend.has_sensitivities
 
 

@@ -121,9 +121,9 @@ def test_load_scale_needs_contact_that_starts_closed(model, gap):
     """An initial gap or interference does not scale with the loads: load_scale is refused, before ccx is
     looked for, naming the key and the size of the gap."""
     with pytest.raises(InputError, match=f"load_scale: the model has initial contact gaps \\(up to {gap}"):
-        make_backend(model(), None, ("ux",), solver=SolverOptions("calculix", ccx="/nonexistent/ccx", load_scale=0.01))
+        make_backend(model(), None, ("ux",), solver=SolverOptions(backend="calculix", ccx="/nonexistent/ccx", load_scale=0.01))
     with pytest.raises(InputError, match="apt-get install calculix-ccx"):       # at 1 the model is fine
-        make_backend(model(), None, ("ux",), solver=SolverOptions("calculix", ccx="/nonexistent/ccx"))
+        make_backend(model(), None, ("ux",), solver=SolverOptions(backend="calculix", ccx="/nonexistent/ccx"))
 
 
 def test_plane_strain_cells_turn_counter_clockwise():
@@ -205,23 +205,23 @@ def test_bad_settings_are_refused_where_the_config_is_read(solver, message):
 
 def test_missing_ccx_names_the_setting_and_the_package(block3d):
     with pytest.raises(InputError, match=r"solver.ccx = '/nonexistent/ccx'.*apt-get install calculix-ccx"):
-        check_backend(SolverOptions("calculix", ccx="/nonexistent/ccx"), "forward")
+        check_backend(SolverOptions(backend="calculix", ccx="/nonexistent/ccx"), "forward")
     with pytest.raises(InputError, match="apt-get install calculix-ccx"):
-        make_backend(block3d, None, ("ux",), solver=SolverOptions("calculix", ccx="/nonexistent/ccx"))
+        make_backend(block3d, None, ("ux",), solver=SolverOptions(backend="calculix", ccx="/nonexistent/ccx"))
 
 
 def test_backend_choice_is_checked():
     with pytest.raises(InputError, match="no analytic sensitivities.*'forward' or 'central'"):
-        check_backend(SolverOptions("calculix", ccx="/nonexistent/ccx"), "analytic")
+        check_backend(SolverOptions(backend="calculix", ccx="/nonexistent/ccx"), "analytic")
     with pytest.raises(InputError, match="backend = 'ansys' is not one of"):
-        check_backend(SolverOptions("ansys"))
+        check_backend(SolverOptions(backend="ansys"))
 
 
 def test_small_finite_difference_step_is_logged(caplog):
     # "sh" stands in for an executable found on PATH
-    check_backend(SolverOptions("calculix", ccx="sh"), "forward", step=1e-2)
+    check_backend(SolverOptions(backend="calculix", ccx="sh"), "forward", step=1e-2)
     assert not caplog.records
-    check_backend(SolverOptions("calculix", ccx="sh"), "forward", step=1e-4)
+    check_backend(SolverOptions(backend="calculix", ccx="sh"), "forward", step=1e-4)
     assert "identify.step = 0.0001 is small for ccx results" in caplog.text
 
 

@@ -223,7 +223,7 @@ def test_strain_window_reaches_the_fit(tmp_path):
         fits[window] = identify_config(config, write_files=False).to_dict()
     assert fits[2.0]["objective"]["initial"] < 1e-12 and fits[None]["objective"]["initial"] > 1.0
     with pytest.raises(InputError, match="strain_window needs the embedded backend"):
-        make_backend(model, points, ("exx",), solver=SolverOptions("calculix"), window=2.0)
+        make_backend(model, points, ("exx",), solver=SolverOptions(backend="calculix"), window=2.0)
 
 
 def test_point_misfit_groups_by_point_in_one_pass():

@@ -119,10 +119,10 @@ class DataSpec(_Table):
 
 
 @dataclass(frozen=True)
-class SolverOptions(_Table):
-    """The [solver] table: the backend and its settings (``work_dir`` absolute)."""
+class CalculixOptions(_Table):
+    """The [solver] keys of the CalculiX backend
+    (:class:`~frictionid.backends.calculix.backend.CalculixSettings` documents them)."""
 
-    backend: str = "embedded"
     ccx: str = "ccx"
     timeout: float = 3600.0
     keep_work: bool = False
@@ -132,6 +132,14 @@ class SolverOptions(_Table):
     normal_stiffness: float | None = None
     stick_slope: float | None = None
     load_scale: float = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolverOptions(CalculixOptions):
+    """The [solver] table: the backend, the CalculiX backend's keys and the embedded solver's (``work_dir``
+    absolute). Keyword arguments only (the CalculiX keys come first in the fields)."""
+
+    backend: str = "embedded"
     factorisation: str = "auto"
     increments: str = "fixed"
     sliding: str = "small"

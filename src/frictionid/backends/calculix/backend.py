@@ -16,7 +16,7 @@ from ...fem.interface import contact_pairs as embedded_pairs
 from ...fem.points import point_operator
 from ...fem.space import Space
 from ...model import Model
-from ...options import SolverOptions
+from ...options import CalculixOptions, SolverOptions
 from ..base import Prediction
 from .deck import AXISYMMETRIC_SEGMENTS, ContactSettings, contact_pairs, set_name, write_deck, zone_columns
 from .elements import calculix_cells, fill_dropped_nodes
@@ -35,8 +35,8 @@ _TIME_TOL = 1e-6
 
 
 @dataclass(frozen=True)
-class CalculixSettings:
-    """Options of the CalculiX backend ([solver] keys of a config).
+class CalculixSettings(CalculixOptions):
+    """Options of the CalculiX backend ([solver] keys of a config, :class:`~frictionid.options.CalculixOptions`).
 
     Attributes
     ----------
@@ -58,22 +58,12 @@ class CalculixSettings:
         as given).
     """
 
-    ccx: str = "ccx"
-    timeout: float = 3600.0
-    keep_work: bool = False
-    work_dir: str | None = None
-    threads: int = 1
-    contact: str = "surface-to-surface"
-    normal_stiffness: float | None = None
-    stick_slope: float | None = None
-    load_scale: float = 1.0
-
     @classmethod
     def from_solver(cls, solver: SolverOptions) -> "CalculixSettings":
-        """The settings among the [solver] options (config.py has checked them); the embedded backend's
+        """The CalculiX keys of the [solver] options (config.py has checked them); the embedded backend's
         ``factorisation``, ``increments``, ``sliding`` and ``max_memory`` are not CalculiX's (its contact follows
         the deformation)."""
-        return cls(**{f.name: getattr(solver, f.name) for f in fields(cls)})
+        return cls(**{f.name: getattr(solver, f.name) for f in fields(CalculixOptions)})
 
     def contact_settings(self, model: Model) -> ContactSettings:
         """Penalty slopes for a model: the given ones or ``min(PENALTY_FACTOR * E_min / h, PENALTY_CAP)``."""
