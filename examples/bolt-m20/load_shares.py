@@ -1,4 +1,4 @@
-"""How the thread load shares of the M20 model depend on what the nut bears on (issue 4's load-share check).
+"""How the thread load shares of the M20 model depend on what the nut bears on (the load-share check of the thread model).
 
 docs/models.md's set-up pulls plate 1 at its outer rim (r = 40) while the nut bears on it next to the hole; the classic
 25-35 % first-thread share (Sopwith, lam P about 0.3-0.45) assumes a nut on a stiff, radially holding bearing.

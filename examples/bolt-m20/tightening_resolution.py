@@ -1,4 +1,4 @@
-"""Which friction zones a tensile test and a tightening test of the M20 bolt resolve (issue 17, first look).
+"""Which friction zones a tensile test and a tightening test of the M20 bolt resolve.
 
 Linearised standard errors sqrt(diag((J^T W J)^-1)) from the analytic sensitivities at the coefficients below, for
 the partitions "six thread zones" (A-F, head and nut bearing known) and "thread + nut bearing" (A-F merged: summed

@@ -1,10 +1,10 @@
-"""Identify the block's four zone coefficients with both backends and compare (issue 5).
+"""Identify the block's four zone coefficients with both backends and compare.
 
 Strains at the 16 points of benchmarks/identify_block.py (block side faces near the contact), stage 2, goal
 coefficients random in [0.1, 0.5] (fixed seed), trf from 0.1 everywhere:
 (a) embedded data, embedded backend, analytic sensitivities;
-(b) embedded data, calculix backend, forward differences with 2 workers (backend agreement: issue 5 asks
-    for (a) and (b) within 0.01; the two backends discretise contact differently, node-to-node Lagrange vs
+(b) embedded data, calculix backend, forward differences with 2 workers (backend agreement: the aim is
+    (a) and (b) within 0.01; the two backends discretise contact differently, node-to-node Lagrange vs
     surface-to-surface penalty, so (b) fits the data with a slightly different model);
 (c) calculix data, calculix backend, forward differences (the twin: does the ccx pipeline recover its own
     coefficients through finite differences?).
@@ -16,7 +16,7 @@ OPTIONS are block builder options as TOML, e.g. "mesh_size = 2.5" (default; a fe
 rear-zone loads are near the converged ones; ccx needs about a minute and a half per solve there), or
 "mesh_size = 1.6666666666666667, pull_levels = [0.04]" with --stages 2 3: strains also at a 0.04 mm pull, where
 the lightly loaded rear zones A and B already slide under about 200 N and the backends' strains agree within
-0.14 % RMS of range (the block twin of issue 3 uses the same second pull level).
+0.14 % RMS of range (the block twin of examples/block uses the same second pull level).
 """
 
 import argparse
@@ -102,7 +102,7 @@ def main(model: str = "mesh_size = 2.5", stages: tuple[int, ...] = (2,), workers
               f"{result['n_forward_solves'] + result['n_sensitivity_solves']} | {wall:.1f} |")
     a, b, *c = values.values()
     print(f"backend agreement max |(b) - (a)| = {np.abs(b - a).max():.4f} per zone "
-          f"{np.round(np.abs(b - a), 4).tolist()} (issue 5 asks < 0.01)")
+          f"{np.round(np.abs(b - a), 4).tolist()} (aim: < 0.01)")
     if c:
         print(f"ccx twin max |(c) - goal| = {np.abs(c[0] - mu_true).max():.4f}")
 

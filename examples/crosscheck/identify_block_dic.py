@@ -1,6 +1,6 @@
-"""Identify the block's four zones with both backends from the block twin's observation set (issue 5).
+"""Identify the block's four zones with both backends from the block twin's observation set.
 
-The observation set of examples/block (issue 3): DIC displacements on the block's side faces and the plate top,
+The observation set of examples/block: DIC displacements on the block's side faces and the plate top,
 the machine force, at the pull levels 0.04 and 0.2 mm, noise 0.5 um / 1 N. The data are made by the embedded
 backend on the identification mesh itself, with the paper's random goal coefficients and no noise added, so the
 embedded fit recovers the goal and the calculix fit (forward differences, 2 workers) shows how far the backends'
