@@ -315,6 +315,17 @@ class TestTRFStepLeft:
         assert f"Gauss-Newton step left (iteration {result.n_iterations}" in result.message
         assert result.objective < stopped.objective
 
+    def test_final_step_not_tried_where_no_solve_could_show_its_gain(self):
+        # a start 1e-7 standard errors from the minimum: the step left would lower chi^2 by about 1e-16 of it
+        rng = np.random.default_rng(7)
+        a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
+        x_star = np.linalg.lstsq(a, b, rcond=None)[0]
+        calls = []
+        prob = problem(lambda x: calls.append(1) or a @ x - b, lambda x: a, x_star + 1e-8, -10.0, 10.0)
+        result = optimise(prob, "trf")
+        assert "would lower chi^2 by less than 1e-09 of it: not taken" in result.message
+        assert result.n_iterations == 0 and len(calls) == 1
+
     def test_final_step_neither_beyond_max_iterations_nor_with_a_robust_loss(self):
         rng = np.random.default_rng(7)
         a, b = rng.normal(size=(8, 3)), rng.normal(size=8)

@@ -216,6 +216,11 @@ def _gauss_newton(run: Iterates, max_iterations: int, options: dict, method: str
     return ("converged" if fit.status > 0 else "failed"), fit.message
 
 
+#: the final step is not tried where it would lower chi^2 by at most this fraction (the forward solves' own
+#: accuracy: a solve could not show the gain)
+FINAL_STEP_GAIN = 1e-9
+
+
 def _final_step(run: Iterates) -> str:
     """Take the Gauss-Newton step left at the se_step stop (clipped to the bounds) as one more iterate where it
     lowers the objective; what happened, for the run's message.
@@ -228,9 +233,12 @@ def _final_step(run: Iterates) -> str:
     problem = run.problem
     if problem.loss != "linear":
         return ""
-    x = run.x
+    x, r, jac = run.x, run.residuals(run.x), run.jacobian(run.x)
     lower, upper = np.asarray(problem.lower, dtype=float), np.asarray(problem.upper, dtype=float)
-    trial = np.clip(x + gauss_newton_step(run.residuals(x), run.jacobian(x), x, lower, upper), lower, upper)
+    step = gauss_newton_step(r, jac, x, lower, upper)
+    if not np.sum((jac @ step) ** 2) > FINAL_STEP_GAIN * (r @ r):
+        return f"; the Gauss-Newton step left would lower chi^2 by less than {FINAL_STEP_GAIN:g} of it: not taken"
+    trial = np.clip(x + step, lower, upper)
     before = run.objective(x)
     try:
         after = run.objective(trial)
@@ -240,7 +248,8 @@ def _final_step(run: Iterates) -> str:
     if not after < before:
         return f"; the final Gauss-Newton step did not lower the objective ({after:.8g}): not taken"
     iteration = run.accept(trial)
-    return f"; then the Gauss-Newton step left (iteration {iteration}, one solve): objective {before:.8g} -> {after:.8g}"
+    return (f"; then the Gauss-Newton step left (iteration {iteration}, one solve): objective {before:.8g} -> "
+            f"{after:.8g}")
 
 
 def _lbfgsb(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
