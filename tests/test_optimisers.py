@@ -226,7 +226,7 @@ class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
     def test_resolved_options_are_reported(self):
         result = self.run(linear()[0], tol=1e-9, max_iterations=20)
         assert result.options == {"ftol": 1e-9, "xtol": 1e-9, "gtol": 1e-9, "max_nfev": 105, "x_scale": "jac",
-                                  "tr_solver": "exact", "se_step": 0.0}
+                                  "tr_solver": "exact", "se_step": 0.0, "final_step": True}
         assert optimise(linear()[0], "trf").options["se_step"] == 0.1
 
     def test_no_jacobian_at_the_iterate_where_max_iterations_stops(self):
@@ -294,11 +294,49 @@ class TestTRFStepLeft:
         rng = np.random.default_rng(7)
         a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
         x_star = np.linalg.lstsq(a, b, rcond=None)[0]
-        result = optimise(problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), -10.0, 10.0), "trf")
+        result = optimise(problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), -10.0, 10.0), "trf",
+                          options={"final_step": False})
         assert result.status == "converged" and "step left" in result.message
         # for a linear problem the step left is exactly the distance to the minimum
         assert standard_errors_away(a, b, result.x, x_star) < 0.1
         assert standard_errors_away(a, b, result.history_x[-2], x_star) >= 0.1
+
+    def test_final_step_takes_the_step_left_as_one_more_iterate(self):
+        rng = np.random.default_rng(7)
+        a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
+        x_star = np.linalg.lstsq(a, b, rcond=None)[0]
+        prob = problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), -10.0, 10.0)
+        stopped = optimise(prob, "trf", options={"final_step": False})
+        result = optimise(prob, "trf")
+        assert result.n_iterations == stopped.n_iterations + 1
+        np.testing.assert_array_equal(result.history_x[:-1], stopped.history_x)
+        # the Gauss-Newton step of a linear problem ends at its minimum
+        np.testing.assert_allclose(result.x, x_star, rtol=0, atol=1e-12)
+        assert f"Gauss-Newton step left (iteration {result.n_iterations}" in result.message
+        assert result.objective < stopped.objective
+
+    def test_final_step_not_tried_where_no_solve_could_show_its_gain(self):
+        # a start 1e-7 standard errors from the minimum: the step left would lower chi^2 by about 1e-16 of it
+        rng = np.random.default_rng(7)
+        a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
+        x_star = np.linalg.lstsq(a, b, rcond=None)[0]
+        calls = []
+        prob = problem(lambda x: calls.append(1) or a @ x - b, lambda x: a, x_star + 1e-8, -10.0, 10.0)
+        result = optimise(prob, "trf")
+        assert "would lower chi^2 by less than 1e-09 of it: not taken" in result.message
+        assert result.n_iterations == 0 and len(calls) == 1
+
+    def test_final_step_neither_beyond_max_iterations_nor_with_a_robust_loss(self):
+        rng = np.random.default_rng(7)
+        a, b = rng.normal(size=(8, 3)), rng.normal(size=8)
+        prob = problem(lambda x: a @ x - b, lambda x: a, np.zeros(3), -10.0, 10.0)
+        stopped = optimise(prob, "trf", options={"final_step": False})
+        at_limit = optimise(prob, "trf", max_iterations=stopped.n_iterations + 1)
+        assert at_limit.n_iterations == stopped.n_iterations + 1 and at_limit.status == "converged"
+        limited = optimise(prob, "trf", max_iterations=stopped.n_iterations)
+        assert limited.n_iterations == stopped.n_iterations and "Gauss-Newton step left" not in limited.message
+        robust = optimise(dataclasses.replace(prob, loss="soft_l1"), "trf")
+        assert "step left" in robust.message and "Gauss-Newton step left (iteration" not in robust.message
 
     @pytest.mark.parametrize("misfit, s2", [(0.1, "residual"), (10.0, "stated")])
     def test_with_stated_noise_the_smaller_of_stated_and_residual_errors_counts(self, misfit, s2):

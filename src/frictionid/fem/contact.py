@@ -126,7 +126,7 @@ def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r, free_T=None) -> Linear
     tau = lam_T - r * ds
     if free_T is not None:
         tau = np.einsum("nij,nj->ni", free_T, tau)
-    norm = np.linalg.norm(tau, axis=1)
+    norm = np.sqrt(np.add.reduce(tau * tau, axis=1))                  # np.linalg.norm's sums, without its checks
     bound = mu * lam_hat
     stick = closed & (norm < bound)
     slip = closed & ~stick
@@ -136,7 +136,7 @@ def linearise(x, inc: Increment, Wfull, Wa_T, gap, mu, r, free_T=None) -> Linear
     kappa = np.where(positive & slip, bound / safe, 0.0)
 
     eye_T = np.eye(dim - 1)
-    E = np.broadcast_to(eye_T, (n_pairs, dim - 1, dim - 1)) if free_T is None else free_T
+    E = eye_T if free_T is None else free_T                              # (dim - 1)^2 broadcast over the pairs
     F = np.empty((n_pairs, dim))
     F[:, 0] = np.where(closed, r * g, lam[:, 0])
     F_stick = r * ds

@@ -12,16 +12,6 @@ if TYPE_CHECKING:
     from .updated_jacobian import StuckInverse
 
 
-def as_slice(index: np.ndarray) -> slice | np.ndarray:
-    """``index`` (sorted, distinct) as a slice where it is evenly spaced, else itself."""
-    if len(index) < 2:
-        return slice(int(index[0]), int(index[0]) + 1) if len(index) else index
-    step = int(index[1] - index[0])
-    if np.all(np.diff(index) == step):
-        return slice(int(index[0]), int(index[-1]) + 1, step)
-    return index
-
-
 def gather(A: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """A[rows][:, columns] of a Fortran-ordered A, gathered from its (C-ordered) transpose, the smaller index set
     first (a few columns of an update's X, a few rows of its C[D]): numpy's take along either axis of a
@@ -51,20 +41,15 @@ class ReplacedRows:
         self._block: np.ndarray | None = None
 
     @cached_property
-    def pairs(self) -> tuple[np.ndarray, list]:
-        """(A's rows of each pair of K once, the rows of each pair component in K as a slice where they are
-        evenly spaced with the pairs' blocks they read: None where they read every block in order); what a
-        product with columns of A needs, made when first asked for (most row sets multiply vectors only)."""
+    def pairs(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """(A's rows of each pair of K once, the position of each row of K among those rows: None where K holds
+        them all); what a product with columns of A needs, made when first asked for (most row sets multiply
+        vectors only)."""
         dim, pair = self.dim, self.K // self.dim
         first = np.r_[True, pair[1:] != pair[:-1]]
         pair_rows = (pair[first][:, None] * dim + np.arange(dim)).ravel()
-        of_pair = np.cumsum(first) - 1                                           # (k,) row -> its pair's block
-        components = []
-        component = self.K % dim
-        for c in np.unique(component):                     # each component's rows meet distinct pairs
-            rows = np.flatnonzero(component == c)
-            components.append((as_slice(rows), None if len(rows) == len(pair_rows) // dim else of_pair[rows]))
-        return pair_rows, components
+        position = (np.cumsum(first) - 1) * dim + self.K % dim                   # (k,) row -> its pair row
+        return pair_rows, None if len(position) == len(pair_rows) else position
 
     def _adds(self, columns):
         """(rows, components, columns) where the rows' Q / r terms fall in R A[:, columns]."""
@@ -89,7 +74,7 @@ class ReplacedRows:
     def capacitance(self, P_K, Q_K, columns=None) -> np.ndarray:
         """R A[:, columns] (k, len(columns)); columns None: C = R A[:, K] (its block of A kept)."""
         s, dim = self.stuck, P_K.shape[1]
-        pair_rows, components = self.pairs
+        pair_rows, position = self.pairs
         if columns is None:
             if self._add_K is None:
                 self._add_K = self._adds(self.K)
@@ -100,13 +85,16 @@ class ReplacedRows:
         else:
             adds = self._adds(columns)
             gathered = gather(s.A, pair_rows, columns).reshape(-1, dim, len(columns))
-        out = np.empty((len(self.K), len(columns)))
-        for rows, of_pair in components:
-            block = gathered if of_pair is None else gathered[of_pair]
-            if isinstance(rows, slice):
-                np.einsum("ac,ack->ak", P_K[rows], block, out=out[rows])
-            else:
-                out[rows] = np.einsum("ac,ack->ak", P_K[rows], block)
+        # each pair's rows at once, (pairs, dim, dim) @ (pairs, dim, columns), the rows outside K zero and dropped
+        # afterwards: one batched product instead of a product per component over gathered blocks
+        if position is None:
+            P_pairs = P_K
+        else:
+            P_pairs = np.zeros((len(pair_rows), dim))
+            P_pairs[position] = P_K
+        out = np.matmul(P_pairs.reshape(-1, dim, dim), gathered).reshape(len(pair_rows), -1)
+        if position is not None:
+            out = out.take(position, axis=0)
         a, c, column = adds
         out[a, column] += Q_K[a, c] / s.r
         if len(self.held):

@@ -111,6 +111,22 @@ class StuckInverse:
         return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
 
 
+#: a product of a dense matrix with at most this many columns is made column by column (BLAS's matrix-vector
+#: product): OpenBLAS's matrix-matrix product packs the whole matrix first, which made six columns of the clamp's
+#: 655 x 655 inverse cost 7 to 12 matrix-vector products (one thread)
+FEW_COLUMNS = 8
+
+
+def times(M: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """M X for a dense M and X (n,) or (n, n_rhs), column by column where X has at most :data:`FEW_COLUMNS`."""
+    if X.ndim == 1 or X.shape[1] > FEW_COLUMNS:
+        return M @ X
+    out = np.empty((M.shape[0], X.shape[1]))
+    for j in range(X.shape[1]):
+        out[:, j] = M @ X[:, j]
+    return out
+
+
 def _identity_rows(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """(n_pairs, dim) the pair rows of J that are identity rows (open pairs: F = lam)."""
     return np.all(P == np.eye(P.shape[1]), axis=2) & np.all(Q == 0.0, axis=2)
@@ -204,7 +220,7 @@ class UpdatedSolver:
         """Wfull x, kept for the last x (the residual check of a sensitivity solve makes W S, which the next
         increment's right-hand sides need)."""
         if x is not self._last_times[0]:
-            self._last_times = (x, self.Wfull @ x)
+            self._last_times = (x, times(self.Wfull, x))
         return self._last_times[1]
 
     def _norm(self, P, Q) -> float:
@@ -213,7 +229,7 @@ class UpdatedSolver:
     def _corrected(self, P, Q, b, identity) -> np.ndarray:
         factorised = self._factorised(P, Q, identity)          # may switch to another inverse
         A = self.stuck.A
-        y = A @ b
+        y = times(A, b)
         if factorised is None:
             return y
         if factorised.singular:
@@ -222,7 +238,7 @@ class UpdatedSolver:
         Ry = self._rows_times(K, factorised.P_K, factorised.Q_K, y, b)
         z = b.copy()
         z[K] -= factorised.solve(Ry - b[K])
-        x = A @ z                                               # y - A[:, K] u without gathering A's columns
+        x = times(A, z)                                         # y - A[:, K] u without gathering A's columns
         # identity rows of J (open pairs: F = lam) solved exactly, as a fresh LU factorisation solves them: an
         # open pair's force is exactly zero after a Newton step, not round-off of either sign
         rows = np.flatnonzero(identity.ravel())

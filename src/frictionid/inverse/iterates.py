@@ -47,6 +47,11 @@ class Iterates:
         """Accepted iterations so far (the start is iteration 0)."""
         return len(self._x) - 1
 
+    @property
+    def x(self) -> np.ndarray:
+        """The last accepted iterate (a copy)."""
+        return self._x[-1].copy()
+
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """r(x) (n_res,), evaluated once per distinct x among the last few."""
         r, evaluated = _memoised(self._residuals, x, self.problem.residuals)

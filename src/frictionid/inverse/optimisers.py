@@ -35,15 +35,19 @@ TRF_OPTIONS = {
     "tr_solver": Option("str", lambda n, tol, n_free: "exact", lambda v: v in ("exact", "lsmr"),
                         '("exact" or "lsmr")'),
     "se_step": Option("float", lambda n, tol, n_free: 0.1, lambda v: v >= 0, ">= 0"),
+    "final_step": Option("bool", lambda n, tol, n_free: True),
 }
 """Options of "trf" (scipy.optimize.least_squares): ftol, xtol, gtol (default tol), max_nfev (residual
 evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale ("jac":
 scipy's column norms of the Jacobian, updated each iteration; "se": the standard errors the start's Jacobian
 predicts, sqrt(diag((J^T J)^-1)), held; or a number), tr_solver ("exact" or "lsmr", scipy's), and se_step
 (default 0.1; 0 turns it off): stop at an accepted iterate once the Gauss-Newton step still to go is shorter
-than se_step standard errors (see ``remaining_step``)."""
+than se_step standard errors (see ``remaining_step``), and final_step (default true): at that stop, take the
+Gauss-Newton step left as one more iterate where it lowers the objective (least squares only; one more solve,
+without the optimiser's trust region: see ``_final_step``)."""
 
-LM_OPTIONS = {key: TRF_OPTIONS[key] for key in ("ftol", "xtol", "gtol", "max_nfev", "x_scale", "se_step")}
+LM_OPTIONS = {key: TRF_OPTIONS[key] for key in ("ftol", "xtol", "gtol", "max_nfev", "x_scale", "se_step",
+                                                "final_step")}
 """Options of "lm" (Levenberg-Marquardt, MINPACK through scipy.optimize.least_squares): those of "trf" but
 tr_solver. It does not know bounds: a run that ends outside them is reported "failed"."""
 
@@ -108,16 +112,27 @@ def remaining_step(r: np.ndarray, jac: np.ndarray, x, lower, upper, noise_known:
     s2 = chi2 / (n_res - n_free)
     if noise_known:
         s2 = min(s2, 1.0)
+    decrease = float(np.sum((jac @ gauss_newton_step(r, jac, x, lower, upper)) ** 2))
+    return float(np.sqrt(decrease / s2))
+
+
+def gauss_newton_step(r: np.ndarray, jac: np.ndarray, x, lower, upper) -> np.ndarray:
+    """(n_free,) the full Gauss-Newton step -J^+ r over the parameters not held at a bound (at a bound with the
+    gradient J^T r pushing outwards), 0 for the held ones.
+
+    >>> gauss_newton_step(np.array([1.0, 0.0]), np.array([[1.0], [1.0]]), [0.3], [0.0], [1.0])
+    array([-0.5])
+    """
+    r, jac, x = np.asarray(r, dtype=float), np.asarray(jac, dtype=float), np.asarray(x, dtype=float)
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     gradient = jac.T @ r
-    bound = at_bounds(x, np.asarray(lower, dtype=float), np.asarray(upper, dtype=float))
+    bound = at_bounds(x, lower, upper)
     lower_side = np.abs(x - lower) <= np.abs(x - upper)
     held = bound & np.where(lower_side, gradient > 0, gradient < 0)
-    free = jac[:, ~held]
-    if free.size == 0:
-        return 0.0
-    step = np.linalg.lstsq(free, r, rcond=None)[0]
-    decrease = float(np.sum((free @ step) ** 2))
-    return float(np.sqrt(decrease / s2))
+    step = np.zeros(jac.shape[1])
+    if (~held).any():
+        step[~held] = -np.linalg.lstsq(jac[:, ~held], r, rcond=None)[0]
+    return step
 
 
 def _trf(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
@@ -192,10 +207,49 @@ def _gauss_newton(run: Iterates, max_iterations: int, options: dict, method: str
     except _IterationLimit:
         return "max_iterations", f"stopped after max_iterations = {max_iterations} iterations"
     except _StepLeftSmall as stop:
-        return "converged", str(stop)
+        message = str(stop)
+        if options["final_step"] and run.n_iterations < max_iterations:
+            message += _final_step(run)
+        return "converged", message
     if fit.status == 0:
         return "max_iterations", f"{fit.message} (max_nfev = {options['max_nfev']})"
     return ("converged" if fit.status > 0 else "failed"), fit.message
+
+
+#: the final step is not tried where it would lower chi^2 by at most this fraction (the forward solves' own
+#: accuracy: a solve could not show the gain)
+FINAL_STEP_GAIN = 1e-9
+
+
+def _final_step(run: Iterates) -> str:
+    """Take the Gauss-Newton step left at the se_step stop (clipped to the bounds) as one more iterate where it
+    lowers the objective; what happened, for the run's message.
+
+    At a stop with less than se_step standard errors to go the optimiser's next iteration would be about this step
+    (its trust region no longer binds there), at the cost of one evaluation of the residuals instead of the
+    optimiser's trial steps; with analytic sensitivities that solve also gives the Jacobian there, from which the
+    fit's statistics are computed (the returned point's own, as at any other stop). Least squares only: a robust
+    loss is not the objective this compares."""
+    problem = run.problem
+    if problem.loss != "linear":
+        return ""
+    x, r, jac = run.x, run.residuals(run.x), run.jacobian(run.x)
+    lower, upper = np.asarray(problem.lower, dtype=float), np.asarray(problem.upper, dtype=float)
+    step = gauss_newton_step(r, jac, x, lower, upper)
+    if not np.sum((jac @ step) ** 2) > FINAL_STEP_GAIN * (r @ r):
+        return f"; the Gauss-Newton step left would lower chi^2 by less than {FINAL_STEP_GAIN:g} of it: not taken"
+    trial = np.clip(x + step, lower, upper)
+    before = run.objective(x)
+    try:
+        after = run.objective(trial)
+    except SolverError as error:
+        log.info("final Gauss-Newton step not taken: the solve failed (%s)", error)
+        return "; the final Gauss-Newton step's solve failed: not taken"
+    if not after < before:
+        return f"; the final Gauss-Newton step did not lower the objective ({after:.8g}): not taken"
+    iteration = run.accept(trial)
+    return (f"; then the Gauss-Newton step left (iteration {iteration}, one solve): objective {before:.8g} -> "
+            f"{after:.8g}")
 
 
 def _lbfgsb(run: Iterates, max_iterations: int, tol: float, options: dict) -> tuple[str, str]:
