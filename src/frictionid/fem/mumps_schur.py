@@ -18,8 +18,10 @@ MUMPS writes into the structure, is checked at every initialisation.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import importlib.util
 import logging
+import time
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -32,6 +34,8 @@ from scipy.sparse.csgraph import connected_components
 log = logging.getLogger(__name__)
 
 VERSION = "5.2.1"
+#: the ordering BodySchur asks for by default ("auto": MUMPS picks; METIS on every 3-D model measured)
+ORDERING = "auto"
 #: MUMPS's orderings of the interior (ICNTL(7)); "auto" lets MUMPS choose
 ORDERINGS = {"amd": 0, "amf": 2, "scotch": 3, "pord": 4, "metis": 5, "qamd": 6, "auto": 7}
 
@@ -123,6 +127,8 @@ class Statistics:
     used_mb: int            # INFOG(22): memory the factorisation used
     flops: float            # RINFOG(3): flops of the elimination
     schur_size: int
+    seconds: float = 0.0    # wall time of MUMPS's analysis and factorisation and the dense Cholesky of S
+    cpu_seconds: float = 0.0   # the same, CPU time of all the process's threads
 
 
 def _entries(value: int) -> int:
@@ -178,6 +184,12 @@ class SchurFactor:
             raise MumpsError(f"MUMPS stopped with INFOG(1) = {info[0]}, INFOG(2) = {info[1]} (job {job})")
 
     def _factor(self):
+        start, cpu = time.perf_counter(), time.process_time()
+        L, stats = self._factor_timed()
+        return L, dataclasses.replace(stats, seconds=time.perf_counter() - start,
+                                      cpu_seconds=time.process_time() - cpu)
+
+    def _factor_timed(self):
         m = len(self.schur_dofs)
         if m == self.n and m:                                  # no interior (MUMPS asks SIZE_SCHUR < N)
             K = sp.coo_matrix((self._data, (self._rows - 1, self._cols - 1)), shape=(self.n,) * 2).toarray()
@@ -275,7 +287,7 @@ class BodySchur:
     blocks : per body, the indices into ``last`` of its Schur dofs (in the order of ``last``)
     """
 
-    def __init__(self, K: sp.spmatrix, last: np.ndarray, ordering: str = "auto"):
+    def __init__(self, K: sp.spmatrix, last: np.ndarray, ordering: str | None = None):
         K = sp.csr_matrix(K)
         self.n = K.shape[0]
         self.last = np.asarray(last, dtype=int)
@@ -289,7 +301,7 @@ class BodySchur:
             local = local[np.argsort(position[dofs[local]])]
             self.dofs.append(dofs)
             self.blocks.append(position[dofs[local]])
-            self.factors.append(SchurFactor(K[dofs][:, dofs], local, ordering))
+            self.factors.append(SchurFactor(K[dofs][:, dofs], local, ordering or ORDERING))
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """K^-1 b for b (n,) or (n, k)."""
