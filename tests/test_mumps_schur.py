@@ -53,6 +53,9 @@ def test_bodies_are_factorised_apart():
     b = np.random.default_rng(4).normal(size=K.shape[0])
     expected = np.linalg.solve(K.toarray(), b)
     np.testing.assert_allclose(bodies.solve(b), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    bodies.free()                                            # the factors made again at the next solve
+    assert all(f.schur_cholesky is None for f in bodies.factors)
+    np.testing.assert_allclose(bodies.solve(b), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
 def test_a_body_without_interior():

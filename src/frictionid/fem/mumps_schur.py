@@ -169,12 +169,15 @@ class SchurFactor:
         except Exception:          # noqa: BLE001 - at interpreter exit the library may be gone already
             pass
 
-    def free(self) -> None:
-        """Release MUMPS's memory (the factor); a later solve factorises again."""
+    def free(self, schur: bool = False) -> None:
+        """Release MUMPS's memory (the factor) and with ``schur`` the Schur complement's factor; a later solve
+        factorises again."""
         if getattr(self, "_struc", None) is not None:
             self._struc.job = -2
             _library().dmumps_c(ctypes.byref(self._struc))
             self._struc = None
+        if schur:
+            self.schur_cholesky = None
 
     def _call(self, job: int) -> None:
         self._struc.job = job
@@ -243,13 +246,12 @@ class SchurFactor:
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """K^-1 b for b (n,) or (n, k)."""
-        if self._struc is None and self.schur_cholesky is None:
-            self.schur_cholesky, self.stats = self._factor()
         if len(self.schur_dofs) == self.n:
             x = np.zeros((self.n, np.reshape(b, (self.n, -1)).shape[1]))
-            x[self.schur_dofs] = la.cho_solve((self.schur_cholesky, True), np.reshape(b, (self.n, -1))[self.schur_dofs])
+            x[self.schur_dofs] = la.cho_solve((self.schur_factor(), True), np.reshape(b, (self.n, -1))[self.schur_dofs])
             return x.reshape(b.shape)
-        if self._struc is None:
+        if self._struc is None or self.schur_cholesky is None:
+            self.free()
             self.schur_cholesky, self.stats = self._factor()
         rhs = np.asfortranarray(np.reshape(b, (self.n, -1)), dtype=float).copy(order="F")
         s, m, k = self._struc, len(self.schur_dofs), rhs.shape[1]
@@ -309,6 +311,11 @@ class BodySchur:
         for dofs, factor in zip(self.dofs, self.factors):
             out[dofs] = factor.solve(b[dofs])
         return out
+
+    def free(self) -> None:
+        """Release every body's factors (MUMPS's and the Schur complement's); a later solve factorises again."""
+        for factor in self.factors:
+            factor.free(schur=True)
 
     @property
     def stats(self) -> list[Statistics]:
