@@ -312,10 +312,11 @@ class BodySchur:
             out[dofs] = factor.solve(b[dofs])
         return out
 
-    def free(self) -> None:
-        """Release every body's factors (MUMPS's and the Schur complement's); a later solve factorises again."""
+    def free(self, schur: bool = True) -> None:
+        """Release every body's MUMPS factor and with ``schur`` its Schur complement's factor; a later solve
+        factorises again."""
         for factor in self.factors:
-            factor.free(schur=True)
+            factor.free(schur=schur)
 
     @property
     def stats(self) -> list[Statistics]:
