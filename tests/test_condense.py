@@ -144,6 +144,13 @@ def test_auto_takes_cholmod_and_superlu_where_kvxopt_is_missing(monkeypatch):
         condense_module.factorisation_name("cholmod")
 
 
+def test_mumps_without_the_wheel_is_named(monkeypatch):
+    monkeypatch.setattr(mumps_schur, "available", lambda: False)
+    with pytest.raises(InputError, match=r"`factorisation` 'mumps' needs the python-mumps wheel"):
+        condense_module.factorisation_name("mumps")
+    assert condense_module.factorisation_name("auto") == "cholmod"          # "auto" never takes MUMPS
+
+
 def test_an_unknown_factorisation_is_named():
     with pytest.raises(InputError, match=r"`factorisation` must be one of 'auto', 'cholmod', 'superlu', 'cholmod_solves', "
                                          r"'mumps', got 'lu'"):
