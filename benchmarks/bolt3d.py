@@ -8,6 +8,9 @@ e.g. '{"model": "3d", "engaged_length": 5.0, "thread_length": 30.5, "n_axial": 2
 "contact_size": 2.5, "forces": [10000.0], "n_increments": 2}'. With a second argument the built model is pickled
 there, or read from there when it exists (the build takes minutes). Run it under /usr/bin/time -v for the peak.
 
+``--central A D`` then checks the sensitivities of the observations and reactions to those zones against central
+differences (step 1e-4) at the end of the load path.
+
 ``--orderings scotch pord metis amd`` instead condenses the model once per MUMPS ordering, each in a process of its
 own (its peak is its own; the inputs of the condensation are assembled once and handed over in a file), and prints
 the condensation's wall and CPU time and peak per ordering; no load path.
@@ -69,7 +72,22 @@ def body_lines(condensed) -> list[str]:
             for dofs, s in zip(bodies.dofs, bodies.stats)]
 
 
-def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
+def central_differences(problem, mu: np.ndarray, solution, zones: list[str], names, step: float = 1e-4):
+    """Print the largest difference between the analytic sensitivities at the last increment and central
+    differences, per zone, for the observations [mm] and the reactions [N]."""
+    for zone in zones:
+        z = list(names).index(zone)
+        e = np.zeros_like(mu)
+        e[z] = step
+        up, down = problem.solve(mu + e), problem.solve(mu - e)
+        for what, unit in (("observations", "mm"), ("reactions", "N")):
+            analytic = getattr(solution, f"d_{what}")[-1][:, z]
+            central = (getattr(up, what)[-1] - getattr(down, what)[-1]) / (2 * step)
+            print(f"  zone {zone}: d {what} / d mu: largest |analytic| {np.abs(analytic).max():.3e} {unit}, largest "
+                  f"|analytic - central| {np.abs(analytic - central).max():.3e} {unit}", flush=True)
+
+
+def main(options: dict, cache: str | None = None, factorisation: str = "auto", central: list[str] = ()):
     figures = {}
     options = {"model": "3d", **options}
     model = built(options, cache, figures)
@@ -89,11 +107,12 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
     forward = problem.solve(mu)
     figures["forward"], forward_cpu = time.perf_counter() - start, time.process_time() - cpu
     start, cpu = time.perf_counter(), time.process_time()
-    problem.solve(mu, sensitivities=True)
+    solution = problem.solve(mu, sensitivities=True)
     figures["sensitivities"], sensitivities_cpu = time.perf_counter() - start, time.process_time() - cpu
     print(f"  forward {figures['forward']:.1f} s ({forward_cpu:.1f} s CPU, {forward.n_newton.sum()} Newton "
           f"iterations), forward + sensitivities {figures['sensitivities']:.1f} s ({sensitivities_cpu:.1f} s CPU), "
           f"peak {peak_memory_mb():.0f} MB")
+    central_differences(problem, mu, solution, central, model.zone_names)
 
 
 def condense_once(inputs: str, ordering: str) -> dict:
@@ -147,6 +166,7 @@ if __name__ == "__main__":
     parser.add_argument("cache", nargs="?")
     parser.add_argument("--factorisation", default="auto")
     parser.add_argument("--orderings", nargs="+")
+    parser.add_argument("--central", nargs="+", default=[])
     parser.add_argument("--condense-once", nargs=2, help=argparse.SUPPRESS)
     arguments = parser.parse_args()
     if arguments.condense_once:
@@ -154,4 +174,4 @@ if __name__ == "__main__":
     elif arguments.orderings:
         orderings(json.loads(arguments.options), arguments.cache, arguments.orderings)
     else:
-        main(json.loads(arguments.options), arguments.cache, arguments.factorisation)
+        main(json.loads(arguments.options), arguments.cache, arguments.factorisation, arguments.central)
