@@ -1,4 +1,4 @@
-"""Condensation time and peak memory against dofs, SuperLU and CHOLMOD side by side (3-D block, builder defaults).
+"""Condensation time and peak memory against dofs, SuperLU, CHOLMOD and MUMPS side by side (3-D block, builder defaults).
 
 Each model size and factorisation runs in a process of its own, as a user runs it (no thread settings), so that
 its peak memory is its own. Printed per run: dofs, contact unknowns n_w, condensation time (the call of
@@ -7,8 +7,9 @@ other work shares the cores), the process's resident memory before condensing an
 condensing (sampled every 10 ms), and where both factorisations ran the largest difference of their operators
 (as tests/test_condense.py measures it).
 
-Run: .venv/bin/python benchmarks/condensation.py [--sizes 1.0 0.7 0.5 0.4 0.34] [--superlu-max-dofs 60000]
+Run: .venv/bin/python benchmarks/condensation.py [--sizes 1.0 0.7 0.5 0.4 0.34] [--superlu-max-dofs 60000] [--mumps]
 SuperLU is skipped above --superlu-max-dofs (default 60,000: it took 220 s at 89k dofs on an idle machine).
+--mumps adds factorisation = "mumps" (fem/mumps_schur.py) and its largest difference from CHOLMOD.
 """
 
 import argparse
@@ -109,6 +110,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=float, nargs="+", default=[1.0, 0.7, 0.5, 0.4, 0.34])
     parser.add_argument("--superlu-max-dofs", type=int, default=60000)
+    parser.add_argument("--mumps", action="store_true")
     parser.add_argument("--one", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
@@ -117,7 +119,8 @@ def main(argv=None):
     print("3-D block, builder defaults (graded, incompatible modes); condensation wall time and resident memory "
           f"({os.cpu_count()} cores, machine as it is, no thread settings)")
     print(f"{'mesh':>5} {'dofs':>8} {'n_w':>5} | {'SuperLU s':>9} {'cpu s':>7} {'peak MB':>8} | {'CHOLMOD s':>9} "
-          f"{'cpu s':>7} {'peak MB':>8} {'before MB':>9} | {'max rel diff':>12}")
+          f"{'cpu s':>7} {'peak MB':>8} {'before MB':>9} | {'max rel diff':>12}"
+          + (f" | {'MUMPS s':>9} {'cpu s':>7} {'peak MB':>8} {'diff CHOLMOD':>12}" if args.mumps else ""))
     with tempfile.TemporaryDirectory() as folder:
         for size in args.sizes:
             chol = run(size, "cholmod", f"{folder}/cholmod.pkl")
@@ -126,8 +129,14 @@ def main(argv=None):
                 lu = run(size, "superlu", f"{folder}/superlu.pkl")
                 lu_cells = f"{lu['seconds']:9.2f} {lu['cpu']:7.2f} {lu['peak_mb']:8.0f}"
                 diff = f"{difference(f'{folder}/superlu.pkl', f'{folder}/cholmod.pkl'):12.1e}"
+            mumps_cells = ""
+            if args.mumps:
+                mumps = run(size, "mumps", f"{folder}/mumps.pkl")
+                mumps_cells = (f" | {mumps['seconds']:9.2f} {mumps['cpu']:7.2f} {mumps['peak_mb']:8.0f} "
+                               f"{difference(f'{folder}/cholmod.pkl', f'{folder}/mumps.pkl'):12.1e}")
             print(f"{size:5.2f} {chol['dofs']:8d} {chol['n_w']:5d} | {lu_cells} | {chol['seconds']:9.2f} "
-                  f"{chol['cpu']:7.2f} {chol['peak_mb']:8.0f} {chol['before_mb']:9.0f} | {diff:>12}", flush=True)
+                  f"{chol['cpu']:7.2f} {chol['peak_mb']:8.0f} {chol['before_mb']:9.0f} | {diff:>12}{mumps_cells}",
+                  flush=True)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """[solver] factorisation: the condensation's factorisation chosen in the config reaches condense(), CHOLMOD and
-SuperLU give the same identification, and an unknown name exits 2 naming the key."""
+SuperLU and MUMPS give the same identification, and an unknown name exits 2 naming the key."""
 
 import json
 
@@ -44,19 +44,20 @@ def test_cholmod_and_superlu_give_the_same_fit(measured, monkeypatch):
 
     monkeypatch.setattr(problem_module, "condense", spy)
     results = {}
-    for name in ("cholmod", "superlu"):
+    for name in ("cholmod", "superlu", "mumps"):
         config = _config(measured, name, dict.fromkeys(TRUE, 0.2), "measured.csv",
                          f'[solver]\nfactorisation = "{name}"\n')
         used.clear()
         assert main(["identify", config]) == 0
         assert used[0] == name                  # the run's model was condensed with the factorisation it named
         results[name] = json.loads((measured / "runs" / name / "result.json").read_text())
-    cholmod, superlu = results["cholmod"], results["superlu"]
-    assert cholmod["status"] == superlu["status"] == "converged"
-    for zone, truth in TRUE.items():
-        assert cholmod["parameters"][zone]["value"] == pytest.approx(truth, abs=1e-6)
-        assert abs(cholmod["parameters"][zone]["value"] - superlu["parameters"][zone]["value"]) < 1e-9
-        assert abs(cholmod["parameters"][zone]["stderr"] - superlu["parameters"][zone]["stderr"]) < 1e-9
+    cholmod = results["cholmod"]
+    for other in (results["superlu"], results["mumps"]):
+        assert cholmod["status"] == other["status"] == "converged"
+        for zone, truth in TRUE.items():
+            assert cholmod["parameters"][zone]["value"] == pytest.approx(truth, abs=1e-6)
+            assert abs(cholmod["parameters"][zone]["value"] - other["parameters"][zone]["value"]) < 1e-9
+            assert abs(cholmod["parameters"][zone]["stderr"] - other["parameters"][zone]["stderr"]) < 1e-9
     assert cholmod["timings"]["solves"]["forward+sensitivities"]["n"] == cholmod["n_sensitivity_solves"]
 
 
@@ -66,4 +67,4 @@ def test_an_unknown_factorisation_exits_2_naming_the_key(measured, capsys):
     out = capsys.readouterr()
     text = out.out + out.err
     assert status == 2 and "Traceback" not in text
-    assert 'solver.factorisation must be "auto", "cholmod" or "superlu", got \'cholesky\'' in text
+    assert 'solver.factorisation must be "auto", "cholmod", "superlu" or "mumps", got \'cholesky\'' in text

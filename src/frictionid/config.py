@@ -74,7 +74,7 @@ TYPES = {
     "solver.normal_stiffness": ((int, float), "a number [N/mm^3]"),
     "solver.stick_slope": ((int, float), "a number [N/mm^3]"),
     "solver.load_scale": ((int, float), "a number > 0"),
-    "solver.factorisation": (str, '"auto", "cholmod" or "superlu"'),
+    "solver.factorisation": (str, '"auto", "cholmod", "superlu" or "mumps"'),
     "solver.increments": (str, '"fixed" or "adaptive"'),
     "solver.sliding": (str, '"small" or "finite"'),
     "solver.max_memory": ((int, float), "a memory size [GB] > 0"),
@@ -173,7 +173,7 @@ def _check_subtables(tables: dict, path: Path) -> None:
 
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
 CHOICES = {"solver.contact": ("surface-to-surface", "node-to-surface"),
-           "solver.factorisation": ("auto", "cholmod", "superlu"), "solver.increments": ("fixed", "adaptive"),
+           "solver.factorisation": ("auto", "cholmod", "superlu", "mumps"), "solver.increments": ("fixed", "adaptive"),
            "solver.sliding": ("small", "finite")}
 
 

@@ -29,7 +29,7 @@ def make_backend(model, points, quantities, regions=None, solver: SolverOptions 
     points : (n, dim) [mm]; quantities : observed quantities; regions : region of each point (or None)
     solver : the [solver] options (:class:`~frictionid.options.SolverOptions`; default: the embedded backend).
         "embedded" (the condensed solver of frictionid.fem, analytic sensitivities) reads ``factorisation``
-        ("auto", "cholmod", "superlu": how the condensation factorises the stiffness), ``increments`` ("fixed",
+        ("auto", "cholmod", "superlu", "mumps": how the condensation factorises the stiffness), ``increments`` ("fixed",
         "adaptive": :meth:`~frictionid.fem.problem.Problem.solve`) and ``sliding`` ("small", "finite": contact
         pairs fixed or re-coupled in the deformed configuration); "calculix" (a ccx run per solve) the settings
         of :class:`~frictionid.backends.calculix.backend.CalculixSettings`.

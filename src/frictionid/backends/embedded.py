@@ -125,7 +125,7 @@ class EmbeddedBackend:
     block test) appended as rows after the point rows; none by default. ``keep``: whether the condensation is
     kept for reuse by later backends of the same session (see :func:`_built`). ``window`` [mm]: the DIC strain
     window the model's strains are filtered with ([data] strain_window; :func:`frictionid.fem.points.point_operator`).
-    ``factorisation``: "auto", "cholmod" or "superlu", the condensation's factorisation ([solver] factorisation).
+    ``factorisation``: "auto", "cholmod", "superlu" or "mumps", the condensation's factorisation ([solver] factorisation).
     ``increments``: "fixed" or "adaptive", how each solve steps through the stages ([solver] increments).
     ``sliding``: "small" or "finite" ([solver] sliding, :meth:`Problem.build`).
     """

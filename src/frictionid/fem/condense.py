@@ -15,7 +15,10 @@ computed once per geometry, W and G as T K^g B_f^T with sparse rows T = [B_f; O_
 - "superlu" (the fallback): one sparse LU factorisation and n_w = d * n_pairs solves, in blocks of columns;
 - "cholmod_solves": CHOLMOD's factor in a fill-reducing order of all dofs and the n_w solves in blocks of columns.
   Ordering thousands of contact dofs last makes the factor of a 3-D model far larger: the short 3-D bolt (132k
-  tetra10 nodes, 1,703 contact pairs) went past 12 GB in the factorisation with them last.
+  tetra10 nodes, 1,703 contact pairs) went past 12 GB in the factorisation with them last;
+- "mumps": per body, MUMPS's multifrontal factorisation with the dofs T touches eliminated last but the interior
+  in MUMPS's own nested-dissection order, which returns the body's dense Schur complement (fem/mumps_schur.py);
+  T K^g B_f^T from its Cholesky factor as for "cholmod", the other solves by MUMPS's factor of the interior.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
 from ..progress import bar
-from . import cholesky
+from . import cholesky, mumps_schur
 from .assembly import LoadChannels
 from .threads import blas_threads_for
 
@@ -42,7 +45,7 @@ _BLOCK = 256  # right-hand sides per block solve
 #: ways to factorise K_ff; "auto" takes "cholmod" where kvxopt is installed, else "superlu"; "cholmod_solves"
 #: (Python API only) factorises in a fill-reducing order of all dofs and condenses by block solves: for models whose
 #: factor with the contact dofs ordered last does not fit in memory (the short 3-D bolt: module docstring)
-FACTORISATIONS = ("auto", "cholmod", "superlu", "cholmod_solves")
+FACTORISATIONS = ("auto", "cholmod", "superlu", "cholmod_solves", "mumps")
 
 
 def factorisation_name(name: str) -> str:
@@ -51,6 +54,10 @@ def factorisation_name(name: str) -> str:
         raise InputError(f"`factorisation` must be one of {', '.join(map(repr, FACTORISATIONS))}, got {name!r}")
     if name == "superlu" or (name == "auto" and not cholesky.available()):
         return "superlu"
+    if name == "mumps":
+        if not mumps_schur.available():
+            raise InputError("`factorisation` 'mumps' needs the python-mumps wheel (pip install python-mumps==0.0.2)")
+        return name
     if not cholesky.available():
         raise InputError(f"`factorisation` {name!r} needs the kvxopt package (pip install kvxopt)")
     return "cholmod" if name == "auto" else name
@@ -79,19 +86,26 @@ class GeneralisedInverse:
 
     With ``last`` (free dofs) and ``nodes`` (the node of each free dof) K_ff is factorised by CHOLMOD with
     ``last`` ordered last, so that :meth:`coupled` takes the Schur complement onto them from the factor; without
-    them by SuperLU. Pickled without its factor (SuperLU objects cannot be), which is computed again at the first
-    solve after unpickling."""
+    them by SuperLU; with ``last`` and ``solver = "mumps"`` by MUMPS, body by body, with ``last`` eliminated last
+    (:class:`~frictionid.fem.mumps_schur.BodySchur`). Pickled without its factor (SuperLU objects cannot be),
+    which is computed again at the first solve after unpickling."""
 
     def __init__(self, K_ff: sp.csr_matrix, modes: np.ndarray, ordering: str = "MMD_AT_PLUS_A",
-                 last: np.ndarray | None = None, nodes: np.ndarray | None = None):
+                 last: np.ndarray | None = None, nodes: np.ndarray | None = None, solver: str = "cholmod"):
         n = K_ff.shape[0]
         pinned = la.qr(modes.T, pivoting=True, mode="r")[1][:modes.shape[1]] if modes.size else np.zeros(0, int)
         self.keep = np.setdiff1d(np.arange(n), pinned)
         self.n = n
         self.matrix, self.ordering = K_ff[self.keep][:, self.keep].tocsc(), ordering
-        self.lu = self.cholesky = None
+        self.lu = self.cholesky = self.bodies = None
         if last is None:
             self.lu = self._factor()
+        elif solver == "mumps":
+            last = np.searchsorted(self.keep, np.intersect1d(last, self.keep))
+            try:
+                self.bodies = mumps_schur.BodySchur(self.matrix, last)
+            except mumps_schur.MumpsError as error:
+                raise InputError(f"{_SINGULAR} ({error})") from None
         else:
             last = np.searchsorted(self.keep, np.intersect1d(last, self.keep))
             try:
@@ -110,8 +124,8 @@ class GeneralisedInverse:
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         out = np.zeros((self.n,) + b.shape[1:])
-        if self.cholesky is not None:
-            out[self.keep] = self.cholesky.solve(b[self.keep])
+        if self.cholesky is not None or self.bodies is not None:
+            out[self.keep] = self._solve_kept(b[self.keep])
             return out
         if self.lu is None:
             self.lu = self._factor()
@@ -122,7 +136,8 @@ class GeneralisedInverse:
         """rows K^g rows[:n_w]^T (n_rows, n_w) for sparse rows (n_rows, n): from the Schur complement where the
         factor has the dofs the rows touch ordered last, else by solves in blocks of columns."""
         rows = rows[:, self.keep].tocsr()
-        if self.cholesky is not None and np.isin(rows.indices, self.cholesky.last).all():
+        schur = self.cholesky if self.bodies is None else self.bodies
+        if schur is not None and np.isin(rows.indices, schur.last).all():
             out = self._from_schur(rows, n_w)
             if out is not None:
                 return out
@@ -138,6 +153,8 @@ class GeneralisedInverse:
         return self._solve_kept(b.toarray())
 
     def _solve_kept(self, b: np.ndarray) -> np.ndarray:
+        if self.bodies is not None:
+            return self.bodies.solve(b)
         if self.cholesky is not None:
             return self.cholesky.solve(b)
         if self.lu is None:
@@ -146,21 +163,32 @@ class GeneralisedInverse:
 
     def _from_schur(self, rows: sp.csr_matrix, n_w: int) -> np.ndarray | None:
         """(L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T), summed over the bodies (the connected parts of K: L_ss has no
-        coupling between them, :meth:`~frictionid.fem.cholesky.Cholesky.trailing`), checked on one column against
-        a solve with the factor (None if it disagrees: the factor's order was not the one asked for)."""
-        last = self.cholesky.last
+        coupling between them, :meth:`~frictionid.fem.cholesky.Cholesky.trailing`; MUMPS's per body), checked on
+        one column against a solve with the factor (None if it disagrees: the factor's order was not the one asked
+        for)."""
+        schur = self.cholesky if self.bodies is None else self.bodies
+        last = schur.last
         if len(last) == 0:
             return np.zeros((rows.shape[0], n_w))
         probe = np.zeros(len(self.keep))
         probe[last[-1]] = 1.0
-        expected = self.cholesky.solve(probe)[last]
-        _, body = connected_components(self.matrix, directed=False)
-        blocks = [np.flatnonzero(body[last] == b) for b in np.unique(body[last])]
+        expected = schur.solve(probe)[last]
+        if self.bodies is None:
+            _, body = connected_components(self.matrix, directed=False)
+            blocks = [np.flatnonzero(body[last] == b) for b in np.unique(body[last])]
+            factors = self.cholesky.trailing(blocks)
+        else:
+            # MUMPS's factors of the interiors are not needed for the dense part: freed before it (the peak of the
+            # short 3-D bolt at 1.25 mm passed 11 GB with them held), made again at the next solve
+            self.bodies.free(schur=False)
+            pairs = [(b, f) for b, f in zip(self.bodies.blocks, self.bodies.factors) if len(b)]
+            blocks = [b for b, _ in pairs]
+            factors = (f.schur_factor() for _, f in pairs)
         T = rows[:, last].tocsc()
         out = np.zeros((rows.shape[0], n_w))
         got = np.zeros(len(last))
         with blas_threads_for(max(len(b) for b in blocks)):       # one thread for small blocks (fem/threads.py)
-            for block, L_bb in zip(blocks, self.cholesky.trailing(blocks)):
+            for block, L_bb in zip(blocks, factors):
                 Z = la.solve_triangular(L_bb, T[:, block].T.toarray(), lower=True, check_finite=False)
                 out += Z.T @ Z[:, :n_w]
                 del Z
@@ -170,7 +198,7 @@ class GeneralisedInverse:
                     got[block] = la.solve_triangular(L_bb, la.solve_triangular(L_bb, e, lower=True), lower=True,
                                                      trans="T")
         if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max()):
-            log.warning("CHOLMOD's factor is not in the requested order: condensing by solves instead")
+            log.warning("the factor's trailing block is not the Schur complement asked for: condensing by solves")
             return None
         return out
 
@@ -265,6 +293,8 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
         inverse = GeneralisedInverse(K_ff, R, last=np.unique(rows.indices), nodes=f // dim)
     elif name == "cholmod_solves":
         inverse = GeneralisedInverse(K_ff, R, last=np.zeros(0, int), nodes=f // dim)
+    elif name == "mumps":
+        inverse = GeneralisedInverse(K_ff, R, last=np.unique(rows.indices), solver="mumps")
     else:
         # SuperLU orderings measured here: 2-D 52k dofs COLAMD factors in 0.45 s vs 1.8 s (MMD), same solves;
         # 3-D 17k dofs MMD_AT_PLUS_A solves 363 right-hand sides in 2.1 s vs 13 s (COLAMD)
@@ -277,6 +307,10 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     Y, X_sums = solved[:, :b.shape[1]], solved[:, b.shape[1]:]
     n_w = B.shape[0]
     coupled = inverse.coupled(rows, n_w)
+    if inverse.bodies is not None:
+        # MUMPS's factors (5.5 GB on the short 3-D bolt at 1.25 mm) are not needed by the load path: made again if
+        # the displacement field is asked for, as CHOLMOD's factor is after `coupled`
+        inverse.bodies.free()
     W, G = coupled[:n_w], coupled[n_w:]
     W = 0.5 * (W + W.T)
     up = channels.displacements.T

@@ -206,7 +206,7 @@ class Problem:
         compress : bool
             Condense the dofs the observation rows touch instead of the rows when they are fewer (see
             :func:`compressed`; a full field); False: always the rows.
-        factorisation : "auto" | "cholmod" | "superlu" | "cholmod_solves"
+        factorisation : "auto" | "cholmod" | "superlu" | "cholmod_solves" | "mumps"
             How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
             [solver] factorisation).
         sliding : "small" | "finite"
