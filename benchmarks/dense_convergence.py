@@ -6,7 +6,8 @@ benchmarks/tilt_ccx.py (same points, same deck, ccx's small-sliding limit) and p
 noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared where the file has them.
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
-three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS),
+three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
+levels of tilt_ccx.py's graded family are named ``g<k>``, h ~ 1 / k),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
@@ -80,6 +81,17 @@ def differences(coarse, fine) -> dict:
     return row
 
 
+def is_level(name: str) -> bool:
+    """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
+    return name.isdigit() or (name[:1] == "g" and name[1:].isdigit())
+
+
+def size(name: str) -> float:
+    """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
+    graded family's k)."""
+    return 1.0 / (int(name[1:]) if name.startswith("g") else LEVELS[int(name)][0])
+
+
 def rms(v: np.ndarray) -> float:
     return float(np.sqrt(np.mean(v ** 2)))
 
@@ -111,15 +123,13 @@ def main(argv=None) -> int:
         data[name] = (labels, in_noise(values, force), slide(labels, values))
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
-    if not all(name.isdigit() for name, _ in named):
+    if not all(is_level(name) for name, _ in named):
         base = named[0][0]
         for name, _ in named[1:]:
             emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
         return 0
-    levels = sorted((int(name), folder) for name, folder in named)
-    data = {int(name): value for name, value in data.items()}
-    h = {level: 1.0 / LEVELS[level][0] for level, _ in levels}
-    order = [level for level, _ in levels]
+    h = {name: size(name) for name, _ in named}
+    order = sorted(h, key=lambda name: -h[name])
     for coarse, fine in zip(order, order[1:]):
         emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
     if len(order) >= 3:

@@ -61,8 +61,39 @@ def plate_lines(n: int) -> np.ndarray:
     return np.unique(np.round(np.concatenate([-right[::-1], inner, right]), 12))
 
 
-def meshes(level: int):
-    n, nbz, npz, hb, hp = LEVELS[level]
+def mesh_spec(text: str) -> tuple:
+    """A mesh given as ``n,block_layers,plate_layers,first_block_layer,first_plate_layer`` (LEVELS' fields)."""
+    n, nbz, npz, hb, hp = text.split(",")
+    return int(n), int(nbz), int(npz), float(hb), float(hp)
+
+
+def graded_lines(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(plate lines in x and y, plate z, block z) of graded family level ``k``: every line a fixed map of a uniform
+    grid whose number of intervals is proportional to k, so that the levels are uniform refinements in the mapped
+    coordinates. Footprint half sides ``1 - cos`` (k + 1 divisions in the plate; the block's are k); the plate
+    outside the footprint 5 + 15 t^2 (k + 2 elements per side); the plate's k + 1 layers and the block's 2k
+    graded towards the interface as 1 - cos(pi t / 2), so the footprint's edges are refined quadratically in
+    both directions of the section across them."""
+    t = lambda m: np.arange(m + 1) / m
+    outside = 5.0 + 15.0 * t(k + 2)[1:] ** 2
+    inner = footprint_lines(k + 1)
+    xy = np.unique(np.round(np.concatenate([-outside[::-1], inner, outside]), 12))
+    plate_z = -5.0 * (1.0 - np.cos(0.5 * np.pi * t(k + 1)))[::-1]
+    block_z = 10.0 * (1.0 - np.cos(0.5 * np.pi * t(2 * k)))
+    return xy, plate_z, block_z
+
+
+def meshes(level):
+    """(plate, block, median plate facet h) of a level number, of a spec tuple as LEVELS' values, or of graded
+    family level ``"g<k>"`` (:func:`graded_lines`)."""
+    if isinstance(level, str):
+        n = int(level[1:])
+        xy, plate_z, block_z = graded_lines(n)
+        plate = gen.Grid(xy, xy, plate_z, first_node=1, first_element=1)
+        block = gen.Grid(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
+                         first_element=len(plate.cells) + 1)
+        return plate, block, float(np.median(np.diff(footprint_lines(n + 1))))
+    n, nbz, npz, hb, hp = LEVELS[level] if isinstance(level, int) else level
     block_z = np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hb, nbz, 10.0))])
     plate_z = -np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hp, npz, 5.0))])[::-1]
     plate = gen.Grid(plate_lines(n + 1), plate_lines(n + 1), plate_z, first_node=1, first_element=1)
@@ -121,6 +152,9 @@ def main(argv=None) -> int:
     parser.add_argument("--scale", type=float, default=1.0, help="load scale (0.01: small-sliding limit)")
     parser.add_argument("--penalty", type=float, help="normal penalty [N/mm^3] (default 500 E_plate / h)")
     parser.add_argument("--stick", type=float, help="stick slope [N/mm^3] (default 50 E_plate / h)")
+    parser.add_argument("--mesh", type=mesh_spec, help="a mesh instead of --level's: 'n,block layers,plate "
+                        "layers,first block layer,first plate layer' (e.g. level 2 is '5,10,6,0.3,0.25')")
+    parser.add_argument("--graded", type=int, help="graded family level k instead of --level (graded_lines)")
     parser.add_argument("--element", default="C3D8I")
     parser.add_argument("--pull-increments", type=int, default=10, help="least number of pull increments")
     parser.add_argument("--field", help="ccx's *CONTROLS, PARAMETERS=FIELD line, e.g. '5e-5, 1e-4' (R_n, C_n; "
@@ -129,11 +163,12 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
     parser.add_argument("--count", action="store_true", help="print the node count only")
     args = parser.parse_args(argv)
+    level = args.mesh or (f"g{args.graded}" if args.graded else args.level)
     if args.count:
-        plate, block, h = meshes(args.level)
-        print(f"level {args.level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
+        plate, block, h = meshes(level)
+        print(f"level {level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
         return 0
-    result = run(args.level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments,
+    result = run(level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments,
                  args.field)
     emit(result, args.out)
     return 0
