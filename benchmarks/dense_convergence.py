@@ -7,7 +7,7 @@ noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared wh
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
 three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
-levels of tilt_ccx.py's graded family are named ``g<k>``, h ~ 1 / k),
+levels of tilt_ccx.py's graded family are named ``g<k>``, or ``g<k>q`` with the block in C3D20R, h ~ 1 / k),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
@@ -83,13 +83,13 @@ def differences(coarse, fine) -> dict:
 
 def is_level(name: str) -> bool:
     """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
-    return name.isdigit() or (name[:1] == "g" and name[1:].isdigit())
+    return name.isdigit() or (name[:1] == "g" and name[1:].rstrip("q").isdigit())
 
 
 def size(name: str) -> float:
     """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
     graded family's k)."""
-    return 1.0 / (int(name[1:]) if name.startswith("g") else LEVELS[int(name)][0])
+    return 1.0 / (int(name[1:].rstrip("q")) if name.startswith("g") else LEVELS[int(name)][0])
 
 
 def rms(v: np.ndarray) -> float:

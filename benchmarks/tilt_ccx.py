@@ -61,6 +61,38 @@ def plate_lines(n: int) -> np.ndarray:
     return np.unique(np.round(np.concatenate([-right[::-1], inner, right]), 12))
 
 
+#: C3D20 nodes as offsets in a quadratic grid's node indices from an element's first corner (ccx's numbering:
+#: corners as C3D8, then the bottom face's edges, the top face's, the vertical ones)
+C3D20 = ((0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 2), (2, 0, 2), (2, 2, 2), (0, 2, 2),
+         (1, 0, 0), (2, 1, 0), (1, 2, 0), (0, 1, 0), (1, 0, 2), (2, 1, 2), (1, 2, 2), (0, 1, 2),
+         (0, 0, 1), (2, 0, 1), (2, 2, 1), (0, 2, 1))
+
+
+class QuadraticGrid(gen.Grid):
+    """A structured body of 20-node hexahedra (C3D20 / C3D20R) on the element lines xs, ys, zs: its node lines
+    are those and their midpoints; ``ids`` (the node lines' tensor grid) holds 0 where no element has a node (face
+    and element centres). ``shape``, ``ijk``, ``eids`` and ``centres`` are the element grid's, as Grid's."""
+
+    def __init__(self, xs, ys, zs, first_node: int, first_element: int, element: str = "C3D20R"):
+        super().__init__(xs, ys, zs, first_node=first_node, first_element=first_element)
+        mid = lambda v: np.sort(np.concatenate([v, 0.5 * (v[1:] + v[:-1])]))
+        self.xs, self.ys, self.zs = mid(self.xs), mid(self.ys), mid(self.zs)
+        X, Y, Z = np.meshgrid(self.xs, self.ys, self.zs, indexing="ij")
+        I, J, K = np.meshgrid(*(np.arange(len(v)) for v in (self.xs, self.ys, self.zs)), indexing="ij")
+        used = (I % 2 + J % 2 + K % 2) <= 1
+        self.ids = np.zeros(X.shape, int)
+        self.ids[used] = first_node + np.arange(used.sum())
+        self.points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+        corner = 2 * self.ijk
+        self.cells = np.column_stack([self.ids[corner[:, 0] + a, corner[:, 1] + b, corner[:, 2] + c]
+                                      for a, b, c in C3D20])
+        self.element = element
+
+    @property
+    def n_nodes(self) -> int:
+        return int(np.count_nonzero(self.ids))
+
+
 def mesh_spec(text: str) -> tuple:
     """A mesh given as ``n,block_layers,plate_layers,first_block_layer,first_plate_layer`` (LEVELS' fields)."""
     n, nbz, npz, hb, hp = text.split(",")
@@ -87,11 +119,12 @@ def meshes(level):
     """(plate, block, median plate facet h) of a level number, of a spec tuple as LEVELS' values, or of graded
     family level ``"g<k>"`` (:func:`graded_lines`)."""
     if isinstance(level, str):
-        n = int(level[1:])
+        n = int(level[1:].rstrip("q"))
         xy, plate_z, block_z = graded_lines(n)
         plate = gen.Grid(xy, xy, plate_z, first_node=1, first_element=1)
-        block = gen.Grid(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
-                         first_element=len(plate.cells) + 1)
+        body = QuadraticGrid if level.endswith("q") else gen.Grid
+        block = body(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
+                     first_element=len(plate.cells) + 1)
         return plate, block, float(np.median(np.diff(footprint_lines(n + 1))))
     n, nbz, npz, hb, hp = LEVELS[level] if isinstance(level, int) else level
     block_z = np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hb, nbz, 10.0))])
@@ -155,6 +188,7 @@ def main(argv=None) -> int:
     parser.add_argument("--mesh", type=mesh_spec, help="a mesh instead of --level's: 'n,block layers,plate "
                         "layers,first block layer,first plate layer' (e.g. level 2 is '5,10,6,0.3,0.25')")
     parser.add_argument("--graded", type=int, help="graded family level k instead of --level (graded_lines)")
+    parser.add_argument("--quadratic-block", action="store_true", help="with --graded: the block in C3D20R")
     parser.add_argument("--element", default="C3D8I")
     parser.add_argument("--pull-increments", type=int, default=10, help="least number of pull increments")
     parser.add_argument("--field", help="ccx's *CONTROLS, PARAMETERS=FIELD line, e.g. '5e-5, 1e-4' (R_n, C_n; "
@@ -163,7 +197,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
     parser.add_argument("--count", action="store_true", help="print the node count only")
     args = parser.parse_args(argv)
-    level = args.mesh or (f"g{args.graded}" if args.graded else args.level)
+    level = args.mesh or (f"g{args.graded}{'q' if args.quadratic_block else ''}" if args.graded else args.level)
     if args.count:
         plate, block, h = meshes(level)
         print(f"level {level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
