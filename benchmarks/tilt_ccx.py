@@ -146,13 +146,13 @@ def at_height(block, disp: dict, x: float, y: float, z: float) -> np.ndarray:
 
 
 def run(level: int, scale: float, penalty: float | None, stick: float | None, element: str, work: Path,
-        n_pull: int = 10, field: str | None = None) -> dict:
+        n_pull: int = 10, field: str | None = None, slave: str = "block") -> dict:
     plate, block, h = meshes(level)
     penalty = penalty or gen.PENALTY_FACTOR * gen.E_PLATE / h
     stick = stick or gen.STICK_FACTOR * gen.E_PLATE / h
     gen.PRESSURE, gen.PULL = 20.0 * scale, 0.2 * scale
     work.mkdir(parents=True, exist_ok=True)
-    deck = gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull, element=element)
+    deck = gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull, element=element, slave=slave)
     if field:                                               # ccx's convergence criteria (*CONTROLS, FIELD) per step
         deck = deck.replace("*STATIC\n", f"*CONTROLS, PARAMETERS=FIELD\n{field}\n*STATIC\n")
     (work / f"{gen.JOB}.inp").write_text(deck)
@@ -170,7 +170,7 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
     normal = {z: abs(contact[z][max(contact[z])]["force"][2]) / scale for z in gen.MU}
     totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
     um = lambda v: 1e3 * float(v)
-    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "penalty": penalty, "stick": stick, "element": element,
+    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "slave": slave, "penalty": penalty, "stick": stick, "element": element,
             "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
             "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
             "N": {z: round(normal[z], 2) for z in gen.MU},
@@ -190,6 +190,8 @@ def main(argv=None) -> int:
     parser.add_argument("--graded", type=int, help="graded family level k instead of --level (graded_lines)")
     parser.add_argument("--quadratic-block", action="store_true", help="with --graded: the block in C3D20R")
     parser.add_argument("--element", default="C3D8I")
+    parser.add_argument("--slave", choices=("block", "plate"), default="block",
+                        help="the contact's slave body (the zones' surfaces; the other is the master)")
     parser.add_argument("--pull-increments", type=int, default=10, help="least number of pull increments")
     parser.add_argument("--field", help="ccx's *CONTROLS, PARAMETERS=FIELD line, e.g. '5e-5, 1e-4' (R_n, C_n; "
                         "ccx's defaults 0.005, 0.01)")
@@ -203,7 +205,7 @@ def main(argv=None) -> int:
         print(f"level {level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
         return 0
     result = run(level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments,
-                 args.field)
+                 args.field, args.slave)
     emit(result, args.out)
     return 0
 
