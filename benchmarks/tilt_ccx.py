@@ -173,7 +173,8 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
     normal = {z: abs(contact[z][max(contact[z])]["force"][2]) / scale for z in gen.MU}
     totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
     um = lambda v: 1e3 * float(v)
-    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "slave": slave, "penalty": penalty, "stick": stick, "element": element,
+    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "slave": slave, "penalty": penalty,
+            "stick": stick, "element": element,
             "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
             "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
             "N": {z: round(normal[z], 2) for z in gen.MU},

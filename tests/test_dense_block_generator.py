@@ -3,13 +3,13 @@ meshes): a quadratic block's faces are read by their elements' own field, and th
 body."""
 
 import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("dense_generate", ROOT / "tests" / "fixtures" / "dense_block" / "generate.py")
+_spec = importlib.util.spec_from_file_location("dense_generate", ROOT / "tests" / "fixtures" / "dense_block"
+                                               / "generate.py")
 dense = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(dense)
 tilt, gen = dense.tilt, dense.tilt.gen
