@@ -6,7 +6,9 @@ benchmarks/tilt_ccx.py (same points, same deck, ccx's small-sliding limit) and p
 noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared where the file has them.
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
-three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS),
+three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
+levels of tilt_ccx.py's graded family are named ``g<k>`` (``g<k>q``: the block in C3D20R, ``g<k>p``: the plate
+the contact's slave; the suffix is a label only), h ~ 1 / k),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
@@ -17,8 +19,9 @@ The order is searched in [0.25, 4]; an order at a limit is printed as such (the 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py 1=/tmp/i25/dense_l1 2=tests/fixtures/dense_block \\
         3=/tmp/i25/dense_l3 4=/tmp/i25/dense_l4
 
-Each row also gives ``slide``: the change of the block faces' mean uy at the end of the pull, in noise levels
-(the block's rigid slide). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
+Each row also gives the changes of the block's rigid motion at the end of the pull, in noise levels: ``slide``
+the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
+x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
 after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
 convergence criteria), the same numbers per variant.
 """
@@ -63,10 +66,13 @@ def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray
     return out
 
 
-def slide(labels: list[str], values: np.ndarray) -> float:
-    """The block faces' mean uy at the end of the pull, in noise levels."""
-    faces = np.array([not label.startswith("plate") for label in labels])
-    return float(np.mean(values[1, faces, 1]) / dense.NOISE_U)
+def rigid(labels: list[str], values: np.ndarray) -> dict[str, float]:
+    """The block's rigid motion at the end of the pull in noise levels: ``slide`` the block faces' mean uy,
+    ``tilt`` the mean uz of the face y = -5 minus that of y = +5, ``roll`` x = -5's minus x = +5's."""
+    face = np.array([label.split(":")[0] for label in labels])
+    mean = lambda name, axis: float(np.mean(values[1, face == name, axis]) / dense.NOISE_U)
+    return {"slide": float(np.mean(values[1, face != "plate", 1]) / dense.NOISE_U),
+            "tilt": mean("y-5", 2) - mean("y+5", 2), "roll": mean("x-5", 2) - mean("x+5", 2)}
 
 
 def differences(coarse, fine) -> dict:
@@ -76,8 +82,19 @@ def differences(coarse, fine) -> dict:
         for s in (0, 1):
             d = fine[1][kind][s] - coarse[1][kind][s]
             row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
-    row["slide"] = round(fine[2] - coarse[2], 3)
+    row.update({k: round(fine[2][k] - coarse[2][k], 3) for k in ("slide", "tilt", "roll")})
     return row
+
+
+def is_level(name: str) -> bool:
+    """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
+    return name.isdigit() or (name[:1] == "g" and name[1:].rstrip("qp").isdigit())
+
+
+def size(name: str) -> float:
+    """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
+    graded family's k)."""
+    return 1.0 / (int(name[1:].rstrip("qp")) if name.startswith("g") else LEVELS[int(name)][0])
 
 
 def rms(v: np.ndarray) -> float:
@@ -108,18 +125,16 @@ def main(argv=None) -> int:
     data = {}
     for name, folder in named:
         labels, values, force = read(folder)
-        data[name] = (labels, in_noise(values, force), slide(labels, values))
+        data[name] = (labels, in_noise(values, force), rigid(labels, values))
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
-    if not all(name.isdigit() for name, _ in named):
+    if not all(is_level(name) for name, _ in named):
         base = named[0][0]
         for name, _ in named[1:]:
             emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
         return 0
-    levels = sorted((int(name), folder) for name, folder in named)
-    data = {int(name): value for name, value in data.items()}
-    h = {level: 1.0 / LEVELS[level][0] for level, _ in levels}
-    order = [level for level, _ in levels]
+    h = {name: size(name) for name, _ in named}
+    order = sorted(h, key=lambda name: -h[name])
     for coarse, fine in zip(order, order[1:]):
         emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
     if len(order) >= 3:

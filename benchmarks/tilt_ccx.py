@@ -5,7 +5,10 @@ tests/fixtures/independent_block/generate.py's deck writer (no frictionid mesh o
 made here: every half side of the footprint divided by ``1 - cos`` spacing (elements smallest at the footprint's
 edges and at the zone borders x, y = 0), the block with ``n`` and the plate under it with ``n + 1`` divisions
 per half side (so the interface does not match, except on the lines x, y = 0, +-5); the plate outside the
-footprint growing by 1.5 per element; both bodies' layers smallest at the interface.
+footprint growing by 1.5 per element; both bodies' layers smallest at the interface. ``--mesh`` gives such a
+mesh by its LEVELS fields; ``--graded K`` a level of a family whose lines are fixed maps of uniform grids
+(:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R; ``--slave plate`` the plate top as the
+contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
 
 Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
 end of the pull
@@ -61,8 +64,72 @@ def plate_lines(n: int) -> np.ndarray:
     return np.unique(np.round(np.concatenate([-right[::-1], inner, right]), 12))
 
 
-def meshes(level: int):
-    n, nbz, npz, hb, hp = LEVELS[level]
+#: C3D20 nodes as offsets in a quadratic grid's node indices from an element's first corner (ccx's numbering:
+#: corners as C3D8, then the bottom face's edges, the top face's, the vertical ones)
+C3D20 = ((0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 2), (2, 0, 2), (2, 2, 2), (0, 2, 2),
+         (1, 0, 0), (2, 1, 0), (1, 2, 0), (0, 1, 0), (1, 0, 2), (2, 1, 2), (1, 2, 2), (0, 1, 2),
+         (0, 0, 1), (2, 0, 1), (2, 2, 1), (0, 2, 1))
+
+
+class QuadraticGrid(gen.Grid):
+    """A structured body of 20-node hexahedra (C3D20 / C3D20R) on the element lines xs, ys, zs: its node lines
+    are those and their midpoints; ``ids`` (the node lines' tensor grid) holds 0 where no element has a node (face
+    and element centres). ``shape``, ``ijk``, ``eids`` and ``centres`` are the element grid's, as Grid's."""
+
+    def __init__(self, xs, ys, zs, first_node: int, first_element: int, element: str = "C3D20R"):
+        super().__init__(xs, ys, zs, first_node=first_node, first_element=first_element)
+        mid = lambda v: np.sort(np.concatenate([v, 0.5 * (v[1:] + v[:-1])]))
+        self.xs, self.ys, self.zs = mid(self.xs), mid(self.ys), mid(self.zs)
+        X, Y, Z = np.meshgrid(self.xs, self.ys, self.zs, indexing="ij")
+        I, J, K = np.meshgrid(*(np.arange(len(v)) for v in (self.xs, self.ys, self.zs)), indexing="ij")
+        used = (I % 2 + J % 2 + K % 2) <= 1
+        self.ids = np.zeros(X.shape, int)
+        self.ids[used] = first_node + np.arange(used.sum())
+        self.points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+        corner = 2 * self.ijk
+        self.cells = np.column_stack([self.ids[corner[:, 0] + a, corner[:, 1] + b, corner[:, 2] + c]
+                                      for a, b, c in C3D20])
+        self.element = element
+
+    @property
+    def n_nodes(self) -> int:
+        return int(np.count_nonzero(self.ids))
+
+
+def mesh_spec(text: str) -> tuple:
+    """A mesh given as ``n,block_layers,plate_layers,first_block_layer,first_plate_layer`` (LEVELS' fields)."""
+    n, nbz, npz, hb, hp = text.split(",")
+    return int(n), int(nbz), int(npz), float(hb), float(hp)
+
+
+def graded_lines(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(plate lines in x and y, plate z, block z) of graded family level ``k``: every line a fixed map of a uniform
+    grid whose number of intervals is proportional to k, so that the levels are uniform refinements in the mapped
+    coordinates. Footprint half sides ``1 - cos`` (k + 1 divisions in the plate; the block's are k); the plate
+    outside the footprint 5 + 15 t^2 (k + 2 elements per side); the plate's k + 1 layers and the block's 2k
+    graded towards the interface as 1 - cos(pi t / 2), so the footprint's edges are refined quadratically in
+    both directions of the section across them."""
+    t = lambda m: np.arange(m + 1) / m
+    outside = 5.0 + 15.0 * t(k + 2)[1:] ** 2
+    inner = footprint_lines(k + 1)
+    xy = np.unique(np.round(np.concatenate([-outside[::-1], inner, outside]), 12))
+    plate_z = -5.0 * (1.0 - np.cos(0.5 * np.pi * t(k + 1)))[::-1]
+    block_z = 10.0 * (1.0 - np.cos(0.5 * np.pi * t(2 * k)))
+    return xy, plate_z, block_z
+
+
+def meshes(level):
+    """(plate, block, median plate facet h) of a level number, of a spec tuple as LEVELS' values, or of graded
+    family level ``"g<k>"`` (:func:`graded_lines`)."""
+    if isinstance(level, str):
+        n = int(level[1:].rstrip("q"))
+        xy, plate_z, block_z = graded_lines(n)
+        plate = gen.Grid(xy, xy, plate_z, first_node=1, first_element=1)
+        body = QuadraticGrid if level.endswith("q") else gen.Grid
+        block = body(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
+                     first_element=len(plate.cells) + 1)
+        return plate, block, float(np.median(np.diff(footprint_lines(n + 1))))
+    n, nbz, npz, hb, hp = LEVELS[level] if isinstance(level, int) else level
     block_z = np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hb, nbz, 10.0))])
     plate_z = -np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hp, npz, 5.0))])[::-1]
     plate = gen.Grid(plate_lines(n + 1), plate_lines(n + 1), plate_z, first_node=1, first_element=1)
@@ -82,13 +149,13 @@ def at_height(block, disp: dict, x: float, y: float, z: float) -> np.ndarray:
 
 
 def run(level: int, scale: float, penalty: float | None, stick: float | None, element: str, work: Path,
-        n_pull: int = 10, field: str | None = None) -> dict:
+        n_pull: int = 10, field: str | None = None, slave: str = "block") -> dict:
     plate, block, h = meshes(level)
     penalty = penalty or gen.PENALTY_FACTOR * gen.E_PLATE / h
     stick = stick or gen.STICK_FACTOR * gen.E_PLATE / h
     gen.PRESSURE, gen.PULL = 20.0 * scale, 0.2 * scale
     work.mkdir(parents=True, exist_ok=True)
-    deck = gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull, element=element)
+    deck = gen.write_deck(plate, block, penalty, stick, n_press=2, n_pull_min=n_pull, element=element, slave=slave)
     if field:                                               # ccx's convergence criteria (*CONTROLS, FIELD) per step
         deck = deck.replace("*STATIC\n", f"*CONTROLS, PARAMETERS=FIELD\n{field}\n*STATIC\n")
     (work / f"{gen.JOB}.inp").write_text(deck)
@@ -106,7 +173,8 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
     normal = {z: abs(contact[z][max(contact[z])]["force"][2]) / scale for z in gen.MU}
     totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
     um = lambda v: 1e3 * float(v)
-    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "penalty": penalty, "stick": stick, "element": element,
+    return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "slave": slave, "penalty": penalty,
+            "stick": stick, "element": element,
             "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
             "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
             "N": {z: round(normal[z], 2) for z in gen.MU},
@@ -121,7 +189,13 @@ def main(argv=None) -> int:
     parser.add_argument("--scale", type=float, default=1.0, help="load scale (0.01: small-sliding limit)")
     parser.add_argument("--penalty", type=float, help="normal penalty [N/mm^3] (default 500 E_plate / h)")
     parser.add_argument("--stick", type=float, help="stick slope [N/mm^3] (default 50 E_plate / h)")
+    parser.add_argument("--mesh", type=mesh_spec, help="a mesh instead of --level's: 'n,block layers,plate "
+                        "layers,first block layer,first plate layer' (e.g. level 2 is '5,10,6,0.3,0.25')")
+    parser.add_argument("--graded", type=int, help="graded family level k instead of --level (graded_lines)")
+    parser.add_argument("--quadratic-block", action="store_true", help="with --graded: the block in C3D20R")
     parser.add_argument("--element", default="C3D8I")
+    parser.add_argument("--slave", choices=("block", "plate"), default="block",
+                        help="the contact's slave body (the zones' surfaces; the other is the master)")
     parser.add_argument("--pull-increments", type=int, default=10, help="least number of pull increments")
     parser.add_argument("--field", help="ccx's *CONTROLS, PARAMETERS=FIELD line, e.g. '5e-5, 1e-4' (R_n, C_n; "
                         "ccx's defaults 0.005, 0.01)")
@@ -129,12 +203,13 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
     parser.add_argument("--count", action="store_true", help="print the node count only")
     args = parser.parse_args(argv)
+    level = args.mesh or (f"g{args.graded}{'q' if args.quadratic_block else ''}" if args.graded else args.level)
     if args.count:
-        plate, block, h = meshes(args.level)
-        print(f"level {args.level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
+        plate, block, h = meshes(level)
+        print(f"level {level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")
         return 0
-    result = run(args.level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments,
-                 args.field)
+    result = run(level, args.scale, args.penalty, args.stick, args.element, args.work, args.pull_increments,
+                 args.field, args.slave)
     emit(result, args.out)
     return 0
 

@@ -1,0 +1,57 @@
+"""The dense block reference's own generator (tests/fixtures/dense_block/generate.py with benchmarks/tilt_ccx.py's
+meshes): a quadratic block's faces are read by their elements' own field, and the contact's slave can be either
+body."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("dense_generate", ROOT / "tests" / "fixtures" / "dense_block"
+                                               / "generate.py")
+dense = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(dense)
+tilt, gen = dense.tilt, dense.tilt.gen
+
+
+def test_a_quadratic_blocks_faces_are_interpolated_by_its_own_field():
+    plate, block, _ = tilt.meshes("g3q")
+    assert isinstance(block, tilt.QuadraticGrid) and block.cells.shape[1] == 20
+    # a field in the 8-node serendipity space of every face (bilinear, x^2-type and x^2 y-type terms), not bilinear
+    field = lambda p: np.column_stack([1 + p[:, 0] ** 2 + p[:, 1] * p[:, 2], p[:, 2] ** 2 - p[:, 1] ** 2,
+                                       p[:, 0] * p[:, 1] + p[:, 2] ** 2 * p[:, 0]])
+    ids = block.ids.ravel()
+    disp = {int(n): v for n, v in zip(ids[ids > 0], field(block.points[ids > 0]))}
+    for name, axis, xyz in dense.face_points(0.6)[:4]:
+        np.testing.assert_allclose(dense.displacements(plate, block, disp, axis, xyz), field(xyz), atol=1e-10,
+                                   err_msg=name)
+
+
+def test_the_plate_as_slave_carries_the_zones_on_its_faces_under_the_footprint():
+    plate, block, _ = tilt.meshes("g3")
+    deck = gen.write_deck(plate, block, 1e7, 1e5, n_press=2, n_pull_min=5, slave="plate")
+    lines = deck.splitlines()
+    surfaces = {}
+    for i, line in enumerate(lines):
+        if line.startswith("*SURFACE, NAME="):
+            name = line.split("=")[1].split(",")[0]
+            surfaces[name] = []
+            for l in lines[i + 1:]:
+                if l.startswith("*"):
+                    break
+                surfaces[name].append(l)
+    top = plate.ijk[:, 2] == plate.shape[2] - 2
+    centres = {int(e): c for e, c in zip(plate.eids[top], plate.centres[top])}
+    quadrant = {"A": (-1, -1), "B": (1, -1), "C": (-1, 1), "D": (1, 1)}
+    n_under = 0
+    for zone, (sx, sy) in quadrant.items():
+        faces = surfaces[f"S{zone}"]
+        assert all(face.endswith(", S2") for face in faces)
+        xy = np.array([centres[int(face.split(",")[0])][:2] for face in faces])
+        assert np.all((np.sign(xy) == (sx, sy)) & (np.abs(xy) < 5.0)), zone
+        n_under += len(faces)
+    inside = [c for c in centres.values() if abs(c[0]) < 5 and abs(c[1]) < 5]
+    assert n_under == len(inside)
+    assert len(surfaces["SBLOCK"]) == (block.shape[0] - 1) * (block.shape[1] - 1)
+    assert "SA, SBLOCK" in lines and "*CONTACT PRINT, SLAVE=SA, MASTER=SBLOCK" in lines
