@@ -15,8 +15,8 @@ from frictionid.builders.registry import build_model
 from frictionid.builders.thread import SQRT3
 from frictionid.errors import InputError
 from frictionid.fem.problem import Problem
-from frictionid.report.bolt import (bolt_summary, flank_profile, nut_dilation, plot_flank_profile, plot_load_shares,
-                                    sopwith_shares, thread_loads)
+from frictionid.report.bolt import (bolt_summary, flank_profile, nut_dilation, pitch_loads, plot_flank_profile,
+                                    plot_load_shares, ring_gap, sopwith_shares, thread_loads)
 from frictionid.options import ModelSpec
 from helpers.differences import central_difference
 
@@ -155,6 +155,18 @@ def test_load_shares_default_setup(model, solution):
     assert np.all(np.diff(loads.share[:-1]) < 0)
     assert 0.18 < loads.share[0] < 0.23 and 0.15 < loads.lam_p < 0.3
     np.testing.assert_allclose(loads.share, sopwith_shares(loads.lam_p, 7), atol=0.012)   # within 1.2 points
+
+
+def test_pitch_shares_cut_between_the_rings_are_the_thread_shares(model, solution):
+    """The cut per pitch of axial position (the one a 3-D helix is compared by) gives the axisymmetric model's own
+    thread shares when it starts between two flanks; cut at the bearing face instead it splits flanks (which lie
+    0.73 to 1.04 pitches above it)."""
+    layout, share = bolt_layout(), thread_loads(model, solution).share
+    y_start = ring_gap(model, solution, layout.size.P)
+    assert layout.y_bearing < y_start < layout.y_bearing + layout.size.P
+    np.testing.assert_allclose(pitch_loads(model, solution, y_start, layout.size.P, 7), share, rtol=0, atol=1e-12)
+    at_face = pitch_loads(model, solution, layout.y_bearing, layout.size.P, 7)
+    assert at_face.sum() == pytest.approx(1.0) and np.abs(at_face - share).max() > 0.01
 
 
 def test_load_shares_with_the_nut_held_radially_agree_with_sopwith(model, problem):

@@ -104,6 +104,33 @@ def thread_loads(model: Model, solution: Solution, increment: int = -1) -> Threa
     return ThreadLoads(force, machine_force(model, solution, increment), share, fit_sopwith(share))
 
 
+def pitch_loads(model: Model, solution: Solution, y_start: float, pitch: float, n: int,
+                increment: int = -1) -> np.ndarray:
+    """(n,) share of the thread pairs' axial force in each of n pitches of axial position: bin k (1-based) takes
+    the pairs at y_start + (k-1) P <= y < y_start + k P, the first and the last bin also those below and above.
+
+    The same cut for a helix and for the axisymmetric model's rings: with y_start between two rings' flanks each
+    bin holds one ring's flank, so for the axisymmetric model the shares are :func:`thread_loads`'s, and for a 3-D
+    model the load of the helix over the same axial range (per turn, :func:`thread_loads` of a 3-D model, the
+    helix's seam decides where a thread starts).
+    """
+    thread = flank_of_pairs(model, solution) > 0
+    axial = pair_forces(solution, increment)[thread, 1]
+    k = np.clip(np.floor((solution.pairs.position[thread, 1] - y_start) / pitch).astype(int), 0, n - 1)
+    force = np.bincount(k, weights=axial, minlength=n)
+    return force / force.sum()
+
+
+def ring_gap(model: Model, solution: Solution, pitch: float) -> float:
+    """[mm] ``y_start`` for :func:`pitch_loads` from an axisymmetric model: the middle of the gap between its first
+    two engaged flanks, one pitch lower, so that each bin holds one flank."""
+    flank = flank_of_pairs(model, solution)
+    if flank.max() < 2:
+        raise InputError("bolt report: the pitch cut needs at least two engaged flanks")
+    y = solution.pairs.position[:, 1]
+    return float((y[flank == 1].max() + y[flank == 2].min()) / 2 - pitch)
+
+
 @dataclass(frozen=True)
 class FlankProfile:
     """Contact quantities along the engagement (thread pairs, ordered by flank, then by radius).
