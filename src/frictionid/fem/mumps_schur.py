@@ -107,9 +107,7 @@ def available() -> bool:
     """Whether the MUMPS library of the python-mumps wheel can be loaded."""
     try:
         _library()
-    except OSError:
-        return False
-    except ImportError:
+    except (OSError, ImportError):
         return False
     return True
 
@@ -160,9 +158,6 @@ class SchurFactor:
 
     def __getstate__(self):
         return {**self.__dict__, "_struc": None, "schur_cholesky": None}
-
-    def __setstate__(self, state):
-        self.__dict__.update(state)
 
     def __del__(self):
         try:
