@@ -50,7 +50,9 @@ def problem(package: str, model: str):
     def module(name):
         return importlib.import_module(f"{package}.{name}")
     if model == "clamp":
-        built = module("builders.registry").build_model(module("config").read_config(CLAMP).model_spec)
+        config = module("config").read_config(CLAMP)
+        spec = config.model_spec if hasattr(config, "model_spec") else config.model_options  # older commits
+        built = module("builders.registry").build_model(spec)
     elif model == "block":
         built = module("builders.block").block_model()
     else:
