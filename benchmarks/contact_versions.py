@@ -6,7 +6,11 @@ Prints per model the median CPU time of each version's forward + sensitivity sol
 ratios (old / new) and the largest differences of the results relative to each field's largest value. Models and
 coefficients are those of benchmarks/contact_solves.py (clamp, block, bolt).
 
-Run: .venv/bin/python benchmarks/contact_versions.py COMMIT [repeats] [model ...]
+Run: .venv/bin/python benchmarks/contact_versions.py COMMIT [repeats] [model ...] [--rtol R]
+
+``--rtol R``: both versions' Newton tolerance (default 1e-10, relative to the increment's largest force) set to R,
+so that the comparison shows whether they solve the same equations (differences at the round-off) rather than
+where each one's Newton happened to stop within its tolerance.
 """
 
 import importlib
@@ -89,10 +93,29 @@ def compare(old: str, model: str, repeats: int) -> None:
           f" largest difference / largest value: {difference(solutions[old], solutions['frictionid'])}")
 
 
+def newton_tolerance(package: str, rtol: float) -> None:
+    """Every load-path solver of ``package`` made from here on stops Newton at ``rtol``."""
+    solver = importlib.import_module(f"{package}.fem.loadpath").LoadPathSolver
+    made = solver.__init__
+
+    def __init__(self, *args, **kwargs):
+        made(self, *args, **kwargs)
+        self.rtol = rtol
+
+    solver.__init__ = __init__
+
+
 def main(argv: list[str]) -> None:
+    rtol = None
+    if "--rtol" in argv:
+        at = argv.index("--rtol")
+        rtol, argv = float(argv[at + 1]), argv[:at] + argv[at + 2:]
     commit, repeats = argv[0], int(argv[1]) if len(argv) > 1 else 6
     with tempfile.TemporaryDirectory() as folder:
         old = install(commit, Path(folder))
+        if rtol is not None:
+            for package in (old, "frictionid"):
+                newton_tolerance(package, rtol)
         for model in argv[2:] or list(MU):
             compare(old, model, repeats)
 
