@@ -3,6 +3,7 @@ mesh (contact size 0.25 mm instead of 0.5, bodies 2 mm instead of 4: model error
 residual), then `frictionid identify` fits all six zones from several starts with trf's default and its options
 (x_scale 1.0, x_scale "se": the standard errors the start's Jacobian predicts, tr_solver "lsmr"), with
 Levenberg-Marquardt ("lm", unbounded), without the final Gauss-Newton step at the se_step stop (final_step false),
+without the start at the stick thresholds of the zones that stick along the whole load path (stick_start false),
 with the stop on the step left tightened (se_step 0.01, 0.001, without the final step), and with it off
 (se_step 0: scipy's own tests at tol 1e-10) as the reference minimum.
 Prints per run: iterations, solves with sensitivities, final objective, wall time, the largest coefficient
@@ -39,6 +40,7 @@ VARIANTS = {
     'x_scale "se"': ("trf", 'options = { x_scale = "se" }\n'),
     'tr_solver "lsmr"': ("trf", 'options = { tr_solver = "lsmr" }\n'),
     "lm": ("lm", ""),
+    "no stick start": ("trf", "options = { stick_start = false }\n"),
 }
 
 

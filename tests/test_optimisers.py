@@ -9,6 +9,7 @@ import pytest
 from frictionid.errors import InputError, SolverError
 from frictionid.inverse.least_squares import LeastSquares
 from frictionid.inverse.optimisers import METHODS, optimise, remaining_step
+from frictionid.inverse.stick_start import STICK_MARGIN
 
 INF = np.inf
 
@@ -226,7 +227,8 @@ class TestTRF(BaseMixin, BoundsMixin, RosenbrockMixin, ScaleMixin):
     def test_resolved_options_are_reported(self):
         result = self.run(linear()[0], tol=1e-9, max_iterations=20)
         assert result.options == {"ftol": 1e-9, "xtol": 1e-9, "gtol": 1e-9, "max_nfev": 105, "x_scale": "jac",
-                                  "tr_solver": "exact", "se_step": 0.0, "final_step": True}
+                                  "tr_solver": "exact", "se_step": 0.0, "final_step": True,
+                                  "stick_start": True}
         assert optimise(linear()[0], "trf").options["se_step"] == 0.1
 
     def test_no_jacobian_at_the_iterate_where_max_iterations_stops(self):
@@ -401,6 +403,62 @@ class TestTRFStepLeft:
     def test_negative_se_step_is_refused(self):
         with pytest.raises(InputError, match="'se_step'.*>= 0"):
             optimise(linear()[0], "trf", options={"se_step": -0.1})
+
+
+def stuck_zone(floor=None):
+    """(problem, x*): a friction-like parameter p0 whose output is flat from its threshold t = 0.25 + 0.5 p1 up
+    (a zone that sticks: its force, not its coefficient, counts), started at 0.9 where it sticks; the data
+    are made at p* = (0.2, 0.3, 0.4), where it slips (t = 0.4). ``floor``: the stick_floor (default the true
+    threshold where p0 sticks)."""
+    a = np.random.default_rng(2).normal(size=(12, 3))
+    x_star = np.array([0.2, 0.3, 0.4])
+
+    def threshold(x):
+        return 0.25 + 0.5 * x[1]
+
+    def residuals(x):
+        return a @ np.array([min(x[0], threshold(x)), x[1], x[2]]) - a @ x_star
+
+    def jacobian(x):
+        stuck = x[0] >= threshold(x)
+        return np.column_stack([a[:, 0] * (not stuck), a[:, 1] + 0.5 * a[:, 0] * stuck, a[:, 2]])
+
+    def true_floor(x):
+        return np.array([threshold(x) if x[0] >= threshold(x) else np.nan, np.nan, np.nan])
+
+    prob = dataclasses.replace(problem(residuals, jacobian, [0.9, 0.1, 0.1], 0.0, 1.0),
+                               stick_floor=true_floor if floor is None else floor)
+    return prob, x_star
+
+
+class TestStickStart:
+    def test_a_parameter_stuck_at_the_start_starts_at_its_threshold(self):
+        prob, x_star = stuck_zone()
+        result = optimise(prob, "trf")
+        start = result.history_x[0]
+        assert start[0] == pytest.approx(0.3 * (1 + STICK_MARGIN), rel=1e-12) and start[1:].tolist() == [0.1, 0.1]
+        assert result.history_objective[0] == prob.objective(prob.residuals(prob.x0))     # the same objective
+        assert result.message.startswith("started at the stick thresholds") and "p0 0.9 -> 0.3" in result.message
+        np.testing.assert_allclose(result.x, x_star, atol=1e-8)
+
+    def test_without_it_the_stuck_parameter_never_moves(self):
+        # its Jacobian column stays zero while it sticks, and the others can explain the data only in part
+        prob, x_star = stuck_zone()
+        result = optimise(prob, "trf", options={"stick_start": False})
+        assert result.history_x[0].tolist() == [0.9, 0.1, 0.1] and result.x[0] == 0.9
+        assert result.objective > 1e-3
+
+    def test_a_floor_that_would_change_the_objective_is_not_taken(self):
+        prob, _ = stuck_zone(floor=lambda x: np.array([0.1, np.nan, np.nan]))      # below the true threshold
+        result = optimise(prob, "trf")
+        assert result.history_x[0].tolist() == [0.9, 0.1, 0.1]
+        assert "stick thresholds" not in result.message
+
+    def test_lm_starts_there_too_and_a_missing_floor_changes_nothing(self):
+        prob, x_star = stuck_zone()
+        assert optimise(prob, "lm").history_x[0][0] == pytest.approx(0.3 * (1 + STICK_MARGIN), rel=1e-12)
+        plain = optimise(dataclasses.replace(prob, stick_floor=None), "trf")
+        assert plain.history_x[0].tolist() == [0.9, 0.1, 0.1]
 
 
 class TestLBFGSB(BaseMixin, BoundsMixin, RosenbrockMixin, PowerMixin, ScaleMixin):

@@ -170,7 +170,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
         echo(f"parallel solves: {executor.describe()}")
     evaluator = make_evaluator(backend, setup.observations, setup.parameters, store, config.identify, executor)
     progress = iteration_lines(echo, on_iteration)
-    problem = make_least_squares(evaluator, config.identify, recorded(evaluator, store, progress))
+    problem = make_least_squares(evaluator, config.identify, recorded(evaluator, store, progress), stick_floor=True)
     if on_prefit is None:
         def on_prefit(report):
             echo(prefit_summary(report.as_dict()))

@@ -28,7 +28,8 @@ class Backend(Protocol):
     ``name`` is its [solver] backend name; ``has_sensitivities`` whether :meth:`predict` can give derivatives
     (analytic Jacobians; without them identify.jacobian must be a finite difference). A backend may also offer
     ``contact_states(mu)`` (per stage end, each zone's open / stick / slip fractions and normal force) and
-    ``fields(mu)`` (the fields written to VTU); callers look for them with ``getattr``.
+    ``fields(mu)`` (the fields written to VTU) and ``stick_thresholds(mu, movable)`` (per zone that sticks along
+    the whole load path, the lowest coefficient with the same outputs); callers look for them with ``getattr``.
     """
 
     name: str

@@ -182,6 +182,11 @@ class EmbeddedBackend:
                         for z, zone in enumerate(solution.zone_names)})
         return out
 
+    def stick_thresholds(self, mu: np.ndarray, movable=None) -> np.ndarray:
+        """(n_zones,) each zone's stick threshold at ``mu`` (:meth:`Solution.stick_thresholds`): one forward
+        solve."""
+        return self.problem.solve(mu, increments=self.increments).stick_thresholds(movable)
+
     def fields(self, mu):
         """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
         :func:`frictionid.fem.fields.solution_fields`)."""

@@ -149,3 +149,31 @@ class Solution:
         return {zone: {name: float(share[state == k, z].sum() / share[:, z].sum())
                        for k, name in enumerate(STATE_NAMES)}
                 for z, zone in enumerate(self.zone_names)}
+
+    def stick_thresholds(self, movable=None) -> np.ndarray:
+        """(n_zones,) [-] per zone whose pairs stick along the whole load path, the smallest coefficient at which
+        they all still stick: from there up the path, and every output, are the same (a stuck pair's equations do
+        not contain mu; its force must only stay within mu times its normal force). NaN for a zone that slips at
+        some increment or is never closed, and for the zones not ``movable`` ((n_zones,) bool, default all).
+
+        The zones are lowered one after the other in their order, each with the ones before it at their
+        thresholds, so that pairs on a border between two stuck zones (sharing their coefficients by area) stay
+        stuck with all of them lowered at once.
+        """
+        share = self.pairs.zone_share
+        mu = np.asarray(self.mu, dtype=float).copy()
+        normal = self.lam[:, :, 0]
+        tangential = np.linalg.norm(self.lam[:, :, 1:], axis=2)   # with a held direction's force: never too low
+        stuck = self.state == 1
+        movable = np.ones(len(mu), bool) if movable is None else np.asarray(movable, bool)
+        out = np.full(len(mu), np.nan)
+        for z in np.flatnonzero(movable):
+            mine = share[:, z] > 0
+            closed = stuck[:, mine]
+            if not closed.any() or (self.state[:, mine] == 2).any():
+                continue
+            others = share[mine] @ mu - share[mine, z] * mu[z]
+            ratio = tangential[:, mine] / np.where(closed, normal[:, mine], 1.0)
+            need = np.where(closed, (ratio - others) / share[mine, z], -np.inf)
+            out[z] = mu[z] = min(max(float(need.max()), 0.0), mu[z])
+        return out

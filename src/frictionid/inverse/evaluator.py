@@ -47,6 +47,7 @@ class Evaluator:
         self.executor = executor if executor is not None else make_executor(backend, max(int(workers), 1))
         self.workers = self.executor.n_workers
         self._lock = threading.Lock()
+        self._floor_lock = threading.Lock()
 
     def _predict(self, x: np.ndarray, sensitivities: bool):
         """(f (n_obs,), df/dmu (n_obs, n_zones) or None) at free coefficients x, from the store if known.
@@ -118,6 +119,25 @@ class Evaluator:
             outside = np.maximum(self.params.lower - x, 0) + np.maximum(x - self.params.upper, 0)
             rows.append(np.sqrt(self.penalty) * outside)
         return np.concatenate(rows)
+
+    def stick_floor(self, x: np.ndarray) -> np.ndarray | None:
+        """(n_free,) per free coefficient whose zone sticks along the whole load path at x, the lowest value it
+        can take with every residual the same (its stick threshold, the zones lowered together), NaN for the
+        others; None where the backend cannot tell or the residuals contain mu itself (Tikhonov). One forward
+        solve, counted in ``n_forward`` and not stored (it is made again on resume)."""
+        thresholds = getattr(self.backend, "stick_thresholds", None)
+        if thresholds is None or self.tikhonov > 0:
+            return None
+        try:
+            with self._floor_lock:        # the backend's own process; starts of a multi-start run take turns
+                floor = thresholds(np.maximum(self.params.full(np.asarray(x, float)), 0.0), self.params.free)
+        except SolverError as error:
+            log.info("no stick thresholds: the solve failed (%s)", error)
+            return None
+        finally:
+            with self._lock:
+                self.n_forward += 1
+        return np.asarray(floor, dtype=float)[self.params.free]
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """d residuals / dx (n_res, n_free) by the configured method."""

@@ -26,14 +26,16 @@ def make_evaluator(backend: Backend, observations: Observations, parameters: Par
 
 
 def make_least_squares(evaluator: Evaluator, ident: IdentifyOptions, on_iteration: Callable = lambda *args: None,
-                       x0: np.ndarray | None = None) -> LeastSquares:
+                       x0: np.ndarray | None = None, stick_floor: bool = False) -> LeastSquares:
     """The least-squares problem of ``evaluator``'s free coefficients within their bounds, from ``x0`` (default
     the parameters' start), with identify.power, loss and loss_scale; ``on_iteration(iteration, x, objective)``
-    after each iteration."""
+    after each iteration; with ``stick_floor`` the evaluator's stick thresholds, from which the Gauss-Newton
+    methods start (the fit from the configured starts; refits start at fitted points)."""
     params = evaluator.params
     return LeastSquares(evaluator.residuals, evaluator.jacobian, params.x0 if x0 is None else x0, params.lower,
                         params.upper, params.free_names, ident.power, on_iteration,
-                        evaluator.obs.noise_known, ident.loss, ident.loss_scale)
+                        evaluator.obs.noise_known, ident.loss, ident.loss_scale,
+                        evaluator.stick_floor if stick_floor else None)
 
 
 def recorded(evaluator: Evaluator, store, progress: Callable, offset: int = 0) -> Callable:

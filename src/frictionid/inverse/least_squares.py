@@ -31,6 +31,9 @@ class LeastSquares:
     loss : "linear" (least squares) or a robust loss of scipy.optimize.least_squares ("soft_l1", "huber",
         "cauchy", "arctan"), "trf" only; loss_scale : the residual (in units of the weights, i.e. of the
         stated noise) beyond which the robust loss down-weights an observation
+    stick_floor : x -> (n_free,) or None, optional: per parameter the lowest value it can take with the
+        residuals unchanged (a friction zone that sticks along the whole load path: its stick threshold), NaN
+        where it cannot move so; None where unknown (see ``Evaluator.stick_floor``)
     """
 
     residuals: Callable[[np.ndarray], np.ndarray]
@@ -44,6 +47,7 @@ class LeastSquares:
     noise_known: bool = False
     loss: str = "linear"
     loss_scale: float = 3.0
+    stick_floor: Callable[[np.ndarray], np.ndarray | None] | None = None
 
     def objective(self, r: np.ndarray) -> float:
         """J = ||r||^power."""

@@ -13,6 +13,7 @@ from ..errors import InputError, SolverError
 from . import gradient_descent as descent
 from .iterates import Iterates, Option, resolve_options
 from .least_squares import ROBUST_WEIGHTS, LeastSquares, OptimiseResult, robust_weights
+from .stick_start import stick_start
 from .uncertainty import at_bounds
 
 log = logging.getLogger(__name__)
@@ -36,6 +37,7 @@ TRF_OPTIONS = {
                         '("exact" or "lsmr")'),
     "se_step": Option("float", lambda n, tol, n_free: 0.1, lambda v: v >= 0, ">= 0"),
     "final_step": Option("bool", lambda n, tol, n_free: True),
+    "stick_start": Option("bool", lambda n, tol, n_free: True),
 }
 """Options of "trf" (scipy.optimize.least_squares): ftol, xtol, gtol (default tol), max_nfev (residual
 evaluations; default 5 (max_iterations + 1), a guard against long runs of rejected steps), x_scale ("jac":
@@ -44,10 +46,13 @@ predicts, sqrt(diag((J^T J)^-1)), held; or a number), tr_solver ("exact" or "lsm
 (default 0.1; 0 turns it off): stop at an accepted iterate once the Gauss-Newton step still to go is shorter
 than se_step standard errors (see ``remaining_step``), and final_step (default true): at that stop, take the
 Gauss-Newton step left as one more iterate where it lowers the objective (least squares only; one more solve,
-without the optimiser's trust region: see ``_final_step``)."""
+without the optimiser's trust region: see ``_final_step``), and stick_start (default true): a zone that sticks
+along the whole load path at the start has no sensitivity there, and the optimiser could only move it once the
+others made it slip; it starts instead at its stick threshold, where the objective is the same (see
+``stick_start.stick_start``)."""
 
 LM_OPTIONS = {key: TRF_OPTIONS[key] for key in ("ftol", "xtol", "gtol", "max_nfev", "x_scale", "se_step",
-                                                "final_step")}
+                                                "final_step", "stick_start")}
 """Options of "lm" (Levenberg-Marquardt, MINPACK through scipy.optimize.least_squares): those of "trf" but
 tr_solver. It does not know bounds: a run that ends outside them is reported "failed"."""
 
@@ -175,6 +180,17 @@ def _gauss_newton(run: Iterates, max_iterations: int, options: dict, method: str
     """
     problem = run.problem
     x0 = np.array(problem.x0, dtype=float)
+    moved = ""
+    if options["stick_start"] and problem.stick_floor is not None:
+        x0, moved = stick_start(run, x0)
+    status, message = _scipy_least_squares(run, x0, max_iterations, options, method)
+    return status, moved + message
+
+
+def _scipy_least_squares(run: Iterates, x0: np.ndarray, max_iterations: int, options: dict,
+                         method: str) -> tuple[str, str]:
+    """:func:`_gauss_newton` from ``x0``."""
+    problem = run.problem
     r0 = run.residuals(x0)
     norm = float(np.linalg.norm(r0))
     if not np.isfinite(norm):
