@@ -10,7 +10,8 @@ Run: .venv/bin/python benchmarks/contact_versions.py COMMIT [repeats] [model ...
 
 ``--rtol R``: both versions' Newton tolerance (default 1e-10, relative to the increment's largest force) set to R,
 so that the comparison shows whether they solve the same equations (differences at the round-off) rather than
-where each one's Newton happened to stop within its tolerance.
+where each one's Newton happened to stop within its tolerance. Each model also prints how far each version's
+own results move when mu changes by 1e-15 of itself: the floor below which no two versions can agree.
 """
 
 import importlib
@@ -91,6 +92,9 @@ def compare(old: str, model: str, repeats: int) -> None:
           f"(per repeat {', '.join(f'{r:.2f}' for r in ratios)})")
     print(f"  Newton iterations {int(solutions[old].n_newton.sum())} / {int(solutions['frictionid'].n_newton.sum())};"
           f" largest difference / largest value: {difference(solutions[old], solutions['frictionid'])}")
+    for name, (solved, mu) in problems.items():
+        moved = solved.solve(mu * (1 + 1e-15), sensitivities=True)
+        print(f"  {name} with mu x (1 + 1e-15) against itself: {difference(solutions[name], moved)}")
 
 
 def newton_tolerance(package: str, rtol: float) -> None:
