@@ -15,7 +15,7 @@ log = logging.getLogger(__name__)
 STICK_MARGIN = 1e-6
 
 
-def stick_start(run: Iterates, x0: np.ndarray) -> tuple[np.ndarray, str]:
+def stick_start(iterates: Iterates, x0: np.ndarray) -> tuple[np.ndarray, str]:
     """The start with every free zone that sticks along the whole load path at ``x0`` lowered to its stick
     threshold (``LeastSquares.stick_floor``, within the bounds), and what was done, for the run's message.
 
@@ -24,8 +24,8 @@ def stick_start(run: Iterates, x0: np.ndarray) -> tuple[np.ndarray, str]:
     the next steps of the others show its effect. Asked only where a column of the start's Jacobian is zero;
     the move is taken only where the objective there is that of x0 (to 1e-9). It costs one forward solve (the
     thresholds) and the moved start's Jacobian."""
-    problem = run.problem
-    columns = np.linalg.norm(run.jacobian(x0), axis=0)       # the optimiser's first Jacobian: no extra solve
+    problem = iterates.problem
+    columns = np.linalg.norm(iterates.jacobian(x0), axis=0)       # the optimiser's first Jacobian: no extra solve
     flat = columns <= 1e-12 * max(columns.max(initial=0.0), np.finfo(float).tiny)
     floor = problem.stick_floor(x0) if flat.any() else None
     if floor is None:
@@ -35,9 +35,9 @@ def stick_start(run: Iterates, x0: np.ndarray) -> tuple[np.ndarray, str]:
     if not lowered.any():
         return x0, ""
     start = np.where(lowered, target, x0)
-    before = run.objective(x0)
-    run.jacobian(start)                           # the solve with sensitivities the optimiser's start needs
-    after = run.objective(start)
+    before = iterates.objective(x0)
+    iterates.jacobian(start)                           # the solve with sensitivities the optimiser's start needs
+    after = iterates.objective(start)
     names = ", ".join(f"{problem.names[k]} {x0[k]:.4g} -> {start[k]:.4g}" for k in np.flatnonzero(lowered))
     if not abs(after - before) <= 1e-9 * max(abs(before), np.finfo(float).tiny):
         log.info("stick thresholds not used: the objective moved from %.10g to %.10g (%s)", before, after, names)
