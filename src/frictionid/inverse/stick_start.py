@@ -35,9 +35,7 @@ def stick_start(iterates: Iterates, x0: np.ndarray) -> tuple[np.ndarray, str]:
     if not lowered.any():
         return x0, ""
     start = np.where(lowered, target, x0)
-    before = iterates.objective(x0)
-    iterates.jacobian(start)                           # the solve with sensitivities the optimiser's start needs
-    after = iterates.objective(start)
+    before, after = iterates.objective(x0), iterates.objective(start)   # a failed solve there: inf, not taken
     names = ", ".join(f"{problem.names[k]} {x0[k]:.4g} -> {start[k]:.4g}" for k in np.flatnonzero(lowered))
     if not abs(after - before) <= 1e-9 * max(abs(before), np.finfo(float).tiny):
         log.info("stick thresholds not used: the objective moved from %.10g to %.10g (%s)", before, after, names)
