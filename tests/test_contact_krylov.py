@@ -16,6 +16,7 @@ from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.registry import build_model
 from frictionid.errors import InputError
 from frictionid.fem import contact_krylov
+from frictionid.fem import mumps_schur
 from frictionid.fem.condense_implicit import is_implicit
 from frictionid.fem.contact import OPEN, SLIP, STICK, Increment, jacobian, linearise
 from frictionid.fem.loadpath import LoadPathSolver
@@ -162,3 +163,15 @@ def test_memory_estimate_counts_a_second_factor_instead_of_dense_blocks(monkeypa
     factor = memory.condensation_bytes(implicit.n_dofs, 3)
     assert implicit.needed - dense.needed == pytest.approx(factor - memory.contact_bytes(
         memory.contact_pairs(model), 3), rel=0.05)
+
+
+@pytest.mark.skipif(not mumps_schur.available(), reason="the python-mumps wheel is not installed")
+def test_implicit_path_says_it_does_not_use_mumps(caplog):
+    """MUMPS gives the dense path its Schur complements; the implicit path solves with K's factor instead, and
+    says which one it took when "mumps" was asked for."""
+    model = block_model_2d(pull=0.1, height=4.0, mesh_size=2.0, contact_size=1.0, n_zones=2, n_press=2, n_pull=2)
+    with caplog.at_level("WARNING", logger="frictionid.fem.condense_implicit"):
+        asked = Problem.build(model, contact="implicit", factorisation="mumps")
+    assert "factorisation 'mumps' is for the dense contact operators" in caplog.text
+    plain = Problem.build(model, contact="implicit")
+    np.testing.assert_allclose(asked.solve([0.3, 0.2]).lam, plain.solve([0.3, 0.2]).lam, rtol=0, atol=1e-9)

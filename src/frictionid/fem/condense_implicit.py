@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from . import cholesky
 from .assembly import LoadChannels
 from .condense import Affine, Condensed, GeneralisedInverse, factorisation_name, partition
 
@@ -101,7 +102,12 @@ def condense_implicit(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels
                       factorisation: str = "auto") -> Condensed:
     """The operators of :func:`frictionid.fem.condense.condense` (same arguments) with W applied, not formed."""
     f, p, K_ff, K_fp, K_pf, K_pp, R, B_f, B_p, O_f, O_p = partition(K, B, channels, modes, observe)
-    if factorisation_name(factorisation) in ("cholmod", "cholmod_solves"):
+    name = factorisation_name(factorisation)
+    if name == "mumps":     # MUMPS gives the dense path's Schur complements; here K is solved with, column by column
+        name = "cholmod" if cholesky.available() else "superlu"
+        log.warning("implicit condensation: factorisation 'mumps' is for the dense contact operators; the implicit "
+                    "path factorises K with %s", "CHOLMOD" if name == "cholmod" else "SuperLU")
+    if name in ("cholmod", "cholmod_solves"):
         inverse = GeneralisedInverse(K_ff, R, last=np.zeros(0, int), nodes=f // dim)
     else:
         inverse = GeneralisedInverse(K_ff, R, "COLAMD" if dim == 2 else "MMD_AT_PLUS_A")
