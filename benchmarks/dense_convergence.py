@@ -7,8 +7,7 @@ noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared wh
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
 three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
-levels of tilt_ccx.py's graded family are named ``g<k>`` (``g<k>q``: the block in C3D20R, ``g<k>p``: the plate
-the contact's slave; the suffix is a label only), h ~ 1 / k),
+levels of tilt_ccx.py's graded family are named ``g<k>`` with tilt_ccx.GRADED's flags (a label only here), h ~ 1 / k),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
@@ -88,13 +87,14 @@ def differences(coarse, fine) -> dict:
 
 def is_level(name: str) -> bool:
     """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
-    return name.isdigit() or (name[:1] == "g" and name[1:].rstrip("qp").isdigit())
+    return name.isdigit() or dense.tilt.GRADED.fullmatch(name) is not None
 
 
 def size(name: str) -> float:
     """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
     graded family's k)."""
-    return 1.0 / (int(name[1:].rstrip("qp")) if name.startswith("g") else LEVELS[int(name)][0])
+    graded = dense.tilt.GRADED.fullmatch(name)
+    return 1.0 / (int(graded.group(1)) if graded else LEVELS[int(name)][0])
 
 
 def rms(v: np.ndarray) -> float:
