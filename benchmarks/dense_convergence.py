@@ -22,7 +22,9 @@ Each row also gives the changes of the block's rigid motion at the end of the pu
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
 after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
-convergence criteria), the same numbers per variant.
+convergence criteria), the same numbers per variant. ``--where`` adds, per pair of levels, the end of the pull's
+differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
+in noise levels and share of the kind's sum of squares.
 """
 
 from __future__ import annotations
@@ -54,6 +56,36 @@ def read(folder: Path, name: str = "measured.csv") -> tuple[list[str], np.ndarra
     values = np.array([[cell(v) for v in r[6:15]] for r in rows])
     force = np.array([float(next(r[5] for r in rows if int(r[4]) == s)) for s in (1, 2)])
     return labels, np.stack([values[stage == 1], values[stage == 2]]), force
+
+
+def coordinates(folder: Path, name: str = "measured.csv") -> np.ndarray:
+    """(n, 3) undeformed point coordinates of an export (stage 1's rows)."""
+    lines = [line for line in (folder / name).read_text().splitlines() if not line.startswith("#")]
+    return np.array([[float(v) for v in line.split(",")[1:4]] for line in lines[1:] if line.split(",")[4] == "1"])
+
+
+#: where the differences sit (``--where``): block faces by height above the contact edge, plate by distance from
+#: the footprint [mm]
+BLOCK_BANDS, PLATE_BANDS = ((0, 1), (1, 2), (2, 4), (4, 10)), ((1, 1.6), (1.6, 2.5), (2.5, 4), (4, 15))
+
+
+def where(labels: list[str], xyz: np.ndarray, coarse: np.ndarray, fine: np.ndarray) -> list[dict]:
+    """Per region of the points, the end of the pull's differences fine - coarse (values (2, n, 9)): RMS in noise
+    levels and share of the kind's sum of squares, displacements and strains."""
+    plate = np.array([label.startswith("plate") for label in labels])
+    distance = np.hypot(np.maximum(np.abs(xyz[:, 0]) - 5, 0), np.maximum(np.abs(xyz[:, 1]) - 5, 0))
+    regions = [(f"block z {a}-{b}", ~plate & (xyz[:, 2] >= a) & (xyz[:, 2] < b)) for a, b in BLOCK_BANDS]
+    regions += [(f"plate {a}-{b} mm out", plate & (distance >= a - 1e-9) & (distance < b - 1e-9)) for a, b in PLATE_BANDS]
+    rows = []
+    for name, mask in regions:
+        row = {"region": name, "points": int(mask.sum())}
+        for kind, (cols, noise) in KINDS.items():
+            d = (fine[1][:, cols] - coarse[1][:, cols]) / noise
+            total, part = np.nansum(d ** 2), d[mask]
+            row[f"{kind}_rms"] = round(float(np.sqrt(np.nanmean(part ** 2))), 2)
+            row[f"{kind}_share"] = round(float(np.nansum(part ** 2) / total), 3)
+        rows.append(row)
+    return rows
 
 
 def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray]]:
@@ -120,12 +152,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
+    parser.add_argument("--where", action="store_true", help="also where the differences sit (regions of points)")
     args = parser.parse_args(argv)
     named = [(a.split("=", 1)[0], Path(a.split("=", 1)[1])) for a in args.exports]
-    data = {}
+    data, raw = {}, {}
     for name, folder in named:
         labels, values, force = read(folder)
         data[name] = (labels, in_noise(values, force), rigid(labels, values))
+        raw[name] = values
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
     if not all(is_level(name) for name, _ in named):
@@ -137,6 +171,9 @@ def main(argv=None) -> int:
     order = sorted(h, key=lambda name: -h[name])
     for coarse, fine in zip(order, order[1:]):
         emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
+        if args.where:
+            for row in where(data[coarse][0], coordinates(dict(named)[coarse]), raw[coarse], raw[fine]):
+                emit({"levels": [coarse, fine], **row}, args.out)
     if len(order) >= 3:
         a, b, c = order[-3:]
         row = {"richardson_of_level": c, "from_levels": [a, b, c]}
