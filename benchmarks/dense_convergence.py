@@ -66,7 +66,7 @@ def coordinates(folder: Path, name: str = "measured.csv") -> np.ndarray:
 
 #: where the differences sit (``--where``): block faces by height above the contact edge, plate by distance from
 #: the footprint [mm]
-BLOCK_BANDS, PLATE_BANDS = ((0, 1), (1, 2), (2, 4), (4, 10)), ((1, 1.6), (1.6, 2.5), (2.5, 4), (4, 15))
+BLOCK_BANDS, PLATE_BANDS = ((0, 1), (1, 2), (2, 4), (4, 10)), ((1, 1.6), (1.6, 2.5), (2.5, 4), (4, 6.6))
 
 
 def where(labels: list[str], xyz: np.ndarray, coarse: np.ndarray, fine: np.ndarray) -> list[dict]:

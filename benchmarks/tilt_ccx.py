@@ -193,7 +193,8 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
     totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
     um = lambda v: 1e3 * float(v)
     return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "slave": slave, "penalty": penalty,
-            "stick": stick, "element": element,
+            "stick": stick, "element": {body: getattr(grid, "element", None) or element
+                                        for body, grid in (("plate", plate), ("block", block))},
             "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
             "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
             "N": {z: round(normal[z], 2) for z in gen.MU},
