@@ -7,7 +7,8 @@ edges and at the zone borders x, y = 0), the block with ``n`` and the plate unde
 per half side (so the interface does not match, except on the lines x, y = 0, +-5); the plate outside the
 footprint growing by 1.5 per element; both bodies' layers smallest at the interface. ``--mesh`` gives such a
 mesh by its LEVELS fields; ``--graded K`` a level of a family whose lines are fixed maps of uniform grids
-(:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R; ``--slave plate`` the plate top as the
+(:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R, ``--quadratic`` both bodies, ``--ring`` the plate
+outside the footprint by :func:`ring_map`; ``--slave plate`` the plate top as the
 contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
 
 Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
