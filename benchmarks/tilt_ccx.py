@@ -120,7 +120,7 @@ def graded_lines(k: int, ring: bool = False) -> tuple[np.ndarray, np.ndarray, np
     grid whose number of intervals is proportional to k, so that the levels are uniform refinements in the mapped
     coordinates. Footprint half sides ``1 - cos`` (k + 1 divisions in the plate; the block's are k); the plate
     outside the footprint 5 + 15 t^2 (k + 2 elements per side), or with ``ring`` :func:`ring_map` (k + 3 elements
-    per side, about k + 1 of them where the DIC points are); the plate's k + 1 layers and the block's 2k
+    per side, about k of them where the DIC points are); the plate's k + 1 layers and the block's 2k
     graded towards the interface as 1 - cos(pi t / 2), so the footprint's edges are refined quadratically in
     both directions of the section across them."""
     t = lambda m: np.arange(m + 1) / m
