@@ -7,8 +7,7 @@ noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared wh
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
 three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
-levels of tilt_ccx.py's graded family are named ``g<k>`` (``g<k>q``: the block in C3D20R, ``g<k>p``: the plate
-the contact's slave; the suffix is a label only), h ~ 1 / k),
+levels of tilt_ccx.py's graded family are named ``g<k>`` with tilt_ccx.GRADED's flags (a label only here), h ~ 1 / k),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
@@ -23,7 +22,9 @@ Each row also gives the changes of the block's rigid motion at the end of the pu
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
 after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
-convergence criteria), the same numbers per variant.
+convergence criteria), the same numbers per variant. ``--where`` adds, per pair of levels, the end of the pull's
+differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
+in noise levels and share of the kind's sum of squares.
 """
 
 from __future__ import annotations
@@ -57,6 +58,36 @@ def read(folder: Path, name: str = "measured.csv") -> tuple[list[str], np.ndarra
     return labels, np.stack([values[stage == 1], values[stage == 2]]), force
 
 
+def coordinates(folder: Path, name: str = "measured.csv") -> np.ndarray:
+    """(n, 3) undeformed point coordinates of an export (stage 1's rows)."""
+    lines = [line for line in (folder / name).read_text().splitlines() if not line.startswith("#")]
+    return np.array([[float(v) for v in line.split(",")[1:4]] for line in lines[1:] if line.split(",")[4] == "1"])
+
+
+#: where the differences sit (``--where``): block faces by height above the contact edge, plate by distance from
+#: the footprint [mm]
+BLOCK_BANDS, PLATE_BANDS = ((0, 1), (1, 2), (2, 4), (4, 10)), ((1, 1.6), (1.6, 2.5), (2.5, 4), (4, 6.6))
+
+
+def where(labels: list[str], xyz: np.ndarray, coarse: np.ndarray, fine: np.ndarray) -> list[dict]:
+    """Per region of the points, the end of the pull's differences fine - coarse (values (2, n, 9)): RMS in noise
+    levels and share of the kind's sum of squares, displacements and strains."""
+    plate = np.array([label.startswith("plate") for label in labels])
+    distance = np.hypot(np.maximum(np.abs(xyz[:, 0]) - 5, 0), np.maximum(np.abs(xyz[:, 1]) - 5, 0))
+    regions = [(f"block z {a}-{b}", ~plate & (xyz[:, 2] >= a) & (xyz[:, 2] < b)) for a, b in BLOCK_BANDS]
+    regions += [(f"plate {a}-{b} mm out", plate & (distance >= a - 1e-9) & (distance < b - 1e-9)) for a, b in PLATE_BANDS]
+    rows = []
+    for name, mask in regions:
+        row = {"region": name, "points": int(mask.sum())}
+        for kind, (cols, noise) in KINDS.items():
+            d = (fine[1][:, cols] - coarse[1][:, cols]) / noise
+            total, part = np.nansum(d ** 2), d[mask]
+            row[f"{kind}_rms"] = round(float(np.sqrt(np.nanmean(part ** 2))), 2)
+            row[f"{kind}_share"] = round(float(np.nansum(part ** 2) / total), 3)
+        rows.append(row)
+    return rows
+
+
 def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray]]:
     """Per kind, per stage: the observed values in noise levels (flattened, empty cells dropped)."""
     out = {}
@@ -88,13 +119,14 @@ def differences(coarse, fine) -> dict:
 
 def is_level(name: str) -> bool:
     """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
-    return name.isdigit() or (name[:1] == "g" and name[1:].rstrip("qp").isdigit())
+    return name.isdigit() or dense.tilt.GRADED.fullmatch(name) is not None
 
 
 def size(name: str) -> float:
     """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
     graded family's k)."""
-    return 1.0 / (int(name[1:].rstrip("qp")) if name.startswith("g") else LEVELS[int(name)][0])
+    graded = dense.tilt.GRADED.fullmatch(name)
+    return 1.0 / (int(graded.group(1)) if graded else LEVELS[int(name)][0])
 
 
 def rms(v: np.ndarray) -> float:
@@ -120,12 +152,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
+    parser.add_argument("--where", action="store_true", help="also where the differences sit (regions of points)")
     args = parser.parse_args(argv)
     named = [(a.split("=", 1)[0], Path(a.split("=", 1)[1])) for a in args.exports]
-    data = {}
+    data, raw = {}, {}
     for name, folder in named:
         labels, values, force = read(folder)
         data[name] = (labels, in_noise(values, force), rigid(labels, values))
+        raw[name] = values
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
     if not all(is_level(name) for name, _ in named):
@@ -137,6 +171,9 @@ def main(argv=None) -> int:
     order = sorted(h, key=lambda name: -h[name])
     for coarse, fine in zip(order, order[1:]):
         emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
+        if args.where:
+            for row in where(data[coarse][0], coordinates(dict(named)[coarse]), raw[coarse], raw[fine]):
+                emit({"levels": [coarse, fine], **row}, args.out)
     if len(order) >= 3:
         a, b, c = order[-3:]
         row = {"richardson_of_level": c, "from_levels": [a, b, c]}

@@ -7,7 +7,8 @@ edges and at the zone borders x, y = 0), the block with ``n`` and the plate unde
 per half side (so the interface does not match, except on the lines x, y = 0, +-5); the plate outside the
 footprint growing by 1.5 per element; both bodies' layers smallest at the interface. ``--mesh`` gives such a
 mesh by its LEVELS fields; ``--graded K`` a level of a family whose lines are fixed maps of uniform grids
-(:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R; ``--slave plate`` the plate top as the
+(:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R, ``--quadratic`` both bodies, ``--ring`` the plate
+outside the footprint by :func:`ring_map`; ``--slave plate`` the plate top as the
 contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
 
 Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import subprocess
 import sys
 import time
@@ -102,15 +104,27 @@ def mesh_spec(text: str) -> tuple:
     return int(n), int(nbz), int(npz), float(hb), float(hp)
 
 
-def graded_lines(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ring_map(t: np.ndarray) -> np.ndarray:
+    """The plate outside the footprint for ``--ring``: [0, 1] -> [5, 20], 5 + 5.5 (1 - cos(pi t / 1.2)) up to
+    t = 0.6 (x = 10.5: the DIC points' region, its elements smallest at the footprint's edge and growing to about
+    twice the average), then quadratic to 20 with a continuous slope (the far plate, coarse)."""
+    t = np.asarray(t, float)
+    slope = 5.5 * np.pi / 1.2                                   # d/dt of the first piece at t = 0.6
+    s = t - 0.6
+    far = 10.5 + slope * s + (9.5 - slope * 0.4) / 0.16 * s ** 2
+    return np.where(t <= 0.6, 5.0 + 5.5 * (1.0 - np.cos(np.pi * t / 1.2)), far)
+
+
+def graded_lines(k: int, ring: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(plate lines in x and y, plate z, block z) of graded family level ``k``: every line a fixed map of a uniform
     grid whose number of intervals is proportional to k, so that the levels are uniform refinements in the mapped
     coordinates. Footprint half sides ``1 - cos`` (k + 1 divisions in the plate; the block's are k); the plate
-    outside the footprint 5 + 15 t^2 (k + 2 elements per side); the plate's k + 1 layers and the block's 2k
+    outside the footprint 5 + 15 t^2 (k + 2 elements per side), or with ``ring`` :func:`ring_map` (k + 3 elements
+    per side, about k of them where the DIC points are); the plate's k + 1 layers and the block's 2k
     graded towards the interface as 1 - cos(pi t / 2), so the footprint's edges are refined quadratically in
     both directions of the section across them."""
     t = lambda m: np.arange(m + 1) / m
-    outside = 5.0 + 15.0 * t(k + 2)[1:] ** 2
+    outside = ring_map(t(k + 3))[1:] if ring else 5.0 + 15.0 * t(k + 2)[1:] ** 2
     inner = footprint_lines(k + 1)
     xy = np.unique(np.round(np.concatenate([-outside[::-1], inner, outside]), 12))
     plate_z = -5.0 * (1.0 - np.cos(0.5 * np.pi * t(k + 1)))[::-1]
@@ -118,14 +132,20 @@ def graded_lines(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return xy, plate_z, block_z
 
 
+#: graded family level names: ``g<k>`` and any of the flags q (block C3D20R), Q (both bodies C3D20R), r (the
+#: plate outside the footprint by ring_map), p (the plate the contact's slave: a label only, ``--slave`` decides)
+GRADED = re.compile(r"g(\d+)([qQrp]*)")
+
+
 def meshes(level):
     """(plate, block, median plate facet h) of a level number, of a spec tuple as LEVELS' values, or of graded
-    family level ``"g<k>"`` (:func:`graded_lines`)."""
+    family level ``"g<k>"`` with GRADED's flags (:func:`graded_lines`)."""
     if isinstance(level, str):
-        n = int(level[1:].rstrip("q"))
-        xy, plate_z, block_z = graded_lines(n)
-        plate = gen.Grid(xy, xy, plate_z, first_node=1, first_element=1)
-        body = QuadraticGrid if level.endswith("q") else gen.Grid
+        n, flags = GRADED.fullmatch(level).groups()
+        n = int(n)
+        xy, plate_z, block_z = graded_lines(n, ring="r" in flags)
+        plate = (QuadraticGrid if "Q" in flags else gen.Grid)(xy, xy, plate_z, first_node=1, first_element=1)
+        body = QuadraticGrid if ("q" in flags or "Q" in flags) else gen.Grid
         block = body(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
                      first_element=len(plate.cells) + 1)
         return plate, block, float(np.median(np.diff(footprint_lines(n + 1))))
@@ -174,13 +194,20 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
     totals = next(v for (what, name), v in dat.totals.items() if name.upper() == "NTOP")
     um = lambda v: 1e3 * float(v)
     return {"level": level, "scale": scale, "n_pull": n_pull, "field": field, "slave": slave, "penalty": penalty,
-            "stick": stick, "element": element,
+            "stick": stick, "element": {body: getattr(grid, "element", None) or element
+                                        for body, grid in (("plate", plate), ("block", block))},
             "nodes": plate.n_nodes + block.n_nodes, "seconds": round(seconds, 1), "increments": gen.increments(work),
             "tilt_um": um(at_height(block, disp, 0, -5, 5)[2] - at_height(block, disp, 0, 5, 5)[2]),
             "N": {z: round(normal[z], 2) for z in gen.MU},
             "uy_x-5_z1_um": um(at_height(block, disp, -5, 0, 1)[1]),
             "uy_x+5_z1_um": um(at_height(block, disp, 5, 0, 1)[1]),
             "force": totals[max(totals)][1] / scale}
+
+
+def graded_name(args) -> str:
+    """The graded level's name (GRADED) of parsed ``--graded``, ``--quadratic[-block]``, ``--ring``, ``--slave``."""
+    return (f"g{args.graded}{'Q' if args.quadratic else 'q' if args.quadratic_block else ''}"
+            f"{'r' if args.ring else ''}{'p' if args.slave == 'plate' else ''}")
 
 
 def main(argv=None) -> int:
@@ -193,6 +220,9 @@ def main(argv=None) -> int:
                         "layers,first block layer,first plate layer' (e.g. level 2 is '5,10,6,0.3,0.25')")
     parser.add_argument("--graded", type=int, help="graded family level k instead of --level (graded_lines)")
     parser.add_argument("--quadratic-block", action="store_true", help="with --graded: the block in C3D20R")
+    parser.add_argument("--quadratic", action="store_true", help="with --graded: both bodies in C3D20R")
+    parser.add_argument("--ring", action="store_true", help="with --graded: the plate outside the footprint by "
+                        "ring_map (finer where the DIC points are)")
     parser.add_argument("--element", default="C3D8I")
     parser.add_argument("--slave", choices=("block", "plate"), default="block",
                         help="the contact's slave body (the zones' surfaces; the other is the master)")
@@ -203,7 +233,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
     parser.add_argument("--count", action="store_true", help="print the node count only")
     args = parser.parse_args(argv)
-    level = args.mesh or (f"g{args.graded}{'q' if args.quadratic_block else ''}" if args.graded else args.level)
+    level = args.mesh or (graded_name(args) if args.graded else args.level)
     if args.count:
         plate, block, h = meshes(level)
         print(f"level {level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")

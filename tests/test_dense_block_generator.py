@@ -28,6 +28,23 @@ def test_a_quadratic_blocks_faces_are_interpolated_by_its_own_field():
                                    err_msg=name)
 
 
+def test_a_quadratic_plates_top_is_interpolated_by_its_own_field_and_the_ring_is_a_smooth_grading():
+    plate, block, _ = tilt.meshes("g3Qr")
+    assert isinstance(plate, tilt.QuadraticGrid) and isinstance(block, tilt.QuadraticGrid)
+    field = lambda p: np.column_stack([1 + p[:, 0] ** 2 + p[:, 1] * p[:, 0], p[:, 1] ** 2 - 3 * p[:, 0] * p[:, 1],
+                                       p[:, 0] ** 2 * p[:, 1] - p[:, 1] ** 2 * p[:, 0] + 0.5 * p[:, 2]])
+    ids = plate.ids.ravel()
+    disp = {int(n): v for n, v in zip(ids[ids > 0], field(plate.points[ids > 0]))}
+    name, axis, xyz = dense.face_points(0.6)[4]
+    assert name == "plate"
+    np.testing.assert_allclose(dense.displacements(plate, block, disp, axis, xyz), field(xyz), atol=1e-10)
+    # the ring's element lines: from the footprint's edge to 20 mm, growing (by less than 3 from one to the next)
+    xy = tilt.graded_lines(5, ring=True)[0]
+    sizes = np.diff(xy[xy >= 5.0])
+    assert xy[-1] == 20.0 and np.all(np.diff(sizes) > 0) and np.all(sizes[1:] / sizes[:-1] < 3.1)
+    assert np.count_nonzero((xy > 5.0) & (xy < 10.5)) == 4
+
+
 def test_the_plate_as_slave_carries_the_zones_on_its_faces_under_the_footprint():
     plate, block, _ = tilt.meshes("g3")
     deck = gen.write_deck(plate, block, 1e7, 1e5, n_press=2, n_pull_min=5, slave="plate")
