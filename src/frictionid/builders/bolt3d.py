@@ -70,9 +70,11 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
     Tightening (ISO 16047 like, as the axisymmetric model's): both plates' rims held (x, y, z; the clamp force is
     the reaction "plate1_rim.y"), the head held against turning at its flats (x, z), the nut's flats turned as a
     rigid body about the axis by the stage's angle (a :class:`~frictionid.model.Rotation`: u_x = -z a, u_z = x a,
-    u_y free; wrench torque: reaction "nut_outer.torque" [N mm]). The preload comes from the helicoid's normals in
-    the node-to-node pairs; the pairs are made once (small sliding), so the nut's slide on the flanks, r a, must
-    stay small against the flank's element size.
+    u_y free; wrench torque: reaction "nut_outer.torque" [N mm]). The preload comes from the helix of the mesh:
+    the thread's pairs get the lead P (:attr:`~frictionid.model.ContactInterface.lead`), which makes each pair's
+    normal normal to the helix through its node (the facets' own normals scatter about the helicoid's, and the
+    turned nut would load the steepest ones). The pairs are made once (small sliding): the nut's slide on the
+    flanks, r a, must stay under the local element length (the solver stops otherwise).
     """
     window = window_of(layout, cutout)
     if not isinstance(jaws, bool):
@@ -90,7 +92,8 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
     else:
         loads, names = (SurfaceForce("plate1_rim", 1, values),), [f"F{i + 1}" for i in range(len(values))]
     zones = tuple(z for z in layout.thread_zones if z in mesh.boundaries)
-    interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node"),
+    lead = layout.size.P if load == "tightening" else 0.0
+    interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node", lead),
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
                   ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
     return Model(mesh=mesh, kind="3d", materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},

@@ -167,9 +167,13 @@ class ContactInterface:
     ``discretisation``: "node-to-node" (conforming meshes: every contact node has a target node at the same
     place, up to an initial gap), "mortar" (non-matching meshes, 2-D and 3-D) or "auto" (node-to-node when conforming, else mortar).
     ``lead`` [mm]: axial advance per turn of a helical interface (a thread: the pitch times the number of starts),
-    positive for a right-hand helix; "axisymmetric_twist" models only. Its rings stand for the helix: each pair's
-    normal is tilted by the local lead angle (:func:`frictionid.fem.twist.helical_normals`), so that turning one
-    side advances it along the axis and the normal force carries torque.
+    positive for a right-hand helix; "axisymmetric_twist" and "3d" models. In "axisymmetric_twist" its rings
+    stand for the helix: each pair's normal is tilted by the local lead angle
+    (:func:`frictionid.fem.twist.helical_normals`), so that turning one side advances it along the axis and the
+    normal force carries torque. In "3d" (node-to-node pairs about the y axis) the helix is in the mesh and each
+    pair's normal is made normal to the helix through its node (:func:`frictionid.fem.twist.on_helicoid`): the
+    facets' normals scatter about the helicoid's, and a nut turned on them closes the pairs whose normals are
+    steepest first.
     ``gap_tolerance`` [mm]: the largest initial |gap| a pair may have (default None: half the median contact facet
     size, :func:`frictionid.fem.contact_map.gap_tolerance`); a larger one is refused before any solve.
     ``coefficients``: the name of the friction coefficient of each zone (default: the zone's own name); zones of
@@ -375,9 +379,9 @@ class Model:
                                  f"zone {coefficient!r} with coefficient {coefficient_of[coefficient]!r}")
         for interface in self.interfaces:
             self.mesh.boundary(interface.target)
-            if interface.lead and self.kind != "axisymmetric_twist":
+            if interface.lead and self.kind not in ("axisymmetric_twist", "3d"):
                 raise InputError(f"model: interface {interface.name!r} has a lead ({interface.lead:g} mm), which "
-                                 f"needs kind 'axisymmetric_twist', the model is {self.kind!r}")
+                                 f"needs kind 'axisymmetric_twist' or '3d', the model is {self.kind!r}")
             for zone in interface.zones:
                 for facet in self.mesh.boundary(zone):
                     key = frozenset(facet.tolist())
