@@ -48,6 +48,21 @@ def test_rotation_in_3d_twists_a_tube_by_saint_venant():
     np.testing.assert_allclose(u[:, [0, 2]], a * np.column_stack([-x[:, 2], x[:, 0]]), atol=1e-12)
 
 
+def test_a_3d_rotation_is_refused_by_the_calculix_deck():
+    """The deck has no rotation of a face in 3-D: an input error naming the boundary, not a deck without it."""
+    from frictionid.backends.calculix.deck import ContactSettings, write_deck
+    from frictionid.errors import InputError
+    from frictionid.fem.assembly import load_channels
+    from frictionid.fem.space import Space
+    model = Model(mesh=_tube(5.0, 3.0, 10.0, 2.5), kind="3d", materials={"tube": Material(200000.0, 0.3)},
+                  supports=(Support("bottom"),), loads=(Rotation("top", (1e-3,)),), stages=(Stage("turn"),),
+                  interfaces=())
+    channels = load_channels(Space.build(model.mesh, model.kind, model.element), model)
+    with pytest.raises(InputError, match="rotation prescribed on 'top'"):
+        write_deck(model, np.zeros(0), ContactSettings(normal_stiffness=1e6, stick_slope=2e6), channels.forces,
+                   channels.amplitudes)
+
+
 #: the smallest 3-D tightening model measured: M8, threads engaged over two pitches, no window, one element across
 #: a flank (flank_size = P)
 SMALL = dict(size="M8", model="3d", load="tightening", engaged_length=2.5, thread_length=13.05, n_axial=2,
