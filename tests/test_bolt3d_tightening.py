@@ -63,6 +63,18 @@ def test_a_3d_rotation_is_refused_by_the_calculix_deck():
                    channels.amplitudes)
 
 
+def test_a_3d_lead_needs_node_to_node_pairs():
+    """The helicoid's normals are set on node-to-node pairs only: a 3-D mortar interface with a lead is refused."""
+    import dataclasses
+    from frictionid.builders.block import block_model
+    from frictionid.errors import InputError
+    model = block_model(mesh_size=2.0, n_pull=1)
+    interface = dataclasses.replace(model.interfaces[0], discretisation="mortar", lead=1.0)
+    model = dataclasses.replace(model, interfaces=(interface,) + model.interfaces[1:])
+    with pytest.raises(InputError, match="a lead .* needs node-to-node pairs in 3-D"):
+        Problem.build(model)
+
+
 #: the smallest 3-D tightening model measured: M8, threads engaged over two pitches, no window, one element across
 #: a flank (flank_size = P)
 SMALL = dict(size="M8", model="3d", load="tightening", engaged_length=2.5, thread_length=13.05, n_axial=2,
