@@ -118,3 +118,25 @@ def test_3d_torque_tension_relation_is_vdi_2230s(tightening, mu):
     pitch = bolt_layout("M8").size.P
     expected = vdi_torque(force, pitch, split.r_thread, split.r_bearing, mu, mu)
     assert torque == pytest.approx(expected, rel=0.02)
+
+
+@pytest.mark.slow
+def test_3d_tightening_turns_the_nut_flats_and_holds_the_head_flats(tightening):
+    """"nut_outer" and "head_side" are the six flats of nut and head; at the end the nut's flats have turned rigidly
+    by 0.1 deg (u_x = -z a, u_z = x a), the head's have not moved in x and z, and the nut has moved towards the head
+    (u_y < 0: it presses plate 1, held at its rim)."""
+    from frictionid.builders.bolt import bolt_layout
+    from frictionid.builders.bolt3d_geometry import direction
+    model, s = tightening.model, bolt_layout("M8").size
+    normals = direction(np.pi / 2 + np.radians(60.0 * np.arange(6)))
+    for name, width in (("nut_outer", s.nut_s), ("head_side", s.head_s)):
+        points = model.mesh.points[model.mesh.boundary_nodes(name)]
+        on = np.abs(points @ normals.T - width / 2) < 1e-9
+        assert np.all(on.any(axis=1)) and np.all(on.any(axis=0))          # every node on a flat, every flat there
+    solution = tightening.solve(np.full(model.n_zones, 0.15))
+    u = tightening.displacement(solution)
+    nut, head = (model.mesh.boundary_nodes(name) for name in ("nut_outer", "head_side"))
+    a, x = np.radians(0.1), model.mesh.points[nut]
+    np.testing.assert_allclose(u[nut][:, [0, 2]], a * np.column_stack([-x[:, 2], x[:, 0]]), atol=1e-12)
+    np.testing.assert_allclose(u[head][:, [0, 2]], 0.0, atol=1e-15)
+    assert np.all(u[nut, 1] < 0)
