@@ -77,7 +77,10 @@ def test_groove_section_is_the_iso_profile(layout):
     ({"model": "3d", "cutout": {"depth": 9.0}}, "`cutout.depth`"),
     ({"model": "3d", "cutout": {"widht": 30}}, "did you mean 'width'"),
     ({"model": "3d", "jaws": "yes"}, "`jaws`"),
-    ({"model": "3d", "load": "tightening"}, "tension"),
+    ({"model": "3d", "load": "torque"}, "`load`"),
+    ({"model": "3d", "load": "tightening", "jaws": True}, "`jaws` = true holds the nut"),
+    ({"model": "3d", "load": "tightening", "torques": [40.0]}, "`torques`"),
+    ({"model": "3d", "load": "tightening", "angles": [-1.0]}, "angles"),
     ({"model": "3d", "flank_size": 3.0}, "`flank_size`"),
     ({"thread_length": 10.0}, "`thread_length`"),
 ])

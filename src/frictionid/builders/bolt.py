@@ -64,7 +64,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                n_radial: int = 2, n_axial: int = 3, length: float | None = None,
                engaged_length: float | None = None, clearance: float | None = None,
                bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
-               model: str = "axisymmetric", cutout=True, jaws: bool = True,
+               model: str = "axisymmetric", cutout=True, jaws: bool | None = None,
                thread_length: float | None = None, root_size: float | None = None) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
@@ -112,12 +112,15 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         then not used).
     model : "axisymmetric" | "3d"
         "3d": the helical thread, real hexagons, the nut's window and jaws (:mod:`frictionid.builders.bolt3d`,
-        quadratic tetrahedra, conforming node-to-node interfaces); ``load`` "tension" only.
+        quadratic tetrahedra, conforming node-to-node interfaces). Tightening in 3-D: the nut's six flats
+        "nut_outer" turned rigidly by ``angles`` (u_x = -z a, u_z = x a; ``torques`` not taken), the head's six
+        flats "head_side" held in x and z, both plates' rims held; the helix is in the mesh (no ``lead``).
     cutout : bool or table, 3-D only
         The nut's window: true (default: 60 deg wide, from the flats down to the nut crest D1/2), false (none), or
         ``{ width = deg, depth = mm }`` (depth from the flats' radius s/2 inwards).
     jaws : bool, 3-D only
-        True (default): the nut's two flats normal to z are held in z (jaws against rotation); false: free.
+        True (default with ``load`` = "tension"): the nut's two flats normal to z are held in z (jaws against
+        rotation); false (default with "tightening", where the nut is turned): free.
     root_size : float [mm], 3-D only, optional
         Element size at the bolt's roots where the nut crest faces them (the size grows from there by 1 mm per
         mm); default R/2 (R = H/6 the root radius).
@@ -146,7 +149,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     if model == "3d":
         root_size = None if root_size is None else positive("root_size", root_size)
         return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
-                         load, cutout, jaws, root_size)
+                         (load, angles, torques), cutout, jaws, root_size)
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -173,18 +176,26 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                  interfaces=interfaces)
 
 
-def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, load: str, cutout, jaws,
+def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, loading, cutout, jaws,
               root_size: float | None) -> Model:
     from .bolt3d import bolt3d_model
-    if load != "tension":
-        raise InputError(f"`load` = {load!r}: the 3-D model has the tensile test only (load = \"tension\")")
+    load, angles, torques = loading
+    if load not in ("tension", "tightening"):
+        raise InputError(f"`load` must be \"tension\" or \"tightening\", got {load!r}")
+    if torques is not None:
+        raise InputError("`torques`: the 3-D tightening test is driven by `angles` (nut rotations [deg]) only")
+    jaws = load == "tension" if jaws is None else jaws
+    if load == "tightening" and jaws is True:
+        raise InputError("`jaws` = true holds the nut against turning, and load = \"tightening\" turns it: "
+                         "expected jaws = false (the default with tightening)")
+    values = _forces(forces) if load == "tension" else _angles(angles, "angles")
     flank_size, contact_size, mesh_size = sizes
     if flank_size > layout.size.P:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name} in 3-D: expected "
                          f"at most P = {layout.size.P:g} mm")
     engaged = layout.size.nut_m if engaged_length is None else engaged_length
-    return bolt3d_model(layout, layout.y_bearing + engaged, _forces(forces), count("n_increments", n_increments,
-                        1, 1000), flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size)
+    return bolt3d_model(layout, layout.y_bearing + engaged, values, count("n_increments", n_increments, 1, 1000),
+                        flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size, load)
 
 
 def _angles(values, name: str) -> tuple[float, ...]:

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
-from ..model import ContactInterface, Model, Stage, Support, SurfaceForce
+from ..model import ContactInterface, Model, Rotation, Stage, Support, SurfaceForce
 from .arguments import checked_table, positive
 from .bolt import STEEL, measurement_points
 from .bolt3d_geometry import Window, to_xyz
@@ -53,16 +53,28 @@ def window_of(layout: BoltLayout, cutout) -> Window | None:
     return Window(width, depth, WINDOW_CENTRE)
 
 
-def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ...], n_increments: int,
+def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ...], n_increments: int,
                  flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool,
-                 root_size: float | None = None) -> Model:
-    """The 3-D tensile test (options as :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d").
+                 root_size: float | None = None, load: str = "tension") -> Model:
+    """The 3-D tensile test, or with ``load`` = "tightening" the tightening test (options as
+    :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d"); ``values`` the stages' machine forces [N] or
+    nut rotations [deg].
 
     Regions "bolt", "nut", "plate1", "plate2"; interfaces "thread" (zones on the bolt's load flanks, target
     "nut_contact"), "head" ("head_plate" on "plate2_head"), "nut_bearing" ("nut_plate" on "plate1_nut").
     Boundaries "thread_<i>" (bolt load flank of turn i from the bearing face, a turn running from the seam
     opposite the window to the seam), "plate1_rim" (loaded in +y), "plate2_rim" (held), "nut_jaws" (the two
-    flats normal to z (held in z when ``jaws``)), "window_nut", "window_bolt" (the window's DIC surfaces).
+    flats normal to z (held in z when ``jaws``)), "window_nut", "window_bolt" (the window's DIC surfaces),
+    "nut_outer" and "head_side" (the six flats of nut and head).
+
+    Tightening (ISO 16047 like, as the axisymmetric model's): both plates' rims held (x, y, z; the clamp force is
+    the reaction "plate1_rim.y"), the head held against turning at its flats (x, z), the nut's flats turned as a
+    rigid body about the axis by the stage's angle (a :class:`~frictionid.model.Rotation`: u_x = -z a, u_z = x a,
+    u_y free; wrench torque: reaction "nut_outer.torque" [N mm]). The preload comes from the helix of the mesh:
+    the thread's pairs get the lead P (:attr:`~frictionid.model.ContactInterface.lead`), which makes each pair's
+    normal normal to the helix through its node (the facets' own normals scatter about the helicoid's, and the
+    turned nut would load the steepest ones). The pairs are made once (small sliding): the nut's slide on the
+    flanks, r a, must stay under the local element length (the solver stops otherwise).
     """
     window = window_of(layout, cutout)
     if not isinstance(jaws, bool):
@@ -74,13 +86,18 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, forces: tuple[float, ..
     supports = [Support("plate2_rim", (0, 1, 2))]
     if jaws:
         supports.append(Support("nut_jaws", (2,)))
+    if load == "tightening":
+        supports += [Support("plate1_rim", (0, 1, 2)), Support("head_side", (0, 2))]
+        loads, names = (Rotation("nut_outer", tuple(np.radians(values).tolist())),), [f"{a:g}deg" for a in values]
+    else:
+        loads, names = (SurfaceForce("plate1_rim", 1, values),), [f"F{i + 1}" for i in range(len(values))]
     zones = tuple(z for z in layout.thread_zones if z in mesh.boundaries)
-    interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node"),
+    lead = layout.size.P if load == "tightening" else 0.0
+    interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node", lead),
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
                   ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
     return Model(mesh=mesh, kind="3d", materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},
-                 supports=tuple(supports), loads=(SurfaceForce("plate1_rim", 1, forces),),
-                 stages=tuple(Stage(f"F{i + 1}", n_increments) for i in range(len(forces))),
+                 supports=tuple(supports), loads=loads, stages=tuple(Stage(name, n_increments) for name in names),
                  interfaces=interfaces)
 
 

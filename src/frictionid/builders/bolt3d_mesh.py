@@ -32,6 +32,8 @@ _TOL = 2e-3  # [mm] distance under which a face point lies on an analytic surfac
 #: gmsh's 3-D algorithms tried in turn: Delaunay (its default), then Frontal, which meshed the short model without
 #: window and jaws where Delaunay failed every time with "PLC Error: A segment and a facet intersect"
 ALGORITHMS_3D = ((1, "Delaunay"), (4, "Frontal"))
+#: normal angle [rad] of one of the head's flats (the others at + k 60 deg)
+HEAD_ANGLE = math.pi / 2
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +56,7 @@ class Options3d:
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
     """The bolt blank minus one groove per turn; the turns' seams lie at theta_match + pi."""
     s, occ = layout.size, gmsh.model.occ
-    head = hexagon_prism(s.head_s, -s.head_k, 0.0, math.pi / 2)
+    head = hexagon_prism(s.head_s, -s.head_k, 0.0, HEAD_ANGLE)
     blank, _ = occ.fuse([(3, head)], [(3, cylinder(layout.r_shank, 0.0, layout.length))])
     theta0 = theta_match + math.pi
     first = math.ceil((layout.y_thread - layout.bolt_phase) / s.P + 0.5)
@@ -199,17 +201,30 @@ def _is_root(layout: BoltLayout, points: np.ndarray) -> bool:
     return bool(np.any(root & (points[:, 1] > layout.y_bearing - s.P) & (points[:, 1] < layout.y_top + s.P)))
 
 
+def _on_flats(points: np.ndarray, s: float, angle0: float, k=range(6)) -> bool:
+    """Whether the points lie on one flat of the hexagon of width s [mm] whose flats' normals are at angle0 +
+    k 60 deg."""
+    normals = direction(angle0 + np.radians(60.0 * np.asarray(list(k))))
+    return any(np.allclose(points @ n, s / 2, atol=_TOL) for n in normals)
+
+
 def _nut_faces(layout: BoltLayout, options: Options3d, faces: dict) -> dict[str, list[int]]:
-    """"nut_jaws" (the two flats whose normals are at jaw_angle and jaw_angle + pi), "window_nut" and
-    "window_bolt" (the faces inside the window's sector: the nut's cut, the bolt's thread within the nut height)."""
+    """"nut_jaws" (the two flats whose normals are at jaw_angle and jaw_angle + pi), "nut_outer" and "head_side"
+    (the six flats of nut and head, turned and held in tightening), "window_nut" and "window_bolt" (the faces
+    inside the window's sector: the nut's cut, the bolt's thread within the nut height)."""
     s = layout.size
-    out = {"nut_jaws": []}
-    normals = direction(np.array([options.jaw_angle, options.jaw_angle + math.pi]))
+    out = {"nut_jaws": [], "nut_outer": [], "head_side": []}
     shared = set().union(*(faces[a] & faces[b] for a in faces for b in faces if a < b))
     for face in faces["nut"] - shared:
         points = face_points(face)
-        if any(np.allclose(points @ n, s.nut_s / 2, atol=_TOL) for n in normals):
+        if _on_flats(points, s.nut_s, options.jaw_angle, (0, 3)):
             out["nut_jaws"].append(face)
+        if _on_flats(points, s.nut_s, options.jaw_angle):
+            out["nut_outer"].append(face)
+    for face in faces["bolt"] - shared:
+        points = face_points(face)
+        if np.all(points[:, 1] < _TOL) and _on_flats(points, s.head_s, HEAD_ANGLE):
+            out["head_side"].append(face)
     if options.window is None:
         return out
     half = math.radians(options.window.width) / 2 + 1e-6

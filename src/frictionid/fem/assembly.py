@@ -131,7 +131,9 @@ def _prescribed_dofs(space: Space, model: Model) -> dict[int, object]:
             continue
         c = component_index(load.component, dim, f"{type(load).__name__} on {load.boundary!r}")
         zero = not np.any(np.asarray(load.values, dtype=float))
-        for dof in dim * model.mesh.boundary_nodes(load.boundary) + c:
+        nodes = model.mesh.boundary_nodes(load.boundary)
+        components = load.components(model.kind) if isinstance(load, Rotation) else (c,)
+        for dof in np.concatenate([dim * nodes + k for k in components]):
             dof = int(dof)
             if dof not in owner:
                 owner[dof], named[dof] = load, f"{type(load).__name__.lower()} on {load.boundary!r}"
@@ -172,8 +174,9 @@ def load_channels(space: Space, model: Model) -> LoadChannels:
         if isinstance(load, Displacement):
             up[[position[d] for d, o in owner.items() if o is load]] = 1.0
         elif isinstance(load, Rotation):
-            dofs = [d for d, o in owner.items() if o is load]
-            up[[position[d] for d in dofs]] = model.mesh.points[np.array(dofs) // space.n_components, 0]
+            dofs = np.array([d for d, o in owner.items() if o is load])
+            up[[position[d] for d in dofs]] = load.unit(model.mesh.points[dofs // space.n_components],
+                                                        dofs % space.n_components, model.kind)
         else:
             f = _surface_force(space, load)
         forces.append(f)

@@ -34,6 +34,10 @@ def model_space(model: Model) -> Space:
 
 
 def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
+    interface = model.interfaces[index]
+    if space.dim == 3 and interface.lead:
+        raise InputError(f"interface {interface.name!r}: a lead ({interface.lead:g} mm) needs node-to-node pairs in "
+                         "3-D (conforming meshes); its meshes do not match or it asks for mortar")
     if space.dim == 3:
         from .mortar3d import mortar_pairs_3d
         return mortar_pairs_3d(space, model, index)

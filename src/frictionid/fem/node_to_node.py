@@ -206,6 +206,9 @@ def node_to_node_pairs(space: Space, model: Model, interface_index: int) -> Cont
     if mix is not None:
         offset = mix @ offset
     normal = _pair_normals(offset, normal_all[index], h)
+    if interface.lead and space.dim == 3:
+        from .twist import on_helicoid
+        normal = on_helicoid(normal, points[contact], interface.lead)
     frames = tangent_frames(normal)
     gap = np.sum(offset * normal, axis=1)
     check_gaps(interface, gap, points[contact], gap_tolerance(mesh, interface), "node-to-node")

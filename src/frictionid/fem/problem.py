@@ -12,7 +12,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
-from ..model import Model
+from ..model import Model, Rotation
+from ..model.model import TORQUE
 from .assembly import LoadChannels, load_channels, stiffness
 from .condense import Condensed, condense
 from .condense_implicit import IMPLICIT_ABOVE, condense_implicit, is_implicit
@@ -40,11 +41,13 @@ def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix,
     rows, cols, values = [], [], []
     for k, (boundary, c) in enumerate(model.reaction_entries):
         nodes = model.mesh.boundary_nodes(boundary)
-        dofs = model.n_components * nodes + c
+        components = Rotation.components(model.kind) if c == TORQUE else (c,)
+        dofs = np.concatenate([model.n_components * nodes + i for i in components])
         cols.append([position[int(d)] for d in dofs])
         rows.append(np.full(len(dofs), k))
-        torque = model.kind == "axisymmetric_twist" and c == 2
-        values.append(model.mesh.points[nodes, 0] if torque else np.ones(len(dofs)))
+        torque = c == TORQUE or (model.kind == "axisymmetric_twist" and c == 2)
+        values.append(Rotation.unit(model.mesh.points[dofs // model.n_components], dofs % model.n_components,
+                                    model.kind) if torque else np.ones(len(dofs)))
     labels = model.reaction_labels
     if not labels:
         return sp.csr_matrix((0, len(prescribed))), ()

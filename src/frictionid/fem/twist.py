@@ -36,6 +36,21 @@ def helical_normals(normals: np.ndarray, radius: np.ndarray, lead: np.ndarray) -
     return out / np.linalg.norm(out, axis=1)[:, None]
 
 
+def on_helicoid(normals: np.ndarray, points: np.ndarray, lead: float) -> np.ndarray:
+    """(n, 3) unit normals of a 3-D helicoid about the y axis of lead L [mm per turn] (right-hand for L > 0, the
+    sense of :func:`helical_normals`): ``normals`` (n, 3) with their component along the helix through each of
+    ``points`` (n, 3), h = r e_t - L / (2 pi) e_y (e_t = (-z, 0, x) / r), removed.
+
+    >>> np.round(on_helicoid(np.array([[0.0, 1.0, 0.0]]), np.array([[10.0, 0.0, 0.0]]), 2 * np.pi), 6).tolist()
+    [[0.0, 0.995037, 0.099504]]
+    """
+    points = np.asarray(points, dtype=float)
+    helix = np.column_stack([-points[:, 2], np.full(len(points), -lead / (2 * np.pi)), points[:, 0]])
+    helix /= np.linalg.norm(helix, axis=1)[:, None]
+    out = normals - np.sum(normals * helix, axis=1)[:, None] * helix
+    return out / np.linalg.norm(out, axis=1)[:, None]
+
+
 def with_circumferential_tangent(pairs: ContactPairs, n_nodes: int, lead: np.ndarray | None = None) -> ContactPairs:
     """Pairs of an (r, y) section (frames (n_pairs, 2, 2), B on two components per node) lifted to three
     components per node: frames (n, t1, t2), B (3 n_pairs, 3 n_nodes).

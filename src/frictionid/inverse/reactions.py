@@ -8,7 +8,7 @@ import difflib
 from ..data.table import CHANNELS
 from ..errors import InputError
 from ..model import Displacement, Model, Rotation
-from ..model.model import component_index, reaction_label
+from ..model.model import TORQUE, component_index, reaction_label
 
 #: the observable for the measurement file's `force` column: the machine force of each stage [N]
 FORCE = "force"
@@ -73,7 +73,7 @@ def channel_reaction(model: Model, channel: str, reactions: dict | None = None,
         return machine_force(model)
     label = reactions.get(channel)
     if label is None and channel == "torque":
-        turned = list(dict.fromkeys(reaction_label(load.boundary, 2, model.kind) for load in model.loads
+        turned = list(dict.fromkeys(reaction_label(load.boundary, TORQUE) for load in model.loads
                                     if isinstance(load, Rotation)))
         label = turned[0] if len(turned) == 1 else None
     if label is None:

@@ -19,6 +19,8 @@ AXISYMMETRIC_KINDS = ("axisymmetric", "axisymmetric_twist")
 #: Wilson-Taylor incompatible modes, CalculiX/Abaqus C3D8I)
 ELEMENTS = ("standard", "incompatible")
 _COMPONENTS = {"x": 0, "y": 1, "z": 2, "r": 0, "t": 2}
+#: the reaction entry of a :class:`Rotation` in a 3-D model: the moment about the y axis of its x and z reactions
+TORQUE = "torque"
 
 
 def n_components(kind: str, dim: int) -> int:
@@ -47,7 +49,7 @@ def reaction_label(boundary: str, component: int, kind: str = "") -> str:
     >>> reaction_label("block_top", 1), reaction_label("nut_top", 2, "axisymmetric_twist")
     ('block_top.y', 'nut_top.torque')
     """
-    if kind == "axisymmetric_twist" and component == 2:
+    if component == TORQUE or (kind == "axisymmetric_twist" and component == 2):
         return f"{boundary}.torque"
     return f"{boundary}.{'xyz'[component]}"
 
@@ -120,14 +122,29 @@ class SurfaceForce:
 
 @dataclass(frozen=True)
 class Rotation:
-    """Prescribed rotation [rad] of a boundary about the axis of an "axisymmetric_twist" model: u_t = r * values[s]
-    at each of its nodes at the end of stage s (u_r, u_y free); its reaction is the torque [N mm] about the axis,
-    positive in the +t sense (t = r x y: +z on the x-y plane at x > 0)."""
+    """Prescribed rotation [rad] of a boundary about the y axis of an "axisymmetric_twist" or "3d" model: u_t =
+    r * values[s] at each of its nodes at the end of stage s (u_r, u_y free; in 3-D u_x = -z values[s], u_z =
+    x values[s], u_y free: a small rigid rotation from +x towards +z); its reaction is the torque [N mm] about the
+    axis, positive in the +t sense (t = r x y: +z on the x-y plane at x > 0), "boundary.torque"."""
 
     boundary: str
     values: tuple[float, ...]
 
     component = 2
+
+    @staticmethod
+    def components(kind: str) -> tuple[int, ...]:
+        """The displacement components it prescribes: u_t (2) in "axisymmetric_twist", u_x and u_z in 3-D."""
+        return (0, 2) if kind == "3d" else (2,)
+
+    @staticmethod
+    def unit(points: np.ndarray, component: np.ndarray, kind: str) -> np.ndarray:
+        """(n,) [mm/rad] the prescribed displacement per radian of ``component`` (n,) at nodes ``points`` (n, dim);
+        also the weights that sum the reactions of those dofs into the torque about the axis."""
+        points = np.asarray(points, dtype=float)
+        if kind != "3d":
+            return points[:, 0].copy()
+        return np.where(np.asarray(component) == 0, -points[:, 2], points[:, 0])
 
 
 @dataclass(frozen=True)
@@ -150,9 +167,13 @@ class ContactInterface:
     ``discretisation``: "node-to-node" (conforming meshes: every contact node has a target node at the same
     place, up to an initial gap), "mortar" (non-matching meshes, 2-D and 3-D) or "auto" (node-to-node when conforming, else mortar).
     ``lead`` [mm]: axial advance per turn of a helical interface (a thread: the pitch times the number of starts),
-    positive for a right-hand helix; "axisymmetric_twist" models only. Its rings stand for the helix: each pair's
-    normal is tilted by the local lead angle (:func:`frictionid.fem.twist.helical_normals`), so that turning one
-    side advances it along the axis and the normal force carries torque.
+    positive for a right-hand helix; "axisymmetric_twist" and "3d" models. In "axisymmetric_twist" its rings
+    stand for the helix: each pair's normal is tilted by the local lead angle
+    (:func:`frictionid.fem.twist.helical_normals`), so that turning one side advances it along the axis and the
+    normal force carries torque. In "3d" (node-to-node pairs about the y axis) the helix is in the mesh and each
+    pair's normal is made normal to the helix through its node (:func:`frictionid.fem.twist.on_helicoid`): the
+    facets' normals scatter about the helicoid's, and a nut turned on them closes the pairs whose normals are
+    steepest first.
     ``gap_tolerance`` [mm]: the largest initial |gap| a pair may have (default None: half the median contact facet
     size, :func:`frictionid.fem.contact_map.gap_tolerance`); a larger one is refused before any solve.
     ``coefficients``: the name of the friction coefficient of each zone (default: the zone's own name); zones of
@@ -303,7 +324,8 @@ class Model:
         driven by a prescribed displacement."""
         entries = [(s.boundary, component_index(c, self.n_components, s.boundary))
                    for s in self.supports for c in s.components]
-        entries += [(l.boundary, component_index(l.component, self.n_components, l.boundary))
+        entries += [(l.boundary, TORQUE if isinstance(l, Rotation) and self.kind == "3d"
+                     else component_index(l.component, self.n_components, l.boundary))
                     for l in self.loads if isinstance(l, (Displacement, Rotation))]
         return tuple(dict.fromkeys(entries))
 
@@ -338,8 +360,8 @@ class Model:
             if len(load.values) != self.n_stages:
                 raise InputError(f"model: {type(load).__name__} on {load.boundary!r} has {len(load.values)} "
                                  f"value(s), expected one per stage ({self.n_stages})")
-            if isinstance(load, Rotation) and self.kind != "axisymmetric_twist":
-                raise InputError(f"model: a Rotation on {load.boundary!r} needs kind 'axisymmetric_twist', "
+            if isinstance(load, Rotation) and self.kind not in ("axisymmetric_twist", "3d"):
+                raise InputError(f"model: a Rotation on {load.boundary!r} needs kind 'axisymmetric_twist' or '3d', "
                                  f"the model is {self.kind!r}")
             if hasattr(load, "component"):
                 component_index(load.component, self.n_components, f"{type(load).__name__} on {load.boundary!r}")
@@ -357,9 +379,9 @@ class Model:
                                  f"zone {coefficient!r} with coefficient {coefficient_of[coefficient]!r}")
         for interface in self.interfaces:
             self.mesh.boundary(interface.target)
-            if interface.lead and self.kind != "axisymmetric_twist":
+            if interface.lead and self.kind not in ("axisymmetric_twist", "3d"):
                 raise InputError(f"model: interface {interface.name!r} has a lead ({interface.lead:g} mm), which "
-                                 f"needs kind 'axisymmetric_twist', the model is {self.kind!r}")
+                                 f"needs kind 'axisymmetric_twist' or '3d', the model is {self.kind!r}")
             for zone in interface.zones:
                 for facet in self.mesh.boundary(zone):
                     key = frozenset(facet.tolist())

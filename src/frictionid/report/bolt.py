@@ -121,6 +121,64 @@ def pitch_loads(model: Model, solution: Solution, y_start: float, pitch: float, 
     return force / force.sum()
 
 
+@dataclass(frozen=True)
+class TorqueSplit:
+    """Where the wrench torque of a 3-D tightening test goes, from the contact forces at one increment.
+
+    Attributes
+    ----------
+    thread, bearing : [N mm] moment about the axis (+t sense) of the thread's contact forces on the bolt and of
+        the nut bearing's on the nut (negative: friction holds the nut back); wrench torque = thread - bearing
+    thread_normal : [N mm] the part of ``thread`` from the normal forces (the helix's lead)
+    axial : [N] axial force of the thread's contact forces on the bolt (the preload)
+    r_thread, r_bearing : [mm] effective radii, sum(lam_N r) / sum(lam_N), of the thread and the nut bearing
+    """
+
+    thread: float
+    thread_normal: float
+    bearing: float
+    axial: float
+    r_thread: float
+    r_bearing: float
+
+
+def torque_split(solution: Solution, thread: int = 0, bearing: int = 2, increment: int = -1) -> TorqueSplit:
+    """:class:`TorqueSplit` of a 3-D model (y the axis); ``thread`` and ``bearing`` the interfaces' indices
+    (:func:`~frictionid.builders.bolt.bolt_model`: 0 "thread", 2 "nut_bearing")."""
+    pairs = solution.pairs
+    if pairs.dim != 3:
+        raise InputError("bolt report: the torque split needs a 3-D model")
+    forces, lam = pair_forces(solution, increment), solution.lam[increment]
+    x, z = pairs.position[:, 0], pairs.position[:, 2]
+    radius = np.hypot(x, z)
+
+    def moment(f, where):
+        return float(np.sum(x[where] * f[where, 2] - z[where] * f[where, 0]))
+
+    def radius_of(where):
+        return float(lam[where, 0] @ radius[where] / lam[where, 0].sum())
+
+    on_thread, on_bearing = pairs.interface == thread, pairs.interface == bearing
+    normal = lam[:, :1] * pairs.frames[:, 0, :]
+    return TorqueSplit(moment(forces, on_thread), moment(normal, on_thread), moment(forces, on_bearing),
+                       float(forces[on_thread, 1].sum()), radius_of(on_thread), radius_of(on_bearing))
+
+
+def vdi_torque(force: float, pitch: float, r_thread: float, r_bearing: float, mu_thread: float,
+               mu_bearing: float) -> float:
+    """[N mm] VDI 2230's tightening torque at the effective radii, with the screw's exact thread torque:
+    F (r_G tan(phi + rho') + mu_K r_K), tan phi = P / (2 pi r_G), tan rho' = mu_G / cos alpha', tan alpha' =
+    tan 30 deg cos phi (the ISO flank's half angle in the section normal to the helix).
+
+    >>> round(vdi_torque(1000.0, 2.5, 9.19, 13.3, 0.1, 0.1) / 1000.0, 3)  # VDI 0.16 P + 0.58 mu d2 + mu D/2: 2.796
+    2.796
+    """
+    phi = np.arctan(pitch / (2 * np.pi * r_thread))
+    alpha = np.arctan(np.tan(np.pi / 6) * np.cos(phi))
+    rho = np.arctan(mu_thread / np.cos(alpha))
+    return float(force * (r_thread * np.tan(phi + rho) + mu_bearing * r_bearing))
+
+
 def ring_gap(model: Model, solution: Solution, pitch: float) -> float:
     """[mm] ``y_start`` for :func:`pitch_loads` from an axisymmetric model: the middle of the gap between its first
     two engaged flanks, one pitch lower, so that each bin holds one flank."""

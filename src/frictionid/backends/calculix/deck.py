@@ -18,7 +18,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...fem.space import N_CORNERS
-from ...model import Displacement, Model
+from ...model import Displacement, Model, Rotation
 from ...model.model import component_index
 from .elements import calculix_cells, element_type, face_lookup, lump_dropped_forces
 
@@ -237,6 +237,10 @@ def write_deck(model: Model, mu, contact: ContactSettings, forces: np.ndarray, a
         The deck; it prints reaction totals per supported / driven boundary and contact forces per zone to the
         .dat file and the displacement field to the .frd file at every increment.
     """
+    turned = [load.boundary for load in model.loads if isinstance(load, Rotation)]
+    if turned and model.kind == "3d":
+        raise InputError(f"CalculiX deck: the rotation prescribed on {turned[0]!r} (a tightening model) is not "
+                         "written to CalculiX decks; expected a model loaded by forces and displacements")
     mu = np.asarray(mu, dtype=float).reshape(-1)
     if mu.shape != (model.n_zones,):
         raise InputError(f"CalculiX deck: need {model.n_zones} coefficients, got {mu.shape[0]}")
