@@ -9,13 +9,12 @@ e.g. '{"size": "M6", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5
 "flank_size": 1.0, "contact_size": 2.0, "root_size": 0.25, "mesh_size": 3.0, "forces": [1000.0],
 "n_increments": 2, "cutout": false, "jaws": false}' (tests/test_bolt3d_calculix.py's model). With a second
 argument the built model is pickled there, or read from there when it exists. Run it under /usr/bin/time -v for
-the peak (the ccx run is a child process: its peak is the "children" figure printed at the end).
+this process's peak; ccx runs as a child process whose peak it does not count.
 """
 
 import argparse
 import json
 import pickle
-import resource
 import time
 from pathlib import Path
 
@@ -123,8 +122,7 @@ def main(options: dict, cache: str | None, factorisation: str, mu: float, settin
           flush=True)
     points, regions = observed(options)
     report(model, compare(model, points, regions, mu, factorisation, settings))
-    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    print(f"  peak: this process {peak_memory_mb():.0f} MB, ccx {children:.0f} MB")
+    print(f"  peak of this process {peak_memory_mb():.0f} MB (ccx's own is not counted: watch it with ps)")
 
 
 if __name__ == "__main__":
