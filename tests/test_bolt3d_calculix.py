@@ -3,7 +3,11 @@ penalty pair per zone on the conforming node pairs): the seed's ten points and t
 
 The model is the smallest that still has the helix: an M6 with two engaged pitches, the bolt threaded from a pitch
 below the nut, coarse elements, no window, no jaws (benchmarks/bolt3d_calculix.py prints the same comparison for
-any 3-D options). Needs ccx; minutes of computing.
+any 3-D options). Needs ccx; about 8 minutes on a shared two-core machine (SPOOLES, about 10 contact iterations).
+
+What it checks is the deck and the backends on a helical model (loads, supports, C3D10, the per-zone pairs, the
+observation nodes), not the friction: on this mesh the backends differ by more than the ten points move when one
+zone's coefficient doubles (docs/bolt-study.md, "Against CalculiX on the same mesh").
 """
 
 import numpy as np
