@@ -1,0 +1,141 @@
+"""The 3-D bolt-nut tensile test solved by the embedded backend and by CalculiX (the product's own deck writer and
+runner) on the same mesh: the seed's ten points (P1-P5 of flanks 1 and 2, 0.1 mm inside the bolt tooth, as
+benchmarks/bolt3d.py places them), the machine's side (plate 1's axial displacement at four rim points, the held
+plate's reaction) and the contact force per zone, at one mu everywhere and the model's forces.
+
+Run: .venv/bin/python benchmarks/bolt3d_calculix.py '<bolt_model options as JSON>' [model.pkl]
+[--factorisation NAME] [--mu 0.15] [--threads 1] [--work DIR]
+e.g. '{"size": "M6", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5, "n_axial": 2,
+"flank_size": 1.0, "contact_size": 2.0, "root_size": 0.25, "mesh_size": 3.0, "forces": [1000.0],
+"n_increments": 2, "cutout": false, "jaws": false}'. With a second
+argument the built model is pickled there, or read from there when it exists. Run it under /usr/bin/time -v for
+this process's peak; ccx runs as a child process whose peak it does not count.
+"""
+
+import argparse
+import json
+import pickle
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _measure import peak_memory_mb
+from bolt3d import ten_points
+from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
+from frictionid.builders.bolt import bolt_layout, bolt_model
+from frictionid.fem.problem import Problem
+
+QUANTITIES = ("ux", "uy", "uz")
+
+
+def layout_of(options: dict):
+    return bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
+                       options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
+                       options.get("bearing_diameter"), options.get("thread_length"))
+
+
+def rim_points(layout) -> np.ndarray:
+    """(4, 3) [mm] points of plate 1 (the pulled one) at 97 % of its outer radius, mid-thickness, every 90 deg."""
+    r, y = 0.97 * layout.r_outer, 0.5 * sum(layout.plate1)
+    return np.array([[r * np.cos(t), y, r * np.sin(t)] for t in np.radians([0.0, 90.0, 180.0, 270.0])])
+
+
+def observed(options: dict) -> tuple[np.ndarray, list[str]]:
+    layout = layout_of(options)
+    return np.vstack([ten_points(layout), rim_points(layout)]), ["bolt"] * 10 + ["plate1"] * 4
+
+
+def axial_zone_force(solution, increment: int) -> np.ndarray:
+    """(n_zones,) [N] size of the axial (y) component of the contact force on each zone, normal and tangential
+    parts summed as vectors (what ccx's *CONTACT PRINT total surface force gives; its "normal force" is the total
+    projected on the surface's mean normal, which on a helicoid is not the sum of the normal forces)."""
+    lam, frames = solution.lam[increment], solution.pairs.frames
+    per_pair = np.einsum("pk,pk->p", lam, frames[:, :, 1])
+    return np.abs(per_pair @ solution.pairs.zone_share)
+
+
+def compare(model, points, regions, mu: float, factorisation: str, settings: CalculixSettings) -> dict:
+    """Both backends' results at the last stage end: 'embedded' and 'ccx' (n_points, 3) [mm] displacements,
+    reactions [N], zone normal forces [N], plus timings."""
+    out = {}
+    start, cpu = time.perf_counter(), time.process_time()
+    problem = Problem.build(model, points=points, quantities=QUANTITIES, regions=regions,
+                            factorisation=factorisation)
+    solution = problem.solve(np.full(len(model.zone_names), mu))
+    out["embedded_seconds"], out["embedded_cpu"] = time.perf_counter() - start, time.process_time() - cpu
+    end = solution.stage_end(model.n_stages - 1)
+    out["embedded"] = solution.observations[end].reshape(len(points), 3)
+    out["embedded_reactions"] = solution.reactions[end]
+    out["embedded_zones"] = solution.zone_normal_force[end]
+    out["embedded_axial"] = axial_zone_force(solution, end)
+    out["n_pairs"] = problem.pairs.n_pairs
+    del problem
+    backend = CalculixBackend(model, points, QUANTITIES, regions, settings)
+    out["stiffness"] = (backend.contact.normal_stiffness, backend.contact.stick_slope, backend.contact.pair_type)
+    ccx = backend.solve(np.full(len(model.zone_names), mu), full_field=False)
+    out["ccx_seconds"] = ccx.wall_time
+    out["ccx"] = ccx.observations[-1].reshape(len(points), 3)
+    out["ccx_reactions"], out["ccx_zones"] = ccx.reactions[-1], ccx.zone_normal_force[-1]
+    out["ccx_axial"] = np.abs(ccx.zone_force[-1, :, 1])
+    out["labels"] = solution.reaction_labels
+    return out
+
+
+def report(model, result: dict) -> None:
+    bolt, plate = slice(0, 10), slice(10, 14)
+    e, c = result["embedded"], result["ccx"]
+    print(f"  {model.mesh.n_nodes:,} nodes, {result['n_pairs']:,} contact pairs; embedded {result['embedded_seconds']:.1f}"
+          f" s ({result['embedded_cpu']:.1f} s CPU), ccx {result['ccx_seconds']:.1f} s; ccx contact "
+          f"{result['stiffness'][2]}, normal / stick slope {result['stiffness'][0]:.3g} / {result['stiffness'][1]:.3g}"
+          " N/mm^3")
+    for k, q in enumerate(QUANTITIES):
+        span = np.ptp(e[bolt, k])
+        worst = np.abs(c[bolt, k] - e[bolt, k]).max()
+        print(f"  ten points {q}: embedded {1000 * e[bolt, k].min():.4f} .. {1000 * e[bolt, k].max():.4f} um, range "
+              f"{1000 * span:.4f} um; largest |ccx - embedded| {1000 * worst:.4f} um = {100 * worst / span:.2f} % of "
+              "the range")
+    for i in range(10):
+        print(f"    flank {i // 5 + 1} P{i % 5 + 1}: uy {1000 * e[i, 1]:.4f} / {1000 * c[i, 1]:.4f} um")
+    machine = e[plate, 1].mean(), c[plate, 1].mean()
+    print(f"  plate 1 at the rim, mean uy (the machine's displacement): embedded {1000 * machine[0]:.4f} um, ccx "
+          f"{1000 * machine[1]:.4f} um ({100 * (machine[1] / machine[0] - 1):+.3f} %)")
+    for label, a, b in zip(result["labels"], result["embedded_reactions"], result["ccx_reactions"]):
+        print(f"  reaction {label}: embedded {a:.3f} N, ccx {b:.3f} N")
+    for name, a, b, c, d in zip(model.zone_names, result["embedded_zones"], result["ccx_zones"],
+                                result["embedded_axial"], result["ccx_axial"]):
+        print(f"  zone {name}: axial force embedded {c:.2f} N, ccx {d:.2f} N ({100 * (d / c - 1):+.2f} %); normal "
+              f"force embedded {a:.2f} N, ccx (on the mean normal) {b:.2f} N")
+
+
+def main(options: dict, cache: str | None, factorisation: str, mu: float, settings: CalculixSettings):
+    options = {"model": "3d", **options}
+    if cache and Path(cache).exists():
+        model = pickle.loads(Path(cache).read_bytes())
+    else:
+        start = time.process_time()
+        model = bolt_model(**options)
+        print(f"  build {time.process_time() - start:.1f} s CPU", flush=True)
+        if cache:
+            Path(cache).write_bytes(pickle.dumps(model))
+    print(f"3-D bolt-nut {json.dumps(options)}, mu = {mu} everywhere, embedded ({factorisation}) against ccx",
+          flush=True)
+    points, regions = observed(options)
+    report(model, compare(model, points, regions, mu, factorisation, settings))
+    print(f"  peak of this process {peak_memory_mb():.0f} MB (ccx's own is not counted: watch it with ps)")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("options")
+    parser.add_argument("cache", nargs="?")
+    parser.add_argument("--factorisation", default="auto")
+    parser.add_argument("--mu", type=float, default=0.15)
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--work", default=None, help="keep ccx's work directories in this folder")
+    parser.add_argument("--stiffness", type=float, default=None,
+                        help="ccx's normal and stick penalty slope [N/mm^3] (default: the backend's)")
+    arguments = parser.parse_args()
+    main(json.loads(arguments.options), arguments.cache, arguments.factorisation, arguments.mu,
+         CalculixSettings(threads=arguments.threads, work_dir=arguments.work, keep_work=arguments.work is not None,
+                          timeout=7200, normal_stiffness=arguments.stiffness, stick_slope=arguments.stiffness))
