@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .contact import SLIP, STICK
 from .pairs import ContactPairs
 
 STATE_NAMES = ("open", "stick", "slip")
@@ -164,13 +165,13 @@ class Solution:
         mu = np.asarray(self.mu, dtype=float).copy()
         normal = self.lam[:, :, 0]
         tangential = np.linalg.norm(self.lam[:, :, 1:], axis=2)   # with a held direction's force: never too low
-        stuck = self.state == 1
+        stuck = self.state == STICK
         movable = np.ones(len(mu), bool) if movable is None else np.asarray(movable, bool)
         out = np.full(len(mu), np.nan)
         for z in np.flatnonzero(movable):
             mine = share[:, z] > 0
             closed = stuck[:, mine]
-            if not closed.any() or (self.state[:, mine] == 2).any():
+            if not closed.any() or (self.state[:, mine] == SLIP).any():
                 continue
             others = share[mine] @ mu - share[mine, z] * mu[z]
             ratio = tangential[:, mine] / np.where(closed, normal[:, mine], 1.0)
