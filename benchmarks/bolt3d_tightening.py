@@ -5,7 +5,7 @@ them (:func:`frictionid.report.bolt.vdi_torque`), per mu.
 
 Run: .venv/bin/python benchmarks/bolt3d_tightening.py '<bolt_model options as JSON>' [model.pkl] [--mu 0.1 0.2]
 e.g. '{"size": "M8", "model": "3d", "load": "tightening", "engaged_length": 2.5, "thread_length": 13.05,
-"n_axial": 2, "flank_size": 0.625, "contact_size": 2.5, "mesh_size": 4.0, "root_size": 0.25, "cutout": false,
+"n_axial": 2, "flank_size": 1.25, "contact_size": 2.5, "mesh_size": 4.0, "root_size": 0.25, "cutout": false,
 "angles": [0.05, 0.1], "n_increments": 1}' (the model of tests/test_bolt3d_tightening.py). With a second argument
 the built model is pickled there, or read from there when it exists. Condensed with factorisation "mumps". Run
 it under /usr/bin/time -v for the peak.
@@ -13,31 +13,25 @@ it under /usr/bin/time -v for the peak.
 
 import argparse
 import json
-import pickle
 import time
-from pathlib import Path
 
 import numpy as np
 
-from frictionid.builders.bolt import bolt_layout, bolt_model
+from bolt3d import built
+from frictionid.builders.bolt import bolt_layout
 from frictionid.fem.problem import Problem
 from frictionid.report.bolt import torque_split, vdi_torque
 
 
 def main(options: dict, cache: str | None, mus: list[float]):
     start = time.process_time()
-    if cache and Path(cache).exists():
-        model = pickle.loads(Path(cache).read_bytes())
-    else:
-        model = bolt_model(**options)
-        if cache:
-            Path(cache).write_bytes(pickle.dumps(model))
-    built = time.process_time()
+    model = built(options, cache, {})
+    made = time.process_time()
     problem = Problem.build(model, factorisation="mumps")
     condensed = time.process_time()
     pitch = bolt_layout(options.get("size", "M20")).size.P
     print(f"{json.dumps(options)}: {model.mesh.n_nodes:,} nodes, {problem.pairs.n_pairs:,} pairs; model "
-          f"{built - start:.1f} s CPU, assembly + condensation {condensed - built:.1f} s CPU")
+          f"{made - start:.1f} s CPU, assembly + condensation {condensed - made:.1f} s CPU")
     for mu in mus:
         solution = problem.solve(np.full(model.n_zones, mu))
         reactions = dict(zip(solution.reaction_labels, solution.reactions[-1]))

@@ -13,14 +13,13 @@ benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "cholmod_sol
 """
 
 import json
-import pickle
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 from _measure import peak_memory_mb
+from bolt3d import built
 from frictionid.builders.bolt import bolt_layout, bolt_model
 from frictionid.fem.problem import Problem
 from frictionid.report.bolt import pitch_loads, ring_gap, thread_loads
@@ -60,12 +59,7 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
                          options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
                          options.get("bearing_diameter"), options.get("thread_length"))
     three = {**options, "model": "3d", "cutout": False, "jaws": False}
-    if cache and Path(cache).exists():
-        model3 = pickle.loads(Path(cache).read_bytes())
-    else:
-        model3 = bolt_model(**three)
-        if cache:
-            Path(cache).write_bytes(pickle.dumps(model3))
+    model3 = built(three, cache, {})
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
     print(f"3-D {json.dumps(three)} against the axisymmetric model {json.dumps(axi)}, mu = {MU} everywhere")
     loads2, pitch2, elongation2, y_start = solved(bolt_model(**axi), layout, 2)
