@@ -15,6 +15,7 @@ from ..errors import InputError
 from ..model import Mesh
 from .bolt3d_geometry import (Window, countersink, cylinder, direction, groove, hexagon_prism)
 from .bolt_layout import BoltLayout
+from .curved import curved_where_valid
 from .gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
 from .thread import NUT_ROOT_CLEARANCE, SQRT3
 
@@ -310,7 +311,8 @@ def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
 
 def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> Mesh:
     """The tetra10 mesh of bolt, nut and plates with the named groups of :func:`frictionid.builders.bolt3d.
-    bolt3d_model`, each body with its own nodes (conforming, node-to-node interfaces)."""
+    bolt3d_model`, each body with its own nodes (conforming, node-to-node interfaces); mid-side nodes on the
+    curved faces where the cells stay valid (:func:`frictionid.builders.curved.curved_where_valid`)."""
     source = f"3-D bolt model {layout.size.name}"
 
     def make():
@@ -330,11 +332,12 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
 
     def read():
         gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-        # straight-sided: mid-side nodes snapped onto the curved faces inverted tets at the nut crest's corners
-        # (the facet basis' inverse mapping did not converge on "nut_contact")
-        gmsh.option.setNumber("Mesh.SecondOrderLinear", 1)
+        gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
         gmsh.model.mesh.setOrder(2)
-        return mesh_from_gmsh(source)
+        mesh = mesh_from_gmsh(source)
+        points, _ = curved_where_valid(mesh.points, mesh.cells)
+        return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
+                    boundaries=dict(mesh.boundaries))
 
     mesh = mesh_with_fallback(make, read, source)
     return separate_bodies(mesh, {name: _owner(name) for name in mesh.boundaries})
