@@ -209,9 +209,9 @@ def _mesh_arguments(mesh_size, block_divisions, grading, edge_splits, edge_band,
     return block_divisions, n_block_z, n_plate_z, checked_grading(grading), bands
 
 
-def block_layout(**options):
-    """The :class:`frictionid.builders.block_mesh.Layout` of :func:`block_model` with these options (other options
-    ignored), without meshing: its node count and shortest contact element.
+def block_layout(**arguments):
+    """The :class:`frictionid.builders.block_mesh.Layout` of :func:`block_model` with these keyword arguments (those
+    not about the mesh ignored), without meshing: its node count and shortest contact element.
 
     >>> block_layout().n_nodes(), block_layout(edge_splits=2).n_nodes() < block_layout(block_divisions=20).n_nodes()
     (7865, True)
@@ -220,7 +220,7 @@ def block_layout(**options):
     """
     sizes = {"mesh_size": 1.0, "block_divisions": None, "grading": DEFAULT_GRADING, "edge_splits": 1,
              "edge_band": 1.0, "interface_splits": 1, "interface_band": 1.0}
-    return layout(*_mesh_arguments(**{key: options.get(key, value) for key, value in sizes.items()}))
+    return layout(*_mesh_arguments(**{key: arguments.get(key, value) for key, value in sizes.items()}))
 
 
 # ---------------------------------------------------------------------------------------------- 2-D model
