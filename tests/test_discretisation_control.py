@@ -42,6 +42,10 @@ def test_the_predicted_error_of_the_chosen_mesh_is_its_error_against_a_finer_one
     assert factor > 1 and chosen.options.option("mesh_size") == pytest.approx(2.0 / factor)
     actual = kind_rms(np.abs(values(chosen.model, obs, mu) - obs.y) / obs.sigma, kinds)["u"]
     assert 1.0 <= record["predicted_error"]["u"] / actual < 2.0, (record, actual)
+    # the chosen model's actual change confirms the prediction here, so the remaining error stays the prediction
+    assert record["check"]["not_holding"] == [] and record["check"]["missed"]["u"] < 0.5 * \
+        record["check"]["predicted_change"]["u"]
+    assert record["check"]["remaining"]["nominal"]["u"] == pytest.approx(record["predicted_error"]["u"], rel=1e-3)
 
 
 @pytest.mark.discretisation_control
@@ -91,6 +95,21 @@ def test_the_block_refines_the_footprint_the_layers_and_bands_at_the_contact_edg
     # control leaves such refinements out; edges x3 of the default, 0.139 mm, stopped a fit with a slip of 0.183)
     assert not _slides_too_far(spec, (1, 4, 1, 4)) and not _slides_too_far(spec, (1, 1, 2, 1))
     assert _slides_too_far(spec, (1, 1, 3, 1)) and _slides_too_far(spec, (4, 1, 1, 1))
+
+
+def test_a_prediction_the_refined_model_does_not_confirm_is_replaced_by_the_actual_change():
+    """Where the chosen model's actual change misses the predicted one by more than half, the remaining error of
+    that kind is the error as given less the actual change; a kind whose prediction holds keeps it."""
+    from frictionid.inverse.discretisation_control import _checked
+    from frictionid.inverse.remaining_error import RemainingError
+    kinds, sigma = np.array(["u", "u", "e", "e"]), np.ones(4)
+    before = RemainingError(np.array([1.0, 1.0, 3.0, 3.0]), np.array([2.0, 2.0, 6.0, 6.0]))
+    left = RemainingError(np.array([0.5, 0.5, 1.0, 1.0]), np.array([1.0, 1.0, 2.0, 2.0]))   # change u 0.5, e 2
+    actual = np.array([0.5, 0.45, 0.5, 0.5])                                 # u as predicted, e a quarter of it
+    checked, record = _checked(left, before, actual, sigma, kinds)
+    assert record["not_holding"] == ["e"] and record["missed"]["e"] == pytest.approx(1.5)
+    np.testing.assert_allclose(checked.nominal, [0.5, 0.5, 2.5, 2.5])
+    np.testing.assert_allclose(checked.slow, [1.0, 1.0, 5.5, 5.5])
 
 
 def _outside(model) -> int:

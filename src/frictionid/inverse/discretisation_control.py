@@ -70,6 +70,9 @@ class Control:
         return combined(terms, factors, orders, nested)
 
 
+#: a refinement's prediction holds in a quantity kind when it misses the actual change (RMS) by at most this
+#: fraction of the predicted change or by at most CHECK_FLOOR noise levels RMS (:func:`_checked`)
+CHECK_TOLERANCE, CHECK_FLOOR = 0.5, 0.1
 #: the 3-D block's refinement directions and, per direction, the one whose region its band lies in (None: the whole
 #: mesh in that coordinate)
 BLOCK_DIRECTIONS = {"footprint divisions": None, "interface layers": None, "footprint edges": 0, "interface band": 1}
@@ -201,17 +204,60 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
         "reached" if max(rms.values()) <= target else "not reached"
     left = remaining(differences, factors, np.log2(gain), orders, nested)
     before = remaining(differences, [1] * len(names), np.log2(gain), orders, nested)
+    slow = left.summary(observations.sigma, kinds)["slow"]
+    progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
+             f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
+             f"levels RMS: target {target:g} {status}")
+    check = None
+    if any(k != 1 for k in factors):
+        fine = values(fitted, observations, mu, window, keep=True)      # kept: the fit condenses it once
+        left, check = _checked(left, before, coarse - fine, observations.sigma, kinds)
+        progress(_check_text(check))
     seconds = time.perf_counter() - start
     record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
               "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
               "options": options.table(), "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
-              "predicted_error_slow": left.summary(observations.sigma, kinds)["slow"], "memory_scale": round(scale, 3),
+              "predicted_error_slow": slow, "check": check, "memory_scale": round(scale, 3),
               "seconds": round(seconds, 1)}
-    progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
-             f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
-             f"levels RMS: target {target:g} {status}; the control took {seconds:.1f} s")
+    progress(f"discretisation control: took {seconds:.1f} s")
     log.info("discretisation control: %s", record)
     return Control(options, fitted, record, left, before, (terms, np.log2(gain), nested))
+
+
+def _checked(left: RemainingError, before: RemainingError, actual: np.ndarray, sigma, kinds):
+    """(remaining error, record) of the chosen refinement checked against its actual values at the start values.
+
+    ``actual`` is the model as given minus the chosen one, the change the prediction (``before`` minus ``left``)
+    claims. In a quantity kind whose predicted change misses the actual one by more than :data:`CHECK_TOLERANCE`
+    of it (and by more than :data:`CHECK_FLOOR` noise levels RMS) the splitting assumption does not hold there (on
+    the 3-D block the strains next to the contact edges, whose error the edge and interface refinements do not
+    reduce additively), and the remaining error of that kind is taken as the error as given minus the actual
+    change (nominal and slow): the refined model's error is f_k - f = (f_1 - f) - (f_1 - f_k), which uses the
+    extrapolation only for the model as given.
+    """
+    predicted = before.nominal - left.nominal
+    check = {"actual_change": kind_rms(np.abs(actual) / sigma, kinds),
+             "predicted_change": kind_rms(np.abs(predicted) / sigma, kinds),
+             "missed": kind_rms(np.abs(predicted - actual) / sigma, kinds)}
+    off = [kind for kind, miss in check["missed"].items()
+           if miss > CHECK_FLOOR and miss > CHECK_TOLERANCE * check["predicted_change"][kind]]
+    check["not_holding"] = off
+    if off:
+        mask = np.isin(kinds, off)
+        left = RemainingError(np.where(mask, before.nominal - actual, left.nominal),
+                              np.where(mask, before.slow - actual, left.slow), left.orders)
+    check["remaining"] = left.summary(sigma, kinds)
+    return left, check
+
+
+def _check_text(check: dict) -> str:
+    text = (f"discretisation control: the chosen model's values at the start values moved by "
+            f"{_rms_text(check['actual_change'])} noise levels RMS, predicted {_rms_text(check['predicted_change'])}")
+    if not check["not_holding"]:
+        return text + ": the prediction holds"
+    return (text + f": in {', '.join(check['not_holding'])} it does not, so the remaining error there is the error "
+            f"as given less the actual change: {_rms_text(check['remaining']['nominal'])} noise levels RMS "
+            f"({_rms_text(check['remaining']['slow'])} at half the orders)")
 
 
 def _calibrate(ratios: list, took: memory.Peak, cost: memory.MemoryEstimate) -> None:
