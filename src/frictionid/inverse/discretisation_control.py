@@ -15,15 +15,21 @@ the contact edges' singularity caps them). Each directional model is 1.3-2.6 tim
 uniform halving is 4-5 times (3-D block: 37,872 nodes, more than 7 GB with a dense DIC grid), so the estimate fits
 in memory where Richardson from the uniform halving does not.
 
-The refinement (k_1, k_2, ...) then has the predicted error sum_d e_d / k_d^p, a band's element size divided by
-its own factor and its uniform direction's (:func:`frictionid.inverse.remaining_error.combined`). Where every quantity kind is within
-the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to 2^``identify.refine_budget``, size predicted from the
-directional models' sizes) whose prediction is within the target in every kind is built and fitted, after
-:func:`frictionid.fem.memory.check`, the memory law scaled by the largest ratio of measured to estimated peak of
-the control's own builds (:class:`frictionid.fem.memory.Peak`), and (3-D block) whose contact elements are not
-shorter than the pull (small sliding pairs nodes for a slip of at most one element); when none is, the one with the smallest largest-kind error that fits in
-memory, and the record says the target was not reached. A model that cannot be refined (a model object, another
-backend) is fitted as it is, and the record says why.
+The refinement (k_1, k_2, ...) then has the predicted error sum_d e_d / k_d^p, a band's element size divided by its
+own factor and its uniform direction's (:func:`frictionid.inverse.remaining_error.combined`). Where every quantity
+kind is within the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to
+2^``identify.refine_budget``, size predicted from the directional models' sizes) whose prediction is within the
+target in every kind is built and fitted, after :func:`frictionid.fem.memory.check`, the memory law scaled by the
+largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`), and
+(3-D block) whose contact elements are not shorter than the pull (small sliding pairs nodes for a slip of at most
+one element); when none is, the one with the smallest largest-kind error that fits in memory, and the record says
+the target was not reached. A model that cannot be refined (a model object, another backend) is fitted as it is, and
+the record says why.
+
+The choice is checked: the chosen model is solved at the start values, and in a quantity kind where its actual
+change from the model as given misses the predicted change by more than half, the remaining error of that kind is
+the error as given less the actual change (:func:`_checked`), and the target counts as reached only if that is
+within it.
 
 ``identify.refine_target = 0`` switches the control off. The record goes to result.json (``model.discretisation``)
 and one line per phase to the run's progress.
@@ -212,7 +218,10 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     if any(k != 1 for k in factors):
         fine = values(fitted, observations, mu, window, keep=True)      # kept: the fit condenses it once
         left, check = _checked(left, before, coarse - fine, observations.sigma, kinds)
-        progress(_check_text(check))
+        checked = max(check["remaining"]["nominal"].values())
+        if status == "reached" and checked > target:
+            status = "not reached"
+        progress(_check_text(check) + ("" if not check["not_holding"] else f": target {target:g} {status}"))
     seconds = time.perf_counter() - start
     record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
               "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
