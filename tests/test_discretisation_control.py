@@ -112,6 +112,14 @@ def test_a_prediction_the_refined_model_does_not_confirm_is_replaced_by_the_actu
     np.testing.assert_allclose(checked.slow, [1.0, 1.0, 5.5, 5.5])
 
 
+def test_a_block_too_fine_to_refine_within_small_sliding_is_fitted_as_given():
+    """At mesh_size 0.5 the edge band split by 2 has contact elements of about 0.11 mm, shorter than the 0.2 mm
+    pull: its solve would stop (small sliding), so the control skips before building anything and says why."""
+    chosen = control(ModelSpec.from_table({"builder": "block", "mesh_size": 0.5}), None, None, None, 0.5)
+    assert chosen.record["status"] == "skipped" and "shorter than the pull" in chosen.record["why"]
+    assert chosen.record["why"].startswith("footprint divisions x2")
+
+
 def _outside(model) -> int:
     """Nodes at z = 0 outside the block's footprint (plate top only)."""
     points = model.mesh.points

@@ -165,6 +165,11 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
         why = f"backend {backend!r} (the estimate needs the embedded backend)" if backend != "embedded" else \
             "the model is not a builder's [model] table frictionid can refine"
         return Control(model_options, model, _skipped(target, why, progress))
+    for d, name in enumerate(directions(model_options)):
+        if _slides_too_far(model_options, tuple(2 if j == d else 1 for j in range(len(within(model_options))))):
+            return Control(model_options, model, _skipped(target, f"{name} x2 would make the contact elements shorter "
+                                                                  "than the pull: beyond small sliding, not solved",
+                                                          progress))
     start = time.perf_counter()
     names, kinds, nested = directions(model_options), observation_kinds(observations), within(model_options)
     orders = convergence_orders(ELEMENT_ORDER[model.mesh.cell_type])
