@@ -3,7 +3,8 @@ what it chooses, the memory it estimated and measured per directional model, and
 
 Run (from the config's folder): PYTHONPATH=<repo>/src <repo>/.venv/bin/python <repo>/benchmarks/control_memory.py
      CONFIG MAX_MEMORY
-e.g. in tests/fixtures/dense_block: identify.toml 5.5 (about 60 s, 3.6 GB peak; docs/fit-quality.md)
+e.g. in tests/fixtures/dense_block: identify.toml 6 (four directional models and the check of the chosen one;
+3-4 min on a shared 2-core machine, 3.5 GB peak)
 """
 
 import json

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import skfem
 
-from frictionid.builders.block import DEFAULT_GRADING, block_model, block_model_2d
+from frictionid.builders.block import DEFAULT_GRADING, block_layout, block_model, block_model_2d
 from frictionid.errors import InputError
 from frictionid.fem.space import Space
 from frictionid.model import Displacement, Pressure
@@ -252,6 +252,30 @@ def test_2d_contact_size_refines_the_interface_only():
     assert len(refined.boundary("base_bottom")) < len(uniform.boundary("base_bottom")) / 4
     assert refined.n_nodes < uniform.n_nodes / 2
 
+def test_3d_bands_split_only_the_intervals_next_to_the_edges_and_the_interface(graded_3d):
+    """edge_splits / interface_splits 3 on the graded mesh: the x, y intervals whose middle lies within 1 mm of
+    x, y = +-5 (inside the footprint and in the plate) and the z layers within 1 mm of z = 0 are split into 3
+    equal parts of the graded parameter; every other node line stays where it was; the interface stays
+    conforming, and the layout's node count (what the discretisation control prices) is the mesh's."""
+    kwargs = dict(mesh_size=1.7, block_divisions=8)
+    given = graded_3d[1]
+    split = block_model(**kwargs, edge_splits=3, interface_splits=3)
+    assert split.mesh.n_nodes == block_layout(**kwargs, edge_splits=3, interface_splits=3).n_nodes() > given.mesh.n_nodes
+    assert given.mesh.n_nodes == block_layout(**kwargs).n_nodes()
+    assert_conforming(split, "block", "plate")
+    for axis in (0, 1, 2):
+        old = np.unique(np.round(given.mesh.points[:, axis], 6))        # gmsh's progression outside: 1e-8
+        new = np.unique(np.round(split.mesh.points[:, axis], 6))
+        assert set(old) <= set(new)                                        # nothing moved, lines added
+        near = 5.0 if axis < 2 else 0.0
+        middles = np.abs(np.abs((old[:-1] + old[1:]) / 2) - near)
+        inside_band = middles < 1.0
+        if axis < 2:                              # the quadrant border side of the footprint's half is not split
+            inside_band &= np.abs((old[:-1] + old[1:]) / 2) > 2.5
+        added = [np.sum((new > a + 1e-9) & (new < b - 1e-9)) for a, b in zip(old[:-1], old[1:])]
+        assert np.array_equal(np.array(added), np.where(inside_band, 2, 0)), (axis, added, inside_band)
+        assert np.sum(inside_band) >= 2                                      # one each side at least
+
 
 # ---------------------------------------------------------------------------------------------- bad input
 
@@ -266,6 +290,10 @@ def test_2d_contact_size_refines_the_interface_only():
     (block_model, {"block_divisions": 5}, "block_divisions"),
     (block_model, {"grading": 0.5}, "grading"),
     (block_model, {"grading": float("inf")}, "grading"),
+    (block_model, {"edge_splits": 0}, "edge_splits"),
+    (block_model, {"interface_splits": 1.5}, "interface_splits"),
+    (block_model, {"edge_band": -1.0}, "edge_band"),
+    (block_model, {"interface_band": 0.0}, "interface_band"),
     (block_model_2d, {"kind": "axisymmetric"}, "kind"),
     (block_model_2d, {"width": 0.0}, "width"),
     (block_model_2d, {"base_width": 8.0}, "base_width"),

@@ -1,8 +1,8 @@
 """The dense-data acceptance, lean: with the defaults (the discretisation control on), no zone is claimed more than 3
 standard errors off over noise replicates of dense data from a finer mesh.
 
-The 3-D reference (tests/fixtures/dense_block) costs minutes per fit (the control's directional models have 14,500
-and 20,500 nodes; benchmarks/dense_acceptance.py and docs/fit-quality.md have its replicate study). The same
+The 3-D reference (tests/fixtures/dense_block) costs minutes per fit (the control's four directional models have
+10,300-20,500 nodes; benchmarks/dense_acceptance.py and docs/fit-quality.md have its replicate study). The same
 situation in plane strain: 70 points on the block sides and the base top (140 displacements, 0.5 um noise), data
 of a 0.25 mm mesh at A 0.32, B 0.18, fitted from 2 mm with the control (it refines 4 times, 0.5 mm, predicted
 0.60 noise levels RMS). Measured over 6 replicates (seeds 0-5): reduced chi-square 0.88-1.23, A never claimed

@@ -13,8 +13,8 @@ from ..errors import InputError
 from ..model import ContactInterface, Displacement, Material, Mesh, Model, Pressure, Stage, Support
 from ..model.model import ELEMENTS
 from .arguments import count, positive
-from .block_mesh import (BLOCK_HEIGHT, BLOCK_SIDE, DEFAULT_GRADING, PLATE_THICKNESS, QUADRANT_ZONES, block_mesh,
-                         checked_grading, set_order)
+from .block_mesh import (BLOCK_HEIGHT, BLOCK_SIDE, DEFAULT_GRADING, PLATE_THICKNESS, QUADRANT_ZONES, Bands,
+                         block_mesh, checked_grading, layout, set_order)
 from .gmsh_mesh import distance_size_field, gmsh_session, mesh_from_gmsh, use_size_fields
 
 logger = logging.getLogger(__name__)
@@ -82,7 +82,9 @@ def _pull_stages(n_press: int, n_pull: int, pull: float, levels: tuple[float, ..
 
 def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0, order: int = 1,
                 n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None,
-                grading: float = DEFAULT_GRADING, pull_levels=(), element: str | None = None) -> Model:
+                grading: float = DEFAULT_GRADING, pull_levels=(), element: str | None = None,
+                edge_splits: int = 1, edge_band: float = 1.0, interface_splits: int = 1,
+                interface_band: float = 1.0) -> Model:
     """The 3-D block-on-plate reference test (DESIGN.md, reference test 1) on a conforming hexahedral mesh.
 
     Parameters
@@ -121,6 +123,20 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
         Element technology (:attr:`Model.element`): "incompatible" (order 1 only) adds Wilson-Taylor
         incompatible modes to the hexahedra (as CalculiX's C3D8I), which do not lock in bending.
         Default: "incompatible" for order 1, "standard" for order 2.
+    edge_splits : int >= 1
+        Local refinement at the footprint's edges: the element intervals in x and in y (of the mesh the options
+        above give) whose middle lies within ``edge_band`` of x or y = +-5 mm, in the block and in the plate
+        inside and outside the footprint, are split into this many equal parts. The mesh stays a tensor product,
+        so each split interval adds a plane of nodes across the plate, but only the band's few intervals are
+        split (:class:`frictionid.builders.block_mesh.Bands`). Default 1 (no split).
+    edge_band : float [mm]
+        Half-width of that band (kept as the splits grow, so its element size falls as 1 / ``edge_splits``).
+        Default 1.0.
+    interface_splits : int >= 1
+        Local refinement at the interface: the element layers of block and plate whose middle lies within
+        ``interface_band`` of z = 0 are split into this many equal layers. Default 1.
+    interface_band : float [mm]
+        Depth of that band on each side of the interface. Default 1.0.
 
     Notes
     -----
@@ -157,20 +173,13 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     >>> model.zone_names
     ('A', 'B', 'C', 'D')
     """
-    pull, force, mesh_size = positive("pull", pull), positive("force", force), positive("mesh_size", mesh_size)
+    pull, force = positive("pull", pull), positive("force", force)
     order = _order(order)
     element = _element(element, order)
     stages, pulled = _pull_stages(n_press, n_pull, pull, _pull_levels(pull_levels, pull))
-    if block_divisions is None:
-        block_divisions = 2 * max(1, round(BLOCK_SIDE / 2 / mesh_size))
-    block_divisions = count("block_divisions", block_divisions, 2)
-    if block_divisions % 2:
-        raise InputError(f"`block_divisions` must be even (the zones split the block bottom in half), "
-                         f"got {block_divisions}")
-    n_block_z = max(2, math.ceil(BLOCK_HEIGHT / mesh_size - 1e-9))
-    n_plate_z = max(2, math.ceil(PLATE_THICKNESS / mesh_size - 1e-9))
-    grading = checked_grading(grading)
-    mesh = block_mesh(block_divisions, n_block_z, n_plate_z, order, grading)
+    divisions, n_block_z, n_plate_z, grading, bands = _mesh_arguments(
+        mesh_size, block_divisions, grading, edge_splits, edge_band, interface_splits, interface_band)
+    mesh = block_mesh(divisions, n_block_z, n_plate_z, order, grading, bands)
     pressure = force / BLOCK_SIDE ** 2
     return Model(
         mesh=mesh, kind="3d", materials={"plate": EPOXY, "block": ALUMINIUM},
@@ -182,6 +191,36 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
         interfaces=(ContactInterface("block_plate", tuple(QUADRANT_ZONES.values()), "plate_top"),),
         element=element,
     )
+
+
+def _mesh_arguments(mesh_size, block_divisions, grading, edge_splits, edge_band, interface_splits, interface_band):
+    """(block_divisions, n_block_z, n_plate_z, grading, bands) of :func:`block_mesh` from the options, checked."""
+    mesh_size = positive("mesh_size", mesh_size)
+    if block_divisions is None:
+        block_divisions = 2 * max(1, round(BLOCK_SIDE / 2 / mesh_size))
+    block_divisions = count("block_divisions", block_divisions, 2)
+    if block_divisions % 2:
+        raise InputError(f"`block_divisions` must be even (the zones split the block bottom in half), "
+                         f"got {block_divisions}")
+    n_block_z = max(2, math.ceil(BLOCK_HEIGHT / mesh_size - 1e-9))
+    n_plate_z = max(2, math.ceil(PLATE_THICKNESS / mesh_size - 1e-9))
+    bands = Bands(count("edge_splits", edge_splits), positive("edge_band", edge_band),
+                  count("interface_splits", interface_splits), positive("interface_band", interface_band))
+    return block_divisions, n_block_z, n_plate_z, checked_grading(grading), bands
+
+
+def block_layout(**arguments):
+    """The :class:`frictionid.builders.block_mesh.Layout` of :func:`block_model` with these keyword arguments (those
+    not about the mesh ignored), without meshing: its node count and shortest contact element.
+
+    >>> block_layout().n_nodes(), block_layout(edge_splits=2).n_nodes() < block_layout(block_divisions=20).n_nodes()
+    (7865, True)
+    >>> round(block_layout().contact_length(), 3), round(block_layout(edge_splits=2).contact_length(), 3)
+    (0.546, 0.219)
+    """
+    sizes = {"mesh_size": 1.0, "block_divisions": None, "grading": DEFAULT_GRADING, "edge_splits": 1,
+             "edge_band": 1.0, "interface_splits": 1, "interface_band": 1.0}
+    return layout(*_mesh_arguments(**{key: arguments.get(key, value) for key, value in sizes.items()}))
 
 
 # ---------------------------------------------------------------------------------------------- 2-D model

@@ -5,21 +5,31 @@ levels RMS per quantity kind, within ``[solver] max_memory``.
 The error is estimated by splitting extrapolation (Richardson per refinement direction of a multi-parameter
 discretisation; C. B. Liem, T. Lu, T. M. Shih, The Splitting Extrapolation Method, World Scientific 1995): a builder's mesh has independent size parameters
 (:func:`directions`; the 3-D block: the divisions of the contact footprint, which set the element size at the
-contact edges, and the layers, which set it across the interface), and its error is taken as a sum of one
-term per direction, f(h_1, h_2) = f + C_1 h_1^p + C_2 h_2^p. One condensation per direction, refined by 2 in that
-direction only, gives each term, e_d = (f_h - f_d) 2^p / (2^p - 1), with the orders of
-:func:`frictionid.inverse.model_error.convergence_orders` (displacements and forces 1, strains 1.77: the contact
-edges' singularity caps them). Each directional model is about twice the model's size, where the uniform
-halving is 4-5 times (3-D block: 37,872 nodes, more than 7 GB with a dense DIC grid), so the estimate fits in
-memory where Richardson from the uniform halving does not.
+contact edges, the layers, which set it across the interface, and inside each a band of fixed width where the
+error of a contact edge sits: the intervals within 1 mm of the footprint's edges, ``edge_splits``, and the layers
+within 1 mm of the interface, ``interface_splits``, :class:`frictionid.builders.block_mesh.Bands`), and its error
+is taken as a sum of one term per region, f(h_1, h_2) = f + C_1 h_1^p + C_2 h_2^p. One condensation per
+direction, refined by 2 in that direction only, gives each term, e_d = (f_h - f_d) 2^p / (2^p - 1), with the
+orders of :func:`frictionid.inverse.model_error.convergence_orders` (displacements and forces 1, strains 1.77:
+the contact edges' singularity caps them). Each directional model is 1.3-2.6 times the model's size, where the
+uniform halving is 4-5 times (3-D block: 37,872 nodes, more than 7 GB with a dense DIC grid), so the estimate fits
+in memory where Richardson from the uniform halving does not.
 
-The refinement (k_1, k_2, ...) then has the predicted error sum_d e_d / k_d^p. Where every quantity kind is within
-the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to 2^``identify.refine_budget``, size predicted from the
-directional models' sizes) whose prediction is within the target in every kind is built and fitted, after
-:func:`frictionid.fem.memory.check`, the memory law scaled by the largest ratio of measured to estimated peak of
-the control's own builds (:class:`frictionid.fem.memory.Peak`); when none is, the one with the smallest largest-kind error that fits in
-memory, and the record says the target was not reached. A model that cannot be refined (a model object, another
-backend) is fitted as it is, and the record says why.
+The refinement (k_1, k_2, ...) then has the predicted error sum_d e_d / k_d^p, a band's element size divided by its
+own factor and its uniform direction's (:func:`frictionid.inverse.remaining_error.combined`). Where every quantity
+kind is within the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to
+2^``identify.refine_budget``, size predicted from the directional models' sizes) whose prediction is within the
+target in every kind is built and fitted, after :func:`frictionid.fem.memory.check`, the memory law scaled by the
+largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`), and
+(3-D block) whose contact elements are not shorter than the pull (small sliding pairs nodes for a slip of at most
+one element); when none is, the one with the smallest largest-kind error that fits in memory, and the record says
+the target was not reached. A model that cannot be refined (a model object, another backend) is fitted as it is, and
+the record says why.
+
+The choice is checked: the chosen model is solved at the start values, and in a quantity kind where its actual
+change from the model as given misses the predicted change by more than half, the remaining error of that kind is
+the error as given less the actual change (:func:`_checked`), and the target counts as reached only if that is
+within it.
 
 ``identify.refine_target = 0`` switches the control off. The record goes to result.json (``model.discretisation``)
 and one line per phase to the run's progress.
@@ -35,12 +45,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..backends.embedded import EmbeddedBackend
+from ..builders.block import block_layout
 from ..builders.registry import _default, build_model, refined
 from ..fem import memory
 from ..fem.locate import PointsOutside
 from ..options import ModelSpec
 from .model_error import ELEMENT_ORDER, convergence_orders, observation_kinds
-from .remaining_error import RemainingError, remaining
+from .remaining_error import RemainingError, combined, remaining
 
 log = logging.getLogger(__name__)
 
@@ -54,31 +65,59 @@ class Control:
     record: dict
     #: the error the fitted model keeps, per observation (:mod:`.remaining_error`); None when the control did not run
     remaining: RemainingError | None = None
+    #: the same prediction for the model as given (its change to ``remaining`` is what the refinement should move)
+    given: RemainingError | None = None
+    #: (terms e_d per direction, per-observation orders, within) of the prediction, for :meth:`predicted`
+    split: tuple | None = None
+
+    def predicted(self, factors) -> np.ndarray:
+        """(n_obs,) the control's error (model minus converged, at its orders) after refining by ``factors``."""
+        terms, orders, nested = self.split
+        return combined(terms, factors, orders, nested)
+
+
+#: a refinement's prediction holds in a quantity kind when it misses the actual change (RMS) by at most this
+#: fraction of the predicted change or by at most CHECK_FLOOR noise levels RMS (:func:`_checked`)
+CHECK_TOLERANCE, CHECK_FLOOR = 0.5, 0.1
+#: the 3-D block's refinement directions and, per direction, the one whose region its band lies in (None: the whole
+#: mesh in that coordinate)
+BLOCK_DIRECTIONS = {"footprint divisions": None, "interface layers": None, "footprint edges": 0, "interface band": 1}
 
 
 def directions(spec: ModelSpec) -> list[str]:
-    """The independent refinement directions of a [model]'s builder.
+    """The refinement directions of a [model]'s builder.
 
     >>> directions(ModelSpec("block")), directions(ModelSpec("block2d"))
-    (['footprint divisions', 'interface layers'], ['element sizes'])
+    (['footprint divisions', 'interface layers', 'footprint edges', 'interface band'], ['element sizes'])
     """
-    return ["footprint divisions", "interface layers"] if spec.builder == "block" else ["element sizes"]
+    return list(BLOCK_DIRECTIONS) if spec.builder == "block" else ["element sizes"]
+
+
+def within(spec: ModelSpec) -> list:
+    """Per :func:`directions` entry the index of the direction whose region its band lies in, or None
+    (:func:`frictionid.inverse.remaining_error.combined`)."""
+    return list(BLOCK_DIRECTIONS.values()) if spec.builder == "block" else [None]
 
 
 def refinement(spec: ModelSpec, factors: tuple[int, ...]) -> ModelSpec:
     """The [model] refined by ``factors`` (one per :func:`directions` entry; 1: unchanged).
 
-    block: ``block_divisions`` times the first (the footprint's element size at the contact edges divided by
-    it), the layers (``mesh_size``, the footprint kept) divided by the second; others: every size divided
-    (:func:`frictionid.builders.registry.refined`).
+    block: ``block_divisions`` times the first (every interval across the footprint split), the layers
+    (``mesh_size``, the footprint kept) divided by the second, ``edge_splits`` times the third (the intervals
+    within ``edge_band`` of the footprint's edges), ``interface_splits`` times the fourth (the layers within
+    ``interface_band`` of the interface); others: every size divided (:func:`frictionid.builders.registry.refined`).
 
-    >>> refinement(ModelSpec.from_table({"builder": "block", "mesh_size": 1.0}), (2, 1)).table()
+    >>> refinement(ModelSpec.from_table({"builder": "block", "mesh_size": 1.0}), (2, 1, 1, 1)).table()
     {'builder': 'block', 'mesh_size': 1.0, 'block_divisions': 20}
+    >>> refinement(ModelSpec.from_table({"builder": "block"}), (1, 1, 4, 2)).table()
+    {'builder': 'block', 'mesh_size': 1.0, 'block_divisions': 10, 'edge_splits': 4, 'interface_splits': 2}
     """
     if spec.builder == "block":
         size = float(spec.option("mesh_size", _default("block", spec.table(), "mesh_size")))
         divisions = spec.option("block_divisions") or 2 * max(1, round(5.0 / size))
-        return spec.with_options(mesh_size=size / factors[1], block_divisions=divisions * factors[0])
+        bands = {name: spec.option(name, 1) * k for name, k in zip(("edge_splits", "interface_splits"), factors[2:])
+                 if k != 1 or spec.option(name) is not None}
+        return spec.with_options(mesh_size=size / factors[1], block_divisions=divisions * factors[0], **bands)
     return spec if factors[0] == 1 else refined(spec, factors[0])
 
 
@@ -126,8 +165,13 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
         why = f"backend {backend!r} (the estimate needs the embedded backend)" if backend != "embedded" else \
             "the model is not a builder's [model] table frictionid can refine"
         return Control(model_options, model, _skipped(target, why, progress))
+    for d, name in enumerate(directions(model_options)):
+        if _slides_too_far(model_options, tuple(2 if j == d else 1 for j in range(len(within(model_options))))):
+            return Control(model_options, model, _skipped(target, f"{name} x2 would make the contact elements shorter "
+                                                                  "than the pull: beyond small sliding, not solved",
+                                                          progress))
     start = time.perf_counter()
-    names, kinds = directions(model_options), observation_kinds(observations)
+    names, kinds, nested = directions(model_options), observation_kinds(observations), within(model_options)
     orders = convergence_orders(ELEMENT_ORDER[model.mesh.cell_type])
     gain = 2.0 ** np.array([orders[k] for k in kinds])
     progress(f"discretisation control: the model's error at the start values by refining it in each of "
@@ -156,8 +200,9 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
                       "memory_gb": round(cost.needed / memory.GB, 2),
                       "measured_gb": None if took.above is None else round((cost.held + took.above) / memory.GB, 2),
                       "seconds": round(time.perf_counter() - begun, 1)})
-        progress(f"discretisation control: error from the {name}: {_rms_text(steps[-1]['rms'])} noise levels RMS "
-                 f"({steps[-1]['seconds']:.1f} s)")
+        part = "" if nested[d] is None else f" (part of the {names[nested[d]]}')"
+        progress(f"discretisation control: error from the {name}{part}: {_rms_text(steps[-1]['rms'])} noise levels "
+                 f"RMS ({steps[-1]['seconds']:.1f} s)")
     scale = _scale(ratios)
     if scale > 1.0:
         progress(f"discretisation control: the builds took up to {scale:.2f} times the memory law's estimate; the "
@@ -165,21 +210,68 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     chosen = _choose(model_options, model, terms, sizes, gain, observations.sigma, kinds, target, max_memory,
                      range(1, 2 ** budget + 1), scale)
     factors, options, fitted, rms = chosen
-    given = kind_rms(np.abs(np.sum(terms, axis=0)) / observations.sigma, kinds)
+    given = kind_rms(np.abs(combined(terms, [1] * len(terms), np.log2(gain), nested)) / observations.sigma, kinds)
     status = "not needed" if max(given.values()) <= target else \
         "reached" if max(rms.values()) <= target else "not reached"
-    left = remaining(differences, factors, np.log2(gain), orders)
+    left = remaining(differences, factors, np.log2(gain), orders, nested)
+    before = remaining(differences, [1] * len(names), np.log2(gain), orders, nested)
+    slow = left.summary(observations.sigma, kinds)["slow"]
+    progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
+             f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
+             f"levels RMS: target {target:g} {status}")
+    check = None
+    if any(k != 1 for k in factors):
+        fine = values(fitted, observations, mu, window, keep=True)      # kept: the fit condenses it once
+        left, check = _checked(left, before, coarse - fine, observations.sigma, kinds)
+        checked = max(check["remaining"]["nominal"].values())
+        if status == "reached" and checked > target:
+            status = "not reached"
+        progress(_check_text(check) + ("" if not check["not_holding"] else f": target {target:g} {status}"))
     seconds = time.perf_counter() - start
     record = {"target": target, "status": status, "method": "splitting extrapolation", "orders": orders,
               "directions": steps, "error_as_given": given, "factors": dict(zip(names, factors)),
               "options": options.table(), "n_nodes": int(fitted.mesh.n_nodes), "predicted_error": rms,
-              "predicted_error_slow": left.summary(observations.sigma, kinds)["slow"], "memory_scale": round(scale, 3),
+              "predicted_error_slow": slow, "check": check, "memory_scale": round(scale, 3),
               "seconds": round(seconds, 1)}
-    progress(f"discretisation control: estimated error as given {_rms_text(given)}; fitting "
-             f"{_factors_text(names, factors)} ({fitted.mesh.n_nodes:,} nodes), predicted {_rms_text(rms)} noise "
-             f"levels RMS: target {target:g} {status}; the control took {seconds:.1f} s")
+    progress(f"discretisation control: took {seconds:.1f} s")
     log.info("discretisation control: %s", record)
-    return Control(options, fitted, record, left)
+    return Control(options, fitted, record, left, before, (terms, np.log2(gain), nested))
+
+
+def _checked(left: RemainingError, before: RemainingError, actual: np.ndarray, sigma, kinds):
+    """(remaining error, record) of the chosen refinement checked against its actual values at the start values.
+
+    ``actual`` is the model as given minus the chosen one, the change the prediction (``before`` minus ``left``)
+    claims. In a quantity kind whose predicted change misses the actual one by more than :data:`CHECK_TOLERANCE`
+    of it (and by more than :data:`CHECK_FLOOR` noise levels RMS) the splitting assumption does not hold there (on
+    the 3-D block the strains next to the contact edges, whose error the edge and interface refinements do not
+    reduce additively), and the remaining error of that kind is taken as the error as given minus the actual
+    change (nominal and slow): the refined model's error is f_k - f = (f_1 - f) - (f_1 - f_k), which uses the
+    extrapolation only for the model as given.
+    """
+    predicted = before.nominal - left.nominal
+    check = {"actual_change": kind_rms(np.abs(actual) / sigma, kinds),
+             "predicted_change": kind_rms(np.abs(predicted) / sigma, kinds),
+             "missed": kind_rms(np.abs(predicted - actual) / sigma, kinds)}
+    off = [kind for kind, miss in check["missed"].items()
+           if miss > CHECK_FLOOR and miss > CHECK_TOLERANCE * check["predicted_change"][kind]]
+    check["not_holding"] = off
+    if off:
+        mask = np.isin(kinds, off)
+        left = RemainingError(np.where(mask, before.nominal - actual, left.nominal),
+                              np.where(mask, before.slow - actual, left.slow), left.orders)
+    check["remaining"] = left.summary(sigma, kinds)
+    return left, check
+
+
+def _check_text(check: dict) -> str:
+    text = (f"discretisation control: the chosen model's values at the start values moved by "
+            f"{_rms_text(check['actual_change'])} noise levels RMS, predicted {_rms_text(check['predicted_change'])}")
+    if not check["not_holding"]:
+        return text + ": the prediction holds"
+    return (text + f": in {', '.join(check['not_holding'])} it does not, so the remaining error there is the error "
+            f"as given less the actual change: {_rms_text(check['remaining']['nominal'])} noise levels RMS "
+            f"({_rms_text(check['remaining']['slow'])} at half the orders)")
 
 
 def _calibrate(ratios: list, took: memory.Peak, cost: memory.MemoryEstimate) -> None:
@@ -197,14 +289,15 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
             scale: float = 1.0):
     """(factors, options, model, predicted rms per kind) of the cheapest refinement within the target that fits
     in memory (its estimate times ``scale``), else of the smallest worst-kind error that does."""
-    base = model.mesh.n_nodes
+    base, nested = model.mesh.n_nodes, within(model_options)
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
-        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors):
+        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors) \
+                or _slides_too_far(model_options, factors):
             continue
-        error = sum(term / float(k) ** np.log2(gain) for term, k in zip(terms, factors))
+        error = combined(terms, factors, np.log2(gain), nested)
         rms = kind_rms(np.abs(error) / sigma, kinds)
-        nodes = base * np.prod([(n / base) ** np.log2(k) for n, k in zip(sizes, factors)])
+        nodes = _nodes(model_options, factors, base, sizes)
         rows.append((max(rms.values()) > target, nodes if max(rms.values()) <= target else max(rms.values()),
                      factors, rms, nodes))
     for _, _, factors, rms, nodes in sorted(rows, key=lambda row: row[:2]):
@@ -217,6 +310,25 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
         if memory.estimate(candidate, "discretisation control", max_memory, scale=scale).fits:
             return factors, options, candidate, rms
     raise AssertionError("unreachable: the model as given is always a candidate")
+
+
+def _nodes(model_options: ModelSpec, factors, base: int, sizes) -> float:
+    """The node count of the refinement ``factors``: the 3-D block's exactly (its layout), others' from the
+    directional models' sizes (``sizes``, refined by 2 each) as if each factor 2 multiplied it alike."""
+    if model_options.builder == "block":
+        return float(block_layout(**refinement(model_options, factors).table()).n_nodes(
+            int(model_options.option("order", 1))))
+    return base * np.prod([(n / base) ** np.log2(k) for n, k in zip(sizes, factors)])
+
+
+def _slides_too_far(model_options: ModelSpec, factors) -> bool:
+    """Whether the refinement's contact elements are shorter than the 3-D block's pull: the block then slides
+    over more than one element, beyond the small-sliding pairing (:meth:`frictionid.fem.problem.Problem.
+    check_small_sliding` stops such a solve), so the refinement cannot be fitted."""
+    if model_options.builder != "block" or all(k == 1 for k in factors):
+        return False                                   # the model as given is always a candidate
+    pull = float(model_options.option("pull", _default("block", model_options.table(), "pull")))
+    return block_layout(**refinement(model_options, factors).table()).contact_length() < pull
 
 
 def _rms_text(rms: dict) -> str:

@@ -6,8 +6,9 @@ by 2 in direction d, and fits the refinement k (one factor per direction) whose 
 
     delta = sum_d e_d / k_d^p            (model minus converged, per observation, signed)
 
-is within its target. That remaining error is systematic: it is the same in every replicate of the data, and a
-part of it along the sensitivities is absorbed by the coefficients without leaving a misfit, so neither the
+is within its target (a band refined inside a uniform direction: :func:`combined`; where the chosen model's actual
+change does not confirm a kind's prediction, the error as given less that change). That remaining error is
+systematic: it is the same in every replicate of the data, and a part of it along the sensitivities is absorbed by the coefficients without leaving a misfit, so neither the
 chi-square test nor the statistical standard error sees it. Linearised, the fit on the refined model is off by
 
     bias = -(J^T W J)^-1 J^T W delta
@@ -60,10 +61,35 @@ class RemainingError:
         return out
 
 
-def remaining(differences, factors, orders: np.ndarray, kind_orders: dict | None = None) -> RemainingError:
+def combined(terms, factors, orders, within=None):
+    """The predicted error sum_d e_d / k_d^p of the refinement ``factors`` from the directional terms ``terms``
+    (e_d, (n_obs,) each) at orders ``orders`` (n_obs,).
+
+    ``within[d]`` (None: every direction is independent) names the direction whose region direction d's lies in:
+    a local refinement (a band around the contact edges) inside a uniform one. Its term e_l is that band's part
+    of the uniform direction's e_u (both measured from a refinement by 2 of the model as given), the band's
+    element size is divided by both factors, the rest by the uniform one's only:
+
+        (e_u - sum_l e_l) / k_u^p + sum_l e_l / (k_u k_l)^p
+
+    >>> e = [np.array([3.0]), np.array([2.0])]                  # the band holds 2 of the uniform direction's 3
+    >>> float(combined(e, [1, 2], np.array([1.0]), [None, 0])[0]), float(combined(e, [2, 1], np.array([1.0]))[0])
+    (2.0, 3.5)
+    """
+    within = within or [None] * len(terms)
+    total = 0.0
+    for d, (term, k) in enumerate(zip(terms, factors)):
+        size = float(k) * (1.0 if within[d] is None else float(factors[within[d]]))
+        inner = sum((terms[j] for j in range(len(terms)) if within[j] == d), np.zeros_like(term))
+        total = total + (np.asarray(term, dtype=float) - inner) / size ** orders
+    return total
+
+
+def remaining(differences, factors, orders: np.ndarray, kind_orders: dict | None = None,
+              within=None) -> RemainingError:
     """The predicted error after refining by ``factors`` (one per direction) from the directional differences
     ``differences`` (coarse minus direction-refined-by-2 values, (n_obs,) each) with per-observation orders
-    ``orders`` (n_obs,).
+    ``orders`` (n_obs,); ``within`` as :func:`combined`'s.
 
     >>> r = remaining([np.array([1.0])], [2], np.array([1.0]))     # e = 2 D at order 1, halved by k = 2
     >>> float(r.nominal[0]), round(float(r.slow[0]), 3)            # order 0.5: 2^.5/(2^.5 - 1)/2^.5 D
@@ -71,8 +97,7 @@ def remaining(differences, factors, orders: np.ndarray, kind_orders: dict | None
     """
     def at(p):
         gain = 2.0 ** p
-        return sum(np.asarray(d, dtype=float) * gain / (gain - 1.0) / float(k) ** p
-                   for d, k in zip(differences, factors))
+        return combined([np.asarray(d, dtype=float) * gain / (gain - 1.0) for d in differences], factors, p, within)
 
     orders = np.asarray(orders, dtype=float)
     return RemainingError(at(orders), at(SLOW_ORDER * orders), dict(kind_orders or {}))
