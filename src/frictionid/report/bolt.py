@@ -142,14 +142,29 @@ class TorqueSplit:
     r_bearing: float
 
 
+def acting_positions(pairs) -> np.ndarray:
+    """(n_pairs, dim) [mm] where each pair's force acts on the contact side: sum_k c_jk x_k over the contact nodes
+    k that pair j's row of B couples with weights c_jk (its own node alone on linear facets; on 6-node triangles
+    the transformed basis mixes a node with its facets' others, and on curved facets that mix lies off the node).
+    The moment of the pairs' forces about any axis at these positions is that of the nodal forces B^T lam."""
+    dim = pairs.dim
+    nodal = np.zeros(pairs.B.shape[1])
+    for d in range(dim):
+        nodal[dim * pairs.nodes + d] = pairs.position[:, d]
+    coupled = (pairs.B @ nodal).reshape(-1, dim)                  # frames[j] . sum_k c_jk x_k
+    return np.einsum("pkc,pk->pc", pairs.frames, coupled)
+
+
 def torque_split(solution: Solution, thread: int = 0, bearing: int = 2, increment: int = -1) -> TorqueSplit:
     """:class:`TorqueSplit` of a 3-D model (y the axis); ``thread`` and ``bearing`` the interfaces' indices
-    (:func:`~frictionid.builders.bolt.bolt_model`: 0 "thread", 2 "nut_bearing")."""
+    (:func:`~frictionid.builders.bolt.bolt_model`: 0 "thread", 2 "nut_bearing"). Moments and radii are taken at
+    each pair's :func:`acting_positions`."""
     pairs = solution.pairs
     if pairs.dim != 3:
         raise InputError("bolt report: the torque split needs a 3-D model")
     forces, lam = pair_forces(solution, increment), solution.lam[increment]
-    x, z = pairs.position[:, 0], pairs.position[:, 2]
+    acting = acting_positions(pairs)
+    x, z = acting[:, 0], acting[:, 2]
     radius = np.hypot(x, z)
 
     def moment(f, where):
