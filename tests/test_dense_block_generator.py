@@ -72,3 +72,28 @@ def test_the_plate_as_slave_carries_the_zones_on_its_faces_under_the_footprint()
     assert n_under == len(inside)
     assert len(surfaces["SBLOCK"]) == (block.shape[0] - 1) * (block.shape[1] - 1)
     assert "SA, SBLOCK" in lines and "*CONTACT PRINT, SLAVE=SA, MASTER=SBLOCK" in lines
+
+
+def test_the_cubic_grading_refines_the_edges_as_n_to_the_minus_3_and_keeps_its_ends():
+    for n in (3, 4, 8, 16, 32):
+        s = tilt.cubic_half_side(n)
+        assert s[0] == 0.0 and s[-1] == 5.0 and np.all(np.diff(s) > 0)
+        np.testing.assert_allclose(s, 5.0 - s[::-1], atol=1e-12)        # the same grading at both ends
+    # the edge element's order: its ratio between n and 2n tends to 8 (1 - cos: 4)
+    edge = lambda n: tilt.cubic_half_side(n)[1]
+    assert abs(edge(256) / edge(512) - 8.0) < 0.1 and 7.5 < edge(32) / edge(64) < 8.5
+    t = np.linspace(0.0, 1.0, 2001)
+    h = tilt.cubic_start(t)
+    assert h[0] == 0.0 and abs(h[-1] - 1.0) < 1e-12 and np.all(np.diff(h) > 0)
+    assert abs(tilt.cubic_start(1e-2) / tilt.cubic_start(5e-3) - 8.0) < 0.1
+    # the twin of 1 - cos(pi t / 2) at t = 1: same slope, so ring_map's far piece joins as before
+    slope = (tilt.cubic_start(1.0) - tilt.cubic_start(1.0 - 1e-6)) / 1e-6
+    assert abs(slope - np.pi / 2) < 1e-4
+    ring = tilt.ring_map(np.linspace(0.0, 1.0, 401), cubic=True)
+    assert ring[0] == 5.0 and abs(ring[-1] - 20.0) < 1e-12 and np.all(np.diff(ring) > 0)
+    np.testing.assert_allclose(tilt.ring_map(np.linspace(0.6, 1.0, 9), cubic=True),
+                               tilt.ring_map(np.linspace(0.6, 1.0, 9)), atol=1e-12)
+    xy, plate_z, block_z = tilt.graded_lines(4, ring=True, cubic=True)
+    assert len(xy) == len(tilt.graded_lines(4, ring=True)[0])              # the same element counts as 1 - cos
+    assert plate_z[0] == -5.0 and plate_z[-1] == 0.0 and block_z[0] == 0.0 and block_z[-1] == 10.0
+    assert np.diff(plate_z)[-1] < 0.6 * np.diff(tilt.graded_lines(4, ring=True)[1])[-1]
