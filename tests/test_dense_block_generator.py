@@ -97,3 +97,30 @@ def test_the_cubic_grading_refines_the_edges_as_n_to_the_minus_3_and_keeps_its_e
     assert len(xy) == len(tilt.graded_lines(4, ring=True)[0])              # the same element counts as 1 - cos
     assert plate_z[0] == -5.0 and plate_z[-1] == 0.0 and block_z[0] == 0.0 and block_z[-1] == 10.0
     assert np.diff(plate_z)[-1] < 0.6 * np.diff(tilt.graded_lines(4, ring=True)[1])[-1]
+
+
+def test_the_convergence_study_extrapolates_a_sequence_of_known_order_to_its_limit():
+    """benchmarks/dense_convergence.py's Richardson step on values f(h) = L + C h^p (per kind and stage, each its
+    own p): it finds each p and returns L, the finest level's error as L - f(h_c)."""
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    _conv = importlib.util.spec_from_file_location("dense_convergence", ROOT / "benchmarks" / "dense_convergence.py")
+    conv = importlib.util.module_from_spec(_conv)
+    _conv.loader.exec_module(conv)
+    rng = np.random.default_rng(0)
+    truth = {"u": [rng.normal(size=50), rng.normal(size=50)], "e": [rng.normal(size=80), rng.normal(size=80)],
+             "force": [np.array([600.0]), np.array([598.0])]}
+    slope = {kind: [rng.normal(size=len(v)) for v in truth[kind]] for kind in truth}
+    order = {"u": (1.1, 2.0), "e": (0.7, 3.0), "force": (1.5, 1.0)}
+    h = [1 / 2, 1 / 3, 1 / 4]
+    levels = [{kind: [truth[kind][s] + slope[kind][s] * x ** order[kind][s] for s in (0, 1)] for kind in truth}
+              for x in h]
+    row, limit = conv.richardson(levels, h)
+    for kind in truth:
+        for s in (0, 1):
+            assert abs(row[f"{kind}{s + 1}"]["order"] - order[kind][s]) < 0.01
+            np.testing.assert_allclose(limit[kind][s], truth[kind][s], atol=1e-6 * np.abs(slope[kind][s]).max())
+            error = truth[kind][s] - levels[2][kind][s]
+            assert abs(row[f"{kind}{s + 1}"]["error_rms"] - np.sqrt(np.mean(error ** 2))) < 2e-3
+    gap = conv.gap(limit, levels[2])
+    assert abs(gap["u2_rms"] - np.sqrt(np.mean((truth["u"][1] - levels[2]["u"][1]) ** 2))) < 2e-3
