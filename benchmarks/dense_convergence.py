@@ -15,8 +15,8 @@ the observed order p per stage and kind from the ratio of the two differences' R
 and the finest level's error as (f_c - f_b) h_c^p / (h_b^p - h_c^p) per value (its RMS and largest value printed).
 The order is searched in [0.25, 4]; an order at a limit is printed as such (the estimate is then only a scale).
 
-    PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py 1=/tmp/i25/dense_l1 2=tests/fixtures/dense_block \\
-        3=/tmp/i25/dense_l3 4=/tmp/i25/dense_l4
+    PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py g2Qrpc=/tmp/g2Qrpc g3Qrpc=/tmp/g3Qrpc \\
+        g4Qrpc=/tmp/g4Qrpc
 
 Each row also gives the changes of the block's rigid motion at the end of the pull, in noise levels: ``slide``
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
@@ -176,7 +176,8 @@ def richardson(levels: list[dict], h: list[float]) -> tuple[dict, dict]:
             error = (fc - fb) * h[2] ** p / (h[1] ** p - h[2] ** p)
             limit[kind].append(fc + error)
             row[f"{kind}{s + 1}"] = {"order": round(p, 2), "error_rms": round(rms(error), 3),
-                                     "error_max": round(float(np.abs(error).max()), 3), **({"note": note} if note else {})}
+                                     "error_max": round(float(np.abs(error).max()), 3),
+                                     **({"note": note} if note else {})}
     return row, limit
 
 
