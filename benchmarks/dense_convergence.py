@@ -30,7 +30,9 @@ Levels of several graded families (``g2Qrp g3Qrp g4Qrp g2Qrpc g3Qrpc g4Qrpc``: t
 compared within their family; with two or more families of three levels each, their Richardson limits (per
 value, at each family's own order per stage and kind) are compared with each other, and every level with each
 family's limit: RMS and largest difference in noise levels. Two families refined differently give two
-independent estimates of the limit; their gap is a check of both.
+independent estimates of the limit; their gap is a check of both. ``--order P`` adds each family's limit from
+its two finest levels at order P (named ``<family>@<P>``): where a family's three levels give no usable order,
+its two finest at another family's order.
 """
 
 from __future__ import annotations
@@ -181,6 +183,14 @@ def richardson(levels: list[dict], h: list[float]) -> tuple[dict, dict]:
     return row, limit
 
 
+def at_order(levels: list[dict], h: list[float], p: float) -> dict:
+    """The limit (in_noise's layout) of two levels' values (coarse, fine) at element sizes h, extrapolated at a
+    given order p: f_fine + (f_fine - f_coarse) h_fine^p / (h_coarse^p - h_fine^p) per value."""
+    coarse, fine = levels
+    w = h[1] ** p / (h[0] ** p - h[1] ** p)
+    return {kind: [fine[kind][s] + (fine[kind][s] - coarse[kind][s]) * w for s in (0, 1)] for kind in fine}
+
+
 def gap(one: dict, other: dict) -> dict:
     """RMS and largest difference per kind and stage of two sets of values in noise levels (in_noise's layout)."""
     row = {}
@@ -196,6 +206,8 @@ def main(argv=None) -> int:
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
     parser.add_argument("--where", action="store_true", help="also where the differences sit (regions of points)")
+    parser.add_argument("--order", type=float, help="also each family's limit from its two finest levels at this "
+                        "order (e.g. another family's), named '<family>@<order>', in the comparisons of limits")
     args = parser.parse_args(argv)
     named = [(a.split("=", 1)[0], Path(a.split("=", 1)[1])) for a in args.exports]
     data, raw = {}, {}
@@ -222,6 +234,9 @@ def main(argv=None) -> int:
         if len(order) >= 3:
             row, limits[family] = richardson([data[level][1] for level in order[-3:]], [h[l] for l in order[-3:]])
             emit({"richardson_of_level": order[-1], "from_levels": order[-3:], **row}, args.out)
+        if args.order and len(order) >= 2:
+            limits[f"{family}@{args.order:g}"] = at_order([data[level][1] for level in order[-2:]],
+                                                          [h[l] for l in order[-2:]], args.order)
     if len(limits) >= 2:
         names = list(limits)
         for i, one in enumerate(names):

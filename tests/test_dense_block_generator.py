@@ -122,5 +122,8 @@ def test_the_convergence_study_extrapolates_a_sequence_of_known_order_to_its_lim
             np.testing.assert_allclose(limit[kind][s], truth[kind][s], atol=1e-6 * np.abs(slope[kind][s]).max())
             error = truth[kind][s] - levels[2][kind][s]
             assert abs(row[f"{kind}{s + 1}"]["error_rms"] - np.sqrt(np.mean(error ** 2))) < 2e-3
+    two = conv.at_order(levels[1:], h[1:], order["u"][1])             # two levels at the pull's u order
+    np.testing.assert_allclose(two["u"][1], truth["u"][1], atol=1e-9)
+    assert np.abs(two["u"][0] - truth["u"][0]).max() > 1e-3              # not at the press stage's order
     gap = conv.gap(limit, levels[2])
     assert abs(gap["u2_rms"] - np.sqrt(np.mean((truth["u"][1] - levels[2]["u"][1]) ** 2))) < 2e-3
