@@ -15,8 +15,8 @@ the observed order p per stage and kind from the ratio of the two differences' R
 and the finest level's error as (f_c - f_b) h_c^p / (h_b^p - h_c^p) per value (its RMS and largest value printed).
 The order is searched in [0.25, 4]; an order at a limit is printed as such (the estimate is then only a scale).
 
-    PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py 1=/tmp/i25/dense_l1 2=tests/fixtures/dense_block \\
-        3=/tmp/i25/dense_l3 4=/tmp/i25/dense_l4
+    PYTHONPATH=src .venv/bin/python benchmarks/dense_convergence.py g2Qrpc=/tmp/g2Qrpc g3Qrpc=/tmp/g3Qrpc \\
+        g4Qrpc=/tmp/g4Qrpc
 
 Each row also gives the changes of the block's rigid motion at the end of the pull, in noise levels: ``slide``
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
@@ -25,6 +25,14 @@ after the first is compared with the first: variants of the deck on one mesh (co
 convergence criteria), the same numbers per variant. ``--where`` adds, per pair of levels, the end of the pull's
 differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
 in noise levels and share of the kind's sum of squares.
+
+Levels of several graded families (``g2Qrp g3Qrp g4Qrp g2Qrpc g3Qrpc g4Qrpc``: the same k, other flags) are
+compared within their family; with two or more families of three levels each, their Richardson limits (per
+value, at each family's own order per stage and kind) are compared with each other, and every level with each
+family's limit: RMS and largest difference in noise levels. Two families refined differently give two
+independent estimates of the limit; their gap is a check of both. ``--order P`` adds each family's limit from
+its two finest levels at order P (named ``<family>@<P>``): where a family's three levels give no usable order,
+its two finest at another family's order.
 """
 
 from __future__ import annotations
@@ -148,11 +156,58 @@ def observed_order(d_ab: float, d_bc: float, h: tuple[float, float, float]) -> t
     return 0.5 * (lo + hi), ""
 
 
+def families(named: list[tuple[str, Path]]) -> dict[str, list[str]]:
+    """Level names by family: the graded levels' GRADED flags ("Qrp" of "g3Qrp"), "" for the numbered levels."""
+    out = {}
+    for name, _ in named:
+        graded = dense.tilt.GRADED.fullmatch(name)
+        out.setdefault(graded.group(2) if graded else "", []).append(name)
+    return out
+
+
+def richardson(levels: list[dict], h: list[float]) -> tuple[dict, dict]:
+    """Of three levels' values in noise levels (in_noise's dicts, coarse to fine) at element sizes h: per kind and
+    stage the observed order, the finest level's estimated error (its RMS and largest value) and note; and the
+    extrapolated limit (same layout as in_noise's), the finest level plus its estimated error per value."""
+    row, limit = {}, {}
+    for kind in ("u", "e", "force"):
+        limit[kind] = []
+        for s in (0, 1):
+            fa, fb, fc = (level[kind][s] for level in levels)
+            p, note = observed_order(rms(fb - fa), rms(fc - fb), tuple(h))
+            error = (fc - fb) * h[2] ** p / (h[1] ** p - h[2] ** p)
+            limit[kind].append(fc + error)
+            row[f"{kind}{s + 1}"] = {"order": round(p, 2), "error_rms": round(rms(error), 3),
+                                     "error_max": round(float(np.abs(error).max()), 3),
+                                     **({"note": note} if note else {})}
+    return row, limit
+
+
+def at_order(levels: list[dict], h: list[float], p: float) -> dict:
+    """The limit (in_noise's layout) of two levels' values (coarse, fine) at element sizes h, extrapolated at a
+    given order p: f_fine + (f_fine - f_coarse) h_fine^p / (h_coarse^p - h_fine^p) per value."""
+    coarse, fine = levels
+    w = h[1] ** p / (h[0] ** p - h[1] ** p)
+    return {kind: [fine[kind][s] + (fine[kind][s] - coarse[kind][s]) * w for s in (0, 1)] for kind in fine}
+
+
+def gap(one: dict, other: dict) -> dict:
+    """RMS and largest difference per kind and stage of two sets of values in noise levels (in_noise's layout)."""
+    row = {}
+    for kind in ("u", "e", "force"):
+        for s in (0, 1):
+            d = one[kind][s] - other[kind][s]
+            row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
+    return row
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
     parser.add_argument("--where", action="store_true", help="also where the differences sit (regions of points)")
+    parser.add_argument("--order", type=float, help="also each family's limit from its two finest levels at this "
+                        "order (e.g. another family's), named '<family>@<order>', in the comparisons of limits")
     args = parser.parse_args(argv)
     named = [(a.split("=", 1)[0], Path(a.split("=", 1)[1])) for a in args.exports]
     data, raw = {}, {}
@@ -168,23 +223,28 @@ def main(argv=None) -> int:
             emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
         return 0
     h = {name: size(name) for name, _ in named}
-    order = sorted(h, key=lambda name: -h[name])
-    for coarse, fine in zip(order, order[1:]):
-        emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
-        if args.where:
-            for row in where(data[coarse][0], coordinates(dict(named)[coarse]), raw[coarse], raw[fine]):
-                emit({"levels": [coarse, fine], **row}, args.out)
-    if len(order) >= 3:
-        a, b, c = order[-3:]
-        row = {"richardson_of_level": c, "from_levels": [a, b, c]}
-        for kind in ("u", "e", "force"):
-            for s in (0, 1):
-                fa, fb, fc = (data[level][1][kind][s] for level in (a, b, c))
-                p, note = observed_order(rms(fb - fa), rms(fc - fb), (h[a], h[b], h[c]))
-                error = (fc - fb) * h[c] ** p / (h[b] ** p - h[c] ** p)
-                row[f"{kind}{s + 1}"] = {"order": round(p, 2), "error_rms": round(rms(error), 3),
-                                         "error_max": round(float(np.abs(error).max()), 3), **({"note": note} if note else {})}
-        emit(row, args.out)
+    limits = {}
+    for family, members in families(named).items():
+        order = sorted(members, key=lambda name: -h[name])
+        for coarse, fine in zip(order, order[1:]):
+            emit({"levels": [coarse, fine], **differences(data[coarse], data[fine])}, args.out)
+            if args.where:
+                for row in where(data[coarse][0], coordinates(dict(named)[coarse]), raw[coarse], raw[fine]):
+                    emit({"levels": [coarse, fine], **row}, args.out)
+        if len(order) >= 3:
+            row, limits[family] = richardson([data[level][1] for level in order[-3:]], [h[l] for l in order[-3:]])
+            emit({"richardson_of_level": order[-1], "from_levels": order[-3:], **row}, args.out)
+        if args.order and len(order) >= 2:
+            limits[f"{family}@{args.order:g}"] = at_order([data[level][1] for level in order[-2:]],
+                                                          [h[l] for l in order[-2:]], args.order)
+    if len(limits) >= 2:
+        names = list(limits)
+        for i, one in enumerate(names):
+            for other in names[i + 1:]:
+                emit({"limit": one, "against_limit": other, **gap(limits[one], limits[other])}, args.out)
+        for name, _ in named:
+            for family in names:
+                emit({"level": name, "against_limit": family, **gap(data[name][1], limits[family])}, args.out)
     return 0
 
 

@@ -8,7 +8,8 @@ per half side (so the interface does not match, except on the lines x, y = 0, +-
 footprint growing by 1.5 per element; both bodies' layers smallest at the interface. ``--mesh`` gives such a
 mesh by its LEVELS fields; ``--graded K`` a level of a family whose lines are fixed maps of uniform grids
 (:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R, ``--quadratic`` both bodies, ``--ring`` the plate
-outside the footprint by :func:`ring_map`; ``--slave plate`` the plate top as the
+outside the footprint by :func:`ring_map`, ``--cubic`` the same lines graded with exponent 3 (edges ~ n^-3
+instead of n^-2); ``--slave plate`` the plate top as the
 contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
 
 Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
@@ -53,8 +54,27 @@ def half_side(n: int) -> np.ndarray:
     return 2.5 * (1.0 - np.cos(np.pi * np.arange(n + 1) / n))
 
 
-def footprint_lines(n: int) -> np.ndarray:
-    s = half_side(n)
+def cubic_half_side(n: int) -> np.ndarray:
+    """Node positions on [0, 5] graded with exponent 3 at both ends: 5 t^3 / (t^3 + (1 - t)^3) of a uniform t, so
+    the elements at 0 and at 5 are about 5 / n^3 (``1 - cos``: about 12 / n^2), those in the middle 3x the
+    average."""
+    t = np.arange(n + 1) / n
+    return 5.0 * t ** 3 / (t ** 3 + (1.0 - t) ** 3)
+
+
+def cubic_start(t: np.ndarray) -> np.ndarray:
+    """[0, 1] -> [0, 1] graded with exponent 3 at 0 (h ~ a t^3, a = 3.72): the twin of 1 - cos(pi t / 2) with the
+    same slope pi / 2 and zero curvature at t = 1, but first element ~ n^-3 instead of n^-2. The quintic
+    a t^3 + b t^4 + c t^5 with c = 3 (2 - pi / 2), b = -1 - 7 c / 3, a = 1 - b - c; h' > 0 on (0, 1]."""
+    t = np.asarray(t, float)
+    c = 3.0 * (2.0 - np.pi / 2)
+    b = -1.0 - 7.0 * c / 3.0
+    a = 1.0 - b - c
+    return a * t ** 3 + b * t ** 4 + c * t ** 5
+
+
+def footprint_lines(n: int, cubic: bool = False) -> np.ndarray:
+    s = cubic_half_side(n) if cubic else half_side(n)
     return np.unique(np.round(np.concatenate([-s[::-1], s]), 12))
 
 
@@ -104,37 +124,43 @@ def mesh_spec(text: str) -> tuple:
     return int(n), int(nbz), int(npz), float(hb), float(hp)
 
 
-def ring_map(t: np.ndarray) -> np.ndarray:
+def ring_map(t: np.ndarray, cubic: bool = False) -> np.ndarray:
     """The plate outside the footprint for ``--ring``: [0, 1] -> [5, 20], 5 + 5.5 (1 - cos(pi t / 1.2)) up to
     t = 0.6 (x = 10.5: the DIC points' region, its elements smallest at the footprint's edge and growing to about
-    twice the average), then quadratic to 20 with a continuous slope (the far plate, coarse)."""
+    twice the average), then quadratic to 20 with a continuous slope (the far plate, coarse). ``cubic``: the first
+    piece 5 + 5.5 cubic_start(t / 0.6) (same value, slope and curvature at t = 0.6, so the same far piece)."""
     t = np.asarray(t, float)
     slope = 5.5 * np.pi / 1.2                                   # d/dt of the first piece at t = 0.6
     s = t - 0.6
     far = 10.5 + slope * s + (9.5 - slope * 0.4) / 0.16 * s ** 2
-    return np.where(t <= 0.6, 5.0 + 5.5 * (1.0 - np.cos(np.pi * t / 1.2)), far)
+    near = cubic_start(np.minimum(t, 0.6) / 0.6) if cubic else 1.0 - np.cos(np.pi * t / 1.2)
+    return np.where(t <= 0.6, 5.0 + 5.5 * near, far)
 
 
-def graded_lines(k: int, ring: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def graded_lines(k: int, ring: bool = False, cubic: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(plate lines in x and y, plate z, block z) of graded family level ``k``: every line a fixed map of a uniform
     grid whose number of intervals is proportional to k, so that the levels are uniform refinements in the mapped
     coordinates. Footprint half sides ``1 - cos`` (k + 1 divisions in the plate; the block's are k); the plate
     outside the footprint 5 + 15 t^2 (k + 2 elements per side), or with ``ring`` :func:`ring_map` (k + 3 elements
     per side, about k of them where the DIC points are); the plate's k + 1 layers and the block's 2k
     graded towards the interface as 1 - cos(pi t / 2), so the footprint's edges are refined quadratically in
-    both directions of the section across them."""
+    both directions of the section across them. ``cubic``: the same numbers of elements graded with exponent 3
+    instead (cubic_half_side, ring_map's cubic start, cubic_start for the layers): the footprint's edges, the
+    zone borders and the interface refined cubically."""
     t = lambda m: np.arange(m + 1) / m
-    outside = ring_map(t(k + 3))[1:] if ring else 5.0 + 15.0 * t(k + 2)[1:] ** 2
-    inner = footprint_lines(k + 1)
+    outside = ring_map(t(k + 3), cubic)[1:] if ring else 5.0 + 15.0 * t(k + 2)[1:] ** 2
+    inner = footprint_lines(k + 1, cubic)
     xy = np.unique(np.round(np.concatenate([-outside[::-1], inner, outside]), 12))
-    plate_z = -5.0 * (1.0 - np.cos(0.5 * np.pi * t(k + 1)))[::-1]
-    block_z = 10.0 * (1.0 - np.cos(0.5 * np.pi * t(2 * k)))
+    layers = cubic_start if cubic else lambda v: 1.0 - np.cos(0.5 * np.pi * v)
+    plate_z = -5.0 * layers(t(k + 1))[::-1]
+    block_z = 10.0 * layers(t(2 * k))
     return xy, plate_z, block_z
 
 
 #: graded family level names: ``g<k>`` and any of the flags q (block C3D20R), Q (both bodies C3D20R), r (the
-#: plate outside the footprint by ring_map), p (the plate the contact's slave: a label only, ``--slave`` decides)
-GRADED = re.compile(r"g(\d+)([qQrp]*)")
+#: plate outside the footprint by ring_map), p (the plate the contact's slave: a label only, ``--slave`` decides),
+#: c (grading exponent 3: graded_lines' ``cubic``)
+GRADED = re.compile(r"g(\d+)([qQrpc]*)")
 
 
 def meshes(level):
@@ -143,12 +169,13 @@ def meshes(level):
     if isinstance(level, str):
         n, flags = GRADED.fullmatch(level).groups()
         n = int(n)
-        xy, plate_z, block_z = graded_lines(n, ring="r" in flags)
+        cubic = "c" in flags
+        xy, plate_z, block_z = graded_lines(n, ring="r" in flags, cubic=cubic)
         plate = (QuadraticGrid if "Q" in flags else gen.Grid)(xy, xy, plate_z, first_node=1, first_element=1)
         body = QuadraticGrid if ("q" in flags or "Q" in flags) else gen.Grid
-        block = body(footprint_lines(n), footprint_lines(n), block_z, first_node=plate.n_nodes + 1,
+        block = body(footprint_lines(n, cubic), footprint_lines(n, cubic), block_z, first_node=plate.n_nodes + 1,
                      first_element=len(plate.cells) + 1)
-        return plate, block, float(np.median(np.diff(footprint_lines(n + 1))))
+        return plate, block, float(np.median(np.diff(footprint_lines(n + 1, cubic))))
     n, nbz, npz, hb, hp = LEVELS[level] if isinstance(level, int) else level
     block_z = np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hb, nbz, 10.0))])
     plate_z = -np.concatenate([[0.0], np.cumsum(gen.sizes_with_sum(hp, npz, 5.0))])[::-1]
@@ -207,7 +234,7 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
 def graded_name(args) -> str:
     """The graded level's name (GRADED) of parsed ``--graded``, ``--quadratic[-block]``, ``--ring``, ``--slave``."""
     return (f"g{args.graded}{'Q' if args.quadratic else 'q' if args.quadratic_block else ''}"
-            f"{'r' if args.ring else ''}{'p' if args.slave == 'plate' else ''}")
+            f"{'r' if args.ring else ''}{'p' if args.slave == 'plate' else ''}{'c' if args.cubic else ''}")
 
 
 def main(argv=None) -> int:
@@ -223,6 +250,8 @@ def main(argv=None) -> int:
     parser.add_argument("--quadratic", action="store_true", help="with --graded: both bodies in C3D20R")
     parser.add_argument("--ring", action="store_true", help="with --graded: the plate outside the footprint by "
                         "ring_map (finer where the DIC points are)")
+    parser.add_argument("--cubic", action="store_true", help="with --graded: grading exponent 3 instead of "
+                        "1 - cos (graded_lines' cubic)")
     parser.add_argument("--element", default="C3D8I")
     parser.add_argument("--slave", choices=("block", "plate"), default="block",
                         help="the contact's slave body (the zones' surfaces; the other is the master)")

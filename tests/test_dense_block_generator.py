@@ -72,3 +72,58 @@ def test_the_plate_as_slave_carries_the_zones_on_its_faces_under_the_footprint()
     assert n_under == len(inside)
     assert len(surfaces["SBLOCK"]) == (block.shape[0] - 1) * (block.shape[1] - 1)
     assert "SA, SBLOCK" in lines and "*CONTACT PRINT, SLAVE=SA, MASTER=SBLOCK" in lines
+
+
+def test_the_cubic_grading_refines_the_edges_as_n_to_the_minus_3_and_keeps_its_ends():
+    for n in (3, 4, 8, 16, 32):
+        s = tilt.cubic_half_side(n)
+        assert s[0] == 0.0 and s[-1] == 5.0 and np.all(np.diff(s) > 0)
+        np.testing.assert_allclose(s, 5.0 - s[::-1], atol=1e-12)        # the same grading at both ends
+    # the edge element's order: its ratio between n and 2n tends to 8 (1 - cos: 4)
+    edge = lambda n: tilt.cubic_half_side(n)[1]
+    assert abs(edge(256) / edge(512) - 8.0) < 0.1 and 7.5 < edge(32) / edge(64) < 8.5
+    t = np.linspace(0.0, 1.0, 2001)
+    h = tilt.cubic_start(t)
+    assert h[0] == 0.0 and abs(h[-1] - 1.0) < 1e-12 and np.all(np.diff(h) > 0)
+    assert abs(tilt.cubic_start(1e-2) / tilt.cubic_start(5e-3) - 8.0) < 0.1
+    # the twin of 1 - cos(pi t / 2) at t = 1: same slope, so ring_map's far piece joins as before
+    slope = (tilt.cubic_start(1.0) - tilt.cubic_start(1.0 - 1e-6)) / 1e-6
+    assert abs(slope - np.pi / 2) < 1e-4
+    ring = tilt.ring_map(np.linspace(0.0, 1.0, 401), cubic=True)
+    assert ring[0] == 5.0 and abs(ring[-1] - 20.0) < 1e-12 and np.all(np.diff(ring) > 0)
+    np.testing.assert_allclose(tilt.ring_map(np.linspace(0.6, 1.0, 9), cubic=True),
+                               tilt.ring_map(np.linspace(0.6, 1.0, 9)), atol=1e-12)
+    xy, plate_z, block_z = tilt.graded_lines(4, ring=True, cubic=True)
+    assert len(xy) == len(tilt.graded_lines(4, ring=True)[0])              # the same element counts as 1 - cos
+    assert plate_z[0] == -5.0 and plate_z[-1] == 0.0 and block_z[0] == 0.0 and block_z[-1] == 10.0
+    assert np.diff(plate_z)[-1] < 0.6 * np.diff(tilt.graded_lines(4, ring=True)[1])[-1]
+
+
+def test_the_convergence_study_extrapolates_a_sequence_of_known_order_to_its_limit():
+    """benchmarks/dense_convergence.py's Richardson step on values f(h) = L + C h^p (per kind and stage, each its
+    own p): it finds each p and returns L, the finest level's error as L - f(h_c)."""
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    _conv = importlib.util.spec_from_file_location("dense_convergence", ROOT / "benchmarks" / "dense_convergence.py")
+    conv = importlib.util.module_from_spec(_conv)
+    _conv.loader.exec_module(conv)
+    rng = np.random.default_rng(0)
+    truth = {"u": [rng.normal(size=50), rng.normal(size=50)], "e": [rng.normal(size=80), rng.normal(size=80)],
+             "force": [np.array([600.0]), np.array([598.0])]}
+    slope = {kind: [rng.normal(size=len(v)) for v in truth[kind]] for kind in truth}
+    order = {"u": (1.1, 2.0), "e": (0.7, 3.0), "force": (1.5, 1.0)}
+    h = [1 / 2, 1 / 3, 1 / 4]
+    levels = [{kind: [truth[kind][s] + slope[kind][s] * x ** order[kind][s] for s in (0, 1)] for kind in truth}
+              for x in h]
+    row, limit = conv.richardson(levels, h)
+    for kind in truth:
+        for s in (0, 1):
+            assert abs(row[f"{kind}{s + 1}"]["order"] - order[kind][s]) < 0.01
+            np.testing.assert_allclose(limit[kind][s], truth[kind][s], atol=1e-6 * np.abs(slope[kind][s]).max())
+            error = truth[kind][s] - levels[2][kind][s]
+            assert abs(row[f"{kind}{s + 1}"]["error_rms"] - np.sqrt(np.mean(error ** 2))) < 2e-3
+    two = conv.at_order(levels[1:], h[1:], order["u"][1])             # two levels at the pull's u order
+    np.testing.assert_allclose(two["u"][1], truth["u"][1], atol=1e-9)
+    assert np.abs(two["u"][0] - truth["u"][0]).max() > 1e-3              # not at the press stage's order
+    gap = conv.gap(limit, levels[2])
+    assert abs(gap["u2_rms"] - np.sqrt(np.mean((truth["u"][1] - levels[2]["u"][1]) ** 2))) < 2e-3
