@@ -60,3 +60,28 @@ def test_the_estimate_for_mumps_is_made_of_mumps_analysis(block, monkeypatch):
     assert memory.estimate(block, "block", factorisation="mumps").above == \
         pytest.approx(before + mumps_memory.SAFETY * 100e9, rel=1e-3)
     assert memory.estimate(block, "block", factorisation="cholmod").above == pytest.approx(cholmod, rel=1e-3)
+
+
+def test_identify_refuses_by_the_mumps_estimate_before_anything_is_condensed(tmp_path, monkeypatch, capsys):
+    from frictionid.cli import main
+    from frictionid.fem import problem as problem_module
+    from helpers import write_config
+
+    (tmp_path / "measured.csv").write_text("point,x,y,z,stage,ux,uy,uz\n" + "".join(
+        f"P{k},-5.0,{y},{z},2,0.0,0.0,0.0\n" for k, (y, z) in enumerate([(-2.5, 2.5), (2.5, 5.0), (0.0, 7.5)])))
+    config = write_config(tmp_path / "mumps.toml", '[solver]\nfactorisation = "mumps"\nmax_memory = 0.01\n'
+                          '[run]\ndir = "runs/mumps"\n',
+                          model={"builder": "block", "mesh_size": 5.0, "block_divisions": 2},
+                          friction={"zones": dict.fromkeys("ABCD", 0.2)},
+                          data={"file": "measured.csv", "observables": ["ux", "uy", "uz"], "stages": [2],
+                                "noise": {"u": 0.0005}, "regions": {"*": "block"}},
+                          identify="refine_target = 1\n")          # the discretisation control on
+    analysed, condensed = [], []
+    original = mumps_memory.analysed
+    monkeypatch.setattr(mumps_memory, "analysed", lambda model: analysed.append(model) or original(model))
+    monkeypatch.setattr(problem_module, "condense", lambda *args, **kwargs: condensed.append(args))
+    assert main(["identify", str(config)]) == 2
+    err = capsys.readouterr().err
+    assert "estimated memory" in err and "of 0.0 GB allowed" in err and "[solver] max_memory" in err, err
+    assert "Traceback" not in err
+    assert analysed and not condensed        # MUMPS's analysis made the estimate; the control condensed nothing
