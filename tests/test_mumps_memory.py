@@ -54,12 +54,12 @@ def test_the_dofs_put_last_are_those_the_contact_rows_touch(block):
 
 def test_the_estimate_for_mumps_is_made_of_mumps_analysis(block, monkeypatch):
     factors, entries, analyses = mumps_memory.analysed(block)
-    before = memory.estimate(block, "block", factorisation="mumps").above
+    condensation = mumps_memory.phases(block, memory.contact_pairs(block))["condensation"]
     cholmod = memory.estimate(block, "block", factorisation="cholmod").above
     monkeypatch.setattr(mumps_memory, "analysed", lambda model: (factors + 100e9, entries, analyses))
     assert memory.estimate(block, "block", factorisation="mumps").above == \
-        pytest.approx(before + mumps_memory.SAFETY * 100e9, rel=1e-3)
-    assert memory.estimate(block, "block", factorisation="cholmod").above == pytest.approx(cholmod, rel=1e-3)
+        pytest.approx(mumps_memory.SAFETY * (condensation + 100e9), rel=1e-6)
+    assert memory.estimate(block, "block", factorisation="cholmod").above == pytest.approx(cholmod, rel=1e-6)
 
 
 def test_identify_refuses_by_the_mumps_estimate_before_anything_is_condensed(tmp_path, monkeypatch, capsys):
@@ -85,3 +85,40 @@ def test_identify_refuses_by_the_mumps_estimate_before_anything_is_condensed(tmp
     assert "estimated memory" in err and "of 0.0 GB allowed" in err and "[solver] max_memory" in err, err
     assert "Traceback" not in err
     assert analysed and not condensed        # MUMPS's analysis made the estimate; the control condensed nothing
+
+
+_MEASURE = """
+import json, sys
+import numpy as np
+from frictionid.builders.block import block_model
+from frictionid.fem import memory
+from frictionid.fem.problem import Problem
+model = block_model(mesh_size=float(sys.argv[1]))
+mumps = memory.estimate(model, "block", factorisation="mumps")
+cholmod = memory.estimate(model, "block", factorisation="cholmod")
+with memory.Peak() as took:
+    problem = Problem.build(model, factorisation="mumps")
+    problem.solve(np.full(len(model.zone_names), 0.15), sensitivities=True)
+print(json.dumps({"nodes": model.mesh.n_nodes, "mumps": mumps.above, "cholmod": cholmod.above,
+                  "measured": took.above}))
+"""
+
+
+@pytest.mark.slow          # 20 s: the 3-D block at 0.7 mm (18,729 nodes) built, condensed and solved
+def test_the_estimate_is_within_a_factor_of_the_measured_peak():
+    import json
+    import os
+    import subprocess
+    import sys
+
+    if not memory._reset_peak():
+        pytest.skip("the peak cannot be measured here (Linux's /proc/self/clear_refs)")
+    # a process of its own: its peak is the build's, not the test session's
+    done = subprocess.run([sys.executable, "-c", _MEASURE, "0.7"], capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert done.returncode == 0, done.stderr[-2000:]
+    figures = json.loads(done.stdout.strip().splitlines()[-1])
+    # the estimate carries mumps_memory.SAFETY (1.15) over the largest phase: 1.0-1.3 times the measured peak on
+    # the models of docs/solver.md; CHOLMOD's law, which "mumps" used before, 1.9 times it here (2.2 on the bolts)
+    assert 1.0 <= figures["mumps"] / figures["measured"] <= 1.5, figures
+    assert figures["cholmod"] / figures["measured"] > 1.5, figures

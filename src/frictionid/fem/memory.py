@@ -226,13 +226,13 @@ def estimate(model, what: str, max_memory: float | None = None, factorisation: s
     from .condense_implicit import IMPLICIT_ABOVE
 
     dense = n_components * pairs <= IMPLICIT_ABOVE
-    if method == "mumps":
-        factored = mumps_memory.condensation_bytes(model, grown)
+    if method == "mumps":      # the dense contact blocks are the solve's phase (fem/mumps_memory.py)
+        above = mumps_memory.peak_bytes(model, pairs if dense else 0, grown) * (1.0 if dense else 2.0)
     else:
         factored = condensation_bytes(n_dofs, dim, method)
-    contact = contact_bytes(int(pairs), n_components) if dense else factored
+        above = factored + (contact_bytes(int(pairs), n_components) if dense else factored)
     held = resident()
-    return MemoryEstimate(what, n_nodes, n_dofs, held + scale * (factored + contact), limit(max_memory), held)
+    return MemoryEstimate(what, n_nodes, n_dofs, held + scale * above, limit(max_memory), held)
 
 
 def check(model, what: str, max_memory: float | None = None, factorisation: str = "auto",

@@ -13,19 +13,23 @@ against INFOG(22), the memory the factorisation used): the short M20 bolt's bolt
 M6 bolt's 568 against 594 MB. The analysis here leaves the supports' dofs in K and no observation dofs last (the
 ten points add a few hundred to the bolt's 4,353 Schur dofs), so it differs from the run by a few per cent.
 
-Beside MUMPS a condensation holds the finite element space (the scalar and vector bases' values at every
-quadrature point of every cell: :data:`SPACE_CELL_BYTES`, measured per cell type after ``model_space``) and
-copies of K (the partition into free and prescribed dofs, the factor's input, each body's block and its lower
-triangle as MUMPS takes it: :data:`K_COPIES` times K's 12 bytes per entry); before, the assembly holds the space,
-K and one chunk of cells' element matrices (:data:`ASSEMBLY_CELL_BYTES` per cell of a chunk of
-:data:`frictionid.fem.assembly.CHUNK_CELLS`). The estimate is the larger of the two phases, times
-:data:`SAFETY`; :func:`frictionid.fem.memory.contact_bytes` adds the dense contact blocks.
+Beside MUMPS the build holds the finite element space (the scalar and vector bases' values at every quadrature
+point of every cell: :data:`SPACE_FIXED` + :data:`SPACE_CELL_BYTES` per cell) and copies of K (12 bytes per stored
+entry: the partition into free and prescribed dofs, the factor's input, each body's block and its lower triangle
+as MUMPS takes it). :func:`phases` estimates the three peaks of a build and its first solve:
 
-Where the constants come from (``frictionid.fem.memory.Peak``, peak above the process before, this machine):
-the space and the assembly's chunk on the M6 bolt (34,635 nodes, 21,306 tetra10 cells: space 0.45 GB, assembly
-0.84 GB above it) and the 3-D block at 0.7 mm (15,740 hexahedra: 0.21 and 0.65 GB); :data:`K_COPIES` fitted so
-that the M6 bolt's whole build and first solve (2.05 GB above the process) is met without margin. Checked, not
-fitted, on the short M20 bolt and the 3-D block's sizes: docs/solver.md.
+- assembly: the space, one chunk of element matrices (:data:`CHUNK_CELL_BYTES` per cell of a chunk of
+  :data:`frictionid.fem.assembly.CHUNK_CELLS` at most), the entries of all chunks before they are summed
+  (:data:`ASSEMBLY_CELL_BYTES` per cell) and K;
+- condensation: the space, :data:`K_COPIES` copies of K and MUMPS's part above;
+- solve (the first, with sensitivities): the space, :data:`K_KEPT` copies of K and :data:`SOLVE_CONTACT_WORDS`
+  n_w^2 doubles of dense contact operators (W, the stuck Jacobian, its factor and inverse, the sensitivities').
+
+The estimate is :data:`SAFETY` times the largest. The constants are the largest of what the phases measured
+(``benchmarks/mumps_memory.py``; resident memory sampled per phase, above the process before, this machine) on
+two 3-D bolts (tetra10): M6 with two engaged pitches (34,635 nodes, 21,306 cells; condensation 1.92 GB, MUMPS
+0.85 GB of it) and the short M20 (131,896 nodes, 84,345 cells; condensation 7.76 GB, MUMPS 4.45 GB of it); the
+hexahedra's on the 3-D block at 1.0 and 0.7 mm. Checked, not fitted, on other models: docs/solver.md.
 """
 
 from __future__ import annotations
@@ -39,14 +43,22 @@ from scipy.spatial import cKDTree
 
 from .assembly import CHUNK_CELLS
 
+#: [bytes] the finite element space's part that does not grow with the cells (measured: module docstring)
+SPACE_FIXED = 0.1e9
 #: [bytes] per cell of the finite element space (both bases' values at the quadrature points), per cell type
-SPACE_CELL_BYTES = {"tetra10": 21.1e3, "hexahedron": 13.3e3}
-#: [bytes] per cell of one chunk of the stiffness's assembly (scikit-fem's element matrices and their indices)
-ASSEMBLY_CELL_BYTES = {"tetra10": 42.0e3, "hexahedron": 41.3e3}
-#: copies of K (12 bytes per stored entry, both triangles) held beside MUMPS's factors (fitted: module docstring)
-K_COPIES = 5.3
-#: margin on the estimate (module docstring; the scatter of the checks)
-SAFETY = 1.2
+SPACE_CELL_BYTES = {"tetra10": 16.8e3, "hexahedron": 7.0e3}
+#: [bytes] per cell of one chunk of the stiffness's assembly (scikit-fem's element matrices of the chunk)
+CHUNK_CELL_BYTES = {"tetra10": 64e3, "hexahedron": 49e3}
+#: [bytes] per cell of the whole mesh held while the stiffness is assembled (the chunks' entries before summing)
+ASSEMBLY_CELL_BYTES = {"tetra10": 8e3, "hexahedron": 0.0}
+#: copies of K (12 bytes per stored entry, both triangles) held beside MUMPS's factors while condensing
+K_COPIES = 6.5
+#: copies of K held by the condensed problem during its first solve
+K_KEPT = 6.3
+#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c)
+SOLVE_CONTACT_WORDS = 10
+#: margin on the estimate: the largest phase of the models measured was 0.88-1.08 times what it measured
+SAFETY = 1.15
 
 #: [id(model)] -> (MUMPS's bytes, stored entries of K) of a model analysed before (:func:`condensation_bytes`)
 _ANALYSED: dict = {}
@@ -117,16 +129,30 @@ def analysed(model) -> tuple[float, int, list]:
     return _ANALYSED[key]
 
 
-def condensation_bytes(model, grown: float = 1.0) -> float:
-    """Estimated peak of a "mumps" condensation of ``model`` above what the process holds before [bytes],
-    without the dense contact blocks (module docstring). MUMPS's analysis runs once per model (about 15 s on the
-    131,896-node short bolt, whose condensation takes about 110 s CPU). A model not built yet, ``grown`` times
-    this one's nodes: MUMPS's part grows by ``grown`` ** 1.3 (frictionid.fem.memory's 3-D law), the rest by
-    ``grown``."""
+def phases(model, n_pairs: int, grown: float = 1.0) -> dict:
+    """[bytes] estimated peak of each phase of a "mumps" build and its first solve above what the process holds
+    before, without :data:`SAFETY` (module docstring): "assembly", "condensation" and "solve" (with the dense
+    contact blocks of ``n_pairs`` pairs, :func:`frictionid.fem.memory.contact_bytes`). A model not built yet,
+    ``grown`` times this one's nodes (``n_pairs`` already grown): MUMPS's part grows by ``grown`` ** 1.3
+    (frictionid.fem.memory's 3-D law), the space, the cells and K by ``grown``."""
     factors, entries, _ = analysed(model)
-    cells = model.mesh.n_cells
-    space = SPACE_CELL_BYTES.get(model.mesh.cell_type, max(SPACE_CELL_BYTES.values())) * cells
-    chunk = cells / -(-cells // CHUNK_CELLS) if cells else 0.0
-    assembly = space + ASSEMBLY_CELL_BYTES.get(model.mesh.cell_type, max(ASSEMBLY_CELL_BYTES.values())) * chunk
-    factorisation = space + K_COPIES * 12.0 * entries + factors * grown ** 0.3
-    return SAFETY * grown * max(assembly + 12.0 * entries, factorisation)
+    cells, cell_type = model.mesh.n_cells * grown, model.mesh.cell_type
+    space = SPACE_FIXED + _per_cell(SPACE_CELL_BYTES, cell_type) * cells
+    chunk = cells / np.ceil(cells / CHUNK_CELLS) if cells else 0.0       # fem/assembly.py's equal chunks
+    K = 12.0 * entries * grown
+    n_w = (3 if model.kind in ("3d", "axisymmetric_twist") else 2) * n_pairs
+    return {"assembly": space + _per_cell(CHUNK_CELL_BYTES, cell_type) * chunk
+            + _per_cell(ASSEMBLY_CELL_BYTES, cell_type) * cells + K,
+            "condensation": space + K_COPIES * K + factors * grown ** 1.3,
+            "solve": space + K_KEPT * K + SOLVE_CONTACT_WORDS * 8.0 * n_w ** 2}
+
+
+def _per_cell(table: dict, cell_type: str) -> float:
+    """A per-cell figure of ``table``; for a cell type not measured, the largest measured."""
+    return table.get(cell_type, max(table.values()))
+
+
+def peak_bytes(model, n_pairs: int, grown: float = 1.0) -> float:
+    """Estimated peak of a "mumps" build of ``model`` and its first solve above what the process holds before
+    [bytes]: :data:`SAFETY` times the largest of its :func:`phases`."""
+    return SAFETY * max(phases(model, n_pairs, grown).values())
