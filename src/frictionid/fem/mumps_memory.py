@@ -29,7 +29,8 @@ The estimate is :data:`SAFETY` times the largest. The constants are the largest 
 (``benchmarks/mumps_memory.py``; resident memory sampled per phase, above the process before, this machine) on
 two 3-D bolts (tetra10): M6 with two engaged pitches (34,635 nodes, 21,306 cells; condensation 1.92 GB, MUMPS
 0.85 GB of it) and the short M20 (131,896 nodes, 84,345 cells; condensation 7.76 GB, MUMPS 4.45 GB of it); the
-hexahedra's on the 3-D block at 1.0 and 0.7 mm. Checked, not fitted, on other models: docs/solver.md.
+hexahedra's on the 3-D block at 0.7 and 0.5 mm (its assembly with incompatible modes holds about 50 kB per cell of
+the whole mesh: 2.10 GB at 33,000 cells). Checked, not fitted, on other models: docs/solver.md.
 """
 
 from __future__ import annotations
@@ -48,9 +49,9 @@ SPACE_FIXED = 0.1e9
 #: [bytes] per cell of the finite element space (both bases' values at the quadrature points), per cell type
 SPACE_CELL_BYTES = {"tetra10": 16.8e3, "hexahedron": 7.0e3}
 #: [bytes] per cell of one chunk of the stiffness's assembly (scikit-fem's element matrices of the chunk)
-CHUNK_CELL_BYTES = {"tetra10": 64e3, "hexahedron": 49e3}
+CHUNK_CELL_BYTES = {"tetra10": 64e3, "hexahedron": 0.0}
 #: [bytes] per cell of the whole mesh held while the stiffness is assembled (the chunks' entries before summing)
-ASSEMBLY_CELL_BYTES = {"tetra10": 8e3, "hexahedron": 0.0}
+ASSEMBLY_CELL_BYTES = {"tetra10": 8e3, "hexahedron": 50e3}
 #: copies of K (12 bytes per stored entry, both triangles) held beside MUMPS's factors while condensing
 K_COPIES = 6.5
 #: copies of K held by the condensed problem during its first solve
