@@ -21,8 +21,8 @@ counted as a second factorisation of the stiffness.
 
 With ``factorisation = "mumps"`` the condensation's part is not this law (fitted on CHOLMOD's factor with the
 contact dofs last, which a multifrontal factor of the interior does not have: 23.6 GB estimated for the short 3-D
-bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies and the space and copies of K beside
-it (fem/mumps_memory.py); the dense contact blocks are counted as for the others.
+bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies, the space and copies of K beside it
+and the dense contact blocks of the first solve, phase by phase (fem/mumps_memory.py).
 
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 
@@ -226,9 +226,10 @@ def estimate(model, what: str, max_memory: float | None = None, factorisation: s
     from .condense_implicit import IMPLICIT_ABOVE
 
     dense = n_components * pairs <= IMPLICIT_ABOVE
-    if method == "mumps":      # the dense contact blocks are the solve's phase (fem/mumps_memory.py)
-        above = mumps_memory.peak_bytes(model, pairs if dense else 0, grown) * (1.0 if dense else 2.0)
-    else:
+    if method == "mumps" and dense:      # the dense contact blocks are its solve's phase (fem/mumps_memory.py)
+        above = mumps_memory.peak_bytes(model, pairs, grown)
+    else:                                # the implicit path factorises K with CHOLMOD whatever it is asked for
+        method = "cholmod" if method == "mumps" else method
         factored = condensation_bytes(n_dofs, dim, method)
         above = factored + (contact_bytes(int(pairs), n_components) if dense else factored)
     held = resident()
