@@ -131,6 +131,8 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     start = time.perf_counter()
     obs = setup.observations
     max_memory = config.solver.max_memory
+    if config.solver.backend == "embedded":     # before the discretisation control, which condenses the model
+        log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                      config.identify.refine_target, config.identify.refine_budget, max_memory,
                      echo, strain_window(setup.window, obs), config.solver.backend)
@@ -145,8 +147,6 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
             # moment later sees only the process's resident memory drift (and refused its choice by 0.2 GB)
             log.info(memory.estimate(setup.model, "model (checked by the discretisation control)", max_memory,
                                      config.solver.factorisation, scale=chosen.record["memory_scale"]).line())
-        else:
-            log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
         if config.identify.model_error != "off" and setup.remaining_error is None:   # refused now, not after
             memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind

@@ -19,6 +19,11 @@ Above :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs the c
 (fem/condense_implicit.py); the load path's penalised factor (fem/contact_krylov.py) comes on top instead,
 counted as a second factorisation of the stiffness.
 
+With ``factorisation = "mumps"`` the condensation's part is not this law (fitted on CHOLMOD's factor with the
+contact dofs last, which a multifrontal factor of the interior does not have: 23.6 GB estimated for the short 3-D
+bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies, the space and copies of K beside it
+and the dense contact blocks of the first solve, phase by phase (fem/mumps_memory.py).
+
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 
 The law misses what it was not anchored on: a dense DIC grid's observation rows (thousands of observed dofs in
@@ -206,6 +211,7 @@ def estimate(model, what: str, max_memory: float | None = None, factorisation: s
     """The memory a condensation of ``model`` (with ``n_nodes`` nodes if given: a model not built yet) would
     reach in this process, against ``[solver] max_memory``; ``scale`` multiplies the condensation's part (the
     ratio of measured to estimated on builds of the same run: module docstring)."""
+    from . import mumps_memory, mumps_schur
     from .cholesky import available
 
     grown = 1.0 if n_nodes is None else int(n_nodes) / model.mesh.n_nodes
@@ -213,16 +219,21 @@ def estimate(model, what: str, max_memory: float | None = None, factorisation: s
     dim = 3 if model.kind == "3d" else 2                               # the mesh's dimension: the fill's law
     n_components = 3 if model.kind in ("3d", "axisymmetric_twist") else 2
     n_dofs = n_nodes * n_components
-    method = "superlu" if factorisation == "superlu" or not available() else "cholmod"
+    method = "mumps" if factorisation == "mumps" and mumps_schur.available() else \
+        "superlu" if factorisation == "superlu" or not available() else "cholmod"
     # a refinement grows the interfaces' pairs by at most the nodes' factor to the power (dim - 1) / dim
     pairs = contact_pairs(model) * grown ** ((dim - 1) / dim)
     from .condense_implicit import IMPLICIT_ABOVE
 
     dense = n_components * pairs <= IMPLICIT_ABOVE
-    contact = contact_bytes(int(pairs), n_components) if dense else condensation_bytes(n_dofs, dim, method)
+    if method == "mumps" and dense:      # the dense contact blocks are its solve's phase (fem/mumps_memory.py)
+        above = mumps_memory.peak_bytes(model, pairs, grown)
+    else:                                # the implicit path factorises K with CHOLMOD whatever it is asked for
+        method = "cholmod" if method == "mumps" else method
+        factored = condensation_bytes(n_dofs, dim, method)
+        above = factored + (contact_bytes(int(pairs), n_components) if dense else factored)
     held = resident()
-    return MemoryEstimate(what, n_nodes, n_dofs, held + scale * (condensation_bytes(n_dofs, dim, method) + contact),
-                          limit(max_memory), held)
+    return MemoryEstimate(what, n_nodes, n_dofs, held + scale * above, limit(max_memory), held)
 
 
 def check(model, what: str, max_memory: float | None = None, factorisation: str = "auto",

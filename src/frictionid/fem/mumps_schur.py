@@ -143,7 +143,7 @@ class SchurFactor:
     first solve after unpickling.
     """
 
-    def __init__(self, K: sp.spmatrix, schur: np.ndarray, ordering: str = "auto"):
+    def __init__(self, K: sp.spmatrix, schur: np.ndarray, ordering: str = "auto", factorise: bool = True):
         if ordering not in ORDERINGS:
             raise ValueError(f"`ordering` must be one of {', '.join(ORDERINGS)}, got {ordering!r}")
         lower = sp.tril(sp.coo_matrix(K)).tocoo()
@@ -154,7 +154,7 @@ class SchurFactor:
         self._cols = (lower.col + 1).astype(np.int32)
         self._data = lower.data.astype(float)
         self._struc = None
-        self.schur_cholesky, self.stats = self._factor()
+        self.schur_cholesky, self.stats = self._factor() if factorise else (None, None)
 
     def __getstate__(self):
         return {**self.__dict__, "_struc": None, "schur_cholesky": None}
@@ -182,6 +182,28 @@ class SchurFactor:
         if info[0] < 0:
             raise MumpsError(f"MUMPS stopped with INFOG(1) = {info[0]}, INFOG(2) = {info[1]} (job {job})")
 
+    def _instance(self) -> _Struc:
+        """A MUMPS instance with this matrix, ordering and Schur dofs set (before the analysis)."""
+        s = self._struc = _Struc()
+        s.sym, s.par, s.comm_fortran = 1, 1, -987654          # SPD; the host works; no MPI (sequential library)
+        self._call(-1)
+        if s.version_number.decode().strip() != VERSION:
+            raise ImportError(f"MUMPS {s.version_number.decode()!r} found, the structure here is {VERSION}'s")
+        for k in (1, 2, 3):
+            s.icntl[k - 1] = 0                                 # no messages on Fortran's units
+        s.icntl[6] = ORDERINGS[self.ordering]                  # ICNTL(7)
+        s.n, s.nnz, s.nz = self.n, len(self._data), 0
+        s.irn = self._rows.ctypes.data_as(_P_INT)
+        s.jcn = self._cols.ctypes.data_as(_P_INT)
+        s.a = self._data.ctypes.data_as(_P_REAL)
+        self._listvar = (self.schur_dofs + 1).astype(np.int32)
+        m = len(self.schur_dofs)
+        if m:
+            s.icntl[18] = 1                                    # ICNTL(19): centralised Schur complement
+            s.size_schur, s.schur_lld = m, m
+            s.listvar_schur = self._listvar.ctypes.data_as(_P_INT)
+        return s
+
     def _factor(self):
         start, cpu = time.perf_counter(), time.process_time()
         L, stats = self._factor_timed()
@@ -198,24 +220,9 @@ class SchurFactor:
             except la.LinAlgError:
                 raise MumpsError("the matrix is not positive definite") from None
             return L, Statistics("none", 0, 0, 0, 0.0, m)
-        s = self._struc = _Struc()
-        s.sym, s.par, s.comm_fortran = 1, 1, -987654          # SPD; the host works; no MPI (sequential library)
-        self._call(-1)
-        if s.version_number.decode().strip() != VERSION:
-            raise ImportError(f"MUMPS {s.version_number.decode()!r} found, the structure here is {VERSION}'s")
-        for k in (1, 2, 3):
-            s.icntl[k - 1] = 0                                 # no messages on Fortran's units
-        s.icntl[6] = ORDERINGS[self.ordering]                  # ICNTL(7)
-        s.n, s.nnz, s.nz = self.n, len(self._data), 0
-        s.irn = self._rows.ctypes.data_as(_P_INT)
-        s.jcn = self._cols.ctypes.data_as(_P_INT)
-        s.a = self._data.ctypes.data_as(_P_REAL)
-        self._listvar = (self.schur_dofs + 1).astype(np.int32)
+        s = self._struc = self._instance()
         schur = np.zeros((m, m))
         if m:
-            s.icntl[18] = 1                                    # ICNTL(19): centralised Schur complement
-            s.size_schur, s.schur_lld = m, m
-            s.listvar_schur = self._listvar.ctypes.data_as(_P_INT)
             s.schur = schur.ctypes.data_as(_P_REAL)
         self._call(1)
         while True:
@@ -272,6 +279,32 @@ class SchurFactor:
             self.free()
             self.schur_cholesky, self.stats = self._factor()
         return self.schur_cholesky
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """What MUMPS's analysis (JOB = 1) predicts of a factorisation with a Schur complement, before it is made."""
+
+    estimated_mb: int       # INFOG(17): estimated size [MB] of all MUMPS's internal data of the in-core factorisation
+    factor_entries: int     # INFOG(20): estimated entries of the factor
+    schur_size: int
+
+
+def analyse(K: sp.spmatrix, schur: np.ndarray, ordering: str = "auto") -> Analysis:
+    """MUMPS's analysis alone of the factorisation :class:`SchurFactor` would make of K (n, n) with the dofs
+    ``schur`` last: the memory it will take, read before any numerical work (the analysis needs K's pattern only;
+    its values must be those of a symmetric positive definite matrix with that pattern). Without interior dofs
+    (``len(schur) == n``) no MUMPS factorisation is made: 0 MB."""
+    factor = SchurFactor(K, schur, ordering, factorise=False)
+    m = len(factor.schur_dofs)
+    if m == factor.n:
+        return Analysis(0, 0, m)
+    try:
+        s = factor._instance()
+        factor._call(1)
+        return Analysis(s.infog[16], _entries(s.infog[19]), m)
+    finally:
+        factor.free()
 
 
 class BodySchur:
