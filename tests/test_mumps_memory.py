@@ -122,3 +122,37 @@ def test_the_estimate_is_within_a_factor_of_the_measured_peak():
     # benchmark and here); CHOLMOD's law, which "mumps" used before, 1.9 times it here and 2.2-3.3 on the bolts
     assert 0.9 <= figures["mumps"] / figures["measured"] <= 1.5, figures
     assert figures["cholmod"] / figures["measured"] > 1.5, figures
+
+
+def test_every_condensation_of_identify_uses_the_configured_factorisation(tmp_path, monkeypatch):
+    """The discretisation control's models and the pre-fit's candidate points are condensed with ``[solver]
+    factorisation`` (and estimated with its memory law), not with "auto": with "mumps" a 3-D bolt's second
+    condensation by CHOLMOD went past the memory the first had been checked against."""
+    from frictionid.backends import embedded
+    from frictionid.cli import main
+    from helpers import write_config
+
+    (tmp_path / "measured.csv").write_text("point,x,y,z,stage,ux,uy,uz\n" + "".join(
+        f"P{k},-5.0,{y},{z},2,0.0,0.0,0.0\n" for k, (y, z) in enumerate([(-2.5, 2.5), (2.5, 5.0), (0.0, 7.5)])))
+    config = write_config(tmp_path / "superlu.toml", '[solver]\nfactorisation = "superlu"\n[run]\ndir = "runs/s"\n',
+                          model={"builder": "block", "mesh_size": 5.0, "block_divisions": 2},
+                          friction={"zones": dict.fromkeys("ABCD", 0.2)},
+                          data={"file": "measured.csv", "observables": ["ux", "uy", "uz"], "stages": [2],
+                                "noise": {"u": 0.0005}, "regions": {"*": "block"}},
+                          identify="refine_target = 1\nrefine_budget = 1\nsuggestions = 2\nmax_iterations = 1\n")
+    used, estimated = [], []
+    original_init, original_estimate = embedded.EmbeddedBackend.__init__, memory.estimate
+
+    def init(self, *args, factorisation="auto", **kwargs):
+        used.append(factorisation)
+        original_init(self, *args, factorisation=factorisation, **kwargs)
+
+    def estimate(model, what, max_memory=None, factorisation="auto", *args, **kwargs):
+        estimated.append(factorisation)
+        return original_estimate(model, what, max_memory, factorisation, *args, **kwargs)
+
+    monkeypatch.setattr(embedded.EmbeddedBackend, "__init__", init)
+    monkeypatch.setattr(memory, "estimate", estimate)
+    main(["identify", str(config)])
+    assert len(used) >= 3 and set(used) == {"superlu"}, used        # the model, the control's, the pre-fit's
+    assert estimated and set(estimated) == {"superlu"}, estimated

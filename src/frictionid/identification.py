@@ -7,6 +7,7 @@ import logging
 import tempfile
 import time
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 
@@ -135,7 +136,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
         log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                      config.identify.refine_target, config.identify.refine_budget, max_memory,
-                     echo, strain_window(setup.window, obs), config.solver.backend)
+                     echo, strain_window(setup.window, obs), config.solver.backend, config.solver.factorisation)
     sliding = config.solver.sliding
     contact = setup.contact if chosen.model is setup.model else checked_contact(chosen.model, config.where, echo,
                                                                                    sliding)
@@ -189,7 +190,8 @@ def _finish(config, setup, evaluator: Evaluator, problem: LeastSquares, store: R
     """Check the resolution, optimise, then write the result; an interruption or a solver failure still
     leaves result.json (with ``write_files``; the store keeps the result either way)."""
     try:
-        factory = make_backend if evaluator.backend.has_sensitivities else None       # the embedded backend
+        factory = (partial(make_backend, solver=config.solver)    # the embedded backend, [solver] as configured
+                   if evaluator.backend.has_sensitivities else None)
         report = prefit(evaluator, setup.model, config.identify.resolution,
                         config.identify.suggestions, factory)
         on_prefit(report)

@@ -126,12 +126,13 @@ def kind_rms(in_noise: np.ndarray, kinds: np.ndarray) -> dict:
     return {k: float(np.sqrt(np.mean(in_noise[kinds == k] ** 2))) for k in dict.fromkeys(kinds.tolist())}
 
 
-def values(model, observations, mu, window=None, keep: bool = False) -> np.ndarray:
-    """(n_obs,) the model's values of the observations at ``mu`` (one condensation and one solve)."""
+def values(model, observations, mu, window=None, keep: bool = False, factorisation: str = "auto") -> np.ndarray:
+    """(n_obs,) the model's values of the observations at ``mu`` (one condensation, ``[solver] factorisation``,
+    and one solve)."""
     obs = observations
     try:
         backend = EmbeddedBackend(model, obs.points, obs.quantities, obs.point_regions, obs.reactions, keep=keep,
-                                  window=window)
+                                  window=window, factorisation=factorisation)
     except PointsOutside as exc:
         raise exc.named(obs.point_labels, obs.source) from None
     return obs.predicted(backend.predict(mu).values)
@@ -144,11 +145,13 @@ def _skipped(target, why: str, progress) -> dict:
 
 
 def control(model_options: ModelSpec | None, model, observations, mu, target: float, budget: int = 2,
-            max_memory: float | None = None, progress=None, window=None, backend: str = "embedded") -> Control:
+            max_memory: float | None = None, progress=None, window=None, backend: str = "embedded",
+            factorisation: str = "auto") -> Control:
     """The model to fit: ``model`` itself, or the cheapest refinement of it whose predicted error at ``mu`` (all
     zones, model order) is within ``target`` noise levels RMS in every quantity kind (module docstring).
 
-    ``budget``: the factors per direction go up to 2^budget (``identify.refine_budget``); ``window``: the fit's
+    ``budget``: the factors per direction go up to 2^budget (``identify.refine_budget``); ``factorisation``:
+    ``[solver] factorisation``, for the condensations and their memory estimates; ``window``: the fit's
     strain window (:class:`frictionid.fem.points.StrainWindow`), so that the error is the
     error of what is fitted; ``progress`` gets one line per phase. The record says what was done and its cost.
 
@@ -178,21 +181,22 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
              f"{len(names)} direction(s) ({', '.join(names)}), target {target:g} noise levels RMS per quantity kind")
     ratios = []                          # measured / estimated peak of each build (fem/memory.py, Peak)
     with memory.Peak() as took:
-        coarse = values(model, observations, mu, window, keep=True)
-    _calibrate(ratios, took, memory.estimate(model, "model", max_memory))
+        coarse = values(model, observations, mu, window, keep=True, factorisation=factorisation)
+    _calibrate(ratios, took, memory.estimate(model, "model", max_memory, factorisation))
     differences, terms, sizes, steps = [], [], [], []
     for d, name in enumerate(names):
         begun = time.perf_counter()
         options = refinement(model_options, tuple(2 if j == d else 1 for j in range(len(names))))
         fine_model = build_model(options, f"[model] ({name} x2)")
-        cost = memory.estimate(fine_model, f"discretisation control: {name} x2", max_memory, scale=_scale(ratios))
+        cost = memory.estimate(fine_model, f"discretisation control: {name} x2", max_memory, factorisation,
+                               scale=_scale(ratios))
         if not cost.fits:
             return Control(model_options, model, _skipped(target, f"{cost.line()}: more than [solver] max_memory "
                                                                   "allows, not condensed", progress))
         progress(cost.line() + "; condensing")
         with memory.Peak() as took:
-            differences.append(coarse - values(fine_model, observations, mu, window))
-        _calibrate(ratios, took, memory.estimate(fine_model, "", max_memory))
+            differences.append(coarse - values(fine_model, observations, mu, window, factorisation=factorisation))
+        _calibrate(ratios, took, memory.estimate(fine_model, "", max_memory, factorisation))
         terms.append(differences[-1] * gain / (gain - 1.0))
         sizes.append(fine_model.mesh.n_nodes)
         steps.append({"direction": name, "options": options.table(), "n_nodes": int(fine_model.mesh.n_nodes),
@@ -208,7 +212,7 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
         progress(f"discretisation control: the builds took up to {scale:.2f} times the memory law's estimate; the "
                  "refinements' estimates are scaled by it")
     chosen = _choose(model_options, model, terms, sizes, gain, observations.sigma, kinds, target, max_memory,
-                     range(1, 2 ** budget + 1), scale)
+                     range(1, 2 ** budget + 1), scale, factorisation)
     factors, options, fitted, rms = chosen
     given = kind_rms(np.abs(combined(terms, [1] * len(terms), np.log2(gain), nested)) / observations.sigma, kinds)
     status = "not needed" if max(given.values()) <= target else \
@@ -221,7 +225,7 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
              f"levels RMS: target {target:g} {status}")
     check = None
     if any(k != 1 for k in factors):
-        fine = values(fitted, observations, mu, window, keep=True)      # kept: the fit condenses it once
+        fine = values(fitted, observations, mu, window, keep=True, factorisation=factorisation)      # kept: the fit condenses it once
         left, check = _checked(left, before, coarse - fine, observations.sigma, kinds)
         checked = max(check["remaining"]["nominal"].values())
         if status == "reached" and checked > target:
@@ -286,7 +290,7 @@ def _scale(ratios: list) -> float:
 
 
 def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_memory, factors_tried,
-            scale: float = 1.0):
+            scale: float = 1.0, factorisation: str = "auto"):
     """(factors, options, model, predicted rms per kind) of the cheapest refinement within the target that fits
     in memory (its estimate times ``scale``), else of the smallest worst-kind error that does."""
     base, nested = model.mesh.n_nodes, within(model_options)
@@ -303,11 +307,12 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     for _, _, factors, rms, nodes in sorted(rows, key=lambda row: row[:2]):
         if all(k == 1 for k in factors):
             return factors, model_options, model, rms
-        if not memory.estimate(model, "discretisation control", max_memory, n_nodes=int(nodes), scale=scale).fits:
+        if not memory.estimate(model, "discretisation control", max_memory, factorisation, n_nodes=int(nodes),
+                               scale=scale).fits:
             continue                                   # refused on its predicted size, before meshing
         options = refinement(model_options, factors)
         candidate = build_model(options, "[model] (refined)")
-        if memory.estimate(candidate, "discretisation control", max_memory, scale=scale).fits:
+        if memory.estimate(candidate, "discretisation control", max_memory, factorisation, scale=scale).fits:
             return factors, options, candidate, rms
     raise AssertionError("unreachable: the model as given is always a candidate")
 
