@@ -78,5 +78,30 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
           f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
 
 
+def axis(options: dict, heights: list[float], cache: str | None = None, factorisation: str = "auto"):
+    """uy's change between consecutive ``heights`` on the axis, both models, at mu = MU."""
+    three = {**options, "model": "3d", "cutout": False, "jaws": False}
+    axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
+    ys = np.asarray(heights, float)
+    changes = []
+    for model, dim, how in ((bolt_model(**axi), 2, "auto"), (built(three, cache, {}), 3, factorisation)):
+        points = np.array([[0.0, y, 0.0][:dim] for y in ys])
+        problem = Problem.build(model, points=points, quantities=("uy",), regions=["bolt"] * len(ys),
+                                factorisation=how)
+        uy = np.asarray(problem.solve(np.full(len(model.zone_names), MU)).observations[-1]).ravel()
+        changes.append(1000 * np.diff(uy))
+    for k, (a, b) in enumerate(zip(*changes)):
+        print(f"  y {ys[k]:7.2f} -> {ys[k + 1]:7.2f} mm: axisymmetric {a:8.4f} um, 3-D {b:8.4f} um, "
+              f"{100 * (b / a - 1):+.2f} %")
+    print(f"  total: axisymmetric {changes[0].sum():.4f} um, 3-D {changes[1].sum():.4f} um, "
+          f"{100 * (changes[1].sum() / changes[0].sum() - 1):+.2f} %")
+
+
 if __name__ == "__main__":
-    main(json.loads(sys.argv[1]), *sys.argv[2:4])
+    if "--axis" in sys.argv:
+        at = sys.argv.index("--axis")
+        heights = [float(v) for v in sys.argv[at + 1].split(",")]
+        rest = sys.argv[1:at] + sys.argv[at + 2:]
+        axis(json.loads(rest[0]), heights, *rest[1:3])
+    else:
+        main(json.loads(sys.argv[1]), *sys.argv[2:4])

@@ -2,7 +2,7 @@
 
 gmsh places the mid-side nodes of a second-order mesh on the CAD surfaces (``Mesh.SecondOrderLinear = 0``). That
 makes a coarse mesh of a cylinder a cylinder, where straight-sided tetrahedra make it a polygon: the 3-D bolt's
-shank (mesh size 3 mm on a 3 mm radius) lost 12 % of its cross-section and stretched 12 % more than a bar of its
+shank (mesh size 3 mm on a 3 mm radius) lost 11 % of its cross-section and stretched 11 % more than a bar of its
 diameter. But gmsh also moves some mid-side nodes far off their edge where a surface's parametrisation is poor (up to
 0.62 mm on the lofted helical flanks at the nut crest's corners), which inverts cells. :func:`curved_where_valid`
 keeps a mid-side node where gmsh put it only when (a) its offset from the edge's midpoint is at most
@@ -11,8 +11,8 @@ keeps its Jacobian determinant between :data:`DET_RANGE` times the straight cell
 edge midpoints, face and cell centroids); the others are put back on their edge's midpoint.
 
 Measured on the M6 bolt (34,635 nodes, mesh size 3 mm; docs/bolt-study.md): the shank's cross-section in the
-mesh is 98.3 % of the circle's (straight-sided: 88.8 %), its stretch under 1,500 N within 0.1-1.3 % of the bar's
-F L / (E A) (straight-sided: 9-12 % above); 1,414 of 28,385 mid-side nodes put back.
+mesh is 98.3 % of the circle's (straight-sided: 88.8 %), its stretch under 1,500 N 1.5 % above the bar's
+F L / (E A) (straight-sided: 11 % above); 1,414 of 28,385 mid-side nodes put back.
 """
 
 from __future__ import annotations
