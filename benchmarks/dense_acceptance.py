@@ -90,7 +90,7 @@ class KeptControl:
         self.out, self.original, self.group, self.made = out, original, None, {}
 
     def __call__(self, model_options, model, observations, mu, target, budget=2, max_memory=None, progress=None,
-                 window=None, backend="embedded"):
+                 window=None, backend="embedded", factorisation="auto"):
         progress = progress or (lambda text: None)
         if self.group in self.made:
             progress("discretisation control: the decision of this set of observables reused (it does not read "
@@ -108,7 +108,7 @@ class KeptControl:
             progress(f"discretisation control: kept decision read from {stem}.json")
         else:
             chosen = self.original(model_options, model, observations, mu, target, budget, max_memory, progress,
-                                   window, backend)
+                                   window, backend, factorisation)
             if chosen.remaining is not None:
                 np.savez(stem.with_suffix(".npz"), nominal=chosen.remaining.nominal, slow=chosen.remaining.slow)
                 stem.with_suffix(".json").write_text(json.dumps({"options": chosen.options.table(), "record": chosen.record,
