@@ -225,7 +225,8 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
              f"levels RMS: target {target:g} {status}")
     check = None
     if any(k != 1 for k in factors):
-        fine = values(fitted, observations, mu, window, keep=True, factorisation=factorisation)      # kept: the fit condenses it once
+        # kept: the fit condenses it once
+        fine = values(fitted, observations, mu, window, keep=True, factorisation=factorisation)
         left, check = _checked(left, before, coarse - fine, observations.sigma, kinds)
         checked = max(check["remaining"]["nominal"].values())
         if status == "reached" and checked > target:
