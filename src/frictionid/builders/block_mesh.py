@@ -183,9 +183,14 @@ def _graded(s: np.ndarray, grading: float, both_ends: bool = True) -> np.ndarray
     return s - c * np.sin(k * np.pi * s) / (k * np.pi)
 
 
+def _uniform(grid: np.ndarray) -> bool:
+    """Whether ``grid`` on [0, 1] has equal intervals (no band split)."""
+    return bool(np.allclose(np.diff(grid), 1.0 / (len(grid) - 1), rtol=0.0, atol=1e-15))
+
+
 def _unsplit(t: np.ndarray, grid: np.ndarray) -> np.ndarray:
     """The uniform parameter ``t`` of gmsh's nodes (len(grid) - 1 equal intervals) at ``grid``'s positions."""
-    if np.allclose(np.diff(grid), 1.0 / (len(grid) - 1), rtol=0.0, atol=1e-15):
+    if _uniform(grid):
         return t                                           # no band split: unchanged
     return np.interp(t, np.linspace(0.0, 1.0, len(grid)), grid)
 
@@ -199,8 +204,8 @@ def _place_points(points: np.ndarray, places: Layout) -> np.ndarray:
     coincident (the interface stays conforming) and planes of constant x, y or z stay planes.
     """
     grading, half = places.grading, BLOCK_SIDE / 2
-    if grading == 1.0 and all(np.allclose(np.diff(g), 1.0 / (len(g) - 1), rtol=0.0, atol=1e-15)
-                              for g in (places.quarter, places.block_z, places.plate_z)) and places.outer is None:
+    if grading == 1.0 and places.outer is None and all(map(_uniform, (places.quarter, places.block_z,
+                                                                      places.plate_z))):
         return points
     out = points.copy()
     for axis in (0, 1):

@@ -8,8 +8,9 @@ by 2 in direction d, and fits the refinement k (one factor per direction) whose 
 
 is within its target (a band refined inside a uniform direction: :func:`combined`; where the chosen model's actual
 change does not confirm a kind's prediction, the error as given less that change). That remaining error is
-systematic: it is the same in every replicate of the data, and a part of it along the sensitivities is absorbed by the coefficients without leaving a misfit, so neither the
-chi-square test nor the statistical standard error sees it. Linearised, the fit on the refined model is off by
+systematic: it is the same in every replicate of the data, and a part of it along the sensitivities is absorbed by
+the coefficients without leaving a misfit, so neither the chi-square test nor the statistical standard error sees
+it. Linearised, the fit on the refined model is off by
 
     bias = -(J^T W J)^-1 J^T W delta
 
