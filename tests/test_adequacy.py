@@ -146,3 +146,28 @@ def test_numbered_points_are_grouped_by_region_not_one_group_each():
     assert any(s.group == "the points of region block" for s in adequacy.shifts)
     assert set(assess(r, jac, numbered, y, f, True).by_group) == {"numbered points"}
     assert set(assess(r, jac, labels, y, f, True).by_group) == {"P"}
+
+
+def test_a_few_observations_beyond_their_noise_make_the_fit_inconsistent_though_the_whole_chi2_passes():
+    """Two machine forces about 5 noise levels off among 5,000 displacements that fit: the whole chi-square passes
+    (an excess of about 50 in 5,000), the force's own does not, and the zone the forces pull is not claimed."""
+    rng = np.random.default_rng(RNG_SEED)
+    n = 5000
+    jac = np.vstack([rng.normal(size=(n, 2)), [[40.0, 1.0], [40.0, 1.0]]])
+    x_true = np.array([0.35, 0.2])
+    y = jac @ x_true + 0.9 * rng.normal(size=n + 2)               # the noise a little smaller than stated
+    y[n:] += 8.0                                    # A absorbs 40 % of it: the forces stay about 5 noise levels off
+    x = np.linalg.lstsq(jac, y, rcond=None)[0]
+    r = jac @ x - y
+    labels = [f"P{i}:ux@2" for i in range(n)] + ["force@1", "force@2"]
+    adequacy = assess(r, jac, labels, y, jac @ x, noise_known=True)
+    assert adequacy.reduced_chi2 <= adequacy.threshold              # the whole passes ...
+    assert adequacy.by_quantity["force"].rms > 3.0
+    assert adequacy.kinds_beyond == ("force",) and adequacy.consistent is False   # ... the force does not
+    assert "not every quantity on its own: force" in adequacy.hint
+    assert adequacy.as_dict(("A", "B"))["kinds_beyond_noise"] == ["force"]
+    force_shift = next(s for s in adequacy.shifts if s.group == "the force values")
+    assert force_shift.z[0] > SHIFT_LIMIT and adequacy.affected[0]
+    unc = estimate(jac, r, x, np.zeros(2), np.ones(2), True, 0.5, ("A", "B"), adequacy)
+    assert not unc.identifiable[0] and "leaving out the force values" in unc.why[0]
+    assert adequacy.reduced_chi2 < 1.0 and unc.scale == 1.0          # never narrower than the stated noise's

@@ -64,7 +64,7 @@ DICTS = {
     "data.table:Measurements.values": PER_NAME, "data.table:Measurements.sigma": PER_NAME,
     "data.table:Measurements.channels": PER_NAME,
     "inverse.adequacy:Adequacy.by_quantity": RECORD, "inverse.adequacy:Adequacy.by_stage": RECORD,
-    "inverse.adequacy:Adequacy.by_group": RECORD,
+    "inverse.adequacy:Adequacy.by_group": RECORD, "inverse.adequacy:kinds_beyond_noise.by_quantity": RECORD,
     "inverse.adequacy:point_group.regions": PER_NAME + " (data.regions: point pattern -> region)",
     "inverse.adequacy:assess.regions": PER_NAME + " (data.regions)",
     "inverse.discretisation_control:Control.record": RECORD,

@@ -96,7 +96,7 @@ def estimate(jac: np.ndarray, r: np.ndarray, x, lower, upper, noise_known: bool,
     dof = max(n_obs - n_free, 1)
     chi2 = float(r @ r)
     explained = noise_known and (adequacy is None or adequacy.consistent is not False)
-    scale = 1.0 if explained else chi2 / dof
+    scale = 1.0 if explained else max(chi2 / dof, 1.0)
     _, s, vt = np.linalg.svd(jac, full_matrices=False)
     message = ""
     if s.size and s[-1] <= 1e-12 * s[0]:
