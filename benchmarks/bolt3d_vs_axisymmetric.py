@@ -1,10 +1,12 @@
 """The 3-D bolt-nut model without window and jaws against the axisymmetric model of the same layout: load share per
-engaged thread (3-D: per turn, a turn from the seam opposite theta = 0 round to it), load share per pitch of axial
-position, cut midway between the axisymmetric model's flanks (the same cut for both models:
-frictionid.report.bolt.pitch_loads; the 3-D helix's pairs below and above the engaged flanks' pitches count to
-the first and last) and bolt
-elongation (uy of the bolt end's centre minus that of the head's centre), at the same machine force and
-coefficients.
+engaged thread and bolt elongation (uy of the bolt end's centre minus that of the head's centre), at the same
+machine force and coefficients, with Sopwith's closed form fitted to each.
+
+The helix's load per engaged thread is counted against the rings cut midway between the axisymmetric model's
+flanks (frictionid.report.bolt.pitch_loads, the same cut for both models): per pitch of axial position, and per
+turn of the helix by its helical coordinate y - P theta / 2 pi (each turn, seam at theta = +-pi, with the ring it
+passes at theta = 0, the axisymmetric section); the helix's part turns below the first cut (down to the nut's
+bearing face) and above the last (up to its top) are counted to the first and last thread, and apart.
 
 Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
@@ -22,7 +24,7 @@ from _measure import peak_memory_mb
 from bolt3d import built
 from frictionid.builders.bolt import bolt_layout, bolt_model
 from frictionid.fem.problem import Problem
-from frictionid.report.bolt import pitch_loads, ring_gap, thread_loads
+from frictionid.report.bolt import fit_sopwith, pitch_loads, ring_gap, sopwith_shares, thread_loads
 
 MU = 0.15
 AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size")
@@ -35,23 +37,36 @@ def elongation_points(layout, dim: int) -> np.ndarray:
     return np.array([[0.0, y, 0.0][:dim] for y in ends])
 
 
-def solved(model, layout, dim: int, factorisation: str = "auto", y_start: float | None = None):
-    """(per-turn loads, per-pitch shares, elongation [mm], y_start) at mu = MU; the pitches cut from y_start, by
-    default between the model's first two flanks (an axisymmetric model's)."""
+def solved(model, layout, dim: int, factorisation: str = "auto"):
+    """(solution, elongation [mm]) at mu = MU."""
     start = time.perf_counter()
     problem = Problem.build(model, points=elongation_points(layout, dim), quantities=("uy",),
                             regions=["bolt", "bolt"], factorisation=factorisation)
     built = time.perf_counter() - start
     solution = problem.solve(np.full(len(model.zone_names), MU))
-    loads = thread_loads(model, solution)
-    if y_start is None:
-        y_start = ring_gap(model, solution, layout.size.P)
-    shares = pitch_loads(model, solution, y_start, layout.size.P, len(layout.flanks))
     uy = solution.observations[-1]
     print(f"  {model.kind}: {model.mesh.n_nodes:,} nodes, {problem.pairs.n_pairs:,} contact pairs; condensation "
           f"{built:.1f} s, solve {time.perf_counter() - start - built:.1f} s, peak {peak_memory_mb():.0f} MB",
           flush=True)
-    return loads, shares, float(uy[1] - uy[0]), y_start
+    return solution, float(uy[1] - uy[0])
+
+
+def shares_3d(model, solution, y_start: float, pitch: float, n: int) -> dict[str, np.ndarray]:
+    """The 3-D model's load per engaged thread, counted four ways against n rings cut at y_start + k P:
+    per pitch of axial position and per turn of the helix (helical coordinate y - P theta / 2 pi, the turn in the
+    bin of the ring it passes at theta = 0), each with the part below the first cut and above the last counted to
+    the first and last thread; per turn with those end parts on their own (n + 2 values: below, the n turns,
+    above; shares of the whole) and the n whole turns alone (shares of their sum)."""
+    ends = pitch_loads(model, solution, y_start - pitch, pitch, n + 2, lead=pitch)
+    return {"pitch": pitch_loads(model, solution, y_start, pitch, n),
+            "turn": pitch_loads(model, solution, y_start, pitch, n, lead=pitch),
+            "turn, ends apart": ends,
+            "whole turns": ends[1:-1] / ends[1:-1].sum()}
+
+
+def difference(share: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(n,) [%] share minus reference in % of the reference's first share."""
+    return 100 * (share - reference) / reference[0]
 
 
 def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
@@ -62,18 +77,32 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
     model3 = built(three, cache, {})
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
     print(f"3-D {json.dumps(three)} against the axisymmetric model {json.dumps(axi)}, mu = {MU} everywhere")
-    loads2, pitch2, elongation2, y_start = solved(bolt_model(**axi), layout, 2)
-    loads3, pitch3, elongation3, _ = solved(model3, layout, 3, factorisation, y_start)
+    model2 = bolt_model(**axi)
+    solution2, elongation2 = solved(model2, layout, 2)
+    solution3, elongation3 = solved(model3, layout, 3, factorisation)
+    loads2, loads3 = thread_loads(model2, solution2), thread_loads(model3, solution3)
+    P, n = layout.size.P, loads2.n_threads
+    y_start = ring_gap(model2, solution2, P)
     print(f"  machine force {loads2.applied:.0f} / {loads3.applied:.0f} N; thread forces sum to "
-          f"{loads2.force.sum():.0f} / {loads3.force.sum():.0f} N (axisymmetric / 3-D)")
-    for i in range(max(loads2.n_threads, loads3.n_threads)):
-        a = loads2.share[i] if i < loads2.n_threads else float("nan")
-        b = loads3.share[i] if i < loads3.n_threads else float("nan")
-        print(f"  thread {i + 1}: share {100 * a:.2f} % / {100 * b:.2f} %, difference "
-              f"{100 * (b - a) / loads2.share[0]:+.2f} % of the first thread's share")
-    for k, (a, b) in enumerate(zip(pitch2, pitch3)):
-        print(f"  pitch {k + 1} from y = {y_start + k * layout.size.P:.3f} mm: share {100 * a:.2f} % / {100 * b:.2f} %, difference "
-              f"{100 * (b - a) / pitch2[0]:+.2f} % of the first pitch's share")
+          f"{loads2.force.sum():.0f} / {loads3.force.sum():.0f} N (axisymmetric / 3-D); {n} rings, cut from "
+          f"y = {y_start:.3f} mm ({(y_start - layout.y_bearing) / P:.2f} P above the nut bearing face) by P = {P:g}")
+    ring = loads2.share
+    print(f"  axisymmetric per ring [%]: {np.array2string(100 * ring, precision=2)}; Sopwith fit lam P "
+          f"{loads2.lam_p:.3f}, its shares {np.array2string(100 * sopwith_shares(loads2.lam_p, n), precision=2)}")
+    print(f"  3-D per turn from the seam opposite theta = 0 [%] ({loads3.n_threads} turns, the first and last "
+          f"part turns): {np.array2string(100 * loads3.share, precision=2)}")
+    for name, share in shares_3d(model3, solution3, y_start, P, n).items():
+        if len(share) == n:
+            lam_p = fit_sopwith(share)
+            print(f"  3-D {name} [%]: {np.array2string(100 * share, precision=2)}; difference "
+                  f"{np.array2string(difference(share, ring), precision=2)} % of the first ring's share (largest "
+                  f"{np.abs(difference(share, ring)).max():.2f}); Sopwith fit lam P {lam_p:.3f}, largest difference "
+                  f"from its shares {np.abs(difference(share, sopwith_shares(lam_p, n))).max():.2f} % of the first")
+        else:
+            print(f"  3-D {name} [%]: below the first cut {100 * share[0]:.2f}, turns "
+                  f"{np.array2string(100 * share[1:-1], precision=2)}, above the last cut {100 * share[-1]:.2f}")
+    rings = difference(ring, sopwith_shares(loads2.lam_p, n))
+    print(f"  axisymmetric against its Sopwith fit: largest difference {np.abs(rings).max():.2f} % of the first")
     print(f"  bolt elongation {1000 * elongation2:.3f} / {1000 * elongation3:.3f} um: "
           f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
 
