@@ -10,19 +10,24 @@ bearing face) and above the last (up to its top) are counted to the first and la
 
 Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
-benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "cholmod_solves"). Run it under
-/usr/bin/time -v for the peak.
+benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
+/usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
+moved by P theta / 2 pi at N angles theta of the helix (faces, countersinks and the bolt's thread run-out where
+they are) and compares the helix per turn with the average of their rings.
 """
 
+import dataclasses
 import json
 import sys
 import time
+from unittest import mock
 
 import numpy as np
 
 from _measure import peak_memory_mb
 from bolt3d import built
 from frictionid.builders.bolt import bolt_layout, bolt_model
+from frictionid.builders.thread import engaged_flanks, nut_bore
 from frictionid.fem.problem import Problem
 from frictionid.report.bolt import fit_sopwith, pitch_loads, ring_gap, sopwith_shares, thread_loads
 
@@ -69,7 +74,7 @@ def difference(share: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return 100 * (share - reference) / reference[0]
 
 
-def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
+def main(options: dict, cache: str | None = None, factorisation: str = "auto", n_phases: int = 0):
     layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
                          options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
                          options.get("bearing_diameter"), options.get("thread_length"))
@@ -91,7 +96,8 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
           f"{loads2.lam_p:.3f}, its shares {np.array2string(100 * sopwith_shares(loads2.lam_p, n), precision=2)}")
     print(f"  3-D per turn from the seam opposite theta = 0 [%] ({loads3.n_threads} turns, the first and last "
           f"part turns): {np.array2string(100 * loads3.share, precision=2)}")
-    for name, share in shares_3d(model3, solution3, y_start, P, n).items():
+    counted = shares_3d(model3, solution3, y_start, P, n)
+    for name, share in counted.items():
         if len(share) == n:
             lam_p = fit_sopwith(share)
             print(f"  3-D {name} [%]: {np.array2string(100 * share, precision=2)}; difference "
@@ -101,10 +107,56 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto"):
         else:
             print(f"  3-D {name} [%]: below the first cut {100 * share[0]:.2f}, turns "
                   f"{np.array2string(100 * share[1:-1], precision=2)}, above the last cut {100 * share[-1]:.2f}")
+    if n_phases:
+        print(f"  axisymmetric models at {n_phases} phases of the teeth (the helix's sections):", flush=True)
+        average = phase_average(axi, layout, y_start, n, n_phases)
+        helix = counted["turn, ends apart"]
+        merged = np.r_[average[0] + average[1], average[2:-2], average[-2] + average[-1]]
+        print(f"  phase average, below / rings / above [%]: {np.array2string(100 * average, precision=2)}; 3-D per "
+              f"turn minus it {np.array2string(100 * (helix - average) / merged[0], precision=2)} % of its first "
+              f"share with the part below ({100 * merged[0]:.2f} %; largest "
+              f"{np.abs(100 * (helix - average) / merged[0]).max():.2f})")
+        lam_p = fit_sopwith(merged)
+        print(f"  phase average, ends merged [%]: {np.array2string(100 * merged, precision=2)}; 3-D per turn minus "
+              f"it {np.array2string(difference(counted['turn'], merged), precision=2)} % of the first (largest "
+              f"{np.abs(difference(counted['turn'], merged)).max():.2f}); Sopwith fit lam P {lam_p:.3f}, largest "
+              f"difference from its shares {np.abs(difference(merged, sopwith_shares(lam_p, n))).max():.2f} %")
     rings = difference(ring, sopwith_shares(loads2.lam_p, n))
     print(f"  axisymmetric against its Sopwith fit: largest difference {np.abs(rings).max():.2f} % of the first")
     print(f"  bolt elongation {1000 * elongation2:.3f} / {1000 * elongation3:.3f} um: "
           f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
+
+
+def phase_shifted(layout, delta: float, engaged_length: float):
+    """The axisymmetric layout with the bolt's and the nut's teeth moved by ``delta`` [mm] along the axis, faces,
+    countersinks and thread run-out kept: the helix's section at theta = 2 pi delta / P."""
+    s = layout.size
+    nut_phase, bolt_phase = layout.nut_phase + delta, layout.bolt_phase + delta
+    bore = nut_bore(s, layout.y_bearing, layout.y_top, nut_phase, engaged_length)
+    flanks = tuple(engaged_flanks(s, bore, nut_phase, bolt_phase, layout.shift, layout.y_thread, layout.length))
+    sections = tuple(tuple(int(i) + 1 for i in part)
+                     for part in np.array_split(np.arange(len(flanks)), len(layout.sections)))
+    return dataclasses.replace(layout, nut_phase=nut_phase, bolt_phase=bolt_phase, bore=bore, flanks=flanks,
+                               sections=sections)
+
+
+def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) -> np.ndarray:
+    """(n + 2,) the axisymmetric models' load per ring averaged over n_phases sections of a helix (teeth moved by
+    delta = P theta / 2 pi, theta = -pi + 2 pi (j + 1/2) / n_phases), each ring counted where its teeth were before
+    the move (cut at y_start + delta): the part below the first cut, the n rings, the part above the last."""
+    P = layout.size.P
+    engaged = options.get("engaged_length") or layout.y_top - layout.y_bearing
+    shares = []
+    for j in range(n_phases):
+        delta = P * ((j + 0.5) / n_phases - 0.5)
+        shifted = phase_shifted(layout, delta, engaged)
+        with mock.patch("frictionid.builders.bolt.bolt_layout", lambda *args: shifted):
+            model = bolt_model(**options)
+        solution, _ = solved(model, layout, 2)
+        shares.append(pitch_loads(model, solution, y_start + delta - P, P, n + 2))
+        print(f"    phase {delta / P:+.3f} P: {len(shifted.flanks)} rings, below / rings / above [%] "
+              f"{np.array2string(100 * shares[-1], precision=2)}", flush=True)
+    return np.mean(shares, axis=0)
 
 
 def axis(options: dict, heights: list[float], cache: str | None = None, factorisation: str = "auto"):
@@ -133,4 +185,10 @@ if __name__ == "__main__":
         rest = sys.argv[1:at] + sys.argv[at + 2:]
         axis(json.loads(rest[0]), heights, *rest[1:3])
     else:
-        main(json.loads(sys.argv[1]), *sys.argv[2:4])
+        args = sys.argv[1:]
+        phases = 0
+        if "--phases" in args:
+            at = args.index("--phases")
+            phases = int(args[at + 1])
+            args = args[:at] + args[at + 2:]
+        main(json.loads(args[0]), *args[1:3], n_phases=phases)
