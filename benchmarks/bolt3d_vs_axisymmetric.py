@@ -13,7 +13,8 @@ Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options 
 benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
 moved by P theta / 2 pi at N angles theta of the helix (faces, countersinks and the bolt's thread run-out where
-they are) and compares the helix per turn with the average of their rings.
+they are) and compares the helix per turn with the average of their rings; ``--axisymmetric-only`` stops before
+the 3-D model.
 """
 
 import dataclasses
@@ -74,76 +75,97 @@ def difference(share: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return 100 * (share - reference) / reference[0]
 
 
-def main(options: dict, cache: str | None = None, factorisation: str = "auto", n_phases: int = 0):
+def pct(values) -> str:
+    return np.array2string(100 * np.asarray(values), precision=2)
+
+
+def rings(options: dict, layout, n_phases: int):
+    """The axisymmetric model's side: (model, solution, elongation, y_start, phase average or None)."""
+    model2 = bolt_model(**options)
+    solution2, elongation2 = solved(model2, layout, 2)
+    loads2 = thread_loads(model2, solution2)
+    P, n = layout.size.P, loads2.n_threads
+    y_start = ring_gap(model2, solution2, P)
+    print(f"  {n} rings, cut from y = {y_start:.3f} mm ({(y_start - layout.y_bearing) / P:.2f} P above the nut "
+          f"bearing face) by P = {P:g}; per ring [%]: {pct(loads2.share)}; Sopwith fit lam P {loads2.lam_p:.3f}, "
+          f"its shares {pct(sopwith_shares(loads2.lam_p, n))}, largest difference "
+          f"{np.abs(difference(loads2.share, sopwith_shares(loads2.lam_p, n))).max():.2f} % of the first")
+    if not n_phases:
+        return model2, solution2, elongation2, y_start, None
+    print(f"  axisymmetric models at {n_phases} phases of the teeth (the helix's sections):", flush=True)
+    average, moved_down = phase_average(options, layout, y_start, n, n_phases)
+    merged = np.r_[average[0] + average[1], average[2:-2], average[-2] + average[-1]]
+    lam_p = fit_sopwith(merged)
+    print(f"  phase average, below / rings / above [%]: {pct(average)}; ends merged {pct(merged)}, Sopwith fit "
+          f"lam P {lam_p:.3f}, largest difference from its shares "
+          f"{np.abs(difference(merged, sopwith_shares(lam_p, n))).max():.2f} % of the first")
+    moved = np.mean(moved_down)
+    closed = sopwith_turns(loads2.lam_p, n, moved)
+    print(f"  Sopwith at the rings' lam P {loads2.lam_p:.3f} per turn ({100 * moved:.1f} % of the sections have a "
+          f"ring below the first cut, their rings counted one turn down), below / turns / above [%]: {pct(closed)};"
+          f" the phase average minus it {pct((average - closed) / (closed[0] + closed[1]))} of its first share "
+          f"with the part below")
+    return model2, solution2, elongation2, y_start, (average, closed)
+
+
+def main(options: dict, cache: str | None = None, factorisation: str = "auto", n_phases: int = 0,
+         axisymmetric_only: bool = False):
     layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
                          options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
                          options.get("bearing_diameter"), options.get("thread_length"))
     three = {**options, "model": "3d", "cutout": False, "jaws": False}
-    model3 = built(three, cache, {})
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
     print(f"3-D {json.dumps(three)} against the axisymmetric model {json.dumps(axi)}, mu = {MU} everywhere")
-    model2 = bolt_model(**axi)
-    solution2, elongation2 = solved(model2, layout, 2)
+    model2, solution2, elongation2, y_start, phases = rings(axi, layout, n_phases)
+    if axisymmetric_only:
+        return
+    model3 = built(three, cache, {})
     solution3, elongation3 = solved(model3, layout, 3, factorisation)
     loads2, loads3 = thread_loads(model2, solution2), thread_loads(model3, solution3)
-    P, n = layout.size.P, loads2.n_threads
-    y_start = ring_gap(model2, solution2, P)
+    P, n, ring = layout.size.P, loads2.n_threads, loads2.share
     print(f"  machine force {loads2.applied:.0f} / {loads3.applied:.0f} N; thread forces sum to "
-          f"{loads2.force.sum():.0f} / {loads3.force.sum():.0f} N (axisymmetric / 3-D); {n} rings, cut from "
-          f"y = {y_start:.3f} mm ({(y_start - layout.y_bearing) / P:.2f} P above the nut bearing face) by P = {P:g}")
-    ring = loads2.share
-    print(f"  axisymmetric per ring [%]: {np.array2string(100 * ring, precision=2)}; Sopwith fit lam P "
-          f"{loads2.lam_p:.3f}, its shares {np.array2string(100 * sopwith_shares(loads2.lam_p, n), precision=2)}")
+          f"{loads2.force.sum():.0f} / {loads3.force.sum():.0f} N (axisymmetric / 3-D)")
     print(f"  3-D per turn from the seam opposite theta = 0 [%] ({loads3.n_threads} turns, the first and last "
-          f"part turns): {np.array2string(100 * loads3.share, precision=2)}")
+          f"part turns): {pct(loads3.share)}")
     counted = shares_3d(model3, solution3, y_start, P, n)
     for name, share in counted.items():
         if len(share) == n:
             lam_p = fit_sopwith(share)
-            print(f"  3-D {name} [%]: {np.array2string(100 * share, precision=2)}; difference "
-                  f"{np.array2string(difference(share, ring), precision=2)} % of the first ring's share (largest "
-                  f"{np.abs(difference(share, ring)).max():.2f}); Sopwith fit lam P {lam_p:.3f}, largest difference "
-                  f"from its shares {np.abs(difference(share, sopwith_shares(lam_p, n))).max():.2f} % of the first")
+            print(f"  3-D {name} [%]: {pct(share)}; minus the rings {np.array2string(difference(share, ring), precision=2)}"
+                  f" % of the first ring's share (largest {np.abs(difference(share, ring)).max():.2f}); Sopwith fit "
+                  f"lam P {lam_p:.3f}, largest difference from its shares "
+                  f"{np.abs(difference(share, sopwith_shares(lam_p, n))).max():.2f} % of the first")
         else:
-            print(f"  3-D {name} [%]: below the first cut {100 * share[0]:.2f}, turns "
-                  f"{np.array2string(100 * share[1:-1], precision=2)}, above the last cut {100 * share[-1]:.2f}")
-    if n_phases:
-        print(f"  axisymmetric models at {n_phases} phases of the teeth (the helix's sections):", flush=True)
-        average = phase_average(axi, layout, y_start, n, n_phases)
+            print(f"  3-D {name} [%]: below the first cut {100 * share[0]:.2f}, turns {pct(share[1:-1])}, above "
+                  f"the last cut {100 * share[-1]:.2f}")
+    if phases:
         helix = counted["turn, ends apart"]
-        merged = np.r_[average[0] + average[1], average[2:-2], average[-2] + average[-1]]
-        print(f"  phase average, below / rings / above [%]: {np.array2string(100 * average, precision=2)}; 3-D per "
-              f"turn minus it {np.array2string(100 * (helix - average) / merged[0], precision=2)} % of its first "
-              f"share with the part below ({100 * merged[0]:.2f} %; largest "
-              f"{np.abs(100 * (helix - average) / merged[0]).max():.2f})")
-        lam_p = fit_sopwith(merged)
-        print(f"  phase average, ends merged [%]: {np.array2string(100 * merged, precision=2)}; 3-D per turn minus "
-              f"it {np.array2string(difference(counted['turn'], merged), precision=2)} % of the first (largest "
-              f"{np.abs(difference(counted['turn'], merged)).max():.2f}); Sopwith fit lam P {lam_p:.3f}, largest "
-              f"difference from its shares {np.abs(difference(merged, sopwith_shares(lam_p, n))).max():.2f} %")
-    rings = difference(ring, sopwith_shares(loads2.lam_p, n))
-    print(f"  axisymmetric against its Sopwith fit: largest difference {np.abs(rings).max():.2f} % of the first")
+        for name, reference in zip(("the phase average", "Sopwith per turn"), phases):
+            first = reference[0] + reference[1]
+            print(f"  3-D per turn minus {name}: {pct((helix - reference) / first)} % of its first share with the "
+                  f"part below ({100 * first:.2f} %; largest {np.abs(100 * (helix - reference) / first).max():.2f})")
     print(f"  bolt elongation {1000 * elongation2:.3f} / {1000 * elongation3:.3f} um: "
           f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
 
 
 def phase_shifted(layout, delta: float, engaged_length: float):
     """The axisymmetric layout with the bolt's and the nut's teeth moved by ``delta`` [mm] along the axis, faces,
-    countersinks and thread run-out kept: the helix's section at theta = 2 pi delta / P."""
+    countersinks and thread run-out kept: the helix's section at theta = 2 pi delta / P. One axial section of
+    zones (the coefficients are uniform here)."""
     s = layout.size
     nut_phase, bolt_phase = layout.nut_phase + delta, layout.bolt_phase + delta
     bore = nut_bore(s, layout.y_bearing, layout.y_top, nut_phase, engaged_length)
     flanks = tuple(engaged_flanks(s, bore, nut_phase, bolt_phase, layout.shift, layout.y_thread, layout.length))
-    sections = tuple(tuple(int(i) + 1 for i in part)
-                     for part in np.array_split(np.arange(len(flanks)), len(layout.sections)))
+    sections = (tuple(range(1, len(flanks) + 1)),)      # one axial section: a part flank may miss a radial zone
     return dataclasses.replace(layout, nut_phase=nut_phase, bolt_phase=bolt_phase, bore=bore, flanks=flanks,
                                sections=sections)
 
 
-def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) -> np.ndarray:
+def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) -> tuple[np.ndarray, np.ndarray]:
     """(n + 2,) the axisymmetric models' load per ring averaged over n_phases sections of a helix (teeth moved by
     delta = P theta / 2 pi, theta = -pi + 2 pi (j + 1/2) / n_phases), each ring counted where its teeth were before
-    the move (cut at y_start + delta): the part below the first cut, the n rings, the part above the last."""
+    the move (cut at y_start + delta): the part below the first cut, the n rings, the part above the last; and
+    (n_phases,) whether a section has load below the first cut."""
     P = layout.size.P
     engaged = options.get("engaged_length") or layout.y_top - layout.y_bearing
     shares = []
@@ -156,7 +178,15 @@ def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) 
         shares.append(pitch_loads(model, solution, y_start + delta - P, P, n + 2))
         print(f"    phase {delta / P:+.3f} P: {len(shifted.flanks)} rings, below / rings / above [%] "
               f"{np.array2string(100 * shares[-1], precision=2)}", flush=True)
-    return np.mean(shares, axis=0)
+    return np.mean(shares, axis=0), np.array([share[0] > 0 for share in shares])
+
+
+def sopwith_turns(lam_p: float, n: int, moved: float) -> np.ndarray:
+    """(n + 2,) Sopwith's n thread shares (report.bolt.sopwith_shares) counted per helical turn (below the first
+    cut, n turns, above the last) when a fraction ``moved`` of the helix's sections have their n engaged teeth one
+    turn lower (a tooth engaged below the first cut, none in the last turn)."""
+    share = sopwith_shares(lam_p, n)
+    return (1 - moved) * np.r_[0.0, share, 0.0] + moved * np.r_[share, 0.0, 0.0]
 
 
 def axis(options: dict, heights: list[float], cache: str | None = None, factorisation: str = "auto"):
@@ -191,4 +221,6 @@ if __name__ == "__main__":
             at = args.index("--phases")
             phases = int(args[at + 1])
             args = args[:at] + args[at + 2:]
-        main(json.loads(args[0]), *args[1:3], n_phases=phases)
+        only = "--axisymmetric-only" in args
+        args = [a for a in args if a != "--axisymmetric-only"]
+        main(json.loads(args[0]), *args[1:3], n_phases=phases, axisymmetric_only=only)
