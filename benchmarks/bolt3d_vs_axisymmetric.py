@@ -13,8 +13,8 @@ Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options 
 benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
 moved by P theta / 2 pi at N angles theta of the helix (faces, countersinks and the bolt's thread run-out where
-they are) and compares the helix per turn with the average of their rings; ``--axisymmetric-only`` stops before
-the 3-D model.
+they are) and compares the helix per turn with the average of their rings, and each of N sectors of the helix
+with the ring model of its centre's phase; ``--axisymmetric-only`` stops before the 3-D model.
 """
 
 import dataclasses
@@ -30,7 +30,8 @@ from bolt3d import built
 from frictionid.builders.bolt import bolt_layout, bolt_model
 from frictionid.builders.thread import engaged_flanks, nut_bore
 from frictionid.fem.problem import Problem
-from frictionid.report.bolt import fit_sopwith, pitch_loads, ring_gap, sopwith_shares, thread_loads
+from frictionid.report.bolt import (fit_sopwith, flank_of_pairs, pair_forces, pitch_loads, ring_gap, sopwith_shares,
+                                    thread_loads)
 
 MU = 0.15
 AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size")
@@ -93,7 +94,8 @@ def rings(options: dict, layout, n_phases: int):
     if not n_phases:
         return model2, solution2, elongation2, y_start, None
     print(f"  axisymmetric models at {n_phases} phases of the teeth (the helix's sections):", flush=True)
-    average, moved_down = phase_average(options, layout, y_start, n, n_phases)
+    per_phase = phase_average(options, layout, y_start, n, n_phases)
+    average, moved_down = per_phase.mean(axis=0), per_phase[:, 0] > 0
     merged = np.r_[average[0] + average[1], average[2:-2], average[-2] + average[-1]]
     lam_p = fit_sopwith(merged)
     print(f"  phase average, below / rings / above [%]: {pct(average)}; ends merged {pct(merged)}, Sopwith fit "
@@ -105,7 +107,7 @@ def rings(options: dict, layout, n_phases: int):
           f"ring below the first cut, their rings counted one turn down), below / turns / above [%]: {pct(closed)};"
           f" the phase average minus it {pct((average - closed) / (closed[0] + closed[1]))} of its first share "
           f"with the part below")
-    return model2, solution2, elongation2, y_start, (average, closed)
+    return model2, solution2, elongation2, y_start, (average, closed, per_phase)
 
 
 def main(options: dict, cache: str | None = None, factorisation: str = "auto", n_phases: int = 0,
@@ -140,10 +142,16 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto", n
                   f"the last cut {100 * share[-1]:.2f}")
     if phases:
         helix = counted["turn, ends apart"]
-        for name, reference in zip(("the phase average", "Sopwith per turn"), phases):
+        for name, reference in zip(("the phase average", "Sopwith per turn"), phases[:2]):
             first = reference[0] + reference[1]
             print(f"  3-D per turn minus {name}: {pct((helix - reference) / first)} % of its first share with the "
                   f"part below ({100 * first:.2f} %; largest {np.abs(100 * (helix - reference) / first).max():.2f})")
+        sectors, part = sector_shares(model3, solution3, y_start, P, n, len(phases[2]))
+        print("  3-D per turn in each sector of theta (the sector's part of the thread force) against the phase of "
+              "its centre, below / turns / above [%]:")
+        for j, (share, ring_share) in enumerate(zip(sectors, phases[2])):
+            print(f"    theta {360 * ((j + 0.5) / len(sectors) - 0.5):+7.1f} deg ({100 * part[j]:.2f} %): 3-D "
+                  f"{pct(share)}, rings {pct(ring_share)}")
     print(f"  bolt elongation {1000 * elongation2:.3f} / {1000 * elongation3:.3f} um: "
           f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
 
@@ -178,7 +186,22 @@ def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) 
         shares.append(pitch_loads(model, solution, y_start + delta - P, P, n + 2))
         print(f"    phase {delta / P:+.3f} P: {len(shifted.flanks)} rings, below / rings / above [%] "
               f"{np.array2string(100 * shares[-1], precision=2)}", flush=True)
-    return np.mean(shares, axis=0), np.array([share[0] > 0 for share in shares])
+    return np.array(shares)
+
+
+def sector_shares(model, solution, y_start: float, P: float, n: int, n_sectors: int):
+    """(n_sectors, n + 2) the helix's load per turn as :func:`shares_3d`'s "turn, ends apart" in each of n_sectors
+    equal sectors of theta from -pi (a share of the sector's thread force), and (n_sectors,) each sector's part
+    of the whole thread force."""
+    x, _, z = solution.pairs.position.T
+    theta = np.mod(np.arctan2(-z, x) + np.pi, 2 * np.pi) - np.pi
+    sector = np.minimum(((theta + np.pi) / (2 * np.pi) * n_sectors).astype(int), n_sectors - 1)
+    thread = flank_of_pairs(model, solution) > 0
+    axial = pair_forces(solution)[:, 1]
+    part = np.array([axial[thread & (sector == j)].sum() for j in range(n_sectors)]) / axial[thread].sum()
+    shares = [pitch_loads(model, solution, y_start - P, P, n + 2, lead=P, where=sector == j)
+              for j in range(n_sectors)]
+    return np.array(shares), part
 
 
 def sopwith_turns(lam_p: float, n: int, moved: float) -> np.ndarray:

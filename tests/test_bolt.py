@@ -360,6 +360,11 @@ def test_pitch_shares_by_the_helical_coordinate_are_the_turns_loads():
         np.testing.assert_allclose(turns, expected, rtol=0, atol=1e-12)
     axial = pitch_loads(*model_and_solution, -0.3, pitch, 3)
     assert axial.sum() == pytest.approx(1.0) and np.abs(axial - expected).max() > 0.02
+    x = model_and_solution[1].pairs.position[:, 0]
+    half = pitch_loads(*model_and_solution, -0.5, pitch, 3, lead=pitch, where=x > 0)   # theta in (-pi/2, pi/2)
+    np.testing.assert_allclose(half, expected, rtol=0, atol=1e-12)
+    first = pitch_loads(*model_and_solution, -0.5, pitch, 3, lead=pitch, where=np.arange(72) < 24)
+    np.testing.assert_allclose(first, [1.0, 0.0, 0.0], rtol=0, atol=1e-12)
 
 
 def test_the_helical_coordinate_needs_a_3d_model(model, solution):

@@ -105,7 +105,7 @@ def thread_loads(model: Model, solution: Solution, increment: int = -1) -> Threa
 
 
 def pitch_loads(model: Model, solution: Solution, y_start: float, pitch: float, n: int,
-                increment: int = -1, lead: float = 0.0) -> np.ndarray:
+                increment: int = -1, lead: float = 0.0, where: np.ndarray | None = None) -> np.ndarray:
     """(n,) share of the thread pairs' axial force in each of n pitches of axial position: bin k (1-based) takes
     the pairs at y_start + (k-1) P <= y < y_start + k P, the first and the last bin also those below and above.
 
@@ -117,9 +117,12 @@ def pitch_loads(model: Model, solution: Solution, y_start: float, pitch: float, 
     With ``lead`` (a 3-D model's helix, [mm] per turn) a pair is placed by its helical coordinate
     y - lead theta / (2 pi) instead of y, theta = atan2(-z, x) in [-pi, pi) from the section the axisymmetric one
     is (x > 0, z = 0; :mod:`frictionid.builders.bolt3d_geometry`): the helix's load per turn, each turn (seam at
-    theta = +-pi) in the bin of the ring it passes in that section.
+    theta = +-pi) in the bin of the ring it passes in that section. ``where`` (n_pairs,) bool keeps only those
+    pairs (e.g. a sector of theta).
     """
     thread = flank_of_pairs(model, solution) > 0
+    if where is not None:
+        thread &= np.asarray(where, dtype=bool)
     axial = pair_forces(solution, increment)[thread, 1]
     position = solution.pairs.position[thread]
     y = position[:, 1]
