@@ -9,6 +9,7 @@ passes at theta = 0, the axisymmetric section); the helix's part turns below the
 bearing face) and above the last (up to its top) are counted to the first and last thread, and apart.
 
 Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
+         [--phases N] [--axisymmetric-only]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
 benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
@@ -63,12 +64,13 @@ def shares_3d(model, solution, y_start: float, pitch: float, n: int) -> dict[str
     per pitch of axial position and per turn of the helix (helical coordinate y - P theta / 2 pi, the turn in the
     bin of the ring it passes at theta = 0), each with the part below the first cut and above the last counted to
     the first and last thread; per turn with those end parts on their own (n + 2 values: below, the n turns,
-    above; shares of the whole) and the n whole turns alone (shares of their sum)."""
+    above; shares of the whole) and the n turns alone (shares of their sum; the last is a part turn where the nut's
+    top cuts the helix)."""
     ends = pitch_loads(model, solution, y_start - pitch, pitch, n + 2, lead=pitch)
     return {"pitch": pitch_loads(model, solution, y_start, pitch, n),
             "turn": pitch_loads(model, solution, y_start, pitch, n, lead=pitch),
             "turn, ends apart": ends,
-            "whole turns": ends[1:-1] / ends[1:-1].sum()}
+            "turns 1-n alone": ends[1:-1] / ends[1:-1].sum()}
 
 
 def difference(share: np.ndarray, reference: np.ndarray) -> np.ndarray:
