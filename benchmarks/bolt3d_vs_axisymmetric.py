@@ -135,8 +135,8 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto", n
     for name, share in counted.items():
         if len(share) == n:
             lam_p = fit_sopwith(share)
-            print(f"  3-D {name} [%]: {pct(share)}; minus the rings {np.array2string(difference(share, ring), precision=2)}"
-                  f" % of the first ring's share (largest {np.abs(difference(share, ring)).max():.2f}); Sopwith fit "
+            print(f"  3-D {name} [%]: {pct(share)}; minus the rings "
+                  f"{np.array2string(difference(share, ring), precision=2)} % of the first ring's share (largest {np.abs(difference(share, ring)).max():.2f}); Sopwith fit "
                   f"lam P {lam_p:.3f}, largest difference from its shares "
                   f"{np.abs(difference(share, sopwith_shares(lam_p, n))).max():.2f} % of the first")
         else:
