@@ -329,3 +329,44 @@ def test_the_demo_fits_the_papers_mesh_as_given(tmp_path):
 
     path = write_config(tmp_path, "trf", "measured_exact.csv", "trf", "analytic", 10, 0.25, 3e-7)
     assert read_config(path, need=("model", "friction", "data", "run")).identify.refine_target == 0
+
+
+def _helix_pairs(pitch: float, n_turns: int, n_per_turn: int = 24, radius: float = 3.0):
+    """A model and solution stand-in with thread pairs on a right-hand helix (teeth at y = k P + P theta / 2 pi,
+    theta = atan2(-z, x), as frictionid.builders.bolt3d_geometry places them); turn k's pairs each carry k + 1 N
+    axially."""
+    from types import SimpleNamespace
+    theta = -math.pi + 2 * math.pi * (np.arange(n_per_turn) + 0.5) / n_per_turn
+    turn = np.repeat(np.arange(n_turns), n_per_turn)
+    angle = np.tile(theta, n_turns)
+    position = np.column_stack([radius * np.cos(angle), turn * pitch + pitch * angle / (2 * math.pi),
+                                -radius * np.sin(angle)])
+    n_pairs = len(turn)
+    lam = np.zeros((1, n_pairs, 3))
+    lam[0, :, 0] = turn + 1.0                                   # the frames' first row is +y
+    frames = np.tile(np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), (n_pairs, 1, 1))
+    mesh = SimpleNamespace(boundaries={"thread_1": None}, boundary_nodes=lambda name: np.arange(n_pairs))
+    pairs = SimpleNamespace(n_pairs=n_pairs, nodes=np.arange(n_pairs), frames=frames, position=position)
+    return SimpleNamespace(mesh=mesh), SimpleNamespace(pairs=pairs, lam=lam)
+
+
+def test_pitch_shares_by_the_helical_coordinate_are_the_turns_loads():
+    """With the lead, each helix turn (seam at theta = +-pi) falls in the bin of the ring it passes at theta = 0,
+    whatever the cut inside the gap between turns; by axial position alone the turns are split across the cuts."""
+    pitch, model_and_solution = 1.0, _helix_pairs(1.0, 3)
+    expected = np.array([1.0, 2.0, 3.0]) / 6.0
+    for y_start in (-0.5, -0.3):
+        turns = pitch_loads(*model_and_solution, y_start, pitch, 3, lead=pitch)
+        np.testing.assert_allclose(turns, expected, rtol=0, atol=1e-12)
+    axial = pitch_loads(*model_and_solution, -0.3, pitch, 3)
+    assert axial.sum() == pytest.approx(1.0) and np.abs(axial - expected).max() > 0.02
+    x = model_and_solution[1].pairs.position[:, 0]
+    half = pitch_loads(*model_and_solution, -0.5, pitch, 3, lead=pitch, where=x > 0)   # theta in (-pi/2, pi/2)
+    np.testing.assert_allclose(half, expected, rtol=0, atol=1e-12)
+    first = pitch_loads(*model_and_solution, -0.5, pitch, 3, lead=pitch, where=np.arange(72) < 24)
+    np.testing.assert_allclose(first, [1.0, 0.0, 0.0], rtol=0, atol=1e-12)
+
+
+def test_the_helical_coordinate_needs_a_3d_model(model, solution):
+    with pytest.raises(InputError, match="3-D model"):
+        pitch_loads(model, solution, 90.0, 2.5, 7, lead=2.5)

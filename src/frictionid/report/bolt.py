@@ -105,7 +105,7 @@ def thread_loads(model: Model, solution: Solution, increment: int = -1) -> Threa
 
 
 def pitch_loads(model: Model, solution: Solution, y_start: float, pitch: float, n: int,
-                increment: int = -1) -> np.ndarray:
+                increment: int = -1, lead: float = 0.0, where: np.ndarray | None = None) -> np.ndarray:
     """(n,) share of the thread pairs' axial force in each of n pitches of axial position: bin k (1-based) takes
     the pairs at y_start + (k-1) P <= y < y_start + k P, the first and the last bin also those below and above.
 
@@ -113,10 +113,25 @@ def pitch_loads(model: Model, solution: Solution, y_start: float, pitch: float, 
     bin holds one ring's flank, so for the axisymmetric model the shares are :func:`thread_loads`'s, and for a 3-D
     model the load of the helix over the same axial range (per turn, :func:`thread_loads` of a 3-D model, the
     helix's seam decides where a thread starts).
+
+    With ``lead`` (a 3-D model's helix, [mm] per turn) a pair is placed by its helical coordinate
+    y - lead theta / (2 pi) instead of y, theta = atan2(-z, x) in [-pi, pi) from the section the axisymmetric one
+    is (x > 0, z = 0; :mod:`frictionid.builders.bolt3d_geometry`): the helix's load per turn, each turn (seam at
+    theta = +-pi) in the bin of the ring it passes in that section. ``where`` (n_pairs,) bool keeps only those
+    pairs (e.g. a sector of theta).
     """
     thread = flank_of_pairs(model, solution) > 0
+    if where is not None:
+        thread &= np.asarray(where, dtype=bool)
     axial = pair_forces(solution, increment)[thread, 1]
-    k = np.clip(np.floor((solution.pairs.position[thread, 1] - y_start) / pitch).astype(int), 0, n - 1)
+    position = solution.pairs.position[thread]
+    y = position[:, 1]
+    if lead:
+        if position.shape[1] != 3:
+            raise InputError("bolt report: a helical coordinate (lead) needs a 3-D model")
+        theta = np.mod(np.arctan2(-position[:, 2], position[:, 0]) + np.pi, 2 * np.pi) - np.pi
+        y = y - lead * theta / (2 * np.pi)
+    k = np.clip(np.floor((y - y_start) / pitch).astype(int), 0, n - 1)
     force = np.bincount(k, weights=axial, minlength=n)
     return force / force.sum()
 
