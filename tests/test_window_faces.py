@@ -88,3 +88,36 @@ def test_a_windowed_fit_of_all_four_block_faces_runs(tmp_path):
     fit = identify_config(config, write_files=False).to_dict()
     assert fit["objective"]["initial"] < 1e-12
     assert fit["data"]["strain_window"]["size_mm"] == WINDOW
+
+
+def test_simulate_windows_the_strains_the_data_file_gives(tmp_path):
+    """`simulate` with [data] strain_window writes what a fit of the same config compares with: each face's
+    in-plane strains through the window (the cells its data file gives), the others empty."""
+    from frictionid.backends.embedded import EmbeddedBackend
+    from frictionid.config import config_from_dict
+    from frictionid.data.measurements import Measurements, read_measurements, write_measurements
+    from frictionid.simulation import simulate
+
+    points, normal = _four_faces()
+    n = len(points)
+    given = {q: np.where([q in IN_PLANE[a] for a in normal], 0.0, np.nan) for q in QUANTITIES}
+    write_measurements(tmp_path / "points.csv", Measurements(
+        points=tuple(f"P{k}" for k in range(n)), coordinates=points, stage=np.full(n, 1), force=np.full(n, np.nan),
+        values=given))
+    truth = [0.35, 0.2, 0.45, 0.15]
+    config = config_from_dict({
+        "model": {"builder": "block", "mesh_size": 5.0, "n_pull": 1}, "friction": {"zones": dict(zip("ABCD", truth))},
+        "data": {"file": "points.csv", "observables": list(QUANTITIES), "regions": {"*": "block"},
+                 "strain_window": WINDOW, "strain_window_shape": "circle"}, "run": {"fields": False}},
+        need=("model", "friction"), base=tmp_path)
+    written = read_measurements(simulate(config, tmp_path / "measured.csv"))
+    window = StrainWindow(WINDOW, "circle").with_observed(_observed_rows(normal))
+    expected = EmbeddedBackend(block_model(mesh_size=5.0, n_pull=1), points, QUANTITIES, ["block"] * n, keep=False,
+                               window=window).predict(np.array(truth)).values[:, :n * len(QUANTITIES)]
+    for stage in (1, 2):
+        rows = written.stage == stage
+        got = np.column_stack([written.values[q][rows] for q in QUANTITIES])
+        assert np.array_equal(np.isnan(got), np.isnan(np.column_stack([given[q] for q in QUANTITIES])))
+        want = expected[stage - 1].reshape(n, -1)
+        seen = ~np.isnan(got)
+        np.testing.assert_allclose(got[seen], want[seen], rtol=1e-9, atol=1e-12)

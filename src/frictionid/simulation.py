@@ -10,6 +10,7 @@ import numpy as np
 from .backends import check_backend, make_backend
 from .builders.registry import build_model
 from .config import Config
+from .data.dic.window import choose as choose_window
 from .data.measurements import Measurements, write_measurements
 from .data.table import PLANE_TOL
 from .data.sources import read_data
@@ -22,6 +23,7 @@ from .inverse.point_regions import region_of_points
 from .inverse.reactions import FORCE, STAGE_OBSERVABLES, channel_reaction, check_reaction_keys
 from .inverse.parameters import Parameters
 from .paths import check_file, check_folder, input_files
+from .fem.points import StrainWindow
 from .report.vtu import export_fields
 
 
@@ -70,15 +72,24 @@ def _simulate(config: Config, out, echo) -> Path:
             if channel in (config.data.reactions or {}):
                 raise
     reactions = tuple(channels.values())
+    window = choose_window(config.data.strain_window, config.data.strain_window_shape, [])
+    cells = np.ones((len(labels), len(quantities)), dtype=bool)
+    if window.size is not None:
+        echo(window.lines[0])
+        cells = windowed_cells(source, labels, quantities)
+        window = StrainWindow(window.size, window.shape, tuple(np.flatnonzero(cells.ravel()).tolist()))
+    else:
+        window = None
     try:
         backend = make_backend(model, xyz[:, :model.dim], quantities, [region_of[p] for p in labels],
-                               config.solver, f"{config.where}: [solver]", reactions)
+                               config.solver, f"{config.where}: [solver]", reactions, window)
     except PointsOutside as exc:
         raise exc.named(labels, source.source) from None
     prediction = backend.predict(mu.full(mu.x0))
     n_points, n_stages = len(labels), model.n_stages
     n_rows = n_points * len(quantities)
-    values = prediction.values[:, :n_rows].reshape(n_stages, n_points, len(quantities))
+    values = prediction.values[:, :n_rows].reshape(n_stages, n_points, len(quantities)).copy()
+    values[:, ~cells] = np.nan
     sums = dict(zip(channels, prediction.values[:, n_rows:].T))
     force = sums.get(FORCE, np.full(n_stages, np.nan))
     measurements = Measurements(
@@ -96,6 +107,23 @@ def _simulate(config: Config, out, echo) -> Path:
     if config.run.fields:
         export_fields(backend, mu.full(mu.x0), fields_folder(out), echo)
     return Path(out)
+
+
+def windowed_cells(source, labels, quantities) -> np.ndarray:
+    """(points, quantities) bool: the cells ``simulate`` writes when a strain window is set. Every displacement;
+    a strain where the data file gives it at that point (at any stage), or at every point when the file gives
+    none of that strain: a DIC file gives a face's in-plane strains only, and only those can a window in the
+    face's plane give."""
+    cells = np.ones((len(labels), len(quantities)), dtype=bool)
+    index = {p: i for i, p in enumerate(labels)}
+    for k, q in enumerate(quantities):
+        given = np.isfinite(np.asarray(source.values.get(q, []), dtype=float))
+        if not q.startswith("e") or not given.any():
+            continue
+        cells[:, k] = False
+        for point in np.asarray(source.points)[given]:
+            cells[index[point], k] = True
+    return cells
 
 
 def fields_folder(out: str | Path) -> Path:
