@@ -3,7 +3,7 @@
 claim the zone, the largest error of a claim in standard errors and the coverage of the claimed 95 % intervals.
 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_acceptance.py N [--modes default,include,u,u-include]
-        [--max-memory GB] [--out DIR] [--first K] [--reference CSV]
+        [--max-memory GB] [--out DIR] [--first K] [--reference CSV] [--twin]
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
 machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
@@ -18,6 +18,11 @@ and .json) for later invocations, and the condensations in ``--out``/cache (embe
 replicate of a mode starts at 0.1; later ones start at the first's fitted values (the same minimum, fewer
 iterations). Replicate k is generate.py's ``replicate(values, force, k)`` of the noise-free ``--reference``
 (default the fixture's measured.csv; replicate 0 of it is measured_noisy.csv).
+
+``--twin``: the reference is frictionid's own default block model at the truth (``frictionid simulate`` of the
+fits' config: the fixture's points, the cells it gives, the same 2 mm window), fitted with the control off
+(``refine_target = 0``) so that the fitted model is the one that made the data: no model error, the noise alone.
+How often the claimed intervals hold there is the intervals' own coverage, free of any reference's error.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ from frictionid.builders.registry import build_model
 from frictionid.config import read_config
 from frictionid.identification import identify_config
 from frictionid.options import ModelSpec
+from frictionid.simulation import simulate
 from frictionid.inverse.discretisation_control import Control
 from frictionid.inverse.remaining_error import RemainingError
 
@@ -73,13 +79,13 @@ def write_replicate(k: int, out: Path, reference: Path) -> Path:
 
 
 def config_text(data: Path, observables: str, model_error: str, run: Path, max_memory: float | None,
-                start: dict) -> str:
+                start: dict, control: bool = True) -> str:
     zones = ", ".join(f"{z} = {v:.6g}" for z, v in start.items())
     return ('[model]\nbuilder = "block"\n[friction]\nzones = { ' + zones + ' }\n'
             f'[data]\nfile = "{data}"\nobservables = {observables}\nstages = [1, 2]\n'
             'noise = { u = 0.0005, e = 2e-5, force = 1.0 }\nregions = { "plate:*" = "plate", "*" = "block" }\n'
             'strain_window = 2.0\nstrain_window_shape = "circle"\n'
-            f'[identify]\nmodel_error = "{model_error}"\n'
+            f'[identify]\nmodel_error = "{model_error}"\n' + ("" if control else "refine_target = 0\n")
             + (f"[solver]\nmax_memory = {max_memory}\n" if max_memory else "") + f'[run]\ndir = "{run}"\nfields = false\n')
 
 
@@ -117,12 +123,23 @@ class KeptControl:
         return chosen
 
 
-def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None, start: dict) -> dict:
+def twin_reference(out: Path) -> Path:
+    """frictionid's default block model at the truth, simulated at the fixture's points and cells (--twin)."""
+    path = out / "twin.toml"
+    path.write_text(config_text(FIXTURE / "measured.csv", OBSERVABLES["all"], "off", out / "twin_run", None, TRUTH))
+    written = simulate(read_config(path), out / "twin.csv")
+    if not np.array_equal(np.isnan(read_values(written)[2]), np.isnan(read_values(FIXTURE / "measured.csv")[2])):
+        sys.exit(f"{written}: the twin's cells are not the fixture's")
+    return written
+
+
+def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None, start: dict,
+        control: bool = True) -> dict:
     observables, model_error = MODES[mode]
     data = write_replicate(k, out, reference)
     path = out / f"{mode}_{k}.toml"
     path.write_text(config_text(data, OBSERVABLES[observables], model_error, out / f"run_{mode}_{k}", max_memory,
-                                start))
+                                start, control))
     identification.control.group = observables
     start = time.perf_counter()
     result = identify_config(read_config(path), echo=lambda text: print(f"  [{mode} {k}] {text}", flush=True))
@@ -170,15 +187,19 @@ def main(argv=None) -> int:
     parser.add_argument("--merge", type=Path, nargs="*", default=[],
                         help="rows.json files of earlier runs: their rows join the printed table (0 replicates: "
                              "only print it)")
+    parser.add_argument("--twin", action="store_true", help="replicates of frictionid's own model at the truth, "
+                        "fitted with the control off (module docstring)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.twin:
+        args.reference = twin_reference(args.out)
     use_cache(args.out / "cache")
     identification.control = KeptControl(args.out, identification.control)
     rows = []
     for mode in args.modes.split(","):
         start = dict.fromkeys(TRUTH, 0.1)
         for k in range(args.first, args.first + args.replicates):
-            row = fit(mode, k, args.out, args.reference, args.max_memory, start)
+            row = fit(mode, k, args.out, args.reference, args.max_memory, start, control=not args.twin)
             if k == args.first:
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
                 start = {z: min(max(e["value"], 0.01), 0.99) for z, e in row["zones"].items()}
