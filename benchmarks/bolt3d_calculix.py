@@ -4,7 +4,8 @@ benchmarks/bolt3d.py places them), the machine's side (plate 1's axial displacem
 plate's reaction) and the contact force per zone, at one mu everywhere and the model's forces.
 
 Run: .venv/bin/python benchmarks/bolt3d_calculix.py '<bolt_model options as JSON>' [model.pkl]
-[--factorisation NAME] [--mu 0.15] [--threads 1] [--work DIR] [--stiffness S [S ...]] [--flank F]
+[--factorisation NAME] [--mu 0.15] [--threads 1] [--work DIR] [--stiffness S [S ...]] [--order N [N ...]]
+[--flank F]
 e.g. '{"size": "M6", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5, "n_axial": 2,
 "flank_size": 1.0, "contact_size": 2.0, "root_size": 0.25, "mesh_size": 3.0, "forces": [1000.0],
 "n_increments": 2, "cutout": false, "jaws": false}'. With a second
@@ -13,6 +14,7 @@ this process's peak; ccx runs as a child process whose peak it does not count.
 """
 
 import argparse
+import copy
 import json
 import pickle
 import time
@@ -24,6 +26,7 @@ from _measure import peak_memory_mb
 from bolt3d import ten_points
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
 from frictionid.builders.bolt import bolt_layout, bolt_model
+from frictionid.fem import space
 from frictionid.fem.problem import Problem
 
 QUANTITIES = ("ux", "uy", "uz")
@@ -55,14 +58,23 @@ def axial_zone_force(solution, increment: int) -> np.ndarray:
     return np.abs(per_pair @ solution.pairs.zone_share)
 
 
-def embedded_result(model, points, regions, mu: float, factorisation: str) -> dict:
+def embedded_result(model, points, regions, mu: float, factorisation: str, order: int | None = None) -> dict:
     """The embedded backend's results at the last stage end: 'embedded' (n_points, 3) [mm] displacements,
-    reactions [N], zone normal and axial forces [N], plus timings."""
-    out = {}
+    reactions [N], zone normal and axial forces [N], plus timings. ``order``: the tetra10 stiffness's quadrature
+    order instead of the product's (2 is the 4-point rule of ccx's C3D10; both are exact on straight-sided cells,
+    not on curved ones)."""
+    out = {"order": order or space.INTORDER["tetra10"]}
+    product = space.INTORDER["tetra10"]
+    if out["order"] != product:
+        model = copy.deepcopy(model)  # contact_setup keeps the last model's Space (its quadrature) by identity
+    space.INTORDER["tetra10"] = out["order"]
     start, cpu = time.perf_counter(), time.process_time()
-    problem = Problem.build(model, points=points, quantities=QUANTITIES, regions=regions,
-                            factorisation=factorisation)
-    solution = problem.solve(np.full(len(model.zone_names), mu))
+    try:
+        problem = Problem.build(model, points=points, quantities=QUANTITIES, regions=regions,
+                                factorisation=factorisation)
+        solution = problem.solve(np.full(len(model.zone_names), mu))
+    finally:
+        space.INTORDER["tetra10"] = product
     out["embedded_seconds"], out["embedded_cpu"] = time.perf_counter() - start, time.process_time() - cpu
     end = solution.stage_end(model.n_stages - 1)
     out["embedded"] = solution.observations[end].reshape(len(points), 3)
@@ -102,6 +114,7 @@ def report(model, result: dict, ccx: dict, heading: str | None = None) -> None:
               f"{ccx['stiffness'][1]:.3g} N/mm^3")
     else:
         print(f"  {heading}")
+    print(f"  embedded tetra10 stiffness quadrature order {result['order']}")
     for k, q in enumerate(QUANTITIES):
         span = np.ptp(e[bolt, k])
         worst = np.abs(c[bolt, k] - e[bolt, k]).max()
@@ -121,7 +134,8 @@ def report(model, result: dict, ccx: dict, heading: str | None = None) -> None:
               f"force embedded {a:.2f} N, ccx (on the mean normal) {b:.2f} N")
 
 
-def main(options: dict, cache: str | None, factorisation: str, mu: float, settings: list[CalculixSettings]):
+def main(options: dict, cache: str | None, factorisation: str, mu: float, settings: list[CalculixSettings],
+         orders: list[int | None]):
     options = {"model": "3d", **options}
     if cache and Path(cache).exists():
         model = pickle.loads(Path(cache).read_bytes())
@@ -134,15 +148,18 @@ def main(options: dict, cache: str | None, factorisation: str, mu: float, settin
     print(f"3-D bolt-nut {json.dumps(options)}, mu = {mu} everywhere, embedded ({factorisation}) against ccx",
           flush=True)
     points, regions = observed(options)
-    result, runs = embedded_result(model, points, regions, mu, factorisation), []
+    results = [embedded_result(model, points, regions, mu, factorisation, order) for order in orders]
+    runs = []
     for each in settings:
         runs.append(ccx_result(model, points, regions, mu, each))
-        report(model, result, runs[-1])
-        print(flush=True)
+        for result in results:
+            report(model, result, runs[-1])
+            print(flush=True)
     if len({r["stiffness"][0] for r in runs}) > 1:
         limit = {key: penalty_limit(runs, key) for key in ("ccx", "ccx_reactions", "ccx_zones", "ccx_axial")}
-        report(model, result, {**runs[-1], **limit}, "ccx extrapolated to an infinite penalty from the two stiffest "
-               "runs (d = d0 + c / k):")
+        for result in results:
+            report(model, result, {**runs[-1], **limit}, "ccx extrapolated to an infinite penalty from the two "
+                   "stiffest runs (d = d0 + c / k):")
     print(f"  peak of this process {peak_memory_mb():.0f} MB (ccx's own is not counted: watch it with ps)")
 
 
@@ -157,9 +174,13 @@ if __name__ == "__main__":
     parser.add_argument("--stiffness", type=float, nargs="+", default=[None],
                         help="ccx's normal and stick penalty slopes [N/mm^3], one ccx run each (default: the "
                              "backend's); with two or more, also ccx extrapolated to an infinite penalty")
+    parser.add_argument("--order", type=int, nargs="+", default=[None],
+                        help="the embedded tetra10 stiffness's quadrature orders, one embedded solve each (default: "
+                             "the product's; 2 is ccx's C3D10 rule)")
     parser.add_argument("--flank", type=float, default=None, help="the model's flank_size [mm] (overrides the JSON)")
     arguments = parser.parse_args()
+    penalties = [CalculixSettings(threads=arguments.threads, work_dir=arguments.work,
+                                  keep_work=arguments.work is not None, timeout=7200, normal_stiffness=k,
+                                  stick_slope=k) for k in arguments.stiffness]
     main({**json.loads(arguments.options), **({} if arguments.flank is None else {"flank_size": arguments.flank})},
-         arguments.cache, arguments.factorisation, arguments.mu,
-         [CalculixSettings(threads=arguments.threads, work_dir=arguments.work, keep_work=arguments.work is not None,
-                           timeout=7200, normal_stiffness=k, stick_slope=k) for k in arguments.stiffness])
+         arguments.cache, arguments.factorisation, arguments.mu, penalties, arguments.order)
