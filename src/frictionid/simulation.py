@@ -72,14 +72,12 @@ def _simulate(config: Config, out, echo) -> Path:
             if channel in (config.data.reactions or {}):
                 raise
     reactions = tuple(channels.values())
-    window = choose_window(config.data.strain_window, config.data.strain_window_shape, [])
-    cells = np.ones((len(labels), len(quantities)), dtype=bool)
-    if window.size is not None:
-        echo(window.lines[0])
+    choice = choose_window(config.data.strain_window, config.data.strain_window_shape, [])
+    cells, window = np.ones((len(labels), len(quantities)), dtype=bool), None
+    if choice.size is not None:
+        echo(choice.lines[0])
         cells = windowed_cells(source, labels, quantities)
-        window = StrainWindow(window.size, window.shape, tuple(np.flatnonzero(cells.ravel()).tolist()))
-    else:
-        window = None
+        window = StrainWindow(choice.size, choice.shape, tuple(np.flatnonzero(cells.ravel()).tolist()))
     try:
         backend = make_backend(model, xyz[:, :model.dim], quantities, [region_of[p] for p in labels],
                                config.solver, f"{config.where}: [solver]", reactions, window)
