@@ -6,13 +6,13 @@ The layout is the short M20 of docs/bolt-study.md ("The 3-D model": engaged_leng
 n_axial 2, window and jaws, 10 kN in 2 increments); zones A-D (outer A, B and inner C, D of sections 1, 2 from the
 bearing face) at frictionid.studies.bolt's TRUE_MU for those letters, head and nut bearing held at 0.15. Data: ux,
 uy, uz at the ten points P1-P5 of flanks 1 and 2 (benchmarks/bolt3d.py ten_points) solved on the data mesh at the
-truth; the fits use uy, noise-free ("exact") or with Gaussian noise of the seed's DIC 0.5 um ("noisy"), weighted by
-0.5 um. The window's full field is ux, uy, uz at the vertex nodes of the fit mesh's "window_bolt" and
+truth; the fits use uy, noise-free, weighted by the seed's DIC noise 0.5 um (measured.csv, the copy with that
+noise, is written and not fitted). The window's full field is ux, uy, uz at the vertex nodes of the fit mesh's "window_bolt" and
 "window_nut" surfaces, each value with 0.5 um noise. Each model is built once and pickled (``--work``).
 
 Run (from benchmarks/, under /usr/bin/time -v for the peak):
 ../.venv/bin/python bolt3d_identify_m20.py --work DIR [--fit-flank 2.5] [--data-flank 1.875] [--gd-iterations 5]
-[--steps data trf gd trf-noisy window]
+[--trf-iterations 10] [--steps data trf gd window]
 Each step writes DIR/<step>.json; a step whose file exists is read, not run again.
 """
 
@@ -28,7 +28,7 @@ from frictionid.backends.embedded import use_cache
 from frictionid.fem import memory
 from frictionid.fem.problem import Problem
 from frictionid.inverse.resolution import resolution
-from frictionid.studies.bolt import NOISE, START
+from frictionid.studies.bolt import NOISE, START, TRUE_MU
 from frictionid.builders.bolt import fixed_friction
 from frictionid.studies.bolt3d import PLAN, ZONES, Settings3d, cached_model, fit, make_data
 
@@ -88,6 +88,49 @@ def fit_step(model, work: Path, name: str, data: str, method: str, jacobian: str
             "log": lines}
 
 
+#: one coefficient per axial section: A + C (section 1, next to the bearing face), B + D (section 2)
+SECTIONS = {"AC": ("A", "C"), "BD": ("B", "D")}
+
+
+def merged_stderr(singular_values, directions) -> dict:
+    """Predicted standard errors of one coefficient per axial section (SECTIONS), from the information matrix
+    F = V S^2 V^T of the four zones (V: directions, rows in ZONES' order)."""
+    v = np.asarray(directions, dtype=float)
+    information = v @ np.diag(np.asarray(singular_values, dtype=float) ** 2) @ v.T
+    merge = np.array([[z in zones for zones in SECTIONS.values()] for z in ZONES], dtype=float)
+    covariance = np.linalg.inv(merge.T @ information @ merge)
+    return dict(zip(SECTIONS, np.sqrt(np.diag(covariance)).tolist()))
+
+
+def report(results: dict) -> None:
+    """Print the fits zone by zone and the resolution before fitting of both observation sets."""
+    for name, r in ((n, results.get(n)) for n, *_ in PLAN):
+        if r is None:
+            continue
+        print(f"{name}: {r['status']}, {r['n_iterations']} iterations, {r['n_forward_solves']} forward and "
+              f"{r['n_sensitivity_solves']} sensitivity solves, {r['wall_s']:.0f} s wall ({r['cpu_s']:.0f} s CPU, "
+              f"the first run's includes the fit model's condensation), |u_k - u| / |u_0 - u| at the end "
+              f"{r['relative_error'][-1]:.3f}")
+        for z in ZONES:
+            p = r["parameters"][z]
+            stderr = "-" if p["stderr"] is None else f"{p['stderr']:.3g}"
+            print(f"  {z}: {p['value']:.4f} (true {TRUE_MU[z]}), standard error {stderr}, "
+                  f"{'resolved' if p['identifiable'] else 'not resolved'}")
+    sets = [("ten points, uy", results.get("trf", {}).get("prefit")), ("window, ux uy uz", results.get("window"))]
+    for label, prefit in sets:
+        if prefit is None:
+            continue
+        names = list(prefit["stderr"])
+        directions = prefit["directions"]
+        v = [directions[z] for z in names] if isinstance(directions, dict) else directions
+        stderr = ", ".join(f"{z} {prefit['stderr'][z]:.3g}" for z in names)
+        merged = ", ".join(f"{k} {e:.3g}" for k, e in merged_stderr(prefit["singular_values"], v).items())
+        sizes = f" ({prefit['n_points']} points, {prefit['n_values']} values)" if "n_points" in prefit else ""
+        print(f"resolution before fitting, {label}{sizes}, 0.5 um: singular values "
+              f"{', '.join(f'{s:.3g}' for s in prefit['singular_values'])}; standard errors {stderr}; one "
+              f"coefficient per section: {merged}")
+
+
 def main(work: Path, settings: Settings3d, steps: list[str]) -> None:
     work.mkdir(parents=True, exist_ok=True)
     use_cache(work / "cache")
@@ -108,11 +151,13 @@ def main(work: Path, settings: Settings3d, steps: list[str]) -> None:
     model, build_cpu = cached_model(settings.flank, work)
     print(f"fit model: flank {settings.flank:g} mm, {model.mesh.n_nodes:,} nodes, build {build_cpu:.0f} s CPU",
           flush=True)
+    results = {}
     for name, data, method, jacobian in PLAN:
         iterations = settings.gd_iterations if method == "gradient-descent" else settings.trf_iterations
-        once(name, lambda: fit_step(model, work, name, data, method, jacobian, iterations))
+        results[name] = once(name, lambda: fit_step(model, work, name, data, method, jacobian, iterations))
     field, regions = window_points(model)
-    once("window", lambda: prefit_step(model, field, ("ux", "uy", "uz"), regions))
+    results["window"] = once("window", lambda: prefit_step(model, field, ("ux", "uy", "uz"), regions))
+    report(results)
 
 
 if __name__ == "__main__":
@@ -121,6 +166,7 @@ if __name__ == "__main__":
     parser.add_argument("--fit-flank", type=float, default=Settings3d.flank)
     parser.add_argument("--data-flank", type=float, default=Settings3d.data_flank)
     parser.add_argument("--gd-iterations", type=int, default=Settings3d.gd_iterations)
+    parser.add_argument("--trf-iterations", type=int, default=Settings3d.trf_iterations)
     parser.add_argument("--steps", nargs="+", default=["data", *(name for name, *_ in PLAN), "window"])
     args = parser.parse_args()
-    main(args.work, Settings3d(args.fit_flank, args.data_flank, args.gd_iterations), args.steps)
+    main(args.work, Settings3d(args.fit_flank, args.data_flank, args.gd_iterations, args.trf_iterations), args.steps)
