@@ -12,7 +12,7 @@ noise, is written and not fitted). The window's full field is ux, uy, uz at the 
 
 Run (from benchmarks/, under /usr/bin/time -v for the peak):
 ../.venv/bin/python bolt3d_identify_m20.py --work DIR [--fit-flank 2.5] [--data-flank 1.875] [--gd-iterations 5]
-[--trf-iterations 10] [--steps data trf gd window]
+[--trf-iterations 10] [--steps data trf gd window truth]
 Each step writes DIR/<step>.json; a step whose file exists is read, not run again.
 """
 
@@ -29,7 +29,10 @@ from frictionid.fem import memory
 from frictionid.fem.problem import Problem
 from frictionid.inverse.resolution import resolution
 from frictionid.studies.bolt import NOISE, START, TRUE_MU
+from frictionid.backends import make_backend
 from frictionid.builders.bolt import fixed_friction
+from frictionid.config import config_from_dict
+from frictionid.preparation import prepare
 from frictionid.studies.bolt3d import PLAN, ZONES, Settings3d, cached_model, fit, make_data
 
 #: identify.resolution: the largest standard error counted as resolved
@@ -86,6 +89,29 @@ def fit_step(model, work: Path, name: str, data: str, method: str, jacobian: str
                                        "history", "relative_error", "wall_time_s")},
             "parameters": {z: r["parameters"][z] for z in ZONES}, "prefit": r["identifiability"]["prefit"],
             "log": lines}
+
+
+def truth_step(model, work: Path, trf: dict) -> dict:
+    """The fit model's uy at the ten points against the data [um], at the start, at the truth and at trf's last
+    iterate, through the backend the fits used (its condensation and the solves with sensitivities read from the
+    cache): the fit mesh's own misfit at the truth, and |u_k - u| / |u_0 - u| against trf's sqrt(J_k / J_0)."""
+    config = config_from_dict({"friction": {"zones": {z: START for z in ZONES}, "fixed": fixed_friction()},
+                               "data": {"file": str(work / "measured_exact.csv"), "observables": ["uy"],
+                                        "stages": [1], "noise": {"u": NOISE}, "regions": {"*": "bolt"}},
+                               "solver": {"factorisation": "mumps"}, "run": {"dir": str(work / "runs" / "trf")}},
+                              need=("friction", "data", "run"), name="truth")
+    obs = prepare(config, model).observations
+    backend = make_backend(model, obs.points, obs.quantities, obs.point_regions, config.solver, "truth")
+    names = list(model.zone_names)
+    at = {"start": (np.array(trf["history"]["coefficients"][0]), True),
+          "truth": (np.array([{**TRUE_MU, **fixed_friction()}[z] for z in names]), False),
+          "trf_last": (np.array(trf["history"]["coefficients"][-1]), True)}
+    misfit = {key: 1e3 * (obs.predicted(backend.predict(mu, sensitivities).values) - obs.y) for key, (mu, sensitivities)
+              in at.items()}
+    norm = {key: float(np.linalg.norm(value)) for key, value in misfit.items()}
+    return {"misfit_um": {key: value.tolist() for key, value in misfit.items()}, "norm_um": norm,
+            "noise_levels": {key: value / (1e3 * NOISE) for key, value in norm.items()},
+            "relative_error_trf_last": norm["trf_last"] / norm["start"]}
 
 
 #: one coefficient per axial section: A + C (section 1, next to the bearing face), B + D (section 2)
@@ -157,6 +183,8 @@ def main(work: Path, settings: Settings3d, steps: list[str]) -> None:
         results[name] = once(name, lambda: fit_step(model, work, name, data, method, jacobian, iterations))
     field, regions = window_points(model)
     results["window"] = once("window", lambda: prefit_step(model, field, ("ux", "uy", "uz"), regions))
+    if results.get("trf") is not None:
+        results["truth"] = once("truth", lambda: truth_step(model, work, results["trf"]))
     report(results)
 
 
@@ -167,6 +195,6 @@ if __name__ == "__main__":
     parser.add_argument("--data-flank", type=float, default=Settings3d.data_flank)
     parser.add_argument("--gd-iterations", type=int, default=Settings3d.gd_iterations)
     parser.add_argument("--trf-iterations", type=int, default=Settings3d.trf_iterations)
-    parser.add_argument("--steps", nargs="+", default=["data", *(name for name, *_ in PLAN), "window"])
+    parser.add_argument("--steps", nargs="+", default=["data", *(name for name, *_ in PLAN), "window", "truth"])
     args = parser.parse_args()
     main(args.work, Settings3d(args.fit_flank, args.data_flank, args.gd_iterations, args.trf_iterations), args.steps)
