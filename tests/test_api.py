@@ -195,3 +195,25 @@ def test_fields_false_keeps_the_run_folder_without_fields(first, monkeypatch):
     again = identify(*args, **kwargs, resume=True)                   # the default writes them
     assert any((first / "runs/nofields/fields").iterdir()) and again.to_dict()["parameters"] == \
         without.to_dict()["parameters"]
+
+
+@pytest.mark.slow          # three fits of the block's example
+def test_a_condensation_held_from_an_earlier_run_is_not_estimated_again(first, monkeypatch):
+    """A second identification on the same model and points reuses the first one's condensation, so the memory
+    estimate (which counts what the process holds, that condensation included) is not made again; other
+    observations mean another condensation, which is estimated."""
+    from frictionid.fem import memory
+
+    monkeypatch.chdir(first)
+    model = block_model_2d(mesh_size=1.0, pull=0.05)
+    kwargs = dict(stages=[2], noise={"u": 0.0005}, regions=REGIONS, refine_target=0, suggestions=0)
+    fitted = identify(model, "measured.csv", {"A": 0.1, "B": 0.1}, observables=["ux", "uy"], **kwargs)
+
+    def refuse(*args, **kw):
+        raise InputError("estimated again")
+    monkeypatch.setattr(memory, "check", refuse)
+    again = identify(model, "measured.csv", {"A": 0.1, "B": 0.1}, observables=["ux", "uy"], method="gradient-descent",
+                     max_iterations=1, **kwargs)
+    assert again.status and fitted.status
+    with pytest.raises(InputError, match="estimated again"):
+        identify(model, "measured.csv", {"A": 0.1, "B": 0.1}, observables=["ux"], **kwargs)

@@ -135,7 +135,13 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     start = time.perf_counter()
     obs = setup.observations
     max_memory = config.solver.max_memory
-    if config.solver.backend == "embedded":     # before the discretisation control, which condenses the model
+    from .backends.embedded import holds
+
+    if config.solver.backend == "embedded" and holds(setup.model, obs.points, obs.quantities, obs.point_regions,
+                                                     strain_window(setup.window, obs), config.solver.factorisation,
+                                                     config.solver.sliding):
+        log.info("model: its condensation is held from an earlier run of this session; nothing more to estimate")
+    elif config.solver.backend == "embedded":   # before the discretisation control, which condenses the model
         log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                      config.identify.refine_target, config.identify.refine_budget, max_memory,
