@@ -8,11 +8,16 @@ bearing face) at frictionid.studies.bolt's TRUE_MU for those letters, head and n
 uy, uz at the ten points P1-P5 of flanks 1 and 2 (benchmarks/bolt3d.py ten_points) solved on the data mesh at the
 truth; the fits use uy, noise-free, weighted by the seed's DIC noise 0.5 um (measured.csv, the copy with that
 noise, is written and not fitted). The window's full field is ux, uy, uz at the vertex nodes of the fit mesh's "window_bolt" and
-"window_nut" surfaces, each value with 0.5 um noise. Each model is built once and pickled (``--work``).
+"window_nut" surfaces, each value with 0.5 um noise. Steps: data (the data mesh's condensation and solve), trf and
+gd (frictionid.studies.bolt3d, the runs of ``frictionid demo --model 3d``), window (the resolution from the
+window's faces before fitting: one condensation of the fit model with those points), truth (the fit mesh's misfit
+at the true coefficients at the ten points), window_error (the two meshes' difference at the window's points
+against the coefficients' signal: one condensation of each model). Each model is built once and pickled
+(``--work``); each step runs in the process that asks for it, so ``--steps`` one at a time keeps the peaks apart.
 
 Run (from benchmarks/, under /usr/bin/time -v for the peak):
 ../.venv/bin/python bolt3d_identify_m20.py --work DIR [--fit-flank 2.5] [--data-flank 1.875] [--gd-iterations 5]
-[--trf-iterations 10] [--steps data trf gd window truth]
+[--trf-iterations 10] [--steps data trf gd window truth window_error]
 Each step writes DIR/<step>.json; a step whose file exists is read, not run again.
 """
 
@@ -114,6 +119,33 @@ def truth_step(model, work: Path, trf: dict) -> dict:
             "relative_error_trf_last": norm["trf_last"] / norm["start"]}
 
 
+def window_error_step(fit_model, work: Path, settings: Settings3d) -> dict:
+    """ux, uy, uz [um] at the window's points (the fit mesh's, :func:`window_points`) on the data mesh and on the
+    fit mesh at the truth, and on the fit mesh at the start: the two meshes' difference against the signal of
+    the coefficients, in noise levels (0.5 um). One condensation of each model, one after the other."""
+    field, regions = window_points(fit_model)
+    names = list(fit_model.zone_names)
+    truth = np.array([{**TRUE_MU, **fixed_friction()}[z] for z in names])
+    start = np.array([{**{z: START for z in ZONES}, **fixed_friction()}[z] for z in names])
+    values = {}
+    for label, flank in (("data", settings.data_flank), ("fit", settings.flank)):
+        model = fit_model if label == "fit" else cached_model(flank, work)[0]
+        problem = Problem.build(model, points=field, quantities=("ux", "uy", "uz"), regions=regions,
+                                factorisation="mumps")
+        values[f"{label}_truth"] = 1e3 * problem.solve(truth).observations[-1]
+        if label == "fit":
+            values["fit_start"] = 1e3 * problem.solve(start).observations[-1]
+        del problem, model
+    error = values["fit_truth"] - values["data_truth"]
+    signal = values["fit_truth"] - values["fit_start"]
+    noise = 1e3 * NOISE
+    return {"n_points": len(field), "error_rms_um": float(np.sqrt(np.mean(error ** 2))),
+            "error_max_um": float(np.abs(error).max()), "signal_rms_um": float(np.sqrt(np.mean(signal ** 2))),
+            "signal_max_um": float(np.abs(signal).max()), "error_norm_noise": float(np.linalg.norm(error) / noise),
+            "signal_norm_noise": float(np.linalg.norm(signal) / noise),
+            "values_um": {key: value.tolist() for key, value in values.items()}}
+
+
 #: one coefficient per axial section: A + C (section 1, next to the bearing face), B + D (section 2)
 SECTIONS = {"AC": ("A", "C"), "BD": ("B", "D")}
 
@@ -183,6 +215,7 @@ def main(work: Path, settings: Settings3d, steps: list[str]) -> None:
         results[name] = once(name, lambda: fit_step(model, work, name, data, method, jacobian, iterations))
     field, regions = window_points(model)
     results["window"] = once("window", lambda: prefit_step(model, field, ("ux", "uy", "uz"), regions))
+    results["window_error"] = once("window_error", lambda: window_error_step(model, work, settings))
     if results.get("trf") is not None:
         results["truth"] = once("truth", lambda: truth_step(model, work, results["trf"]))
     report(results)
@@ -195,6 +228,7 @@ if __name__ == "__main__":
     parser.add_argument("--data-flank", type=float, default=Settings3d.data_flank)
     parser.add_argument("--gd-iterations", type=int, default=Settings3d.gd_iterations)
     parser.add_argument("--trf-iterations", type=int, default=Settings3d.trf_iterations)
-    parser.add_argument("--steps", nargs="+", default=["data", *(name for name, *_ in PLAN), "window", "truth"])
+    parser.add_argument("--steps", nargs="+", default=["data", *(name for name, *_ in PLAN), "window", "truth",
+                                                            "window_error"])
     args = parser.parse_args()
     main(args.work, Settings3d(args.fit_flank, args.data_flank, args.gd_iterations, args.trf_iterations), args.steps)
