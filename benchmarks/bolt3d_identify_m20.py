@@ -160,8 +160,33 @@ def merged_stderr(singular_values, directions) -> dict:
     return dict(zip(SECTIONS, np.sqrt(np.diag(covariance)).tolist()))
 
 
-def report(results: dict) -> None:
-    """Print the fits zone by zone and the resolution before fitting of both observation sets."""
+def without_translations(values: np.ndarray, n_bolt: int) -> np.ndarray:
+    """(n, 3) values less their mean per component on each face (bolt rows first, then the nut's): what is left
+    after a DIC's rigid translation of each face is taken out."""
+    out = np.array(values, dtype=float)
+    for rows in (slice(0, n_bolt), slice(n_bolt, None)):
+        out[rows] -= out[rows].mean(axis=0)
+    return out
+
+
+def window_error_lines(step: dict, n_bolt: int) -> list[str]:
+    """The two meshes' difference and the coefficients' signal at the window's points, RMS [um] and norm in
+    noise levels, as they are and with each face's translation taken out."""
+    v = {key: np.array(value).reshape(-1, 3) for key, value in step["values_um"].items()}
+    error, signal = v["fit_truth"] - v["data_truth"], v["fit_truth"] - v["fit_start"]
+    lines = []
+    for label, change in (("as solved", lambda a: a), ("each face's translation taken out",
+                                                        lambda a: without_translations(a, n_bolt))):
+        e, s = change(error), change(signal)
+        lines.append(f"window's points, {label}: meshes' difference {np.sqrt(np.mean(e ** 2)):.3f} um RMS "
+                     f"({np.linalg.norm(e) / (1e3 * NOISE):.2f} noise levels in norm), coefficients' signal (0.1 to "
+                     f"the truth) {np.sqrt(np.mean(s ** 2)):.3f} um RMS ({np.linalg.norm(s) / (1e3 * NOISE):.2f})")
+    return lines
+
+
+def report(results: dict, n_bolt: int) -> None:
+    """Print the fits zone by zone, the resolution before fitting of both observation sets and the meshes'
+    difference at the window's points (``n_bolt`` of them on the bolt, listed first)."""
     for name, r in ((n, results.get(n)) for n, *_ in PLAN):
         if r is None:
             continue
@@ -187,6 +212,8 @@ def report(results: dict) -> None:
         print(f"resolution before fitting, {label}{sizes}, 0.5 um: singular values "
               f"{', '.join(f'{s:.3g}' for s in prefit['singular_values'])}; standard errors {stderr}; one "
               f"coefficient per section: {merged}")
+    if results.get("window_error") is not None:
+        print("\n".join(window_error_lines(results["window_error"], n_bolt)))
 
 
 def main(work: Path, settings: Settings3d, steps: list[str]) -> None:
@@ -218,7 +245,7 @@ def main(work: Path, settings: Settings3d, steps: list[str]) -> None:
     results["window_error"] = once("window_error", lambda: window_error_step(model, work, settings))
     if results.get("trf") is not None:
         results["truth"] = once("truth", lambda: truth_step(model, work, results["trf"]))
-    report(results)
+    report(results, int(np.sum(np.array(regions) == "bolt")))
 
 
 if __name__ == "__main__":
