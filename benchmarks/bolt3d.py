@@ -36,10 +36,7 @@ from frictionid.fem.problem import Problem
 def ten_points(layout) -> np.ndarray:
     """(10, 3) [mm] the seed's P1-P5 on flanks 1 and 2, moved 0.1 mm radially into the bolt tooth: the tets are
     straight-sided, the points on the exact helicoid lie up to a few um outside the mesh's chords."""
-    points = measurement_points_3d(layout)
-    radius = np.hypot(points[:, 0], points[:, 2])
-    points[:, [0, 2]] *= ((radius - 0.1) / radius)[:, None]
-    return points
+    return measurement_points_3d(layout, depth=0.1)
 
 
 def built(options: dict, cache: str | None, figures: dict):

@@ -183,3 +183,37 @@ def test_observations_csv_holds_measured_against_fitted(cli_run):
         residual = obs["model"] - obs["measured"]
         assert float(row["residual"]) == residual
         assert float(row["residual_sigma"]) == pytest.approx(residual / 0.0005, rel=1e-12)
+
+
+@pytest.mark.slow          # two fits of the block's example (the second replayed from the store)
+def test_fields_false_keeps_the_run_folder_without_fields(first, monkeypatch):
+    monkeypatch.chdir(first)
+    args = ({"builder": "block2d", "mesh_size": 1.0, "pull": 0.05}, "measured.csv", {"A": 0.1, "B": 0.1})
+    kwargs = dict(observables=["ux", "uy"], stages=[2], noise={"u": 0.0005}, regions=REGIONS, run_dir="runs/nofields")
+    without = identify(*args, **kwargs, fields=False)
+    assert (first / "runs/nofields/result.json").exists() and not (first / "runs/nofields/fields").exists()
+    again = identify(*args, **kwargs, resume=True)                   # the default writes them
+    assert any((first / "runs/nofields/fields").iterdir()) and again.to_dict()["parameters"] == \
+        without.to_dict()["parameters"]
+
+
+@pytest.mark.slow          # three fits of the block's example
+def test_a_condensation_held_from_an_earlier_run_is_not_estimated_again(first, monkeypatch):
+    """A second identification on the same model and points reuses the first one's condensation, so the memory
+    estimate (which counts what the process holds, that condensation included) is not made again; other
+    observations mean another condensation, which is estimated."""
+    from frictionid.fem import memory
+
+    monkeypatch.chdir(first)
+    model = block_model_2d(mesh_size=1.0, pull=0.05)
+    kwargs = dict(stages=[2], noise={"u": 0.0005}, regions=REGIONS, refine_target=0, suggestions=0)
+    fitted = identify(model, "measured.csv", {"A": 0.1, "B": 0.1}, observables=["ux", "uy"], **kwargs)
+
+    def refuse(*args, **kw):
+        raise InputError("estimated again")
+    monkeypatch.setattr(memory, "check", refuse)
+    again = identify(model, "measured.csv", {"A": 0.1, "B": 0.1}, observables=["ux", "uy"], method="gradient-descent",
+                     max_iterations=1, **kwargs)
+    assert again.status and fitted.status
+    with pytest.raises(InputError, match="estimated again"):
+        identify(model, "measured.csv", {"A": 0.1, "B": 0.1}, observables=["ux"], **kwargs)

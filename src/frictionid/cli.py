@@ -23,20 +23,31 @@ def _add_demo(sub):
     parser.add_argument("--block", action="store_true",
                         help="instead: one forward solve with sensitivities of the block reference test")
     parser.add_argument("--mesh-size", type=float, default=1.0, help="with --block: block mesh size [mm] (default 1.0)")
+    parser.add_argument("--model", choices=("axisymmetric", "3d"), default="axisymmetric",
+                        help="the bolt study's model: axisymmetric (default) or 3d (the short M20 with the nut's "
+                             "window and jaws; about 35 minutes and 7.5 GB here)")
     parser.set_defaults(run=_run_demo)
 
 
 def _run_demo(args) -> int:
+    if args.model == "3d" and (args.quick or args.block):
+        raise InputError(f"frictionid demo --model 3d: {'--quick' if args.quick else '--block'} is not available "
+                         "with the 3-D study (it has no coarse variant); run it without, or drop --model 3d")
     if args.block:
         return _run_block_demo(args)
     from .studies.bolt import Settings, run_demo
+    from .studies.bolt3d import run_demo_3d
 
     try:
-        run_demo(args.out, Settings.quick() if args.quick else Settings(), resume=args.resume,
-                 echo=lambda text: print(text, flush=True))
+        if args.model == "3d":
+            run_demo_3d(args.out, resume=args.resume, echo=lambda text: print(text, flush=True))
+        else:
+            run_demo(args.out, Settings.quick() if args.quick else Settings(), resume=args.resume,
+                     echo=lambda text: print(text, flush=True))
     except KeyboardInterrupt:
+        again = "frictionid demo --resume" + (" --model 3d" if args.model == "3d" else "") + f" --out {args.out}"
         print(f"frictionid: interrupted; every finished evaluation is stored in {args.out}/runs; continue with "
-              f"frictionid demo --resume --out {args.out}", file=sys.stderr)
+              f"{again}", file=sys.stderr)
         return 1
     return 0
 

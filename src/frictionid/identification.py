@@ -48,7 +48,7 @@ RUN_FILES = ("result.json", "history.csv", "convergence.png", "residuals.png", "
 def identify(model: Model | dict, measurements: Measurements | str | Path, parameters: Parameters | dict, *,
              observables, stages, noise: dict | None = None, regions: dict | None = None,
              run_dir: str | Path | None = None, resume: bool = False, solver: dict | None = None, workers: int = 1,
-             scheduler: str | None = None, progress=None, **options) -> IdentificationResult:
+             scheduler: str | None = None, fields: bool = True, progress=None, **options) -> IdentificationResult:
     """Identify the zone coefficients of ``model`` from ``measurements`` (the Python interface; the command line
     runs :func:`identify_config`, and both give the same result.json).
 
@@ -72,6 +72,8 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
         Parallel evaluations (run.workers).
     scheduler : str, optional
         A Dask cluster for them (run.scheduler): "local" or "tcp://host:port".
+    fields : bool
+        Write the fields of the final solve into ``run_dir``/fields/ (run.fields; with a run_dir only).
     progress : callable, optional
         ``progress(text)`` gets one line per phase and iteration; default quiet.
     **options
@@ -103,7 +105,8 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
                        "observables": list(observables), "stages": list(stages), "noise": dict(noise or {}),
                        "regions": dict(regions or {})},
               "solver": dict(solver or {}), "identify": options,
-              "run": {"dir": str(run_dir or "(temporary)"), "workers": workers, "scheduler": scheduler}}
+              "run": {"dir": str(run_dir or "(temporary)"), "workers": workers, "scheduler": scheduler,
+                      "fields": fields}}
     config = config_from_dict(tables, need=("friction", "data", "run") + (("model",) if isinstance(model, dict)
                                                                           else ()), name="identify()")
     echo = progress or (lambda text: None)
@@ -132,7 +135,13 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     start = time.perf_counter()
     obs = setup.observations
     max_memory = config.solver.max_memory
-    if config.solver.backend == "embedded":     # before the discretisation control, which condenses the model
+    from .backends.embedded import holds
+
+    if config.solver.backend == "embedded" and holds(setup.model, obs.points, obs.quantities, obs.point_regions,
+                                                     strain_window(setup.window, obs), config.solver.factorisation,
+                                                     config.solver.sliding):
+        log.info("model: its condensation is held from an earlier run of this session; nothing more to estimate")
+    elif config.solver.backend == "embedded":   # before the discretisation control, which condenses the model
         log.info(memory.check(setup.model, "model", max_memory, config.solver.factorisation).line())
     chosen = control(setup.model_options, setup.model, obs, setup.parameters.full(setup.parameters.x0),
                      config.identify.refine_target, config.identify.refine_budget, max_memory,

@@ -94,6 +94,14 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None, 
     return problem
 
 
+def holds(model: Model, points, quantities, regions, window: float | None = None, factorisation: str = "auto",
+          sliding: str = "small") -> bool:
+    """Whether this session keeps the condensation a backend of these arguments would use (making one then
+    condenses nothing: a study's later runs on the same model and points)."""
+    points = None if points is None or len(points) == 0 or not quantities else points
+    return _key(model, points, tuple(quantities), regions, window, factorisation, sliding) in _RECENT
+
+
 def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: bool = True,
            window: float | None = None, factorisation: str = "auto", sliding: str = "small") -> Problem:
     """Problem.build, reusing a recent build when model and observation points are the same in content.

@@ -101,8 +101,9 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
                  interfaces=interfaces)
 
 
-def measurement_points_3d(layout: BoltLayout, flanks=(1, 2), n_per_flank: int = 5) -> np.ndarray:
+def measurement_points_3d(layout: BoltLayout, flanks=(1, 2), n_per_flank: int = 5, depth: float = 0.0) -> np.ndarray:
     """(n, 3) [mm] the seed's P1-P5 on each listed flank: in the window's centre section, which is the
-    axisymmetric section, at 1/(n+1) ... n/(n+1) of the straight part of the bolt load flank."""
+    axisymmetric section, at 1/(n+1) ... n/(n+1) of the straight part of the bolt load flank, moved ``depth`` [mm]
+    radially into the bolt tooth (points on the exact helicoid may lie a few um outside a mesh's facets)."""
     section = measurement_points(layout, None, flanks, n_per_flank)
-    return to_xyz(section[:, 0], section[:, 1], math.radians(WINDOW_CENTRE))
+    return to_xyz(section[:, 0] - depth, section[:, 1], math.radians(WINDOW_CENTRE))
