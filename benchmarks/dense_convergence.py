@@ -127,13 +127,15 @@ def differences(coarse, fine) -> dict:
 
 def is_level(name: str) -> bool:
     """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
-    return name.isdigit() or dense.tilt.GRADED.fullmatch(name) is not None
+    return name.isdigit() or any(family.fullmatch(name) for family in (dense.tilt.GRADED, dense.tilt.EDGE))
 
 
 def size(name: str) -> float:
     """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
-    graded family's k)."""
-    graded = dense.tilt.GRADED.fullmatch(name)
+    graded family's k); of an edge-refined level ``e<m>`` the edges' element size EDGE_RATIO^-m."""
+    graded, edge = dense.tilt.GRADED.fullmatch(name), dense.tilt.EDGE.fullmatch(name)
+    if edge:                                                # the edge-refined family: the edges' element size
+        return dense.tilt.EDGE_RATIO ** -int(edge.group(1))
     return 1.0 / (int(graded.group(1)) if graded else LEVELS[int(name)][0])
 
 
@@ -157,11 +159,12 @@ def observed_order(d_ab: float, d_bc: float, h: tuple[float, float, float]) -> t
 
 
 def families(named: list[tuple[str, Path]]) -> dict[str, list[str]]:
-    """Level names by family: the graded levels' GRADED flags ("Qrp" of "g3Qrp"), "" for the numbered levels."""
+    """Level names by family: the graded levels' GRADED flags ("Qrp" of "g3Qrp"), the edge-refined levels' "e"
+    and flags ("eQp" of "e2Qp"), "" for the numbered levels."""
     out = {}
     for name, _ in named:
-        graded = dense.tilt.GRADED.fullmatch(name)
-        out.setdefault(graded.group(2) if graded else "", []).append(name)
+        graded, edge = dense.tilt.GRADED.fullmatch(name), dense.tilt.EDGE.fullmatch(name)
+        out.setdefault("e" + edge.group(2) if edge else graded.group(2) if graded else "", []).append(name)
     return out
 
 
