@@ -7,7 +7,8 @@ noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared wh
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
 three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
-levels of tilt_ccx.py's graded family are named ``g<k>`` with tilt_ccx.GRADED's flags (a label only here), h ~ 1 / k),
+levels of tilt_ccx.py's graded family are named ``g<k>`` with tilt_ccx.GRADED's flags (a label only here), h ~ 1 / k;
+those of its edge-refined family ``e<m>`` (tilt_ccx.EDGE), h the edges' element size 8^-m),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),

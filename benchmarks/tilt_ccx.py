@@ -9,8 +9,9 @@ footprint growing by 1.5 per element; both bodies' layers smallest at the interf
 mesh by its LEVELS fields; ``--graded K`` a level of a family whose lines are fixed maps of uniform grids
 (:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R, ``--quadratic`` both bodies, ``--ring`` the plate
 outside the footprint by :func:`ring_map`, ``--cubic`` the same lines graded with exponent 3 (edges ~ n^-3
-instead of n^-2); ``--slave plate`` the plate top as the
-contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
+instead of n^-2); ``--edge M`` level m of the edge-refined family instead (:func:`edge_lines`: a fixed coarse mesh
+whose elements next to the footprint's edges and the interface are split geometrically); ``--slave plate`` the
+plate top as the contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
 
 Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
 end of the pull
