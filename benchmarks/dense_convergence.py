@@ -7,7 +7,8 @@ noise levels (0.5 um, 2e-5, 1 N: generate.py's NOISE_*). Strains are compared wh
 
 With three levels or more it also estimates the finest level's own error by Richardson extrapolation over the
 three finest: the element size is taken as h ~ 1 / n (n the divisions per half side of the footprint, LEVELS;
-levels of tilt_ccx.py's graded family are named ``g<k>`` with tilt_ccx.GRADED's flags (a label only here), h ~ 1 / k),
+levels of tilt_ccx.py's graded family are named ``g<k>`` with tilt_ccx.GRADED's flags (a label only here), h ~ 1 / k;
+those of its edge-refined family ``e<m>`` (tilt_ccx.EDGE), h the edges' element size 8^-m),
 the observed order p per stage and kind from the ratio of the two differences' RMS,
 
     rms(f_a - f_b) / rms(f_b - f_c) = (h_a^p - h_b^p) / (h_b^p - h_c^p),
@@ -127,13 +128,15 @@ def differences(coarse, fine) -> dict:
 
 def is_level(name: str) -> bool:
     """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
-    return name.isdigit() or dense.tilt.GRADED.fullmatch(name) is not None
+    return name.isdigit() or any(family.fullmatch(name) for family in (dense.tilt.GRADED, dense.tilt.EDGE))
 
 
 def size(name: str) -> float:
     """The element size's scale h ~ 1 / n of a level: n the block's divisions per half side of the footprint (the
-    graded family's k)."""
-    graded = dense.tilt.GRADED.fullmatch(name)
+    graded family's k); of an edge-refined level ``e<m>`` the edges' element size EDGE_RATIO^-m."""
+    graded, edge = dense.tilt.GRADED.fullmatch(name), dense.tilt.EDGE.fullmatch(name)
+    if edge:                                                # the edge-refined family: the edges' element size
+        return dense.tilt.EDGE_RATIO ** -int(edge.group(1))
     return 1.0 / (int(graded.group(1)) if graded else LEVELS[int(name)][0])
 
 
@@ -157,11 +160,12 @@ def observed_order(d_ab: float, d_bc: float, h: tuple[float, float, float]) -> t
 
 
 def families(named: list[tuple[str, Path]]) -> dict[str, list[str]]:
-    """Level names by family: the graded levels' GRADED flags ("Qrp" of "g3Qrp"), "" for the numbered levels."""
+    """Level names by family: the graded levels' GRADED flags ("Qrp" of "g3Qrp"), the edge-refined levels' "e"
+    and flags ("eQp" of "e2Qp"), "" for the numbered levels."""
     out = {}
     for name, _ in named:
-        graded = dense.tilt.GRADED.fullmatch(name)
-        out.setdefault(graded.group(2) if graded else "", []).append(name)
+        graded, edge = dense.tilt.GRADED.fullmatch(name), dense.tilt.EDGE.fullmatch(name)
+        out.setdefault("e" + edge.group(2) if edge else graded.group(2) if graded else "", []).append(name)
     return out
 
 

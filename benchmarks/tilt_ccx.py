@@ -9,8 +9,9 @@ footprint growing by 1.5 per element; both bodies' layers smallest at the interf
 mesh by its LEVELS fields; ``--graded K`` a level of a family whose lines are fixed maps of uniform grids
 (:func:`graded_lines`), ``--quadratic-block`` its block in C3D20R, ``--quadratic`` both bodies, ``--ring`` the plate
 outside the footprint by :func:`ring_map`, ``--cubic`` the same lines graded with exponent 3 (edges ~ n^-3
-instead of n^-2); ``--slave plate`` the plate top as the
-contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
+instead of n^-2); ``--edge M`` level m of the edge-refined family instead (:func:`edge_lines`: a fixed coarse mesh
+whose elements next to the footprint's edges and the interface are split geometrically); ``--slave plate`` the
+plate top as the contact's slave instead of the block bottom (tests/fixtures/dense_block/README.md compares them).
 
 Printed per run (one line each, also appended as JSON to ``--out``): nodes, ccx seconds, increments, and at the
 end of the pull
@@ -157,6 +158,45 @@ def graded_lines(k: int, ring: bool = False, cubic: bool = False) -> tuple[np.nd
     return xy, plate_z, block_z
 
 
+#: the edge-refined family ``e<m>``: a fixed coarse tensor-product mesh (positions on the positive half; the zone
+#: borders x, y = 0 and the footprint's edges +-5 mesh lines) whose elements next to the footprint's edges (both
+#: sides of x, y = +-5 in the plate, the inside in the block) and next to the interface (plate top layer, block
+#: bottom layer) are split m times geometrically by EDGE_RATIO (:func:`edge_split`). Block and plate differ
+#: (the interface matches only on x, y = 0, +-5).
+EDGE_RATIO = 8.0
+EDGE_PLATE_XY = (0.0, 2.0, 4.0, 5.0, 6.0, 8.05, 10.1, 14.1, 20.0)
+EDGE_PLATE_Z = (-5.0, -3.0, -1.0, 0.0)
+EDGE_BLOCK_XY = (0.0, 2.2, 4.4, 5.0)
+EDGE_BLOCK_Z = (0.0, 1.0, 3.25, 5.5, 7.75, 10.0)
+
+
+def edge_split(lines, at: float, m: int, ratio: float = EDGE_RATIO) -> np.ndarray:
+    """``lines`` with the elements next to the line ``at`` (on each side that has one) split geometrically: lines
+    added at at +- h / ratio^j, j = 1..m, h the element's size; the element next to ``at`` is h / ratio^m, each
+    next one ``ratio`` times larger except the last step (ratio - 1).
+
+    >>> edge_split([0.0, 1.0, 3.0], 1.0, 1)
+    array([0.   , 0.875, 1.   , 1.25 , 3.   ])
+    """
+    lines = np.asarray(lines, float)
+    i = int(np.argmin(np.abs(lines - at)))
+    extra = [at + (lines[j] - at) / ratio ** np.arange(1, m + 1) for j in (i - 1, i + 1) if 0 <= j < len(lines)]
+    return np.unique(np.round(np.concatenate([lines, *extra]), 12))
+
+
+def edge_lines(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(plate x and y, plate z, block x and y, block z) lines of edge-refined level ``m`` (EDGE_*)."""
+    mirror = lambda half: np.unique(np.concatenate([-np.asarray(half)[::-1], half]))
+    plate_xy, block_xy = mirror(EDGE_PLATE_XY), mirror(EDGE_BLOCK_XY)
+    for edge in (-5.0, 5.0):
+        plate_xy, block_xy = edge_split(plate_xy, edge, m), edge_split(block_xy, edge, m)
+    return plate_xy, edge_split(EDGE_PLATE_Z, 0.0, m), block_xy, edge_split(EDGE_BLOCK_Z, 0.0, m)
+
+
+#: edge-refined family level names: ``e<m>`` with GRADED's flags Q (both bodies C3D20R) and p (the plate the
+#: slave: a label only)
+EDGE = re.compile(r"e(\d+)([Qp]*)")
+
 #: graded family level names: ``g<k>`` and any of the flags q (block C3D20R), Q (both bodies C3D20R), r (the
 #: plate outside the footprint by ring_map), p (the plate the contact's slave: a label only, ``--slave`` decides),
 #: c (grading exponent 3: graded_lines' ``cubic``)
@@ -166,6 +206,13 @@ GRADED = re.compile(r"g(\d+)([qQrpc]*)")
 def meshes(level):
     """(plate, block, median plate facet h) of a level number, of a spec tuple as LEVELS' values, or of graded
     family level ``"g<k>"`` with GRADED's flags (:func:`graded_lines`)."""
+    if isinstance(level, str) and EDGE.fullmatch(level):
+        m, flags = EDGE.fullmatch(level).groups()
+        plate_xy, plate_z, block_xy, block_z = edge_lines(int(m))
+        body = QuadraticGrid if "Q" in flags else gen.Grid
+        plate = body(plate_xy, plate_xy, plate_z, first_node=1, first_element=1)
+        block = body(block_xy, block_xy, block_z, first_node=plate.n_nodes + 1, first_element=len(plate.cells) + 1)
+        return plate, block, float(np.min(np.diff(plate_xy)))
     if isinstance(level, str):
         n, flags = GRADED.fullmatch(level).groups()
         n = int(n)
@@ -232,7 +279,10 @@ def run(level: int, scale: float, penalty: float | None, stick: float | None, el
 
 
 def graded_name(args) -> str:
-    """The graded level's name (GRADED) of parsed ``--graded``, ``--quadratic[-block]``, ``--ring``, ``--slave``."""
+    """The graded level's name (GRADED) of parsed ``--graded``, ``--quadratic[-block]``, ``--ring``, ``--slave``
+    (``--cubic``), or with ``--edge`` the edge-refined level's (EDGE)."""
+    if getattr(args, "edge", None) is not None:
+        return f"e{args.edge}{'Q' if args.quadratic else ''}{'p' if args.slave == 'plate' else ''}"
     return (f"g{args.graded}{'Q' if args.quadratic else 'q' if args.quadratic_block else ''}"
             f"{'r' if args.ring else ''}{'p' if args.slave == 'plate' else ''}{'c' if args.cubic else ''}")
 
@@ -252,6 +302,8 @@ def main(argv=None) -> int:
                         "ring_map (finer where the DIC points are)")
     parser.add_argument("--cubic", action="store_true", help="with --graded: grading exponent 3 instead of "
                         "1 - cos (graded_lines' cubic)")
+    parser.add_argument("--edge", type=int, help="edge-refined family level m instead of --level (edge_lines; "
+                        "with --quadratic both bodies C3D20R)")
     parser.add_argument("--element", default="C3D8I")
     parser.add_argument("--slave", choices=("block", "plate"), default="block",
                         help="the contact's slave body (the zones' surfaces; the other is the master)")
@@ -262,7 +314,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, help="append the result as a JSON line here")
     parser.add_argument("--count", action="store_true", help="print the node count only")
     args = parser.parse_args(argv)
-    level = args.mesh or (graded_name(args) if args.graded else args.level)
+    level = args.mesh or (graded_name(args) if args.graded or args.edge is not None else args.level)
     if args.count:
         plate, block, h = meshes(level)
         print(f"level {level}: plate {plate.n_nodes}, block {block.n_nodes} nodes, h {h:.3f} mm")

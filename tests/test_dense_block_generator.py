@@ -127,3 +127,25 @@ def test_the_convergence_study_extrapolates_a_sequence_of_known_order_to_its_lim
     assert np.abs(two["u"][0] - truth["u"][0]).max() > 1e-3              # not at the press stage's order
     gap = conv.gap(limit, levels[2])
     assert abs(gap["u2_rms"] - np.sqrt(np.mean((truth["u"][1] - levels[2]["u"][1]) ** 2))) < 2e-3
+
+
+def test_the_edge_refined_family_splits_only_the_elements_next_to_the_edges_and_the_interface():
+    coarse, fine = tilt.edge_lines(1), tilt.edge_lines(2)
+    for m, (plate_xy, plate_z, block_xy, block_z) in ((1, coarse), (2, fine)):
+        for lines in (plate_xy, block_xy):
+            assert {0.0, -5.0, 5.0} <= set(lines) and np.all(np.diff(lines) > 0)
+            np.testing.assert_allclose(lines, -lines[::-1], atol=1e-12)
+        # the elements next to x = 5 (both sides in the plate, inside in the block) and to z = 0: h / 8^m
+        i = int(np.flatnonzero(plate_xy == 5.0)[0])
+        np.testing.assert_allclose([5.0 - plate_xy[i - 1], plate_xy[i + 1] - 5.0], [1.0 / 8 ** m] * 2)
+        assert abs(5.0 - block_xy[-2] - 0.6 / 8 ** m) < 1e-12
+        assert abs(-plate_z[-2] - 1.0 / 8 ** m) < 1e-12 and abs(block_z[1] - 1.0 / 8 ** m) < 1e-12
+        # the interface matches only on the zone borders and the edges
+        shared = set(np.round(plate_xy, 9)) & set(np.round(block_xy, 9))
+        assert shared == {-5.0, 0.0, 5.0}
+    # a level adds lines next to the edges only: the coarser level's lines are all kept
+    for a, b in zip(coarse, fine):
+        assert set(np.round(a, 12)) <= set(np.round(b, 12)) and len(b) - len(a) in (1, 2, 4)
+    plate, block, _ = tilt.meshes("e1Qp")
+    assert isinstance(plate, tilt.QuadraticGrid) and isinstance(block, tilt.QuadraticGrid)
+    assert plate.n_nodes + block.n_nodes == 10230
