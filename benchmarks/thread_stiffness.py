@@ -15,9 +15,9 @@ without grooves checks the read-out against F L / (E pi r_shank^2). Every cross-
 area, A_sec = pi <r^2> over the profile (the rings' volume per length): away from the ends a uniform axial strain
 with free lateral contraction is admissible, so E A_sec bounds both threads' axial stiffness from above.
 
-Run: .venv/bin/python benchmarks/thread_stiffness.py [size [h_3d ...]]   (default M6, h_3d 0.3 0.2)
+Run: .venv/bin/python benchmarks/thread_stiffness.py [size [h_3d ...]] [--rings-only]   (default M6, 0.3 0.2)
 h_3d: the 3-D mesh size on the thread's faces [mm], growing by 0.3 per mm to ``SIZE_MAX``; the rings are meshed
-at h_3d and at RING_FINE.
+at h_3d and at RING_FINE. ``--rings-only``: the axisymmetric rods alone (seconds).
 """
 
 import math
@@ -194,7 +194,7 @@ def report(name: str, built, kind: str, heights: np.ndarray, middle: slice, area
     return a_eff
 
 
-def main(size: str = "M6", sizes=(0.3, 0.2)):
+def main(size: str = "M6", sizes=(0.3, 0.2), rings_only: bool = False):
     layout = bolt_layout(size)
     s = layout.size
     P, d = s.P, s.d
@@ -207,7 +207,7 @@ def main(size: str = "M6", sizes=(0.3, 0.2)):
           ", ".join(f"{k} {v:.4f} mm^2 (F / (E A) {1000 * FORCE / (STEEL.E * v):.6f} um/mm)" for k, v in area.items()))
     for grooves in (False, True):
         label = "helix" if grooves else "plain rod"
-        for h in sizes if grooves else sizes[:1]:
+        for h in () if rings_only else sizes if grooves else sizes[:1]:
             start = time.process_time()
             mesh = rod_3d(layout, y_thread, y_end, length, h, grooves)
             report(f"3-D {label}, {h:g} mm on the thread", mesh, "3d", heights, middle, area,
@@ -220,5 +220,5 @@ def main(size: str = "M6", sizes=(0.3, 0.2)):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    main(args[0] if args else "M6", tuple(float(a) for a in args[1:]) or (0.3, 0.2))
+    args = [a for a in sys.argv[1:] if a != "--rings-only"]
+    main(args[0] if args else "M6", tuple(float(a) for a in args[1:]) or (0.3, 0.2), "--rings-only" in sys.argv)
