@@ -96,7 +96,9 @@ def rings(options: dict, layout, n_phases: int):
     if not n_phases:
         return model2, solution2, elongation2, y_start, None
     print(f"  axisymmetric models at {n_phases} phases of the teeth (the helix's sections):", flush=True)
-    per_phase = phase_average(options, layout, y_start, n, n_phases)
+    per_phase, lengths = phase_average(options, layout, y_start, n, n_phases)
+    print(f"  bolt elongation averaged over the phases {1000 * lengths.mean():.3f} um ({1000 * lengths.min():.3f} to "
+          f"{1000 * lengths.max():.3f}), at the layout's phase {1000 * elongation2:.3f} um")
     average, moved_down = per_phase.mean(axis=0), per_phase[:, 0] > 0
     merged = np.r_[average[0] + average[1], average[2:-2], average[-2] + average[-1]]
     lam_p = fit_sopwith(merged)
@@ -109,7 +111,7 @@ def rings(options: dict, layout, n_phases: int):
           f"ring below the first cut, their rings counted one turn down), below / turns / above [%]: {pct(closed)};"
           f" the phase average minus it {pct((average - closed) / (closed[0] + closed[1]))} of its first share "
           f"with the part below")
-    return model2, solution2, elongation2, y_start, (average, closed, per_phase)
+    return model2, solution2, elongation2, y_start, (average, closed, per_phase, lengths.mean())
 
 
 def main(options: dict, cache: str | None = None, factorisation: str = "auto", n_phases: int = 0,
@@ -156,6 +158,9 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto", n
                   f"{pct(share)}, rings {pct(ring_share)}")
     print(f"  bolt elongation {1000 * elongation2:.3f} / {1000 * elongation3:.3f} um: "
           f"{100 * (elongation3 / elongation2 - 1):+.2f} %")
+    if phases:
+        print(f"  bolt elongation, the phase average {1000 * phases[3]:.3f} um: 3-D "
+              f"{100 * (elongation3 / phases[3] - 1):+.2f} %")
 
 
 def phase_shifted(layout, delta: float, engaged_length: float):
@@ -172,23 +177,24 @@ def phase_shifted(layout, delta: float, engaged_length: float):
 
 
 def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) -> tuple[np.ndarray, np.ndarray]:
-    """(n + 2,) the axisymmetric models' load per ring averaged over n_phases sections of a helix (teeth moved by
+    """(n_phases, n + 2) the axisymmetric models' load per ring at n_phases sections of a helix (teeth moved by
     delta = P theta / 2 pi, theta = -pi + 2 pi (j + 1/2) / n_phases), each ring counted where its teeth were before
     the move (cut at y_start + delta): the part below the first cut, the n rings, the part above the last; and
-    (n_phases,) whether a section has load below the first cut."""
+    (n_phases,) each one's bolt elongation [mm]."""
     P = layout.size.P
     engaged = options.get("engaged_length") or layout.y_top - layout.y_bearing
-    shares = []
+    shares, lengths = [], []
     for j in range(n_phases):
         delta = P * ((j + 0.5) / n_phases - 0.5)
         shifted = phase_shifted(layout, delta, engaged)
         with mock.patch("frictionid.builders.bolt.bolt_layout", lambda *args: shifted):
             model = bolt_model(**options)
-        solution, _ = solved(model, layout, 2)
+        solution, elongation = solved(model, layout, 2)
         shares.append(pitch_loads(model, solution, y_start + delta - P, P, n + 2))
+        lengths.append(elongation)
         print(f"    phase {delta / P:+.3f} P: {len(shifted.flanks)} rings, below / rings / above [%] "
-              f"{np.array2string(100 * shares[-1], precision=2)}", flush=True)
-    return np.array(shares)
+              f"{np.array2string(100 * shares[-1], precision=2)}, elongation {1000 * elongation:.3f} um", flush=True)
+    return np.array(shares), np.array(lengths)
 
 
 def sector_shares(model, solution, y_start: float, P: float, n: int, n_sectors: int):

@@ -1,9 +1,10 @@
 """The nut window's effect on the seed's ten points: uy at P1-P5 of flanks 1 and 2 (in the window's centre section,
 0.1 mm inside the bolt tooth) of the 3-D model with and without the window, same layout, sizes, force and mu.
 
-Run: .venv/bin/python benchmarks/bolt3d_window.py '<bolt_model options as JSON>' with.pkl without.pkl
+Run: .venv/bin/python benchmarks/bolt3d_window.py '<bolt_model options as JSON>' with.pkl [without.pkl]
 (the 3-D options; "cutout" true for the first model, false for the second, jaws as given; each model pickled to
-its file, or read from it when it exists, as in benchmarks/bolt3d.py). Both are condensed with
+its file, or read from it when it exists, as in benchmarks/bolt3d.py; without the second file only the model with
+the window is solved, e.g. at another flank size). Both are condensed with
 ``factorisation = "mumps"`` (docs/bolt-study.md: CHOLMOD's factor with the contact dofs last passes 10 GB on the
 3-D bolt), one model after the other. Run it under /usr/bin/time -v for the peak.
 """
@@ -45,7 +46,7 @@ def cached(options: dict, path: str):
     return model
 
 
-def main(options: dict, with_window: str, without_window: str):
+def main(options: dict, with_window: str, without_window: str | None = None):
     options = {**options, "model": "3d"}
     layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
                          options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
@@ -53,13 +54,17 @@ def main(options: dict, with_window: str, without_window: str):
     points = ten_points(layout)
     print(f"3-D {json.dumps(options)}, mu = {MU} everywhere; uy at the ten points with / without the window")
     uy = []
-    for cutout, path in ((True, with_window), (False, without_window)):
+    for cutout, path in ((True, with_window), (False, without_window))[:2 if without_window else 1]:
         start = time.process_time()
         model = cached({**options, "cutout": cutout}, path)
         print(f"{'with' if cutout else 'without'} the window: model {time.process_time() - start:.1f} s CPU "
               f"(built, or read from {path})", flush=True)
         uy.append(ten_point_uy(model, points))
         del model
+    if not without_window:
+        for i, a in enumerate(uy[0]):
+            print(f"  flank {i // 5 + 1} P{i % 5 + 1}: {1000 * a:.3f} um")
+        return
     span = np.ptp(uy[1])
     print(f"  range of uy over the ten points without the window: {1000 * span:.3f} um")
     for i, (a, b) in enumerate(zip(*uy)):
@@ -68,4 +73,4 @@ def main(options: dict, with_window: str, without_window: str):
 
 
 if __name__ == "__main__":
-    main(json.loads(sys.argv[1]), sys.argv[2], sys.argv[3])
+    main(json.loads(sys.argv[1]), *sys.argv[2:4])
