@@ -31,7 +31,6 @@ from ..report.html import NEAR_BOUND
 from ..report.bolt import bolt_summary, nut_dilation, plot_load_shares, thread_loads
 from ..report.outputs import write_outputs
 from ..report.tables import prefit_summary, result_summary
-from ..options import DEFAULT_BOUNDS, ModelSpec
 
 #: the coefficients the data are made with (thread zones; outer A-C, inner D-F, section 1 at the bearing face)
 TRUE_MU = {"A": 0.14, "B": 0.18, "C": 0.22, "D": 0.12, "E": 0.16, "F": 0.20}
@@ -191,6 +190,14 @@ def run_demo(out: Path, settings: Settings = Settings(), resume: bool = False, e
 
     ``resume``: continue the identifications stored in ``out`` (finished ones are replayed, not recomputed).
     """
+    out = demo_folder(out, resume)
+    with cache_in(out / "cache"):            # a replay (--resume) reads the condensations and solves stored there
+        return _run(out, settings, resume, echo)
+
+
+def demo_folder(out, resume: bool) -> Path:
+    """The folder ``out`` of a demo's results, with its runs/ made; refused (InputError) when it is a file, or
+    when it holds runs already and ``resume`` is off."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: is a file; expected a folder for the demo's results")
@@ -199,8 +206,7 @@ def run_demo(out: Path, settings: Settings = Settings(), resume: bool = False, e
         raise InputError(f"{out}: already holds the demo's runs {stored}; continue or replay them with --resume, "
                          "or choose another --out")
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    with cache_in(out / "cache"):            # a replay (--resume) reads the condensations and solves stored there
-        return _run(out, settings, resume, echo)
+    return out
 
 
 def _run(out: Path, settings: Settings, resume: bool, echo) -> dict:

@@ -24,11 +24,10 @@ from matplotlib.figure import Figure
 from ..backends.embedded import cache_in
 from ..builders.bolt import bolt_layout, bolt_model, fixed_friction
 from ..builders.bolt3d import measurement_points_3d
-from ..errors import InputError
 from ..fem.problem import Problem
 from ..identification import identify
 from ..inverse.parameters import Parameter, Parameters
-from .bolt import NOISE, OPTIONS, START, TRUE_MU, _cell
+from .bolt import NOISE, OPTIONS, START, TRUE_MU, _cell, demo_folder
 
 #: the short layout's options besides the mesh sizes (docs/bolt-study.md, "The 3-D model")
 SHORT = {"model": "3d", "size": "M20", "engaged_length": 5.0, "thread_length": 30.5, "n_axial": 2,
@@ -126,14 +125,7 @@ def fit(model, folder: Path, name: str, data: str, method: str, jacobian: str, i
 def run_demo_3d(out: Path, settings: Settings3d = Settings3d(), resume: bool = False, echo=print) -> dict:
     """Run the 3-D study into folder ``out`` (models pickled there, data, runs/, cache/, table.txt, fig9.txt,
     fig9.png, summary.json); returns the summary. ``resume``: continue (or replay) the runs stored in ``out``."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: is a file; expected a folder for the demo's results")
-    stored = sorted(p.parent.name for p in (out / "runs").glob("*/store.sqlite"))
-    if stored and not resume:
-        raise InputError(f"{out}: already holds the demo's runs {stored}; continue or replay them with --resume, "
-                         "or choose another --out")
-    (out / "runs").mkdir(parents=True, exist_ok=True)
+    out = demo_folder(out, resume)
     with cache_in(out / "cache"):
         return _study(out, settings, resume, echo)
 
