@@ -25,7 +25,7 @@ def _add_demo(sub):
     parser.add_argument("--mesh-size", type=float, default=1.0, help="with --block: block mesh size [mm] (default 1.0)")
     parser.add_argument("--model", choices=("axisymmetric", "3d"), default="axisymmetric",
                         help="the bolt study's model: axisymmetric (default) or 3d (the short M20 with the nut's "
-                             "window and jaws; about 35 minutes and 7.5 GB here)")
+                             "window and jaws; about 30 minutes and 7.5 GB here)")
     parser.set_defaults(run=_run_demo)
 
 
