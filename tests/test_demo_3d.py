@@ -1,5 +1,5 @@
 """`frictionid demo --model 3d`: the command line reaches the 3-D study, and refuses what it cannot do before
-building anything (the study itself takes most of an hour: benchmarks/bolt3d_identify_m20.py runs it)."""
+building anything (the study itself takes about half an hour: benchmarks/bolt3d_identify_m20.py runs it too)."""
 
 import pytest
 
