@@ -166,6 +166,8 @@ def graded_lines(k: int, ring: bool = False, cubic: bool = False) -> tuple[np.nd
 EDGE_RATIO = 8.0
 EDGE_PLATE_XY = (0.0, 2.0, 4.0, 5.0, 6.0, 8.05, 10.1, 14.1, 20.0)
 EDGE_PLATE_Z = (-5.0, -3.0, -1.0, 0.0)
+#: with the flag r: the plate's lines from the footprint's edge out past the points (9.6 mm) at 0.5-0.7 mm
+EDGE_PLATE_XY_RING = (0.0, 2.0, 4.0, 5.0, 5.6, 6.3, 7.0, 7.7, 8.4, 9.0, 9.6, 10.1, 12.0, 14.1, 20.0)
 EDGE_BLOCK_XY = (0.0, 2.2, 4.4, 5.0)
 EDGE_BLOCK_Z = (0.0, 1.0, 3.25, 5.5, 7.75, 10.0)
 
@@ -184,18 +186,19 @@ def edge_split(lines, at: float, m: int, ratio: float = EDGE_RATIO) -> np.ndarra
     return np.unique(np.round(np.concatenate([lines, *extra]), 12))
 
 
-def edge_lines(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(plate x and y, plate z, block x and y, block z) lines of edge-refined level ``m`` (EDGE_*)."""
+def edge_lines(m: int, ring: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(plate x and y, plate z, block x and y, block z) lines of edge-refined level ``m`` (EDGE_*; ``ring``: the
+    plate's lines EDGE_PLATE_XY_RING)."""
     mirror = lambda half: np.unique(np.concatenate([-np.asarray(half)[::-1], half]))
-    plate_xy, block_xy = mirror(EDGE_PLATE_XY), mirror(EDGE_BLOCK_XY)
+    plate_xy, block_xy = mirror(EDGE_PLATE_XY_RING if ring else EDGE_PLATE_XY), mirror(EDGE_BLOCK_XY)
     for edge in (-5.0, 5.0):
         plate_xy, block_xy = edge_split(plate_xy, edge, m), edge_split(block_xy, edge, m)
     return plate_xy, edge_split(EDGE_PLATE_Z, 0.0, m), block_xy, edge_split(EDGE_BLOCK_Z, 0.0, m)
 
 
-#: edge-refined family level names: ``e<m>`` with GRADED's flags Q (both bodies C3D20R) and p (the plate the
-#: slave: a label only)
-EDGE = re.compile(r"e(\d+)([Qp]*)")
+#: edge-refined family level names: ``e<m>`` with GRADED's flags Q (both bodies C3D20R), p (the plate the
+#: slave: a label only) and r (the plate's lines EDGE_PLATE_XY_RING)
+EDGE = re.compile(r"e(\d+)([Qpr]*)")
 
 #: graded family level names: ``g<k>`` and any of the flags q (block C3D20R), Q (both bodies C3D20R), r (the
 #: plate outside the footprint by ring_map), p (the plate the contact's slave: a label only, ``--slave`` decides),
@@ -208,7 +211,7 @@ def meshes(level):
     family level ``"g<k>"`` with GRADED's flags (:func:`graded_lines`)."""
     if isinstance(level, str) and EDGE.fullmatch(level):
         m, flags = EDGE.fullmatch(level).groups()
-        plate_xy, plate_z, block_xy, block_z = edge_lines(int(m))
+        plate_xy, plate_z, block_xy, block_z = edge_lines(int(m), ring="r" in flags)
         body = QuadraticGrid if "Q" in flags else gen.Grid
         plate = body(plate_xy, plate_xy, plate_z, first_node=1, first_element=1)
         block = body(block_xy, block_xy, block_z, first_node=plate.n_nodes + 1, first_element=len(plate.cells) + 1)
@@ -282,7 +285,8 @@ def graded_name(args) -> str:
     """The graded level's name (GRADED) of parsed ``--graded``, ``--quadratic[-block]``, ``--ring``, ``--slave``
     (``--cubic``), or with ``--edge`` the edge-refined level's (EDGE)."""
     if getattr(args, "edge", None) is not None:
-        return f"e{args.edge}{'Q' if args.quadratic else ''}{'p' if args.slave == 'plate' else ''}"
+        return (f"e{args.edge}{'Q' if args.quadratic else ''}{'p' if args.slave == 'plate' else ''}"
+                f"{'r' if args.ring else ''}")
     return (f"g{args.graded}{'Q' if args.quadratic else 'q' if args.quadratic_block else ''}"
             f"{'r' if args.ring else ''}{'p' if args.slave == 'plate' else ''}{'c' if args.cubic else ''}")
 
@@ -299,7 +303,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quadratic-block", action="store_true", help="with --graded: the block in C3D20R")
     parser.add_argument("--quadratic", action="store_true", help="with --graded: both bodies in C3D20R")
     parser.add_argument("--ring", action="store_true", help="with --graded: the plate outside the footprint by "
-                        "ring_map (finer where the DIC points are)")
+                        "ring_map (finer where the DIC points are); with --edge: its lines EDGE_PLATE_XY_RING")
     parser.add_argument("--cubic", action="store_true", help="with --graded: grading exponent 3 instead of "
                         "1 - cos (graded_lines' cubic)")
     parser.add_argument("--edge", type=int, help="edge-refined family level m instead of --level (edge_lines; "

@@ -149,3 +149,13 @@ def test_the_edge_refined_family_splits_only_the_elements_next_to_the_edges_and_
     plate, block, _ = tilt.meshes("e1Qp")
     assert isinstance(plate, tilt.QuadraticGrid) and isinstance(block, tilt.QuadraticGrid)
     assert plate.n_nodes + block.n_nodes == 10230
+
+
+def test_the_edge_family_with_r_has_the_plate_at_most_0_7_mm_from_the_footprint_past_the_points():
+    plain, ring = tilt.edge_lines(2), tilt.edge_lines(2, ring=True)
+    out = ring[0][(ring[0] >= 5.0) & (ring[0] <= 10.1)]
+    assert out[0] == 5.0 and out[-1] == 10.1 and np.diff(out).max() <= 0.7 + 1e-12
+    assert np.diff(plain[0][(plain[0] >= 5.0) & (plain[0] <= 10.1)]).max() > 2.0       # without r: 2.05 mm
+    for a, b in zip(ring[1:], plain[1:]):                        # the layers and the block are the same
+        np.testing.assert_array_equal(a, b)
+    assert tilt.EDGE.fullmatch("e2Qpr") and tilt.meshes("e2Qpr")[0].n_nodes > tilt.meshes("e2Qp")[0].n_nodes
