@@ -12,6 +12,7 @@ from pathlib import Path
 
 
 from .backends import make_backend
+from .backends.embedded import holds
 from .config import Config, config_from_dict
 from .data.measurements import Measurements
 from .errors import InputError, SolverError
@@ -135,8 +136,6 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
     start = time.perf_counter()
     obs = setup.observations
     max_memory = config.solver.max_memory
-    from .backends.embedded import holds
-
     if config.solver.backend == "embedded" and holds(setup.model, obs.points, obs.quantities, obs.point_regions,
                                                      strain_window(setup.window, obs), config.solver.factorisation,
                                                      config.solver.sliding):
