@@ -88,7 +88,7 @@ def test_kill_9_then_resume_recomputes_nothing_and_ends_where_an_uninterrupted_r
     store = measured / "runs/killed/store.sqlite"
     child = subprocess.Popen([sys.executable, "-m", "frictionid.cli", "identify", str(killed)],
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 120
+    deadline = time.monotonic() + 600
     while _evaluations(store) < 20 and time.monotonic() < deadline and child.poll() is None:
         time.sleep(0.02)
     os.kill(child.pid, signal.SIGKILL)
@@ -111,9 +111,12 @@ def test_ctrl_c_as_a_real_signal_stops_with_exit_1_a_result_and_the_resume_hint(
     store = measured / "runs/sigint/store.sqlite"
     child = subprocess.Popen([sys.executable, "-m", "frictionid.cli", "identify", str(config)],
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
+    deadline = time.monotonic() + 600
     while _evaluations(store) < 10 and time.monotonic() < deadline and child.poll() is None:
         time.sleep(0.02)
+    # on a loaded machine the signal must not land before the fit started (during gmsh's meshing the process
+    # exits 0 without a word), so the run's progress is checked first
+    assert child.poll() is None and _evaluations(store) >= 10, "the run did not reach 10 evaluations in 600 s"
     child.send_signal(signal.SIGINT)
     _, err = child.communicate(timeout=60)
     assert child.returncode == 1, (child.returncode, err)
