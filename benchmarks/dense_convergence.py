@@ -23,7 +23,8 @@ Each row also gives the changes of the block's rigid motion at the end of the pu
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
 after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
-convergence criteria), the same numbers per variant. ``--where`` adds, per pair of levels, the end of the pull's
+convergence criteria), or levels of different families under names that are no level's (``ring=DIR``), the same
+numbers per variant (with ``--where``, by region too). ``--where`` adds, per pair of levels, the end of the pull's
 differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
 in noise levels and share of the kind's sum of squares.
 
@@ -239,6 +240,9 @@ def main(argv=None) -> int:
         base = named[0][0]
         for name, _ in named[1:]:
             emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
+            if args.where:
+                for row in where(data[base][0], coordinates(dict(named)[base]), raw[base], raw[name]):
+                    emit({"variant": name, "against": base, **row}, args.out)
         return 0
     h = {name: size(name) for name, _ in named}
     limits = {}
