@@ -3,7 +3,7 @@
 claim the zone, the largest error of a claim in standard errors and the coverage of the claimed 95 % intervals.
 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_acceptance.py N [--modes default,include,u,u-include]
-        [--max-memory GB] [--out DIR] [--first K] [--reference CSV] [--twin]
+        [--max-memory GB] [--out DIR] [--first K] [--reference CSV] [--twin] [--exclude-plate-within MM] [--where]
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
 machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
@@ -18,6 +18,13 @@ and .json) for later invocations, and the condensations in ``--out``/cache (embe
 replicate of a mode starts at 0.1; later ones start at the first's fitted values (the same minimum, fewer
 iterations). Replicate k is generate.py's ``replicate(values, force, k)`` of the noise-free ``--reference``
 (default the fixture's measured.csv; replicate 0 of it is measured_noisy.csv).
+
+``--exclude-plate-within MM`` leaves out the plate points nearer than MM to the footprint (the noise drawn on all
+points first, so the points kept carry the same noise as in the full replicate); use its own ``--out`` (the kept
+control decisions are per point set). ``--where`` prints after each fit its chi-square per quantity kind by region
+of the points (dense_convergence.regions: each block face in height bands above the contact edge, the plate by
+distance from the footprint): the mean squared weighted residual (the weights with the model error in the
+"include" modes) and the region's share of the kind's chi-square.
 
 ``--twin``: the reference is frictionid's own default block model at the truth (``frictionid simulate`` of the
 fits' config: the fixture's points, the cells it gives, the same 2 mm window), fitted with the control off
@@ -37,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 import _tests  # noqa: F401  (tests/ importable)
+import dense_convergence
 from fixtures.dense_block import generate
 from frictionid import identification
 from frictionid.backends.embedded import use_cache
@@ -46,6 +54,7 @@ from frictionid.identification import identify_config
 from frictionid.options import ModelSpec
 from frictionid.simulation import simulate
 from frictionid.inverse.discretisation_control import Control
+from frictionid.inverse.observations import label_parts
 from frictionid.inverse.remaining_error import RemainingError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -69,13 +78,50 @@ def read_values(path: Path):
     return labels, xyz, values, force
 
 
-def write_replicate(k: int, out: Path, reference: Path) -> Path:
+def write_replicate(k: int, out: Path, reference: Path, exclude: float | None = None) -> Path:
+    """Replicate k of the reference as a CSV in out; with ``exclude`` without the plate points nearer than that to
+    the footprint (the noise drawn on all points first)."""
     labels, xyz, values, force = read_values(reference)
     noisy, noisy_force = generate.replicate(values, force, k)
+    note = ""
+    if exclude:
+        keep = ~(np.array([label.startswith("plate:") for label in labels])
+                 & (dense_convergence.footprint_distance(xyz) < exclude))
+        labels, xyz, noisy = [l for l, kept in zip(labels, keep) if kept], xyz[keep], noisy[:, keep]
+        note = f", the plate points within {exclude:g} mm of the footprint left out ({int((~keep).sum())})"
     path = out / f"replicate_{k}.csv"
-    generate.write_csv(path, [f"dense_block noise replicate {k} (benchmarks/dense_acceptance.py)"], labels, xyz,
-                       noisy, noisy_force)
+    generate.write_csv(path, [f"dense_block noise replicate {k} (benchmarks/dense_acceptance.py){note}"], labels,
+                       xyz, noisy, noisy_force)
     return path
+
+
+def misfit_where(result: dict, data: Path) -> list[dict]:
+    """Per region of the points (dense_convergence.regions, by face) and quantity kind: observations n, mean squared
+    weighted residual and share of the kind's chi-square, of a fit's result and its data file; the per-stage
+    force as a region of its own."""
+    labels, xyz, _, _ = read_values(data)
+    region_of = {}
+    for name, mask in dense_convergence.regions(labels, xyz, by_face=True):
+        region_of.update({label: name for label, inside in zip(labels, mask) if inside})
+    sums: dict = {}
+    for o in result["fit"]["observations"]:
+        point, quantity, _ = label_parts(o["label"])
+        key = (region_of.get(point, "other") if point else "machine", quantity)
+        n, chi2 = sums.get(key, (0, 0.0))
+        sums[key] = (n + 1, chi2 + ((o["model"] - o["measured"]) / o["sigma"]) ** 2)
+    total = {q: sum(c for (_, kind), (_, c) in sums.items() if kind == q) for _, q in sums}
+    return [{"region": region, "quantity": q, "n": n, "mean_r2": round(c / n, 3), "share": round(c / total[q], 3)}
+            for (region, q), (n, c) in sums.items()]
+
+
+def where_table(rows: list[dict]) -> str:
+    """misfit_where's rows as a table: a line per region, per kind its mean squared residual (share of the kind)."""
+    kinds = list(dict.fromkeys(r["quantity"] for r in rows))
+    lines = ["| region | " + " | ".join(kinds) + " |", "|---" * (len(kinds) + 1) + "|"]
+    for region in dict.fromkeys(r["region"] for r in rows):
+        cell = {r["quantity"]: f"{r['mean_r2']:.2f} ({r['share']:.0%}, {r['n']})" for r in rows if r["region"] == region}
+        lines.append(f"| {region} | " + " | ".join(cell.get(k, "") for k in kinds) + " |")
+    return "\n".join(lines)
 
 
 def config_text(data: Path, observables: str, model_error: str, run: Path, max_memory: float | None,
@@ -134,9 +180,9 @@ def twin_reference(out: Path) -> Path:
 
 
 def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None, start: dict,
-        control: bool = True) -> dict:
+        control: bool = True, exclude: float | None = None, where: bool = False) -> dict:
     observables, model_error = MODES[mode]
-    data = write_replicate(k, out, reference)
+    data = write_replicate(k, out, reference, exclude)
     path = out / f"{mode}_{k}.toml"
     path.write_text(config_text(data, OBSERVABLES[observables], model_error, out / f"run_{mode}_{k}", max_memory,
                                 start, control))
@@ -144,7 +190,13 @@ def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None,
     start = time.perf_counter()
     result = identify_config(read_config(path), echo=lambda text: print(f"  [{mode} {k}] {text}", flush=True))
     row = {"mode": mode, "replicate": k, "seconds": round(time.perf_counter() - start, 1),
-           "reduced_chi2": result["fit"]["reduced_chi2"], "model": result["model"], "zones": {}}
+           "reduced_chi2": result["fit"]["reduced_chi2"], "model": result["model"], "zones": {},
+           "kinds": {q: round(g["rms"] ** 2, 3) for q, g in result["fit"]["misfit"]["by_quantity"].items()},
+           "beyond": result["fit"]["kinds_beyond_noise"]}
+    if where:
+        row["where"] = misfit_where(result, data)
+        print(f"{mode} {k}: mean squared weighted residual by region and kind (share of the kind's chi-square, "
+              f"observations)\n{where_table(row['where'])}", flush=True)
     for zone, p in result["parameters"].items():
         off = None if not p["stderr"] else (p["value"] - TRUTH[zone]) / p["stderr"]
         low, high = p["ci95"] if p.get("ci95") else (math.nan, math.nan)
@@ -187,6 +239,9 @@ def main(argv=None) -> int:
     parser.add_argument("--merge", type=Path, nargs="*", default=[],
                         help="rows.json files of earlier runs: their rows join the printed table (0 replicates: "
                              "only print it)")
+    parser.add_argument("--exclude-plate-within", type=float, default=None, metavar="MM",
+                        help="leave out the plate points nearer than MM to the footprint")
+    parser.add_argument("--where", action="store_true", help="each fit's chi-square per kind by region")
     parser.add_argument("--twin", action="store_true", help="replicates of frictionid's own model at the truth, "
                         "fitted with the control off (module docstring)")
     args = parser.parse_args(argv)
@@ -199,14 +254,17 @@ def main(argv=None) -> int:
     for mode in args.modes.split(","):
         start = dict.fromkeys(TRUTH, 0.1)
         for k in range(args.first, args.first + args.replicates):
-            row = fit(mode, k, args.out, args.reference, args.max_memory, start, control=not args.twin)
+            row = fit(mode, k, args.out, args.reference, args.max_memory, start, control=not args.twin,
+                      exclude=args.exclude_plate_within, where=args.where)
             if k == args.first:
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
                 start = {z: min(max(e["value"], 0.01), 0.99) for z, e in row["zones"].items()}
             rows.append(row)
             print(f"{mode} {k}: chi2/dof {row['reduced_chi2']:.3g}, " + ", ".join(
                 f"{z} {e['value']:.4f} +- {e['stderr'] or float('nan'):.4f}{' claimed' if e['claimed'] else ''}"
-                for z, e in row["zones"].items()) + f" ({row['seconds']:.0f} s)", flush=True)
+                for z, e in row["zones"].items()) + f" ({row['seconds']:.0f} s); per kind " + ", ".join(
+                f"{q} {v:.2f}" for q, v in row["kinds"].items()) + f"; beyond the noise: {row['beyond']}",
+                flush=True)
             (args.out / "rows.json").write_text(json.dumps(rows, indent=1, default=dict))
     earlier = [row for path in args.merge for row in json.loads(path.read_text())]
     print(table(earlier + rows))

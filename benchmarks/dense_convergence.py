@@ -23,7 +23,8 @@ Each row also gives the changes of the block's rigid motion at the end of the pu
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
 after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
-convergence criteria), the same numbers per variant. ``--where`` adds, per pair of levels, the end of the pull's
+convergence criteria), or levels of different families under names that are no level's (``ring=DIR``), the same
+numbers per variant (with ``--where``, by region too). ``--where`` adds, per pair of levels, the end of the pull's
 differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
 in noise levels and share of the kind's sum of squares.
 
@@ -78,15 +79,29 @@ def coordinates(folder: Path, name: str = "measured.csv") -> np.ndarray:
 BLOCK_BANDS, PLATE_BANDS = ((0, 1), (1, 2), (2, 4), (4, 10)), ((1, 1.6), (1.6, 2.5), (2.5, 4), (4, 6.6))
 
 
+def footprint_distance(xyz: np.ndarray) -> np.ndarray:
+    """(n,) distance [mm] of points (n, 3) from the 10 x 10 mm footprint in the x-y plane (0 inside it)."""
+    return np.hypot(np.maximum(np.abs(xyz[:, 0]) - 5, 0), np.maximum(np.abs(xyz[:, 1]) - 5, 0))
+
+
+def regions(labels: list[str], xyz: np.ndarray, by_face: bool = False) -> list[tuple[str, np.ndarray]]:
+    """(name, mask) per region of the points: the block faces by height above the contact edge (BLOCK_BANDS; each
+    face on its own with ``by_face``), the plate by distance from the footprint (PLATE_BANDS)."""
+    face = np.array([label.split(":")[0] for label in labels])
+    plate = face == "plate"
+    faces = sorted(set(face[~plate])) if by_face else [None]
+    out = [(f"{'block' if f is None else f} z {a}-{b}", ~plate & (f is None or face == f) & (xyz[:, 2] >= a)
+            & (xyz[:, 2] < b)) for f in faces for a, b in BLOCK_BANDS]
+    distance = footprint_distance(xyz)
+    return out + [(f"plate {a}-{b} mm out", plate & (distance >= a - 1e-9) & (distance < b - 1e-9))
+                  for a, b in PLATE_BANDS]
+
+
 def where(labels: list[str], xyz: np.ndarray, coarse: np.ndarray, fine: np.ndarray) -> list[dict]:
     """Per region of the points, the end of the pull's differences fine - coarse (values (2, n, 9)): RMS in noise
     levels and share of the kind's sum of squares, displacements and strains."""
-    plate = np.array([label.startswith("plate") for label in labels])
-    distance = np.hypot(np.maximum(np.abs(xyz[:, 0]) - 5, 0), np.maximum(np.abs(xyz[:, 1]) - 5, 0))
-    regions = [(f"block z {a}-{b}", ~plate & (xyz[:, 2] >= a) & (xyz[:, 2] < b)) for a, b in BLOCK_BANDS]
-    regions += [(f"plate {a}-{b} mm out", plate & (distance >= a - 1e-9) & (distance < b - 1e-9)) for a, b in PLATE_BANDS]
     rows = []
-    for name, mask in regions:
+    for name, mask in regions(labels, xyz):
         row = {"region": name, "points": int(mask.sum())}
         for kind, (cols, noise) in KINDS.items():
             d = (fine[1][:, cols] - coarse[1][:, cols]) / noise
@@ -225,6 +240,9 @@ def main(argv=None) -> int:
         base = named[0][0]
         for name, _ in named[1:]:
             emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
+            if args.where:
+                for row in where(data[base][0], coordinates(dict(named)[base]), raw[base], raw[name]):
+                    emit({"variant": name, "against": base, **row}, args.out)
         return 0
     h = {name: size(name) for name, _ in named}
     limits = {}

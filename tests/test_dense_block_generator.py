@@ -159,3 +159,42 @@ def test_the_edge_family_with_r_has_the_plate_at_most_0_7_mm_from_the_footprint_
     for a, b in zip(ring[1:], plain[1:]):                        # the layers and the block are the same
         np.testing.assert_array_equal(a, b)
     assert tilt.EDGE.fullmatch("e2Qpr") and tilt.meshes("e2Qpr")[0].n_nodes > tilt.meshes("e2Qp")[0].n_nodes
+
+
+def test_the_acceptance_study_leaves_out_plate_points_and_splits_the_misfit_by_region(tmp_path):
+    """benchmarks/dense_acceptance.py's ``--exclude-plate-within``: the plate points nearer than that to the
+    footprint are gone and every point kept has its full replicate's noisy values; ``--where``: each observation's
+    squared weighted residual lands in its point's region (dense_convergence.regions), the shares add up to 1."""
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import dense_acceptance as acceptance
+    import dense_convergence as conv
+    reference = ROOT / "tests" / "fixtures" / "dense_block" / "measured.csv"
+    labels, xyz, values, force = acceptance.read_values(reference)
+    assert sorted(np.concatenate([np.flatnonzero(m) for _, m in conv.regions(labels, xyz, by_face=True)])) \
+        == list(range(len(labels)))                                           # every point in exactly one region
+    (tmp_path / "all").mkdir()
+    full = acceptance.read_values(acceptance.write_replicate(3, tmp_path / "all", reference))
+    kept = acceptance.read_values(acceptance.write_replicate(3, tmp_path, reference, exclude=2.5))
+    near = np.array([l.startswith("plate:") for l in labels]) & (conv.footprint_distance(xyz) < 2.5)
+    assert near.sum() > 100 and kept[0] == [l for l, n in zip(labels, near) if not n]
+    np.testing.assert_array_equal(kept[2], full[2][:, ~near])
+    np.testing.assert_array_equal(kept[3], full[3])
+    rng = np.random.default_rng(1)
+    points = [labels[i] for i in rng.choice(len(labels), 40, replace=False)]
+    observations = [{"label": f"{p}:uz@2", "measured": 0.0, "model": float(rng.normal()), "sigma": 0.5}
+                    for p in points] + [{"label": "force@2", "measured": 1.0, "model": 4.0, "sigma": 1.0}]
+    rows = acceptance.misfit_where({"fit": {"observations": observations}}, reference)
+    uz = [r for r in rows if r["quantity"] == "uz"]
+    assert abs(sum(r["share"] for r in uz) - 1.0) < 5e-3 and sum(r["n"] for r in uz) == 40
+    residual = {o["label"].rsplit(":", 1)[0]: o["model"] / 0.5 for o in observations[:-1]}
+    for name, mask in conv.regions(labels, xyz, by_face=True):
+        inside = [residual[l] for l, m in zip(labels, mask) if m and l in residual]
+        row = [r for r in uz if r["region"] == name]
+        assert len(row) == bool(inside)
+        if inside:
+            assert row[0]["n"] == len(inside) and abs(row[0]["mean_r2"] - np.mean(np.square(inside))) < 1e-3
+    assert {r["region"] for r in rows if r["quantity"] == "force"} == {"machine"}
+    assert [r["mean_r2"] for r in rows if r["quantity"] == "force"] == [9.0]
+    chi2 = sum(r["mean_r2"] * r["n"] for r in uz)
+    assert abs(chi2 - sum((o["model"] / 0.5) ** 2 for o in observations[:-1])) < 1e-2 * chi2
