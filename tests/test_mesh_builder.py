@@ -143,12 +143,19 @@ RING_GEO = stacked_rectangles_geo(2.0)
 
 def test_geo_file_axisymmetric_force_is_the_whole_ring_and_ctrl_c_still_works(tmp_path):
     (tmp_path / "rings.geo").write_text(RING_GEO)
-    model = mesh_model(tmp_path / "rings.geo", kind="axisymmetric", stages=["press"],
-                       materials={"lower": {"E": 200000, "nu": 0.3}, "upper": {"E": 200000, "nu": 0.3}},
-                       supports=[{"boundary": "bottom", "components": ["x", "y"]}],
-                       loads=[{"type": "force", "boundary": "upper_top", "component": "y", "values": [-1000.0]}],
-                       interfaces=[{"name": "rings", "zones": ["upper_bottom"], "target": "lower_top"}])
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler     # gmsh left Python's handler
+    # Python's own handler, as the command line has it (a test runner's worker may ignore SIGINT instead)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        model = mesh_model(tmp_path / "rings.geo", kind="axisymmetric", stages=["press"],
+                           materials={"lower": {"E": 200000, "nu": 0.3}, "upper": {"E": 200000, "nu": 0.3}},
+                           supports=[{"boundary": "bottom", "components": ["x", "y"]}],
+                           loads=[{"type": "force", "boundary": "upper_top", "component": "y",
+                                   "values": [-1000.0]}],
+                           interfaces=[{"name": "rings", "zones": ["upper_bottom"], "target": "lower_top"}])
+        handler = signal.getsignal(signal.SIGINT)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert handler is signal.default_int_handler                               # gmsh left Python's handler
     assert model.kind == "axisymmetric" and model.mesh.points[:, 0].min() == pytest.approx(2.0)
     channels = load_channels(Space.build(model.mesh, model.kind), model)
     force = channels.forces[0].reshape(-1, 2)
