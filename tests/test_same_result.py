@@ -109,3 +109,22 @@ def test_worst_lists_are_compared_beyond_ties_and_rounding():
     changed = fit(("a", 2.0))
     changed["fit"]["hint"] = "another"
     assert compared(changed, fit(("a", 2.0))) == [".fit.hint: 'another', was 'the residuals are 2'"]
+
+
+@pytest.mark.parametrize("name", ["first", "interrupted", "robust_starts"])
+def test_typed_fields_read_result_json(name):
+    from frictionid.result import IdentificationResult
+
+    data = json.loads((REFERENCE / f"{name}.json").read_text())
+    result = IdentificationResult.read(REFERENCE / f"{name}.json")
+    assert (result.status, result.method, result.message) == (data["status"], data["method"], data["message"])
+    assert result.n_iterations == data["n_iterations"] and isinstance(result.n_iterations, int)
+    assert result.n_solves == {"forward": data["n_forward_solves"], "sensitivities": data["n_sensitivity_solves"],
+                               "replayed": data["n_replayed"]}
+    assert result.coefficients == {zone: p["value"] for zone, p in data["parameters"].items()}
+    if "fit" in data:
+        assert (result.objective, result.chi2, result.n_obs) == (data["objective"]["final"], data["fit"]["chi2"],
+                                                                 data["fit"]["n_obs"])
+        assert result.ci95 == {z: tuple(p["ci95"]) for z, p in data["parameters"].items() if not p["fixed"]}
+    else:                                           # a stopped run has no fit to assess
+        assert (result.objective, result.chi2, result.n_obs) == (None, None, None)
