@@ -234,27 +234,33 @@ def window_error_lines(step: dict) -> list[str]:
     return lines
 
 
-#: the window fits: name -> merged zones ([friction] merge) and the per-face reference points (``relative_to``)
-WINDOW_FITS = {"zones": ({}, False), "sections": (SECTIONS, False), "zones_relative": ({}, True)}
+#: the window fits: name -> merged zones ([friction] merge), whether each face is fitted relative to one of its
+#: points (``relative_to``), and the mesh the data come from ("data"; "fit": the fit mesh itself, where the
+#: sections' fit finds the merged coefficients' values free of discretisation error)
+WINDOW_FITS = {"zones": ({}, False, "data"), "sections": (SECTIONS, False, "data"),
+               "zones_relative": ({}, True, "data"), "sections_relative": (SECTIONS, True, "data"),
+               "zones_self": ({}, False, "fit"), "sections_self": (SECTIONS, False, "fit")}
 #: the bolt's and the nut's window points are labelled B<k> and N<k>
 WINDOW_REGIONS = {"B*": "bolt", "N*": "nut"}
 
 
-def window_data(work: Path, step: dict, seed: int) -> dict:
-    """ux, uy, uz [mm] at the window's points on the data mesh at the truth (the window_error step's), with
-    Gaussian noise NOISE (``seed``) on every value, written to ``work``/window_<seed>.csv (points B<k> on the
-    bolt, N<k> on the nut) and, each face alone, to window_<seed>_bolt.csv and window_<seed>_nut.csv; the paths
-    by face ("all", "bolt", "nut")."""
+def window_data(work: Path, step: dict, seed: int, source: str = "data") -> dict:
+    """ux, uy, uz [mm] at the window's points on the ``source`` mesh at the truth (the window_error step's), with
+    Gaussian noise NOISE (``seed``; 0: none) on every value, written to ``work``/window_<seed>.csv (points B<k>
+    on the bolt, N<k> on the nut; window_<source>_<seed>.csv for another source than "data") and, each face alone,
+    to window_<seed>_bolt.csv and window_<seed>_nut.csv; the paths by face ("all", "bolt", "nut")."""
     points, n_bolt = np.array(step["points_mm"])[10:], step["n_bolt"]
-    exact = 1e-3 * np.array(step["values_um"]["data_truth"]).reshape(-1, 3)[10:]
-    noisy = exact + np.random.default_rng(seed).normal(0.0, NOISE, exact.shape)
+    exact = 1e-3 * np.array(step["values_um"][f"{source}_truth"]).reshape(-1, 3)[10:]
+    noisy = exact + (np.random.default_rng(seed).normal(0.0, NOISE, exact.shape) if seed else 0.0)
+    stem = "window" if source == "data" else f"window_{source}"
     labels = [f"B{k + 1}" if k < n_bolt else f"N{k + 1 - n_bolt}" for k in range(len(points))]
     paths = {}
     for face, rows in (("all", slice(None)), ("bolt", slice(0, n_bolt)), ("nut", slice(n_bolt, None))):
-        paths[face] = work / (f"window_{seed}.csv" if face == "all" else f"window_{seed}_{face}.csv")
+        paths[face] = work / (f"{stem}_{seed}.csv" if face == "all" else f"{stem}_{seed}_{face}.csv")
         with open(paths[face], "w") as out:
-            out.write(f"# twin data: the window's points (fit mesh's vertices) on the data mesh at mu "
-                      f"{json.dumps(TRUE_MU)}, Gaussian noise {NOISE} mm (seed {seed})\n# units mm\n"
+            noise = f"Gaussian noise {NOISE} mm (seed {seed})" if seed else "no noise"
+            out.write(f"# twin data: the window's points (fit mesh's vertices) on the {source} mesh at mu "
+                      f"{json.dumps({z: TRUE_MU[z] for z in ZONES})}, {noise}\n# units mm\n"
                       "point,x,y,z,stage,ux,uy,uz\n")
             for label, (x, y, z), u in zip(labels[rows], points[rows], noisy[rows]):
                 out.write(f"{label},{x:.6f},{y:.6f},{z:.6f},1,{u[0]:.9e},{u[1]:.9e},{u[2]:.9e}\n")
@@ -266,13 +272,13 @@ def window_fit_step(model, work: Path, name: str, seed: int, step: dict, iterati
     merged coefficients; with each face's displacements relative to its first point) from the window's ux, uy, uz
     with noise ``seed``, weighted by NOISE; per zone the value, standard error, whether it is claimed and whether
     the truth lies within 3 standard errors."""
-    groups, relative = WINDOW_FITS[name]
+    groups, relative, source = WINDOW_FITS[name]
     fitted = merge_zones(model, groups) if groups else model
     names = [z for z in fitted.zone_names if z not in fixed_friction()]
     truth = {z: float(np.mean([TRUE_MU[m] for m in groups.get(z, (z,))])) for z in names}
     params = Parameters([Parameter(z, START) for z in names]
                         + [Parameter(z, v, vary=False) for z, v in fixed_friction().items()])
-    paths = window_data(work, step, seed)
+    paths = window_data(work, step, seed, source)
     data, regions = paths["all"], WINDOW_REGIONS
     if relative:        # one table per face (a DIC view each), displacements relative to the face's first point
         data = [{"path": str(paths[face]), "stage": 1, "view": face, "relative_to": f"{face[0].upper()}1"}
