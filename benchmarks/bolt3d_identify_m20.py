@@ -314,18 +314,25 @@ def model_error_step(model) -> dict:
 
 
 def window_fit_lines(fits: dict) -> list[str]:
-    """Per window fit and zone: value, standard error, claimed or not, truth within 3 standard errors."""
+    """Per window fit and zone: value, standard error, claimed or not, and the truth within 3 standard errors or
+    not. A merged coefficient's truth is the sections_self fit's value (the fit mesh's own noise-free field) when
+    that fit was run, else its zones' mean."""
+    reference = {z: p["value"] for (name, _), r in fits.items() if name == "sections_self"
+                 for z, p in r["zones"].items()}
     lines = []
     for (name, seed), r in sorted(fits.items()):
-        cells = "; ".join(f"{z} {p['value']:.4f} (true {p['true']:.3f}) +/- "
-                          f"{'-' if p['stderr'] is None else format(p['stderr'], '.3g')} "
-                          f"{'claimed' if p['claimed'] else 'not claimed'}"
-                          f"{'' if p['within_3_stderr'] is None else (', holds' if p['within_3_stderr'] else ', OFF')}"
-                          for z, p in r["zones"].items())
+        cells = []
+        for z, p in r["zones"].items():
+            true = p["true"] if name == "sections_self" else reference.get(z, p["true"])
+            holds = "" if p["stderr"] is None else ", holds" if abs(p["value"] - true) <= 3 * p["stderr"] else ", OFF"
+            stderr = "-" if p["stderr"] is None else format(p["stderr"], ".3g")
+            cells.append(f"{z} {p['value']:.4f} (true {true:.4f}) +/- {stderr} "
+                         f"{'claimed' if p['claimed'] else 'not claimed'}{holds}")
         q = r["fit_quality"]
         lines.append(f"window fit {name}, seed {seed}: {r['status']}, {r['n_iterations']} iterations, "
                      f"{r['n_sensitivity_solves']} solves with sensitivities, chi2/dof {q['chi2'] / q['dof']:.2f}"
-                     f", consistent {q.get('consistent')}; {r['wall_s']:.0f} s wall ({r['cpu_s']:.0f} s CPU): {cells}")
+                     f", consistent {q.get('consistent')}; {r['wall_s']:.0f} s wall ({r['cpu_s']:.0f} s CPU): "
+                     + "; ".join(cells))
     return lines
 
 
