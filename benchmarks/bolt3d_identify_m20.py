@@ -351,7 +351,7 @@ def report(results: dict) -> None:
             stderr = "-" if p["stderr"] is None else f"{p['stderr']:.3g}"
             print(f"  {z}: {p['value']:.4f} (true {TRUE_MU[z]}), standard error {stderr}, "
                   f"{'resolved' if p['identifiable'] else 'not resolved'}")
-    sets = [("ten points, uy", results.get("trf", {}).get("prefit")), ("window, ux uy uz", results.get("window"))]
+    sets = [("ten points, uy", (results.get("trf") or {}).get("prefit")), ("window, ux uy uz", results.get("window"))]
     for label, prefit in sets:
         if prefit is None:
             continue
