@@ -235,11 +235,14 @@ def window_error_lines(step: dict) -> list[str]:
 
 
 #: the window fits: name -> merged zones ([friction] merge), whether each face is fitted relative to one of its
-#: points (``relative_to``), and the mesh the data come from ("data"; "fit": the fit mesh itself, where the
-#: sections' fit finds the merged coefficients' values free of discretisation error)
-WINDOW_FITS = {"zones": ({}, False, "data"), "sections": (SECTIONS, False, "data"),
-               "zones_relative": ({}, True, "data"), "sections_relative": (SECTIONS, True, "data"),
-               "zones_self": ({}, False, "fit"), "sections_self": (SECTIONS, False, "fit")}
+#: points (``relative_to``), the MESHES entry the data come from and the one fitted (data from the fitted mesh
+#: itself are noise-free: there the sections' fit finds the merged coefficients' values free of discretisation
+#: error)
+WINDOW_FITS = {"zones": ({}, False, "data", "fit"), "sections": (SECTIONS, False, "data", "fit"),
+               "zones_relative": ({}, True, "data", "fit"), "sections_relative": (SECTIONS, True, "data", "fit"),
+               "zones_self": ({}, False, "fit", "fit"), "sections_self": (SECTIONS, False, "fit", "fit"),
+               "sections_bearing": (SECTIONS, False, "data", "bearing"),
+               "sections_bearing_self": (SECTIONS, False, "bearing", "bearing")}
 #: the bolt's and the nut's window points are labelled B<k> and N<k>
 WINDOW_REGIONS = {"B*": "bolt", "N*": "nut"}
 
@@ -272,7 +275,7 @@ def window_fit_step(model, work: Path, name: str, seed: int, step: dict, iterati
     merged coefficients; with each face's displacements relative to its first point) from the window's ux, uy, uz
     with noise ``seed``, weighted by NOISE; per zone the value, standard error, whether it is claimed and whether
     the truth lies within 3 standard errors."""
-    groups, relative, source = WINDOW_FITS[name]
+    groups, relative, source, _ = WINDOW_FITS[name]
     fitted = merge_zones(model, groups) if groups else model
     names = [z for z in fitted.zone_names if z not in fixed_friction()]
     truth = {z: float(np.mean([TRUE_MU[m] for m in groups.get(z, (z,))])) for z in names}
@@ -315,15 +318,16 @@ def model_error_step(model) -> dict:
 
 def window_fit_lines(fits: dict) -> list[str]:
     """Per window fit and zone: value, standard error, claimed or not, and the truth within 3 standard errors or
-    not. A merged coefficient's truth is the sections_self fit's value (the fit mesh's own noise-free field) when
-    that fit was run, else its zones' mean."""
-    reference = {z: p["value"] for (name, _), r in fits.items() if name == "sections_self"
-                 for z, p in r["zones"].items()}
+    not. A merged coefficient's truth is the value of the same merged fit of the fitted mesh's own noise-free field
+    (sections_self, sections_bearing_self) when that fit was run, else its zones' mean."""
+    reference = {WINDOW_FITS[name][3]: {z: p["value"] for z, p in r["zones"].items()} for (name, _), r in fits.items()
+                 if WINDOW_FITS[name][0] and WINDOW_FITS[name][2] == WINDOW_FITS[name][3]}
     lines = []
     for (name, seed), r in sorted(fits.items()):
         cells = []
+        groups, _, source, mesh = WINDOW_FITS[name]
         for z, p in r["zones"].items():
-            true = p["true"] if name == "sections_self" else reference.get(z, p["true"])
+            true = p["true"] if source == mesh else reference.get(mesh, {}).get(z, p["true"])
             holds = "" if p["stderr"] is None else ", holds" if abs(p["value"] - true) <= 3 * p["stderr"] else ", OFF"
             stderr = "-" if p["stderr"] is None else format(p["stderr"], ".3g")
             cells.append(f"{z} {p['value']:.4f} (true {true:.4f}) +/- {stderr} "
@@ -415,9 +419,12 @@ def main(work: Path, settings: Settings3d, steps: list[str], settings_window: Wi
     results["window_fits"] = {}
     if results["window_error"] is not None:
         for name in settings_window.fits:
-            for seed in (0,) if WINDOW_FITS[name][2] == "fit" else settings_window.seeds:   # noise-free
+            _, _, source, mesh = WINDOW_FITS[name]
+            flank, contact = MESHES[mesh](settings)
+            for seed in (0,) if source == mesh else settings_window.seeds:   # a mesh's own field: noise-free
                 out = once(f"window_fit_{name}_{seed}", lambda: window_fit_step(
-                    model, work, name, seed, results["window_error"], settings_window.iterations), "window_fit")
+                    model if mesh == "fit" else cached_model(flank, work, contact)[0], work, name, seed,
+                    results["window_error"], settings_window.iterations), "window_fit")
                 if out is not None:
                     results["window_fits"][name, seed] = out
     report(results)
