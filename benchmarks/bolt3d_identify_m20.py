@@ -18,15 +18,16 @@ and "window_nut" surfaces, each value with 0.5 um noise. Steps:
   mesh with the data mesh's bearing faces (contact size) only, and on the fit mesh at the start: which size
   carries the meshes' difference, and how much of it is each face's rigid motion (one condensation each);
 - model_error: whether identify.model_error can run on the fit model within 9 GB (the product's check);
-- window_fit: trf from the window's field (the window_error step's data-mesh values, noise seeds
-  --window-seeds) per WINDOW_FITS entry: the four zones; one coefficient per section ([friction] merge); the four
-  zones with each face's displacements relative to one of its points (``relative_to``, one view per face).
+- window_fit: trf from the window's field (the window_error step's values, noise seeds --window-seeds) per
+  WINDOW_FITS entry: the four zones; one coefficient per section ([friction] merge); either with each face's
+  displacements relative to one of its points (``relative_to``, one view per face); the fitted mesh's own field,
+  noise-free (*_self); the sections fitted on the fit layout with the data's bearing faces (*_bearing*).
 Each model is built once and pickled (``--work``); each step runs in the process that asks for it, so ``--steps``
 one at a time keeps the peaks apart.
 
 Run (from benchmarks/, under /usr/bin/time -v for the peak):
 ../.venv/bin/python bolt3d_identify_m20.py --work DIR [--fit-flank 2.5] [--data-flank 1.875] [--gd-iterations 5]
-[--trf-iterations 10] [--window-fits zones sections zones_relative] [--window-seeds 1 2 3]
+[--trf-iterations 10] [--window-fits zones sections ...] [--window-seeds 1 2 3]
 [--window-iterations 15] [--steps data trf gd window truth window_error model_error window_fit]
 Each step writes DIR/<step>.json (a window fit DIR/window_fit_<fit>_<seed>.json); a step whose file exists is
 read, not run again.
