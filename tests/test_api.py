@@ -59,6 +59,20 @@ def test_model_and_measurements_as_objects_give_the_table_and_file_results(first
     assert set(result["model"]) == {"contact", "discretisation"}
 
 
+def test_measurements_as_a_list_of_files_or_tables_reach_the_data_table(first, cli_run):
+    """identify() takes [data] file's list form: a list of one path fits as the path does; a file table's own
+    keys (here relative_to) reach the fit."""
+    from_file = IdentificationResult.read(cli_run)
+    model, params = block_model_2d(mesh_size=1.0, pull=0.05), {"A": 0.1, "B": 0.1}
+    options = {"observables": ["ux", "uy"], "stages": [2], "noise": {"u": 0.0005}, "regions": REGIONS}
+    listed = identify(model, [first / "measured.csv"], params, **options)
+    for zone in ("A", "B"):
+        assert listed.coefficients[zone] == pytest.approx(from_file.coefficients[zone], abs=1e-12)
+    relative = identify(model, [{"path": str(first / "measured.csv"), "relative_to": "L1"}], params, **options)
+    assert list(relative["data"]["relative_to"]) == ["L1"] and not from_file["data"]["relative_to"]
+    assert relative["fit"]["chi2"] != pytest.approx(from_file["fit"]["chi2"], rel=1e-6)
+
+
 def test_the_result_object_reads_like_result_json_and_cannot_be_changed(cli_run):
     result = IdentificationResult.read(cli_run / "result.json")
     assert result["parameters"]["B"]["identifiable"] is True and result.identifiable == {"A": False, "B": True}

@@ -1,5 +1,6 @@
 """`frictionid demo --model 3d`: the command line reaches the 3-D study, and refuses what it cannot do before
-building anything (the study itself takes about half an hour: benchmarks/bolt3d_identify_m20.py runs it too)."""
+building anything (the study itself takes about half an hour: benchmarks/bolt3d_identify_m20.py runs it too);
+that benchmark's per-face rigid-motion correction of the window's field."""
 
 import pytest
 
@@ -58,3 +59,30 @@ def test_fig9_table_lines_up_iterations_of_both_methods():
     lines = study.fig9_lines(runs)
     assert "trf (analytic)" in lines[1] and "gradient-descent (forward)" in lines[1]
     assert [line.split() for line in lines[2:]] == [["0", "1", "1"], ["1", "0.5", "0.9"], ["2", "0.01"]]
+
+
+def test_the_window_benchmark_takes_each_faces_rigid_motion_out():
+    """benchmarks/bolt3d_identify_m20.py's without_rigid: per face (bolt rows first), a translation plus a small
+    rotation t + w x p is removed exactly; with the translation only, the rotation's part is left; a deformation
+    that is not rigid is kept."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    import numpy as np
+    benchmarks = Path(__file__).parents[1] / "benchmarks"
+    sys.path.insert(0, str(benchmarks))
+    spec = importlib.util.spec_from_file_location("bolt3d_identify_m20", benchmarks / "bolt3d_identify_m20.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(30, 3)) * 5.0
+    rigid = np.vstack([np.array(t) + np.cross(w, p) for t, w, rows in
+                       (([1.0, 2.0, 3.0], [0.01, -0.02, 0.03], points[:20]),
+                        ([-4.0, 0.5, 0.0], [0.0, 0.02, -0.01], points[20:]))
+                       for p in rows])
+    assert np.abs(bench.without_rigid(rigid, points, 20, rotation=True)).max() < 1e-12
+    assert np.abs(bench.without_rigid(rigid, points, 20, rotation=False)).max() > 0.1
+    stretch = np.zeros_like(points)
+    stretch[:, 1] = 1e-3 * points[:, 1] ** 2                  # not rigid: kept (less its own rigid part)
+    assert np.abs(bench.without_rigid(stretch + rigid, points, 20, rotation=True)).max() > 1e-3

@@ -46,7 +46,7 @@ RUN_FILES = ("result.json", "history.csv", "convergence.png", "residuals.png", "
              "store.sqlite")
 
 
-def identify(model: Model | dict, measurements: Measurements | str | Path, parameters: Parameters | dict, *,
+def identify(model: Model | dict, measurements: Measurements | str | Path | list, parameters: Parameters | dict, *,
              observables, stages, noise: dict | None = None, regions: dict | None = None,
              run_dir: str | Path | None = None, resume: bool = False, solver: dict | None = None, workers: int = 1,
              scheduler: str | None = None, fields: bool = True, progress=None, **options) -> IdentificationResult:
@@ -58,8 +58,9 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
     model : Model or dict
         A model object (e.g. from :func:`frictionid.builders.block.block_model_2d`) or a [model] table such as
         ``{"builder": "block2d", "mesh_size": 1.0}``; only a table can be refined (identify.model_error).
-    measurements : Measurements, str or Path
-        The measured values, or a measurement file (docs/data.md).
+    measurements : Measurements, str, Path or list
+        The measured values, or a measurement file (docs/data.md), or a list of files or file tables as
+        ``[data] file`` takes them (docs/config.md: one per stage, view or specimen).
     parameters : Parameters or dict
         Start values, bounds and held zones; a dict zone -> start value means bounds [0, 1] and no held zone.
     observables, stages, noise, regions
@@ -102,7 +103,9 @@ def identify(model: Model | dict, measurements: Measurements | str | Path, param
               "friction": {"zones": {p.name: p.value for p in parameters.items if p.vary},
                            "fixed": {p.name: p.value for p in parameters.items if not p.vary},
                            "bounds": {p.name: [p.min, p.max] for p in parameters.items if p.vary}},
-              "data": {"file": given.source or "(measurements given in memory)" if given else str(measurements),
+              "data": {"file": given.source or "(measurements given in memory)" if given else
+                       [m if isinstance(m, dict) else str(m) for m in measurements] if isinstance(measurements, list)
+                       else str(measurements),
                        "observables": list(observables), "stages": list(stages), "noise": dict(noise or {}),
                        "regions": dict(regions or {})},
               "solver": dict(solver or {}), "identify": options,

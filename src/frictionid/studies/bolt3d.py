@@ -52,9 +52,10 @@ class Settings3d:
     seed: int = 7
 
 
-def model_options(flank: float) -> dict:
-    """:func:`frictionid.builders.bolt.bolt_model` options of the short 3-D M20 at flank size ``flank`` [mm]."""
-    return {**SHORT, "flank_size": flank, "contact_size": 2.0 * flank}
+def model_options(flank: float, contact: float | None = None) -> dict:
+    """:func:`frictionid.builders.bolt.bolt_model` options of the short 3-D M20 at flank size ``flank`` [mm] and
+    contact size ``contact`` [mm] (the bearing faces' mesh; twice the flank size when None)."""
+    return {**SHORT, "flank_size": flank, "contact_size": 2.0 * flank if contact is None else contact}
 
 
 def ten_points() -> np.ndarray:
@@ -64,14 +65,15 @@ def ten_points() -> np.ndarray:
     return measurement_points_3d(layout, depth=0.1)
 
 
-def cached_model(flank: float, folder: Path):
-    """The short model at ``flank``, read from ``folder``/model_<flank>.pkl or built (minutes) and stored there;
-    and the build's CPU time [s] (nan when read)."""
-    path = Path(folder) / f"model_{flank:g}.pkl"
+def cached_model(flank: float, folder: Path, contact: float | None = None):
+    """The short model at ``flank`` (and ``contact``, :func:`model_options`), read from ``folder``/model_<flank>.pkl
+    (model_<flank>_c<contact>.pkl when ``contact`` is given) or built (minutes) and stored there; and the build's
+    CPU time [s] (nan when read)."""
+    path = Path(folder) / (f"model_{flank:g}.pkl" if contact is None else f"model_{flank:g}_c{contact:g}.pkl")
     if path.exists():
         return pickle.loads(path.read_bytes()), float("nan")
     cpu = time.process_time()
-    model = bolt_model(**model_options(flank))
+    model = bolt_model(**model_options(flank, contact))
     path.write_bytes(pickle.dumps(model))
     return model, time.process_time() - cpu
 
