@@ -30,6 +30,13 @@ distance from the footprint): the mean squared weighted residual (the weights wi
 fits' config: the fixture's points, the cells it gives, the same 2 mm window), fitted with the control off
 (``refine_target = 0``) so that the fitted model is the one that made the data: no model error, the noise alone.
 How often the claimed intervals hold there is the intervals' own coverage, free of any reference's error.
+
+``--at-truth NAME OPTIONS`` (no fits: the replicates are not read): frictionid's block model with the ``[model]`` lines
+OPTIONS (e.g. ``'edge_splits = 4\ninterface_splits = 4'``) at the truth, displacements and the force only, on the
+fixture's points, written to ``--out``/NAME/measured.csv for ``dense_convergence.py fixture=tests/fixtures/dense_block
+NAME=DIR``; prints the nodes, the seconds and the process's peak. The solver's small-sliding check is off there: the
+reference is ccx's small-sliding limit (the same problem), and edge elements shorter than the pull's slip at the
+leading edge (0.14 mm: edge_splits 3 and more) would otherwise be refused.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -179,6 +187,28 @@ def twin_reference(out: Path) -> Path:
     return written
 
 
+def at_truth(name: str, options: str, out: Path, max_memory: float | None) -> dict:
+    """--at-truth: the block with the ``[model]`` lines ``options`` simulated at the truth (module docstring)."""
+    from frictionid.fem import memory
+    from frictionid.fem.problem import Problem
+
+    folder, options = out / name, options.replace("\\n", "\n")     # "\n" typed in a shell's quotes: a new line
+    folder.mkdir(parents=True, exist_ok=True)
+    text = config_text(FIXTURE / "measured.csv", OBSERVABLES["u"], "off", folder / "run", max_memory, TRUTH,
+                       control=False).replace('builder = "block"\n', f'builder = "block"\n{options}\n')
+    (folder / "sim.toml").write_text(text)
+    check, Problem.check_small_sliding = Problem.check_small_sliding, lambda self, solution, limit=1.0: None
+    lines = []
+    try:
+        begun = time.perf_counter()
+        simulate(read_config(folder / "sim.toml"), folder / "measured.csv", echo=lines.append)
+    finally:
+        Problem.check_small_sliding = check
+    nodes = next(int(m.group(1).replace(",", "")) for m in map(re.compile(r"([\d,]+) nodes").search, lines) if m)
+    return {"at_truth": name, "options": options, "nodes": nodes, "seconds": round(time.perf_counter() - begun, 1),
+            "process_peak_gb": round(memory.process_peak() / memory.GB, 2), "export": str(folder)}
+
+
 def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None, start: dict,
         control: bool = True, exclude: float | None = None, where: bool = False) -> dict:
     observables, model_error = MODES[mode]
@@ -244,8 +274,13 @@ def main(argv=None) -> int:
     parser.add_argument("--where", action="store_true", help="each fit's chi-square per kind by region")
     parser.add_argument("--twin", action="store_true", help="replicates of frictionid's own model at the truth, "
                         "fitted with the control off (module docstring)")
+    parser.add_argument("--at-truth", nargs=2, metavar=("NAME", "OPTIONS"), help="simulate the block with these "
+                        "[model] lines at the truth, displacements only, into --out/NAME (module docstring)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.at_truth:
+        print(json.dumps(at_truth(*args.at_truth, args.out, args.max_memory)))
+        return 0
     if args.twin:
         args.reference = twin_reference(args.out)
     use_cache(args.out / "cache")

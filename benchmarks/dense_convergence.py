@@ -24,9 +24,10 @@ the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of 
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
 after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
 convergence criteria), or levels of different families under names that are no level's (``ring=DIR``), the same
-numbers per variant (with ``--where``, by region too). ``--where`` adds, per pair of levels, the end of the pull's
+numbers per variant (with ``--where``, by region too). A column that one export lacks (``frictionid simulate``
+with displacements only, say) is left out of every comparison. ``--where`` adds, per pair of levels, the end of the pull's
 differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
-in noise levels and share of the kind's sum of squares.
+in noise levels and share of the kind's sum of squares (also the block faces and the plate pooled).
 
 Levels of several graded families (``g2Qrp g3Qrp g4Qrp g2Qrpc g3Qrpc g4Qrpc``: the same k, other flags) are
 compared within their family; with two or more families of three levels each, their Richardson limits (per
@@ -63,7 +64,7 @@ def read(folder: Path, name: str = "measured.csv") -> tuple[list[str], np.ndarra
     cell = lambda v: float(v) if v else np.nan
     stage = np.array([int(r[4]) for r in rows])
     labels = [r[0] for r in rows if r[4] == "1"]
-    values = np.array([[cell(v) for v in r[6:15]] for r in rows])
+    values = np.array([[cell(v) for v in (r[6:15] + [""] * 9)[:9]] for r in rows])   # missing columns empty
     force = np.array([float(next(r[5] for r in rows if int(r[4]) == s)) for s in (1, 2)])
     return labels, np.stack([values[stage == 1], values[stage == 2]]), force
 
@@ -101,10 +102,13 @@ def where(labels: list[str], xyz: np.ndarray, coarse: np.ndarray, fine: np.ndarr
     """Per region of the points, the end of the pull's differences fine - coarse (values (2, n, 9)): RMS in noise
     levels and share of the kind's sum of squares, displacements and strains."""
     rows = []
-    for name, mask in regions(labels, xyz):
+    plate = np.array([label.startswith("plate:") for label in labels])
+    for name, mask in [("block faces", ~plate), ("plate", plate), *regions(labels, xyz)]:
         row = {"region": name, "points": int(mask.sum())}
         for kind, (cols, noise) in KINDS.items():
             d = (fine[1][:, cols] - coarse[1][:, cols]) / noise
+            if np.all(np.isnan(d)):                         # a kind one of the exports does not have
+                continue
             total, part = np.nansum(d ** 2), d[mask]
             row[f"{kind}_rms"] = round(float(np.sqrt(np.nanmean(part ** 2))), 2)
             row[f"{kind}_share"] = round(float(np.nansum(part ** 2) / total), 3)
@@ -130,13 +134,20 @@ def rigid(labels: list[str], values: np.ndarray) -> dict[str, float]:
             "tilt": mean("y-5", 2) - mean("y+5", 2), "roll": mean("x-5", 2) - mean("x+5", 2)}
 
 
-def differences(coarse, fine) -> dict:
-    """RMS and largest difference fine - coarse per kind and stage, and the slide's change, in noise levels."""
+def differences(coarse, fine, raw: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+    """RMS and largest difference fine - coarse per kind and stage, and the slide's change, in noise levels; with
+    ``raw`` (the two exports' values (2, n, 9)) also each displacement component's RMS over both stages and all
+    points (``ux_rms`` ...: what the per-kind consistency test of a fit sees)."""
     row = {}
+    if raw is not None:
+        for axis, component in enumerate(("ux", "uy", "uz")):
+            d = (raw[1][:, :, axis] - raw[0][:, :, axis]) / dense.NOISE_U
+            row[f"{component}_rms"] = round(float(np.sqrt(np.nanmean(d ** 2))), 3)
     for kind in ("u", "e", "force"):
         for s in (0, 1):
             d = fine[1][kind][s] - coarse[1][kind][s]
-            row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
+            if d.size:                                      # empty: a kind one of the exports does not have
+                row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
     row.update({k: round(fine[2][k] - coarse[2][k], 3) for k in ("slide", "tilt", "roll")})
     return row
 
@@ -193,6 +204,9 @@ def richardson(levels: list[dict], h: list[float]) -> tuple[dict, dict]:
         limit[kind] = []
         for s in (0, 1):
             fa, fb, fc = (level[kind][s] for level in levels)
+            if not fc.size:                                 # a kind the exports do not have
+                limit[kind].append(fc)
+                continue
             p, note = observed_order(rms(fb - fa), rms(fc - fb), tuple(h))
             error = (fc - fb) * h[2] ** p / (h[1] ** p - h[2] ** p)
             limit[kind].append(fc + error)
@@ -216,6 +230,8 @@ def gap(one: dict, other: dict) -> dict:
     for kind in ("u", "e", "force"):
         for s in (0, 1):
             d = one[kind][s] - other[kind][s]
+            if not d.size:                                  # a kind the exports do not have
+                continue
             row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
     return row
 
@@ -229,9 +245,12 @@ def main(argv=None) -> int:
                         "order (e.g. another family's), named '<family>@<order>', in the comparisons of limits")
     args = parser.parse_args(argv)
     named = [(a.split("=", 1)[0], Path(a.split("=", 1)[1])) for a in args.exports]
+    exports = {name: read(folder) for name, folder in named}
+    # a column one export lacks (displacements only, say) is compared in none
+    missing = np.any([np.all(np.isnan(values), axis=(0, 1)) for _, values, _ in exports.values()], axis=0)
     data, raw = {}, {}
-    for name, folder in named:
-        labels, values, force = read(folder)
+    for name, (labels, values, force) in exports.items():
+        values[:, :, missing] = np.nan
         data[name] = (labels, in_noise(values, force), rigid(labels, values))
         raw[name] = values
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
@@ -239,7 +258,8 @@ def main(argv=None) -> int:
     if not all(is_level(name) for name, _ in named):
         base = named[0][0]
         for name, _ in named[1:]:
-            emit({"variant": name, "against": base, **differences(data[base], data[name])}, args.out)
+            emit({"variant": name, "against": base, **differences(data[base], data[name], (raw[base], raw[name]))},
+                 args.out)
             if args.where:
                 for row in where(data[base][0], coordinates(dict(named)[base]), raw[base], raw[name]):
                     emit({"variant": name, "against": base, **row}, args.out)
