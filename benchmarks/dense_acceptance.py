@@ -4,6 +4,7 @@ claim the zone, the largest error of a claim in standard errors and the coverage
 
     PYTHONPATH=src .venv/bin/python benchmarks/dense_acceptance.py N [--modes default,include,u,u-include]
         [--max-memory GB] [--out DIR] [--first K] [--reference CSV] [--twin] [--exclude-plate-within MM] [--where]
+        [--model-lines OPTIONS] [--at-truth NAME OPTIONS]
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
 machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
@@ -37,6 +38,9 @@ fixture's points, written to ``--out``/NAME/measured.csv for ``dense_convergence
 NAME=DIR``; prints the nodes, the seconds and the process's peak. The solver's small-sliding check is off there: the
 reference is ccx's small-sliding limit (the same problem), and edge elements shorter than the pull's slip at the
 leading edge (0.14 mm: edge_splits 3 and more) would otherwise be refused.
+
+``--model-lines OPTIONS``: the fits' ``[model]`` gets these lines (as ``--at-truth``), with the control and the
+small-sliding check off: a fixed refinement of the model fitted as it is.
 """
 
 from __future__ import annotations
@@ -47,6 +51,7 @@ import math
 import re
 import sys
 import time
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -133,9 +138,10 @@ def where_table(rows: list[dict]) -> str:
 
 
 def config_text(data: Path, observables: str, model_error: str, run: Path, max_memory: float | None,
-                start: dict, control: bool = True) -> str:
+                start: dict, control: bool = True, model_lines: str = "") -> str:
     zones = ", ".join(f"{z} = {v:.6g}" for z, v in start.items())
-    return ('[model]\nbuilder = "block"\n[friction]\nzones = { ' + zones + ' }\n'
+    lines = model_lines.replace("\\n", "\n")                 # "\n" typed in a shell's quotes: a new line
+    return ('[model]\nbuilder = "block"\n' + (lines + "\n" if lines else "") + '[friction]\nzones = { ' + zones + ' }\n'
             f'[data]\nfile = "{data}"\nobservables = {observables}\nstages = [1, 2]\n'
             'noise = { u = 0.0005, e = 2e-5, force = 1.0 }\nregions = { "plate:*" = "plate", "*" = "block" }\n'
             'strain_window = 2.0\nstrain_window_shape = "circle"\n'
@@ -187,35 +193,44 @@ def twin_reference(out: Path) -> Path:
     return written
 
 
+@contextmanager
+def without_slip_check():
+    """The solver's small-sliding check off (--at-truth, --model-lines): the reference is ccx's small-sliding
+    limit, the same problem, and edge elements shorter than the pull's slip would otherwise be refused."""
+    from frictionid.fem.problem import Problem
+
+    check, Problem.check_small_sliding = Problem.check_small_sliding, lambda self, solution, limit=1.0: None
+    try:
+        yield
+    finally:
+        Problem.check_small_sliding = check
+
+
 def at_truth(name: str, options: str, out: Path, max_memory: float | None) -> dict:
     """--at-truth: the block with the ``[model]`` lines ``options`` simulated at the truth (module docstring)."""
     from frictionid.fem import memory
-    from frictionid.fem.problem import Problem
 
-    folder, options = out / name, options.replace("\\n", "\n")     # "\n" typed in a shell's quotes: a new line
+    folder = out / name
     folder.mkdir(parents=True, exist_ok=True)
     text = config_text(FIXTURE / "measured.csv", OBSERVABLES["u"], "off", folder / "run", max_memory, TRUTH,
-                       control=False).replace('builder = "block"\n', f'builder = "block"\n{options}\n')
+                       control=False, model_lines=options)
     (folder / "sim.toml").write_text(text)
-    check, Problem.check_small_sliding = Problem.check_small_sliding, lambda self, solution, limit=1.0: None
     lines = []
-    try:
+    with without_slip_check():
         begun = time.perf_counter()
         simulate(read_config(folder / "sim.toml"), folder / "measured.csv", echo=lines.append)
-    finally:
-        Problem.check_small_sliding = check
     nodes = next(int(m.group(1).replace(",", "")) for m in map(re.compile(r"([\d,]+) nodes").search, lines) if m)
-    return {"at_truth": name, "options": options, "nodes": nodes, "seconds": round(time.perf_counter() - begun, 1),
+    return {"at_truth": name, "options": options.replace("\\n", "\n"), "nodes": nodes, "seconds": round(time.perf_counter() - begun, 1),
             "process_peak_gb": round(memory.process_peak() / memory.GB, 2), "export": str(folder)}
 
 
 def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None, start: dict,
-        control: bool = True, exclude: float | None = None, where: bool = False) -> dict:
+        control: bool = True, exclude: float | None = None, where: bool = False, model_lines: str = "") -> dict:
     observables, model_error = MODES[mode]
     data = write_replicate(k, out, reference, exclude)
     path = out / f"{mode}_{k}.toml"
     path.write_text(config_text(data, OBSERVABLES[observables], model_error, out / f"run_{mode}_{k}", max_memory,
-                                start, control))
+                                start, control, model_lines))
     identification.control.group = observables
     start = time.perf_counter()
     result = identify_config(read_config(path), echo=lambda text: print(f"  [{mode} {k}] {text}", flush=True))
@@ -276,6 +291,8 @@ def main(argv=None) -> int:
                         "fitted with the control off (module docstring)")
     parser.add_argument("--at-truth", nargs=2, metavar=("NAME", "OPTIONS"), help="simulate the block with these "
                         "[model] lines at the truth, displacements only, into --out/NAME (module docstring)")
+    parser.add_argument("--model-lines", default="", metavar="OPTIONS", help="these [model] lines in the fits, the "
+                        "control and the small-sliding check off (module docstring)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.at_truth:
@@ -289,8 +306,10 @@ def main(argv=None) -> int:
     for mode in args.modes.split(","):
         start = dict.fromkeys(TRUTH, 0.1)
         for k in range(args.first, args.first + args.replicates):
-            row = fit(mode, k, args.out, args.reference, args.max_memory, start, control=not args.twin,
-                      exclude=args.exclude_plate_within, where=args.where)
+            with without_slip_check() if args.model_lines else nullcontext():
+                row = fit(mode, k, args.out, args.reference, args.max_memory, start,
+                          control=not (args.twin or args.model_lines), exclude=args.exclude_plate_within,
+                          where=args.where, model_lines=args.model_lines)
             if k == args.first:
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
                 start = {z: min(max(e["value"], 0.01), 0.99) for z, e in row["zones"].items()}
