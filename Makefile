@@ -41,6 +41,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/tightening.py
 	$(PY) benchmarks/dask_overhead.py
 	$(PY) benchmarks/contact_solves.py
+	$(PY) benchmarks/assembly.py
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
