@@ -31,6 +31,11 @@ from .threads import one_blas_thread
 log = logging.getLogger(__name__)
 #: values of [solver] sliding
 SLIDING = ("small", "finite")
+#: default of [solver] slip_tolerance: the small-sliding pairing's area-mean gap error over the closed contact,
+#: relative to the range of the contact's normal displacement (:meth:`Problem.check_small_sliding`)
+SLIP_TOLERANCE = 0.05
+#: with twist: the slip along t1 allowed at the default tolerance, in local element lengths
+TWIST_LENGTHS = 1.0
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
@@ -293,30 +298,92 @@ class Problem:
             np.maximum.at(length, facets, np.repeat(edge[:, None], facets.shape[1], axis=1))
         return length[self.pairs.nodes]
 
-    def check_small_sliding(self, solution: Solution, limit: float = 1.0) -> None:
-        """Raise :class:`SolverError` where the accumulated slip exceeds ``limit`` local element lengths.
+    def check_small_sliding(self, solution: Solution, tolerance: float = SLIP_TOLERANCE) -> None:
+        """Raise :class:`SolverError` where the fixed pairing's gap error exceeds ``tolerance`` of the contact's
+        normal displacement (docs/solver.md, "How far small sliding holds").
 
-        The pairing is fixed in the undeformed configuration, so a larger slip would give a wrong answer.
-        Pairs that stay open along the whole path are not checked: their pairing never acts. With twist only the
-        slip along t1, in the (r, y) section, counts: sliding around the axis keeps a ring pair's partners.
+        The pairs are fixed in the undeformed configuration: a pair that slid by s keeps its partner instead of
+        the target point it has slid to. At the increment of each stage with the largest slip the gap of the
+        deformed configuration (:func:`frictionid.fem.sliding.pairing_gap_error`, the finite-sliding coupling at
+        the solution's displacements) is compared with the pairing's; per interface, the area mean of that error
+        over the closed pairs (and the open pairs the deformed configuration closes) is taken relative to the
+        range of the target's normal displacement across the closed pairs, the normal deformation the contact
+        pressure resolves. Pairs that stay open along the whole path are not checked. With twist (no deformed
+        coupling) the slip along t1 is limited to one local element length instead, whatever the tolerance.
         """
-        slip = solution.slip[:, :, :1] if self.model.kind == "axisymmetric_twist" else solution.slip
-        slip = np.linalg.norm(slip, axis=2)                               # (n_inc, n_pairs)
+        if self.sliding == "finite" or self.pairs.n_pairs == 0:
+            return
+        if self.model.kind == "axisymmetric_twist":
+            return self._check_slip_lengths(solution, TWIST_LENGTHS)
+        for found in self.gap_errors(solution, tolerance):
+            if found["ratio"] > tolerance:
+                inc, worst = found["increment"], found["worst"]
+                stage = int(solution.stage[inc])
+                raise SolverError(
+                    f"small sliding: at interface {self.model.interfaces[found['interface']].name!r}, stage "
+                    f"{stage + 1} ({self.model.stages[stage].name}), increment {inc + 1}, the fixed pairing's gap "
+                    f"error averages {found['mean']:.3g} mm over the closed contact, {found['ratio']:.3g} of the "
+                    f"{found['spread']:.3g} mm range of its normal displacement, beyond [solver] slip_tolerance = "
+                    f"{tolerance:g}; largest {found['largest']:.3g} mm at contact node "
+                    f"{int(self.pairs.nodes[worst])} (position {np.round(self.pairs.position[worst], 4).tolist()}, "
+                    f"slip {found['slip']:.3g} mm); set [solver] sliding = \"finite\", reduce the imposed sliding, "
+                    "or raise slip_tolerance (false: no check)")
+
+    def gap_errors(self, solution: Solution, tolerance: float = np.inf, builder=None) -> list[dict]:
+        """The fixed pairing's gap error per interface at the increment of each stage with the largest slip
+        (:meth:`check_small_sliding`): dicts with ``interface``, ``increment`` (0-based), ``mean`` [mm] (the area
+        mean over the closed pairs), ``spread`` [mm] (range of the target's normal displacement across them),
+        ``ratio`` = mean / spread, ``worst`` (pair index), ``largest`` [mm], ``slip`` [mm] at the worst pair; the
+        search stops at the first ratio above ``tolerance``."""
+        from .sliding import mortar_builder, pairing_gap_error
+        slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
+        slip[:, np.all(solution.state == 0, axis=0)] = 0.0
+        builder = builder or mortar_builder(self.space, self.model)
+        pairs, found = self.pairs, []
+        for stage in np.unique(solution.stage):
+            rows = np.flatnonzero(solution.stage == stage)
+            inc = int(rows[np.argmax(slip[rows].max(axis=1))])
+            if not slip[inc].max() > 0.0:
+                continue
+            w_n, u = solution.w[inc, :, 0], self.displacement(solution, inc)
+            error = pairing_gap_error(self, u.ravel(), w_n, builder)
+            closed = solution.state[inc] != 0
+            # an open pair counts where the deformed configuration closes it
+            error = np.where(closed, np.abs(error), np.maximum(0.0, -(pairs.gap + w_n + error)))
+            target_n = np.einsum("pi,pi->p", pairs.frames[:, 0, :], u[pairs.nodes]) - w_n
+            for index in range(len(self.model.interfaces)):
+                mine = pairs.interface == index
+                if not np.any(mine & closed):
+                    continue
+                spread = float(np.ptp(target_n[mine & closed]))
+                mean = float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[mine & closed]))
+                worst = int(np.flatnonzero(mine)[np.argmax(error[mine])])
+                found.append(dict(interface=index, increment=inc, mean=mean, spread=spread,
+                                  ratio=mean / spread if spread > 0.0 else (np.inf if mean > 0.0 else 0.0),
+                                  worst=worst, largest=float(error[worst]), slip=float(slip[inc, worst])))
+                if found[-1]["ratio"] > tolerance:
+                    return found
+        return found
+
+    def _check_slip_lengths(self, solution: Solution, limit: float) -> None:
+        """With twist: the slip along t1, in the (r, y) section, within ``limit`` local element lengths (sliding
+        around the axis keeps a ring pair's partners)."""
+        slip = np.abs(solution.slip[:, :, 0])
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         ratio = slip / self.pair_length()
         if ratio.size and ratio.max() > limit:
             inc, pair = np.unravel_index(np.argmax(ratio), ratio.shape)
             raise SolverError(
                 f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
-                f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds the "
-                f"small-sliding range ({limit:g} x the local element length {self.pair_length()[pair]:.3g} mm); "
-                "reduce the imposed sliding, coarsen the contact mesh or set [solver] sliding = \"finite\"")
+                f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds "
+                f"{limit:g} x the local element length {self.pair_length()[pair]:.3g} mm, the small-sliding range of "
+                "a model with twist ([solver] slip_tolerance); reduce the imposed sliding or coarsen the contact mesh")
 
-    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0,
+    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = SLIP_TOLERANCE,
               increments: str = "fixed") -> Solution:
         """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value).
 
-        ``max_slip``: small-sliding limit in local element lengths (None: no check), see
+        ``max_slip``: the small-sliding check's tolerance ([solver] slip_tolerance; None: no check), see
         :meth:`check_small_sliding`. ``increments``: "fixed" (each stage's n_increments equal steps) or
         "adaptive" (each stage starts with its nominal step, doubles it after an increment Newton solved in at
         most :data:`EASY_NEWTON` iterations without a cut and without changing a pair's state or turning a slip
