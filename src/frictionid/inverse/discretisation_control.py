@@ -168,11 +168,6 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
         why = f"backend {backend!r} (the estimate needs the embedded backend)" if backend != "embedded" else \
             "the model is not a builder's [model] table frictionid can refine"
         return Control(model_options, model, _skipped(target, why, progress))
-    for d, name in enumerate(directions(model_options)):
-        if _slides_too_far(model_options, tuple(2 if j == d else 1 for j in range(len(within(model_options))))):
-            return Control(model_options, model, _skipped(target, f"{name} x2 would make the contact elements shorter "
-                                                                  "than the pull: beyond small sliding, not solved",
-                                                          progress))
     start = time.perf_counter()
     names, kinds, nested = directions(model_options), observation_kinds(observations), within(model_options)
     orders = convergence_orders(ELEMENT_ORDER[model.mesh.cell_type])
@@ -297,8 +292,9 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     base, nested = model.mesh.n_nodes, within(model_options)
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
-        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors) \
-                or _slides_too_far(model_options, factors):
+        # no refinement is left out for sliding: the small-sliding check's gap error is that of the solution, not
+        # of the element length (fem/problem.py, check_small_sliding), and each refinement's solves run it
+        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors):
             continue
         error = combined(terms, factors, np.log2(gain), nested)
         rms = kind_rms(np.abs(error) / sigma, kinds)
@@ -325,16 +321,6 @@ def _nodes(model_options: ModelSpec, factors, base: int, sizes) -> float:
         return float(block_layout(**refinement(model_options, factors).table()).n_nodes(
             int(model_options.option("order", 1))))
     return base * np.prod([(n / base) ** np.log2(k) for n, k in zip(sizes, factors)])
-
-
-def _slides_too_far(model_options: ModelSpec, factors) -> bool:
-    """Whether the refinement's contact elements are shorter than the 3-D block's pull: the block then slides
-    over more than one element, beyond the small-sliding pairing (:meth:`frictionid.fem.problem.Problem.
-    check_small_sliding` stops such a solve), so the refinement cannot be fitted."""
-    if model_options.builder != "block" or all(k == 1 for k in factors):
-        return False                                   # the model as given is always a candidate
-    pull = float(model_options.option("pull", _default("block", model_options.table(), "pull")))
-    return block_layout(**refinement(model_options, factors).table()).contact_length() < pull
 
 
 def _rms_text(rms: dict) -> str:
