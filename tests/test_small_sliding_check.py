@@ -98,3 +98,12 @@ def test_the_backend_takes_the_setting():
     with pytest.raises(SolverError, match="slip_tolerance = 0.05"):
         EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS).predict(MU)
     EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS, slip_tolerance=False).predict(MU)
+
+
+def test_the_displacements_of_several_increments_come_from_one_solve_and_equal_each_one():
+    problem = Problem.build(block_model(mesh_size=2.5))
+    solution = problem.solve(MU)
+    together = problem.displacement(solution, [0, 5, -1])
+    one_by_one = np.array([problem.displacement(solution, k) for k in (0, 5, -1)])
+    np.testing.assert_allclose(together, one_by_one, rtol=0, atol=1e-12 * np.abs(one_by_one).max())
+    assert np.abs(one_by_one[2] - one_by_one[1]).max() > 0.01                 # the increments differ

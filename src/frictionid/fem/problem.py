@@ -265,17 +265,20 @@ class Problem:
             factorisation=factorisation)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
-    def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
-        """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem."""
+    def displacement(self, solution: Solution, increment=-1) -> np.ndarray:
+        """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem; for a
+        list of increments (k, n_nodes, n_components), one solve with k right-hand sides."""
+        many = np.ndim(increment) == 1
+        index = np.atleast_1d(increment)
         if solution.interface_forces is not None:
             from .sliding import selection
-            B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[increment]
+            B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[index]
         else:
-            B, x = self.pairs.B, solution.lam[increment].ravel()
-        x = np.concatenate([x, solution.alpha[increment]])
-        u = self.condensed.displacement(B, self.channels.displacements,
-                                        solution.amplitude[increment], x)
-        return u.reshape(-1, self.space.n_components)
+            B, x = self.pairs.B, solution.lam[index].reshape(len(index), -1)
+        x = np.hstack([x, solution.alpha[index]])
+        u = self.condensed.displacement(B, self.channels.displacements, solution.amplitude[index], x)
+        u = u.reshape(len(index), -1, self.space.n_components)
+        return u if many else u[0]
 
     def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
         """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""
@@ -339,14 +342,15 @@ class Problem:
         slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         builder = builder or mortar_builder(self.space, self.model)
+        checked = [int(rows[np.argmax(slip[rows].max(axis=1))])
+                   for rows in (np.flatnonzero(solution.stage == stage) for stage in np.unique(solution.stage))]
+        checked = [inc for inc in checked if slip[inc].max() > 0.0]
+        if not checked:
+            return []
         pairs, found = self.pairs, []
-        for stage in np.unique(solution.stage):
-            rows = np.flatnonzero(solution.stage == stage)
-            inc = int(rows[np.argmax(slip[rows].max(axis=1))])
-            if not slip[inc].max() > 0.0:
-                continue
-            w_n, u = solution.w[inc, :, 0], self.displacement(solution, inc)
-            error = pairing_gap_error(self, u.ravel(), w_n, builder)
+        for inc, u in zip(checked, self.displacement(solution, checked)):
+            w_n = solution.w[inc, :, 0]
+            error = pairing_gap_error(self, u.ravel(), w_n, builder, self._coupled_gap)
             closed = solution.state[inc] != 0
             # an open pair counts where the deformed configuration closes it
             error = np.where(closed, np.abs(error), np.maximum(0.0, -(pairs.gap + w_n + error)))
@@ -413,6 +417,13 @@ class Problem:
         pairs, c = self.pairs, self.condensed
         return KrylovSolver(c, contact_scale(c), free_tangents(pairs.B, c.free, pairs.dim),
                             held_normals(pairs.B, c.free, pairs.dim), pairs.dim)
+
+    @functools.cached_property
+    def _coupled_gap(self) -> np.ndarray:
+        """(n_pairs,) [mm] the gap of the deformed-configuration coupling (fem/sliding.py) at the undeformed
+        configuration, made at the first small-sliding check and kept: the reference of its gap errors."""
+        from .sliding import aligned, mortar_builder
+        return aligned(self.pairs, mortar_builder(self.space, self.model)(self.model.mesh.points)).gap
 
     def __getstate__(self):
         state = dict(self.__dict__)
