@@ -33,6 +33,29 @@ def test_a_pair_slid_over_a_flat_target_keeps_its_gap_and_a_tilted_target_costs_
         np.testing.assert_allclose(np.abs(error), abs(slope * shift[1]), atol=1e-12)
 
 
+def test_on_a_curved_target_the_gap_error_is_the_targets_drop_between_partner_and_slid_to_point():
+    """The plate's top bent into a bowl, u_z = -y^2 / (2 R), the block slid by s in y: the deformed gap at a pair
+    from y0 grows by (y0 + s)^2 / (2 R), the fixed pairing's by y0^2 / (2 R); the error (2 y0 s + s^2) / (2 R),
+    the curvature term s^2 / (2 R) at y0 = 0, within the facets' linear interpolation of the bowl, h^2 / (8 R)."""
+    model = block_model(mesh_size=2.5)
+    problem = Problem.build(model)
+    pairs, radius, slide = problem.pairs, 100.0, 3.0
+    points, u = model.mesh.points, np.zeros_like(model.mesh.points)
+    block = np.unique(model.mesh.cells[model.mesh.regions["block"]])
+    plate = np.setdiff1d(np.arange(model.mesh.n_nodes), block)
+    u[block, 1] = slide
+    u[plate, 2] = -points[plate, 1] ** 2 / (2 * radius)
+    error = pairing_gap_error(problem, u.ravel(), (pairs.B @ u.ravel())[::3])
+    y0 = pairs.position[:, 1]
+    corners = points[model.mesh.boundary("plate_top")[:, :4]]
+    centre = corners.mean(axis=1)
+    under = corners[(np.abs(centre[:, 0]) < 5.0) & (centre[:, 1] > -5.0) & (centre[:, 1] < 5.0 + slide)]
+    h = np.linalg.norm(under - np.roll(under, -1, axis=1), axis=2).max()      # facets the pairs slide over
+    expected = (2 * y0 * slide + slide ** 2) / (2 * radius)
+    assert expected.max() > 10 * h ** 2 / (8 * radius)
+    np.testing.assert_allclose(error, expected, rtol=0, atol=h ** 2 / (8 * radius))
+
+
 def test_the_block_pulled_0_2_mm_is_accepted_and_finite_sliding_agrees_with_it():
     """Mesh 2.5 (25 pairs): gap error 0.016 of the contact's normal displacement range (measured); the
     observations of finite and small sliding differ by 0.68 % of their range (measured 1.32 um of 195 um), most
