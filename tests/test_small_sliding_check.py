@@ -118,7 +118,7 @@ def test_slip_tolerance_takes_a_positive_number_or_false(value, accepted):
 def test_the_backend_takes_the_setting():
     from frictionid.backends.embedded import EmbeddedBackend
     model = block_model(pull=2.0, mesh_size=5.0, n_pull=20)
-    with pytest.raises(SolverError, match="slip_tolerance = 0.05"):
+    with pytest.raises(SolverError, match=f"slip_tolerance = {SLIP_TOLERANCE:g}"):
         EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS).predict(MU)
     EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS, slip_tolerance=False).predict(MU)
 

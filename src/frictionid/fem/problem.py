@@ -33,9 +33,11 @@ log = logging.getLogger(__name__)
 SLIDING = ("small", "finite")
 #: default of [solver] slip_tolerance: the small-sliding pairing's area-mean gap error over the closed contact,
 #: relative to the range of the contact's normal displacement (:meth:`Problem.check_small_sliding`)
-SLIP_TOLERANCE = 0.05
-#: with twist: the slip along t1 allowed at the default tolerance, in local element lengths
+SLIP_TOLERANCE = 0.1
+#: with twist: the slip along t1 allowed, in local element lengths
 TWIST_LENGTHS = 1.0
+#: gap errors whose area mean is below this share of the largest displacement are round-off (a uniform field)
+ROUND_OFF = 1e-9
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
@@ -310,8 +312,9 @@ class Problem:
         deformed configuration (:func:`frictionid.fem.sliding.pairing_gap_error`, the finite-sliding coupling at
         the solution's displacements) is compared with the pairing's; per interface, the area mean of that error
         over the closed pairs (and the open pairs the deformed configuration closes) is taken relative to the
-        range of the target's normal displacement across the closed pairs, the normal deformation the contact
-        pressure resolves. Pairs that stay open along the whole path are not checked. With twist (no deformed
+        normal deformation the contact resolves: the range of the target's normal displacement across the closed
+        pairs, or their largest initial interference if larger. Pairs the deformed coupling does not cover (slid
+        off the target's end) are left out; a mean below :data:`ROUND_OFF` of the largest displacement is zero. Pairs that stay open along the whole path are not checked. With twist (no deformed
         coupling) the slip along t1 is limited to one local element length instead, whatever the tolerance.
         """
         if self.sliding == "finite" or self.pairs.n_pairs == 0:
@@ -335,9 +338,11 @@ class Problem:
     def gap_errors(self, solution: Solution, tolerance: float = np.inf, builder=None) -> list[dict]:
         """The fixed pairing's gap error per interface at the increment of each stage with the largest slip
         (:meth:`check_small_sliding`): dicts with ``interface``, ``increment`` (0-based), ``mean`` [mm] (the area
-        mean over the closed pairs), ``spread`` [mm] (range of the target's normal displacement across them),
-        ``ratio`` = mean / spread, ``worst`` (pair index), ``largest`` [mm], ``slip`` [mm] at the worst pair; the
-        search stops at the first ratio above ``tolerance``."""
+        mean over the closed pairs), ``spread`` [mm] (the normal deformation: the range of the target's normal
+        displacement across them, or their largest initial interference),
+        ``ratio`` = mean / spread, ``worst`` (pair index), ``largest`` [mm], ``slip`` [mm] at the worst pair,
+        ``uncovered`` (closed pairs the deformed coupling does not cover, left out); the search stops at the first
+        ratio above ``tolerance``."""
         from .sliding import mortar_builder, pairing_gap_error
         slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
@@ -351,20 +356,28 @@ class Problem:
         for inc, u in zip(checked, self.displacement(solution, checked)):
             w_n = solution.w[inc, :, 0]
             error = pairing_gap_error(self, u.ravel(), w_n, builder, self._coupled_gap)
+            # a pair the coupling does not cover (here or undeformed: the target's end) has no gap error to measure
+            uncovered = ~np.isfinite(error)
             closed = solution.state[inc] != 0
             # an open pair counts where the deformed configuration closes it
-            error = np.where(closed, np.abs(error), np.maximum(0.0, -(pairs.gap + w_n + error)))
+            error = np.where(uncovered, 0.0, np.where(closed, np.abs(error),
+                                                      np.maximum(0.0, -(pairs.gap + w_n + error))))
             target_n = np.einsum("pi,pi->p", pairs.frames[:, 0, :], u[pairs.nodes]) - w_n
             for index in range(len(self.model.interfaces)):
                 mine = pairs.interface == index
                 if not np.any(mine & closed):
                     continue
-                spread = float(np.ptp(target_n[mine & closed]))
+                # the normal deformation the contact resolves: the range of its normal displacement (a force
+                # fixes the pressure's mean), or an initial interference (which fixes it)
+                spread = float(max(np.ptp(target_n[mine & closed]), -np.min(pairs.gap[mine & closed], initial=0.0)))
                 mean = float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[mine & closed]))
+                if mean <= ROUND_OFF * np.abs(u).max():
+                    mean = 0.0                                   # a uniform field's round-off, not an error
                 worst = int(np.flatnonzero(mine)[np.argmax(error[mine])])
                 found.append(dict(interface=index, increment=inc, mean=mean, spread=spread,
-                                  ratio=mean / spread if spread > 0.0 else (np.inf if mean > 0.0 else 0.0),
-                                  worst=worst, largest=float(error[worst]), slip=float(slip[inc, worst])))
+                                  ratio=mean / spread if mean > 0.0 else 0.0, worst=worst,
+                                  largest=float(error[worst]), slip=float(slip[inc, worst]),
+                                  uncovered=int(np.count_nonzero(uncovered & mine & closed))))
                 if found[-1]["ratio"] > tolerance:
                     return found
         return found
