@@ -20,9 +20,11 @@ own factor and its uniform direction's (:func:`frictionid.inverse.remaining_erro
 kind is within the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to
 2^``identify.refine_budget``, size predicted from the directional models' sizes) whose prediction is within the
 target in every kind is built and fitted, after :func:`frictionid.fem.memory.check`, the memory law scaled by the
-largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`), and
-(3-D block) whose contact elements are not shorter than the pull (small sliding pairs nodes for a slip of at most
-one element); when none is, the one with the smallest largest-kind error that fits in memory, and the record says
+largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`) (no
+refinement is left out for its element length against the slip: the small-sliding check,
+:meth:`frictionid.fem.problem.Problem.check_small_sliding`, measures the pairing's gap error, a property of the
+solution, which the solves of the chosen model run); when none is, the one with the smallest largest-kind error that
+fits in memory, and the record says
 the target was not reached. A model that cannot be refined (a model object, another backend) is fitted as it is, and
 the record says why.
 
