@@ -79,7 +79,7 @@ def test_the_2_mm_pull_is_refused_naming_where_and_what_to_do_and_finite_sliding
         problem.solve(MU)
     message = str(error.value)
     for words in ("interface 'block_plate'", "stage 2 (pull)", "increment 21", "gap error averages",
-                  "range of its normal displacement", f"[solver] slip_tolerance = {SLIP_TOLERANCE:g}", "contact node",
+                  "of the normal deformation the contact resolves (", f"[solver] slip_tolerance = {SLIP_TOLERANCE:g}", "contact node",
                   "position [", "slip 1.9", '[solver] sliding = "finite"', "(false: no check)"):
         assert words in message, (words, message)
     small = problem.solve(MU, max_slip=None)                                 # off

@@ -304,22 +304,25 @@ class Problem:
         return length[self.pairs.nodes]
 
     def check_small_sliding(self, solution: Solution, tolerance: float = SLIP_TOLERANCE) -> None:
-        """Raise :class:`SolverError` where the fixed pairing's gap error exceeds ``tolerance`` of the contact's
-        normal displacement (docs/solver.md, "How far small sliding holds").
+        """Raise :class:`SolverError` where the fixed pairing's gap error exceeds ``tolerance`` of the normal
+        deformation the contact resolves (docs/solver.md, "How far small sliding holds").
 
         The pairs are fixed in the undeformed configuration: a pair that slid by s keeps its partner instead of
         the target point it has slid to. At the increment of each stage with the largest slip the gap of the
         deformed configuration (:func:`frictionid.fem.sliding.pairing_gap_error`, the finite-sliding coupling at
-        the solution's displacements) is compared with the pairing's; per interface, the area mean of that error
-        over the closed pairs (and the open pairs the deformed configuration closes) is taken relative to the
-        normal deformation the contact resolves: the range of the target's normal displacement across the closed
-        pairs, or their largest initial interference if larger. Pairs the deformed coupling does not cover (slid
-        off the target's end) are left out; a mean below :data:`ROUND_OFF` of the largest displacement is zero. Pairs that stay open along the whole path are not checked. With twist (no deformed
-        coupling) the slip along t1 is limited to one local element length instead, whatever the tolerance.
+        the solution's displacements) is compared with the pairing's (:meth:`gap_errors`); per interface, the
+        area mean of that error over the closed pairs (and the open pairs the deformed configuration closes) is
+        taken relative to the normal deformation the contact resolves: the range of the target's normal
+        displacement across the closed pairs, or their largest initial interference if larger. Pairs the
+        deformed coupling does not cover (slid off the target's end) are left out; a mean below
+        :data:`ROUND_OFF` of the largest displacement is zero. Pairs that stay open along the whole path are not
+        checked. With twist (no deformed coupling) or a helical interface (``lead``: its pairs' normals are the
+        helicoid's, not the deformed coupling's facet normals) the slip (with twist: along t1) is limited to one
+        local element length instead, whatever the tolerance.
         """
         if self.sliding == "finite" or self.pairs.n_pairs == 0:
             return
-        if self.model.kind == "axisymmetric_twist":
+        if self.model.kind == "axisymmetric_twist" or any(i.lead for i in self.model.interfaces):
             return self._check_slip_lengths(solution, TWIST_LENGTHS)
         for found in self.gap_errors(solution, tolerance):
             if found["ratio"] > tolerance:
@@ -328,8 +331,8 @@ class Problem:
                 raise SolverError(
                     f"small sliding: at interface {self.model.interfaces[found['interface']].name!r}, stage "
                     f"{stage + 1} ({self.model.stages[stage].name}), increment {inc + 1}, the fixed pairing's gap "
-                    f"error averages {found['mean']:.3g} mm over the closed contact, {found['ratio']:.3g} of the "
-                    f"{found['spread']:.3g} mm range of its normal displacement, beyond [solver] slip_tolerance = "
+                    f"error averages {found['mean']:.3g} mm over the closed contact, {found['ratio']:.3g} of the normal "
+                    f"deformation the contact resolves ({found['spread']:.3g} mm), beyond [solver] slip_tolerance = "
                     f"{tolerance:g}; largest {found['largest']:.3g} mm at contact node "
                     f"{int(self.pairs.nodes[worst])} (position {np.round(self.pairs.position[worst], 4).tolist()}, "
                     f"slip {found['slip']:.3g} mm); set [solver] sliding = \"finite\", reduce the imposed sliding, "
@@ -383,9 +386,10 @@ class Problem:
         return found
 
     def _check_slip_lengths(self, solution: Solution, limit: float) -> None:
-        """With twist: the slip along t1, in the (r, y) section, within ``limit`` local element lengths (sliding
-        around the axis keeps a ring pair's partners)."""
-        slip = np.abs(solution.slip[:, :, 0])
+        """The slip within ``limit`` local element lengths; with twist only along t1, in the (r, y) section
+        (sliding around the axis keeps a ring pair's partners)."""
+        slip = solution.slip[:, :, :1] if self.model.kind == "axisymmetric_twist" else solution.slip
+        slip = np.linalg.norm(slip, axis=2)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         ratio = slip / self.pair_length()
         if ratio.size and ratio.max() > limit:
@@ -394,7 +398,8 @@ class Problem:
                 f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
                 f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds "
                 f"{limit:g} x the local element length {self.pair_length()[pair]:.3g} mm, the small-sliding range of "
-                "a model with twist ([solver] slip_tolerance); reduce the imposed sliding or coarsen the contact mesh")
+                "a model with twist or a helical interface (lead); reduce the imposed sliding, coarsen the contact "
+                "mesh, or set [solver] slip_tolerance = false (no check)")
 
     def solve(self, mu, sensitivities: bool = False, max_slip: float | None = SLIP_TOLERANCE,
               increments: str = "fixed") -> Solution:
