@@ -6,7 +6,8 @@ the tables of docs/solver.md, "How far small sliding holds".
 Each case ("3d: OPTIONS" of block_model, "2d: OPTIONS" of block_model_2d; default: the tables' rows) prints the
 largest slip in shortest elements at the pair, the check's ratio and largest gap error at the increment of each
 stage with the largest slip, and finite minus small sliding at the last increment: observations (largest /
-range), the pull reaction, the zone normal forces and the largest pair normal force difference.
+range), the pull reaction, the zone normal forces and the largest pair normal force difference; and the gap
+error of the fixed pairing evaluated at small sliding's state (the estimate) and at finite sliding's.
 """
 
 import sys
@@ -16,6 +17,7 @@ import numpy as np
 
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.fem.problem import Problem
+from frictionid.fem.sliding import pairing_gap_error
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import sliding3d_case  # noqa: E402
@@ -51,7 +53,20 @@ def compare(case: str) -> None:
     for found in small.gap_errors(s):
         print(f"  increment {found['increment'] + 1}: ratio {found['ratio']:.4f}, largest {found['largest']:.3e} mm "
               f"at {small.pairs.position[found['worst']].round(3).tolist()}, slip {found['slip']:.4f} mm")
-    f = Problem.build(model, sliding="finite", **build).solve(mu)
+    finite = Problem.build(model, sliding="finite", **build)
+    f = finite.solve(mu)
+    # the fixed pairing's gap error at finite sliding's own state (its closed pairs): what the estimate predicts
+    u_f = finite.displacement(f, -1)
+    at_finite = pairing_gap_error(small, u_f.ravel(), (small.pairs.B @ u_f.ravel())[::small.pairs.dim],
+                                  reference=small._coupled_gap)
+    u_s = small.displacement(s, -1)
+    at_small = pairing_gap_error(small, u_s.ravel(), s.w[-1, :, 0], reference=small._coupled_gap)
+    both = (f.state[-1] != 0) & (s.state[-1] != 0) & np.isfinite(at_finite) & np.isfinite(at_small)
+    weight = small.pairs.weight[both]
+    print(f"  gap error at the last increment, area mean / largest over the pairs closed in both: from small sliding "
+          f"{weight @ np.abs(at_small[both]) / weight.sum():.3e} / {np.abs(at_small[both]).max():.3e} mm, at finite "
+          f"sliding's state {weight @ np.abs(at_finite[both]) / weight.sum():.3e} / "
+          f"{np.abs(at_finite[both]).max():.3e} mm")
     obs_s, obs_f = np.asarray(s.observations[-1]), np.asarray(f.observations[-1])
     pull = small.reaction_labels.index(label)
     print(f"  finite - small: observations {1e3 * np.abs(obs_f - obs_s).max():.2f} um / {1e3 * np.ptp(obs_s):.1f} um, "
