@@ -130,3 +130,8 @@ def test_the_displacements_of_several_increments_come_from_one_solve_and_equal_e
     one_by_one = np.array([problem.displacement(solution, k) for k in (0, 5, -1)])
     np.testing.assert_allclose(together, one_by_one, rtol=0, atol=1e-12 * np.abs(one_by_one).max())
     assert np.abs(one_by_one[2] - one_by_one[1]).max() > 0.01                 # the increments differ
+
+
+def test_the_configs_default_is_the_solvers():
+    from frictionid.options import SolverOptions
+    assert SolverOptions().slip_tolerance == SLIP_TOLERANCE
