@@ -23,6 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import sliding3d_case  # noqa: E402
 
 CASES = ("3d: mesh_size=2.5", "3d: mesh_size=1.0", "3d: mesh_size=1.0, edge_splits=3, edge_band=0.5, interface_splits=2",
+         "3d: mesh_size=1.0, edge_splits=4, edge_band=0.5",
          "3d: mesh_size=1.0, pull=0.5, n_pull=25", "3d: mesh_size=1.0, pull=1.0, n_pull=50",
          "3d: mesh_size=5.0, pull=2.0, n_pull=20",
          "2d: pull=0.2, height=4.0, mesh_size=1.0", "2d: pull=0.5, height=4.0, mesh_size=1.0",
