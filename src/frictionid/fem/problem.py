@@ -32,9 +32,9 @@ log = logging.getLogger(__name__)
 #: values of [solver] sliding
 SLIDING = ("small", "finite")
 #: default of [solver] slip_tolerance: the small-sliding pairing's area-mean gap error over the closed contact,
-#: relative to the range of the contact's normal displacement (:meth:`Problem.check_small_sliding`)
+#: relative to the normal deformation the contact resolves (:meth:`Problem.check_small_sliding`)
 SLIP_TOLERANCE = 0.1
-#: with twist: the slip along t1 allowed, in local element lengths
+#: with twist or a helical interface (lead): the slip allowed, in local element lengths
 TWIST_LENGTHS = 1.0
 #: gap errors whose area mean is below this share of the largest displacement are round-off (a uniform field)
 ROUND_OFF = 1e-9
