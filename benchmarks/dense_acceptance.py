@@ -35,12 +35,11 @@ How often the claimed intervals hold there is the intervals' own coverage, free 
 ``--at-truth NAME OPTIONS`` (no fits: the replicates are not read): frictionid's block model with the ``[model]`` lines
 OPTIONS (e.g. ``'edge_splits = 4\ninterface_splits = 4'``) at the truth, displacements and the force only, on the
 fixture's points, written to ``--out``/NAME/measured.csv for ``dense_convergence.py fixture=tests/fixtures/dense_block
-NAME=DIR``; prints the nodes, the seconds and the process's peak. The solver's small-sliding check is off there: the
-reference is ccx's small-sliding limit (the same problem), and edge elements shorter than the pull's slip at the
-leading edge (0.14 mm: edge_splits 3 and more) would otherwise be refused.
+NAME=DIR``; prints the nodes, the seconds and the process's peak. The solver's small-sliding check is off there
+(``[solver] slip_tolerance = false``): the reference is ccx's small-sliding limit, the same problem.
 
 ``--model-lines OPTIONS``: the fits' ``[model]`` gets these lines (as ``--at-truth``), with the control and the
-small-sliding check off: a fixed refinement of the model fitted as it is.
+small-sliding check off (``slip_tolerance = false``): a fixed refinement of the model fitted as it is.
 """
 
 from __future__ import annotations
@@ -51,7 +50,6 @@ import math
 import re
 import sys
 import time
-from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -146,7 +144,8 @@ def config_text(data: Path, observables: str, model_error: str, run: Path, max_m
             'noise = { u = 0.0005, e = 2e-5, force = 1.0 }\nregions = { "plate:*" = "plate", "*" = "block" }\n'
             'strain_window = 2.0\nstrain_window_shape = "circle"\n'
             f'[identify]\nmodel_error = "{model_error}"\n' + ("" if control else "refine_target = 0\n")
-            + (f"[solver]\nmax_memory = {max_memory}\n" if max_memory else "") + f'[run]\ndir = "{run}"\nfields = false\n')
+            + "[solver]\n" + (f"max_memory = {max_memory}\n" if max_memory else "")
+            + ("slip_tolerance = false\n" if model_lines else "") + f'[run]\ndir = "{run}"\nfields = false\n')
 
 
 class KeptControl:
@@ -193,19 +192,6 @@ def twin_reference(out: Path) -> Path:
     return written
 
 
-@contextmanager
-def without_slip_check():
-    """The solver's small-sliding check off (--at-truth, --model-lines): the reference is ccx's small-sliding
-    limit, the same problem, and edge elements shorter than the pull's slip would otherwise be refused."""
-    from frictionid.fem.problem import Problem
-
-    check, Problem.check_small_sliding = Problem.check_small_sliding, lambda self, solution, limit=1.0: None
-    try:
-        yield
-    finally:
-        Problem.check_small_sliding = check
-
-
 def at_truth(name: str, options: str, out: Path, max_memory: float | None) -> dict:
     """--at-truth: the block with the ``[model]`` lines ``options`` simulated at the truth (module docstring)."""
     from frictionid.fem import memory
@@ -216,9 +202,8 @@ def at_truth(name: str, options: str, out: Path, max_memory: float | None) -> di
                        control=False, model_lines=options)
     (folder / "sim.toml").write_text(text)
     lines = []
-    with without_slip_check():
-        begun = time.perf_counter()
-        simulate(read_config(folder / "sim.toml"), folder / "measured.csv", echo=lines.append)
+    begun = time.perf_counter()
+    simulate(read_config(folder / "sim.toml"), folder / "measured.csv", echo=lines.append)
     nodes = next(int(m.group(1).replace(",", "")) for m in map(re.compile(r"([\d,]+) nodes").search, lines) if m)
     return {"at_truth": name, "options": options.replace("\\n", "\n"), "nodes": nodes, "seconds": round(time.perf_counter() - begun, 1),
             "process_peak_gb": round(memory.process_peak() / memory.GB, 2), "export": str(folder)}
@@ -306,10 +291,9 @@ def main(argv=None) -> int:
     for mode in args.modes.split(","):
         start = dict.fromkeys(TRUTH, 0.1)
         for k in range(args.first, args.first + args.replicates):
-            with without_slip_check() if args.model_lines else nullcontext():
-                row = fit(mode, k, args.out, args.reference, args.max_memory, start,
-                          control=not (args.twin or args.model_lines), exclude=args.exclude_plate_within,
-                          where=args.where, model_lines=args.model_lines)
+            row = fit(mode, k, args.out, args.reference, args.max_memory, start,
+                      control=not (args.twin or args.model_lines), exclude=args.exclude_plate_within,
+                      where=args.where, model_lines=args.model_lines)
             if k == args.first:
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
                 start = {z: min(max(e["value"], 0.01), 0.99) for z, e in row["zones"].items()}

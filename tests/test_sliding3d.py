@@ -69,11 +69,11 @@ def test_plate_pressure_moves_with_the_block(slid):
 
 def test_the_block_builders_2_mm_pull_needs_and_gets_finite_sliding():
     """The seed's block test (2000 N, pulled 2 mm, four zones) from the block builder, 6 elements under the block:
-    small sliding stops at the first slip longer than an element; finite sliding slides the block 2 mm."""
+    small sliding stops (the fixed pairing's gap error beyond the tolerance); finite sliding slides the block 2 mm."""
     from frictionid.builders.block import block_model
     from frictionid.errors import SolverError
     model = block_model(pull=2.0, force=2000.0, mesh_size=5.0, block_divisions=6, n_pull=4)
-    with pytest.raises(SolverError, match=r'exceeds the small-sliding range .* set \[solver\] sliding = "finite"'):
+    with pytest.raises(SolverError, match=r'beyond \[solver\] slip_tolerance .* set \[solver\] sliding = "finite"'):
         Problem.build(model).solve(MU)
     problem = Problem.build(model, sliding="finite")
     solution = problem.solve(MU)

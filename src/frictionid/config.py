@@ -77,6 +77,8 @@ TYPES = {
     "solver.factorisation": (str, '"auto", "cholmod", "superlu" or "mumps"'),
     "solver.increments": (str, '"fixed" or "adaptive"'),
     "solver.sliding": (str, '"small" or "finite"'),
+    "solver.slip_tolerance": ((int, float, bool), "a number > 0 (the small-sliding check's tolerance) or false "
+                                                  "(no check)"),
     "solver.max_memory": ((int, float), "a memory size [GB] > 0"),
     "identify.method": (str, "a method name"),
     "identify.jacobian": (str, '"analytic", "forward" or "central"'),
@@ -189,6 +191,11 @@ RANGES = {"solver.timeout": (0, False), "solver.threads": (1, True), "solver.loa
 
 
 def _check_ranges(tables: dict, path: Path) -> None:
+    tolerance = tables["solver"].get("slip_tolerance")
+    if isinstance(tolerance, bool) and tolerance or not isinstance(tolerance, bool) and tolerance is not None \
+            and not tolerance > 0:
+        raise InputError(f"{path}: solver.slip_tolerance must be a number > 0 or false, got {tolerance!r} (expected "
+                         f"{TYPES['solver.slip_tolerance'][1]})")
     for dotted, (low, inclusive) in RANGES.items():
         table, key = dotted.split(".")
         value = tables[table].get(key)

@@ -143,6 +143,8 @@ class SolverOptions(CalculixOptions):
     factorisation: str = "auto"
     increments: str = "fixed"
     sliding: str = "small"
+    #: the small-sliding check's tolerance (:meth:`frictionid.fem.problem.Problem.check_small_sliding`); false: off
+    slip_tolerance: float | bool = 0.1
     max_memory: float | None = None
 
 

@@ -31,7 +31,8 @@ def make_backend(model, points, quantities, regions=None, solver: SolverOptions 
         "embedded" (the condensed solver of frictionid.fem, analytic sensitivities) reads ``factorisation``
         ("auto", "cholmod", "superlu", "mumps": how the condensation factorises the stiffness), ``increments`` ("fixed",
         "adaptive": :meth:`~frictionid.fem.problem.Problem.solve`) and ``sliding`` ("small", "finite": contact
-        pairs fixed or re-coupled in the deformed configuration); "calculix" (a ccx run per solve) the settings
+        pairs fixed or re-coupled in the deformed configuration) and ``slip_tolerance`` (the small-sliding check's
+        tolerance, or false); "calculix" (a ccx run per solve) the settings
         of :class:`~frictionid.backends.calculix.backend.CalculixSettings`.
     where : how messages name the options' origin
     reactions : labels of reaction sums ("boundary.axis") appended as rows after the point rows
@@ -47,7 +48,7 @@ def make_backend(model, points, quantities, regions=None, solver: SolverOptions 
 
         return EmbeddedBackend(model, points, quantities, regions, reactions=tuple(reactions), window=window,
                                factorisation=solver.factorisation, increments=solver.increments,
-                               sliding=solver.sliding)
+                               sliding=solver.sliding, slip_tolerance=solver.slip_tolerance)
     if solver.backend == "calculix":
         if window is not None:
             raise InputError("data.strain_window needs the embedded backend: the calculix backend reads strains "

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..fem.problem import Problem
+from ..fem.problem import SLIP_TOLERANCE, Problem
 from ..model import Model
 from .base import Prediction
 
@@ -136,6 +136,8 @@ class EmbeddedBackend:
     ``factorisation``: "auto", "cholmod", "superlu" or "mumps", the condensation's factorisation ([solver] factorisation).
     ``increments``: "fixed" or "adaptive", how each solve steps through the stages ([solver] increments).
     ``sliding``: "small" or "finite" ([solver] sliding, :meth:`Problem.build`).
+    ``slip_tolerance``: the small-sliding check's tolerance, or False: no check ([solver] slip_tolerance,
+    :meth:`Problem.check_small_sliding`).
     """
 
     name = "embedded"
@@ -143,9 +145,11 @@ class EmbeddedBackend:
 
     def __init__(self, model: Model, points: np.ndarray, quantities: tuple[str, ...], regions=None,
                  reactions: tuple[str, ...] = (), keep: bool = True, window: float | None = None,
-                 factorisation: str = "auto", increments: str = "fixed", sliding: str = "small"):
+                 factorisation: str = "auto", increments: str = "fixed", sliding: str = "small",
+                 slip_tolerance: float | bool = SLIP_TOLERANCE):
         self.model = model
         self.increments = increments
+        self.max_slip = None if slip_tolerance is False else float(slip_tolerance)
         points = None if points is None or len(points) == 0 or not quantities else points
         self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation, sliding)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
@@ -155,7 +159,8 @@ class EmbeddedBackend:
         self.reactions = tuple(reactions)
         self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
         self._key = _key(model, points, tuple(quantities), regions, window, factorisation, sliding) \
-            + ((increments,) if increments != "fixed" else ()) if _CACHE else None
+            + ((increments,) if increments != "fixed" else ()) \
+            + ((self.max_slip,) if self.max_slip != SLIP_TOLERANCE else ()) if _CACHE else None
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
         """The observation rows at ``mu``; with :func:`use_cache` read from (or written to) the cache folder."""
@@ -165,7 +170,8 @@ class EmbeddedBackend:
         if path is not None and path.exists():
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
-        solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments)
+        solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments,
+                                      max_slip=self.max_slip)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
         derivatives = None
@@ -180,7 +186,7 @@ class EmbeddedBackend:
 
     def contact_states(self, mu: np.ndarray) -> list[dict[str, dict[str, float]]]:
         """Per stage end: each zone's area fractions open / stick / slip and its normal force [N] at ``mu``."""
-        solution = self.problem.solve(mu, increments=self.increments)
+        solution = self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip)
         out = []
         for stage in range(self.model.n_stages):
             end = solution.stage_end(stage)
@@ -193,11 +199,12 @@ class EmbeddedBackend:
     def stick_thresholds(self, mu: np.ndarray, movable=None) -> np.ndarray:
         """(n_zones,) each zone's stick threshold at ``mu`` (:meth:`Solution.stick_thresholds`): one forward
         solve."""
-        return self.problem.solve(mu, increments=self.increments).stick_thresholds(movable)
+        return self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip).stick_thresholds(movable)
 
     def fields(self, mu):
         """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
         :func:`frictionid.fem.fields.solution_fields`)."""
         from ..fem.fields import solution_fields
 
-        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments))
+        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments,
+                                                                max_slip=self.max_slip))

@@ -238,13 +238,17 @@ class Condensed:
         """Full dof vector u [mm] for load amplitudes and x = (lam, alpha): one solve with the stored factor.
 
         ``prescribed_values`` (n_channels, n_prescribed) are the unit prescribed displacements of the channels.
+        ``amplitude`` (k, n_channels) and ``x`` (k, n_x): k states at once, (k, n_dofs), one solve with k
+        right-hand sides.
         """
+        many = np.ndim(x) == 2
+        amplitude, x = np.atleast_2d(amplitude), np.atleast_2d(x)
         n_w = B.shape[0]
-        u = np.zeros(len(self.free) + len(self.prescribed))
-        load = B[:, self.free].T @ x[:n_w]
-        u[self.free] = amplitude @ self.particular + self.inverse.solve(load) + self.modes @ x[n_w:]
-        u[self.prescribed] = amplitude @ prescribed_values
-        return u
+        u = np.zeros((len(x), len(self.free) + len(self.prescribed)))
+        load = B[:, self.free].T @ x[:, :n_w].T
+        u[:, self.free] = amplitude @ self.particular + self.inverse.solve(load).T + x[:, n_w:] @ self.modes.T
+        u[:, self.prescribed] = amplitude @ prescribed_values
+        return u if many else u[0]
 
 
 class Partition(NamedTuple):

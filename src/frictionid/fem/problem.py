@@ -31,6 +31,13 @@ from .threads import one_blas_thread
 log = logging.getLogger(__name__)
 #: values of [solver] sliding
 SLIDING = ("small", "finite")
+#: default of [solver] slip_tolerance: the small-sliding pairing's area-mean gap error over the closed contact,
+#: relative to the normal deformation the contact resolves (:meth:`Problem.check_small_sliding`)
+SLIP_TOLERANCE = 0.1
+#: with twist or a helical interface (lead): the slip allowed, in local element lengths
+TWIST_LENGTHS = 1.0
+#: gap errors whose area mean is below this share of the largest displacement are round-off (a uniform field)
+ROUND_OFF = 1e-9
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
@@ -260,17 +267,20 @@ class Problem:
             factorisation=factorisation)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
-    def displacement(self, solution: Solution, increment: int = -1) -> np.ndarray:
-        """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem."""
+    def displacement(self, solution: Solution, increment=-1) -> np.ndarray:
+        """(n_nodes, n_components) [mm] nodal displacements at an increment of a solution of this problem; for a
+        list of increments (k, n_nodes, n_components), one solve with k right-hand sides."""
+        many = np.ndim(increment) == 1
+        index = np.atleast_1d(increment)
         if solution.interface_forces is not None:
             from .sliding import selection
-            B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[increment]
+            B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[index]
         else:
-            B, x = self.pairs.B, solution.lam[increment].ravel()
-        x = np.concatenate([x, solution.alpha[increment]])
-        u = self.condensed.displacement(B, self.channels.displacements,
-                                        solution.amplitude[increment], x)
-        return u.reshape(-1, self.space.n_components)
+            B, x = self.pairs.B, solution.lam[index].reshape(len(index), -1)
+        x = np.hstack([x, solution.alpha[index]])
+        u = self.condensed.displacement(B, self.channels.displacements, solution.amplitude[index], x)
+        u = u.reshape(len(index), -1, self.space.n_components)
+        return u if many else u[0]
 
     def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
         """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""
@@ -293,30 +303,109 @@ class Problem:
             np.maximum.at(length, facets, np.repeat(edge[:, None], facets.shape[1], axis=1))
         return length[self.pairs.nodes]
 
-    def check_small_sliding(self, solution: Solution, limit: float = 1.0) -> None:
-        """Raise :class:`SolverError` where the accumulated slip exceeds ``limit`` local element lengths.
+    def check_small_sliding(self, solution: Solution, tolerance: float = SLIP_TOLERANCE) -> None:
+        """Raise :class:`SolverError` where the fixed pairing's gap error exceeds ``tolerance`` of the normal
+        deformation the contact resolves (docs/solver.md, "How far small sliding holds").
 
-        The pairing is fixed in the undeformed configuration, so a larger slip would give a wrong answer.
-        Pairs that stay open along the whole path are not checked: their pairing never acts. With twist only the
-        slip along t1, in the (r, y) section, counts: sliding around the axis keeps a ring pair's partners.
+        The pairs are fixed in the undeformed configuration: a pair that slid by s keeps its partner instead of
+        the target point it has slid to. At the increment of each stage with the largest slip the gap of the
+        deformed configuration (:func:`frictionid.fem.sliding.pairing_gap_error`, the finite-sliding coupling at
+        the solution's displacements) is compared with the pairing's (:meth:`gap_errors`); per interface, the
+        area mean of that error over the closed pairs (and the open pairs the deformed configuration closes) is
+        taken relative to the normal deformation the contact resolves: the range of the target's normal
+        displacement across the closed pairs, or their largest initial interference if larger. Pairs the
+        deformed coupling does not cover (slid off the target's end) are left out; a mean below
+        :data:`ROUND_OFF` of the largest displacement is zero. Pairs that stay open along the whole path are not
+        checked. With twist (no deformed coupling) or a helical interface (``lead``: its pairs' normals are the
+        helicoid's, not the deformed coupling's facet normals) the slip (with twist: along t1) is limited to one
+        local element length instead, whatever the tolerance.
         """
+        if self.sliding == "finite" or self.pairs.n_pairs == 0:
+            return
+        if self.model.kind == "axisymmetric_twist" or any(i.lead for i in self.model.interfaces):
+            return self._check_slip_lengths(solution, TWIST_LENGTHS)
+        for found in self.gap_errors(solution, tolerance):
+            if found["ratio"] > tolerance:
+                inc, worst = found["increment"], found["worst"]
+                stage = int(solution.stage[inc])
+                raise SolverError(
+                    f"small sliding: at interface {self.model.interfaces[found['interface']].name!r}, stage "
+                    f"{stage + 1} ({self.model.stages[stage].name}), increment {inc + 1}, the fixed pairing's gap "
+                    f"error averages {found['mean']:.3g} mm over the closed contact, {found['ratio']:.3g} of the normal "
+                    f"deformation the contact resolves ({found['spread']:.3g} mm), beyond [solver] slip_tolerance = "
+                    f"{tolerance:g}; largest {found['largest']:.3g} mm at contact node "
+                    f"{int(self.pairs.nodes[worst])} (position {np.round(self.pairs.position[worst], 4).tolist()}, "
+                    f"slip {found['slip']:.3g} mm); set [solver] sliding = \"finite\", reduce the imposed sliding, "
+                    "or raise slip_tolerance (false: no check)")
+
+    def gap_errors(self, solution: Solution, tolerance: float = np.inf, builder=None) -> list[dict]:
+        """The fixed pairing's gap error per interface at the increment of each stage with the largest slip
+        (:meth:`check_small_sliding`): dicts with ``interface``, ``increment`` (0-based), ``mean`` [mm] (the area
+        mean over the closed pairs), ``spread`` [mm] (the normal deformation: the range of the target's normal
+        displacement across them, or their largest initial interference),
+        ``ratio`` = mean / spread, ``worst`` (pair index), ``largest`` [mm], ``slip`` [mm] at the worst pair,
+        ``uncovered`` (closed pairs the deformed coupling does not cover, left out); the search stops at the first
+        ratio above ``tolerance``."""
+        from .sliding import mortar_builder, pairing_gap_error
+        slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
+        slip[:, np.all(solution.state == 0, axis=0)] = 0.0
+        builder = builder or mortar_builder(self.space, self.model)
+        checked = [int(rows[np.argmax(slip[rows].max(axis=1))])
+                   for rows in (np.flatnonzero(solution.stage == stage) for stage in np.unique(solution.stage))]
+        checked = [inc for inc in checked if slip[inc].max() > 0.0]
+        if not checked:
+            return []
+        pairs, found = self.pairs, []
+        for inc, u in zip(checked, self.displacement(solution, checked)):
+            w_n = solution.w[inc, :, 0]
+            error = pairing_gap_error(self, u.ravel(), w_n, builder, self._coupled_gap)
+            # a pair the coupling does not cover (here or undeformed: the target's end) has no gap error to measure
+            uncovered = ~np.isfinite(error)
+            closed = solution.state[inc] != 0
+            # an open pair counts where the deformed configuration closes it
+            error = np.where(uncovered, 0.0, np.where(closed, np.abs(error),
+                                                      np.maximum(0.0, -(pairs.gap + w_n + error))))
+            target_n = np.einsum("pi,pi->p", pairs.frames[:, 0, :], u[pairs.nodes]) - w_n
+            for index in range(len(self.model.interfaces)):
+                mine = pairs.interface == index
+                if not np.any(mine & closed):
+                    continue
+                # the normal deformation the contact resolves: the range of its normal displacement (a force
+                # fixes the pressure's mean), or an initial interference (which fixes it)
+                spread = float(max(np.ptp(target_n[mine & closed]), -np.min(pairs.gap[mine & closed], initial=0.0)))
+                mean = float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[mine & closed]))
+                if mean <= ROUND_OFF * np.abs(u).max():
+                    mean = 0.0                                   # a uniform field's round-off, not an error
+                worst = int(np.flatnonzero(mine)[np.argmax(error[mine])])
+                found.append(dict(interface=index, increment=inc, mean=mean, spread=spread,
+                                  ratio=mean / spread if mean > 0.0 else 0.0, worst=worst,
+                                  largest=float(error[worst]), slip=float(slip[inc, worst]),
+                                  uncovered=int(np.count_nonzero(uncovered & mine & closed))))
+                if found[-1]["ratio"] > tolerance:
+                    return found
+        return found
+
+    def _check_slip_lengths(self, solution: Solution, limit: float) -> None:
+        """The slip within ``limit`` local element lengths; with twist only along t1, in the (r, y) section
+        (sliding around the axis keeps a ring pair's partners)."""
         slip = solution.slip[:, :, :1] if self.model.kind == "axisymmetric_twist" else solution.slip
-        slip = np.linalg.norm(slip, axis=2)                               # (n_inc, n_pairs)
+        slip = np.linalg.norm(slip, axis=2)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         ratio = slip / self.pair_length()
         if ratio.size and ratio.max() > limit:
             inc, pair = np.unravel_index(np.argmax(ratio), ratio.shape)
             raise SolverError(
                 f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
-                f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds the "
-                f"small-sliding range ({limit:g} x the local element length {self.pair_length()[pair]:.3g} mm); "
-                "reduce the imposed sliding, coarsen the contact mesh or set [solver] sliding = \"finite\"")
+                f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds "
+                f"{limit:g} x the local element length {self.pair_length()[pair]:.3g} mm, the small-sliding range of "
+                "a model with twist or a helical interface (lead); reduce the imposed sliding, coarsen the contact "
+                "mesh, or set [solver] slip_tolerance = false (no check)")
 
-    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = 1.0,
+    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = SLIP_TOLERANCE,
               increments: str = "fixed") -> Solution:
         """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value).
 
-        ``max_slip``: small-sliding limit in local element lengths (None: no check), see
+        ``max_slip``: the small-sliding check's tolerance ([solver] slip_tolerance; None: no check), see
         :meth:`check_small_sliding`. ``increments``: "fixed" (each stage's n_increments equal steps) or
         "adaptive" (each stage starts with its nominal step, doubles it after an increment Newton solved in at
         most :data:`EASY_NEWTON` iterations without a cut and without changing a pair's state or turning a slip
@@ -346,6 +435,13 @@ class Problem:
         pairs, c = self.pairs, self.condensed
         return KrylovSolver(c, contact_scale(c), free_tangents(pairs.B, c.free, pairs.dim),
                             held_normals(pairs.B, c.free, pairs.dim), pairs.dim)
+
+    @functools.cached_property
+    def _coupled_gap(self) -> np.ndarray:
+        """(n_pairs,) [mm] the gap of the deformed-configuration coupling (fem/sliding.py) at the undeformed
+        configuration, made at the first small-sliding check and kept: the reference of its gap errors."""
+        from .sliding import aligned, mortar_builder
+        return aligned(self.pairs, mortar_builder(self.space, self.model)(self.model.mesh.points)).gap
 
     def __getstate__(self):
         state = dict(self.__dict__)

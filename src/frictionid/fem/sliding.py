@@ -347,3 +347,24 @@ def solve_finite(problem, mu: np.ndarray, sensitivities: bool):
         alpha=out["alpha"], w=out["w"], state=out["state"], observations=out["obs"], reactions=out["reac"],
         d_observations=d_obs, d_reactions=d_reac, n_newton=out["n_newton"], n_cuts=out["n_cuts"], pairs=ref,
         interface_forces=out["f_I"])
+
+
+def pairing_gap_error(problem, u: np.ndarray, w_normal: np.ndarray, builder: CouplingBuilder | None = None,
+                      reference: np.ndarray | None = None) -> np.ndarray:
+    """(n_pairs,) [mm] what the small-sliding pairing gets wrong in the normal gap at displacements ``u``.
+
+    The change of the gap of the deformed configuration (the dual mortar coupling of :func:`mortar_builder` at
+    ``X + u``, the pairs of ``problem`` in their order) since the undeformed one (``reference``, that coupling's
+    gap at X: computed if not given) minus the fixed pairing's change ``w_normal`` (the pairs' normal relative
+    displacements at ``u``): so a difference of the two discretisations in the undeformed configuration (node-to-
+    node against mortar) is not counted. On a flat target that deforms uniformly a translated pair keeps its gap
+    and the error is zero; otherwise it is about ``s . grad(u_n of the target)`` plus ``s^2 / (2 R)`` on a target
+    of radius R, for a slip s. A pair the target no longer covers gets ``inf``.
+    """
+    builder = builder or mortar_builder(problem.space, problem.model)
+    points = problem.model.mesh.points
+    if reference is None:
+        reference = aligned(problem.pairs, builder(points)).gap
+    current = aligned(problem.pairs, builder(points + u.reshape(points.shape)))
+    error = current.gap - reference - w_normal
+    return np.where((current.gap >= UNCOVERED_GAP) | (reference >= UNCOVERED_GAP), np.inf, error)

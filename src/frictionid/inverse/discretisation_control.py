@@ -20,9 +20,11 @@ own factor and its uniform direction's (:func:`frictionid.inverse.remaining_erro
 kind is within the target at k = 1 nothing changes; otherwise the cheapest refinement (k_d from 1 to
 2^``identify.refine_budget``, size predicted from the directional models' sizes) whose prediction is within the
 target in every kind is built and fitted, after :func:`frictionid.fem.memory.check`, the memory law scaled by the
-largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`), and
-(3-D block) whose contact elements are not shorter than the pull (small sliding pairs nodes for a slip of at most
-one element); when none is, the one with the smallest largest-kind error that fits in memory, and the record says
+largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`) (no
+refinement is left out for its element length against the slip: the small-sliding check,
+:meth:`frictionid.fem.problem.Problem.check_small_sliding`, measures the pairing's gap error, a property of the
+solution, which the solves of the chosen model run); when none is, the one with the smallest largest-kind error that
+fits in memory, and the record says
 the target was not reached. A model that cannot be refined (a model object, another backend) is fitted as it is, and
 the record says why.
 
@@ -168,11 +170,6 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
         why = f"backend {backend!r} (the estimate needs the embedded backend)" if backend != "embedded" else \
             "the model is not a builder's [model] table frictionid can refine"
         return Control(model_options, model, _skipped(target, why, progress))
-    for d, name in enumerate(directions(model_options)):
-        if _slides_too_far(model_options, tuple(2 if j == d else 1 for j in range(len(within(model_options))))):
-            return Control(model_options, model, _skipped(target, f"{name} x2 would make the contact elements shorter "
-                                                                  "than the pull: beyond small sliding, not solved",
-                                                          progress))
     start = time.perf_counter()
     names, kinds, nested = directions(model_options), observation_kinds(observations), within(model_options)
     orders = convergence_orders(ELEMENT_ORDER[model.mesh.cell_type])
@@ -297,8 +294,9 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     base, nested = model.mesh.n_nodes, within(model_options)
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
-        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors) \
-                or _slides_too_far(model_options, factors):
+        # no refinement is left out for sliding: the small-sliding check's gap error is that of the solution, not
+        # of the element length (fem/problem.py, check_small_sliding), and each refinement's solves run it
+        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors):
             continue
         error = combined(terms, factors, np.log2(gain), nested)
         rms = kind_rms(np.abs(error) / sigma, kinds)
@@ -325,16 +323,6 @@ def _nodes(model_options: ModelSpec, factors, base: int, sizes) -> float:
         return float(block_layout(**refinement(model_options, factors).table()).n_nodes(
             int(model_options.option("order", 1))))
     return base * np.prod([(n / base) ** np.log2(k) for n, k in zip(sizes, factors)])
-
-
-def _slides_too_far(model_options: ModelSpec, factors) -> bool:
-    """Whether the refinement's contact elements are shorter than the 3-D block's pull: the block then slides
-    over more than one element, beyond the small-sliding pairing (:meth:`frictionid.fem.problem.Problem.
-    check_small_sliding` stops such a solve), so the refinement cannot be fitted."""
-    if model_options.builder != "block" or all(k == 1 for k in factors):
-        return False                                   # the model as given is always a candidate
-    pull = float(model_options.option("pull", _default("block", model_options.table(), "pull")))
-    return block_layout(**refinement(model_options, factors).table()).contact_length() < pull
 
 
 def _rms_text(rms: dict) -> str:
