@@ -146,7 +146,7 @@ def at_fitted(given_options: ModelSpec, given_model, observations, mu, current: 
     record = {"round": index, "fitted_factors": dict(zip(names, current))}
     try:
         differences, terms, sizes, steps = directional(given_options, given_model, obs, mu, coarse, window,
-                                                       max_memory, factorisation, progress, memo=memo)
+                                                       max_memory, factorisation, progress, [scale], memo)
     except TooLarge as exc:
         progress(f"discretisation control at the fitted values: {exc}; no refit")
         return Decision({**record, "status": "skipped", "why": str(exc),
