@@ -63,6 +63,7 @@ def test_a_fit_beyond_the_target_at_its_values_is_refitted_on_the_finer_mesh(cas
     assert len(later) == 1 and later[0]["status"] == "within target" and later[0]["error_fitted"]["u"] <= target
     assert later[0]["at"] == first["refit"]["value"]
     assert "discretisation control at the fitted values: beyond the target" in out and "refit converged" in out
+    assert "at the fitted values (round 1): estimated error of the model fitted" in out      # the fit report
 
 
 def test_a_fit_within_the_target_at_its_values_is_not_refitted(case, capsys):

@@ -247,7 +247,8 @@ def stopped_result(config, setup, evaluator, iterations, status: str, message: s
                            for p, v in zip(setup.parameters.items, mu)},
             "n_iterations": len(iterations) - 1 if iterations else 0, "n_forward_solves": evaluator.n_forward,
             "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
-            "wall_time_s": wall, **({"model": {"discretisation": setup.discretisation}} if setup.discretisation else {})}
+            "wall_time_s": wall,
+            **({"model": {"discretisation": setup.discretisation}} if setup.discretisation else {})}
 
 
 def solve_timings(store: RunStore, backend_s: float | None = None) -> dict:

@@ -31,6 +31,9 @@ change from the model as given misses the predicted change by more than half, th
 the error as given less the actual change (:func:`_checked`), and the target counts as reached only if that is
 within it.
 
+After the fit the identification makes the estimate again at the fitted values and refits on a finer model where
+it asks for one (:mod:`.discretisation_refit`, with :func:`directional` and :func:`_choose`'s ``floor``).
+
 ``identify.refine_target = 0`` switches the control off. The record goes to result.json (``model.discretisation``)
 and one line per phase to the run's progress.
 """
