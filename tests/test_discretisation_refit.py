@@ -137,3 +137,21 @@ def test_the_refit_phase_keeps_its_evaluations_apart_from_the_first_fits(tmp_pat
     calls = []
     assert memo.values("as given", lambda: calls.append(1) or np.ones(2)).tolist() == [1.0, 1.0]
     assert memo.values("as given", lambda: calls.append(1) or np.zeros(2)).tolist() == [1.0, 1.0] and calls == [1]
+
+
+def test_a_refined_model_refused_after_the_fit_leaves_the_fit_reported(case, monkeypatch, capsys):
+    """A refinement the set-up check refuses (here: the contact check, forced) ends the rounds with the fit so far
+    reported and the reason recorded, not a run without a result."""
+    from frictionid import identification
+    from frictionid.errors import InputError
+
+    def refused(*args, **kwargs):
+        raise InputError("contact 'block_base': refused for this test")
+
+    monkeypatch.setattr(identification, "checked_contact", refused)
+    folder, at_start, at_truth = case
+    result = _identify(folder, "refused", float(np.sqrt(at_start * at_truth)))
+    (only,) = result["model"]["discretisation"]["at_fitted"]
+    assert result["status"] == "converged" and only["status"] == "skipped" and "refused for this test" in only["why"]
+    assert {z: p["value"] for z, p in result["parameters"].items()} == only["at"] and result["model"]["mesh_size"] == 2.0
+    assert "the fit so far is reported" in capsys.readouterr().out

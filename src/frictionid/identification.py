@@ -273,17 +273,23 @@ def _refits(config, fit: _Fit, store: RunStore, progress, echo, outcome: Optimis
     for index in range(1, refit_at_fitted.MAX_ROUNDS + 1):
         params = fit.setup.parameters
         mu = params.full(outcome.x)
-        decision = refit_at_fitted.at_fitted(*fit.given, obs, mu, current, fit.evaluator.model_values(outcome.x),
-                                             ident.refine_target, ident.refine_budget, config.solver.max_memory,
-                                             window, config.solver.factorisation, store, echo, index,
-                                             record["memory_scale"])
-        rounds.append({"at": dict(zip(params.names, map(float, mu))), "objective": float(outcome.objective),
-                       "n_iterations": int(outcome.n_iterations), **decision.record})
-        if decision.remaining is not None:
-            fit.setup = replace(fit.setup, remaining_error=decision.remaining)
-        if decision.factors is None:
+        rounds.append({"round": index, "at": dict(zip(params.names, map(float, mu))),
+                       "objective": float(outcome.objective), "n_iterations": int(outcome.n_iterations)})
+        try:
+            decision = refit_at_fitted.at_fitted(*fit.given, obs, mu, current, fit.evaluator.model_values(outcome.x),
+                                                 ident.refine_target, ident.refine_budget, config.solver.max_memory,
+                                                 window, config.solver.factorisation, store, echo, index,
+                                                 record["memory_scale"])
+            rounds[-1].update(decision.record)
+            if decision.remaining is not None:
+                fit.setup = replace(fit.setup, remaining_error=decision.remaining)
+            if decision.factors is None:
+                break
+            outcome = _refit(config, fit, store, progress, echo, outcome, decision, mu, window, rounds[-1])
+        except InputError as exc:       # a refined model refused (memory, contact set-up): the fit so far stays
+            rounds[-1].update(status="skipped", why=str(exc))
+            echo(f"discretisation control at the fitted values: {exc}; the fit so far is reported")
             break
-        outcome = _refit(config, fit, store, progress, echo, outcome, decision, mu, window, rounds[-1])
         current = decision.factors
     return outcome
 
