@@ -200,7 +200,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
 
 class _Fit:
     """The fit's setup, evaluator and least-squares problem, replaced when a refit moves to a finer model; ``given``
-    the [model] and model as given ((options, model); None when the discretisation control chose nothing)."""
+    the [model] and model as given ((options, model); None when the discretisation control did not run)."""
 
     def __init__(self, setup: Setup, evaluator: Evaluator, problem: LeastSquares, given=None):
         self.setup, self.evaluator, self.problem, self.given = setup, evaluator, problem, given
