@@ -18,8 +18,9 @@ Each round costs the directional condensations again (they are not kept through 
 they peaked at 0.8-3.6 GB each), and one solve of each at the fitted mu. Every directional difference is kept in
 the run's store under the kind ``discretisation estimate: <direction>`` at the fitted coefficients (all zones) as
 soon as it is made, and the round's choice under ``discretisation refit choice``, so that ``--resume`` reads them
-instead of solving them again; the refit's own evaluations are stored under ``refit <digest of its [model] table> <kind>``
-(:class:`PhaseStore`), apart from the first fit's, whose coefficients are keyed alike but solved on another mesh.
+instead of solving them again; the refit's own evaluations are stored under ``refit <digest of its [model] table>
+<kind>`` (:class:`PhaseStore`), apart from the first fit's, whose coefficients are keyed alike but solved on
+another mesh.
 """
 
 from __future__ import annotations
