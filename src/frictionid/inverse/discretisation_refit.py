@@ -173,8 +173,9 @@ def at_fitted(given_options: ModelSpec, given_model, observations, mu, current: 
                   seconds=round(time.perf_counter() - begun, 1))
     if tuple(factors) == tuple(current):
         record["status"] = "no finer model"
-        progress(f"discretisation control at the fitted values: beyond the target {target:g}, but no finer model "
-                 f"within refine_budget and max_memory is predicted closer; no refit ({record['seconds']:.1f} s)")
+        progress(f"discretisation control at the fitted values: beyond the target {target:g}, but no refinement at "
+                 "least as fine in every direction, within refine_budget, max_memory and small sliding, is predicted "
+                 f"closer; no refit ({record['seconds']:.1f} s)")
         return Decision(record, remaining=now)
     record.update(status="refit", options=options.table(), n_nodes=int(model.mesh.n_nodes))
     progress(f"discretisation control at the fitted values: beyond the target {target:g}; refitting on "
