@@ -173,9 +173,10 @@ def at_fitted(given_options: ModelSpec, given_model, observations, mu, current: 
                   seconds=round(time.perf_counter() - begun, 1))
     if tuple(factors) == tuple(current):
         record["status"] = "no finer model"
+        limits = "refine_budget, max_memory" + (" and small sliding" if given_options.builder == "block" else "")
         progress(f"discretisation control at the fitted values: beyond the target {target:g}, but no refinement at "
-                 "least as fine in every direction, within refine_budget, max_memory and small sliding, is predicted "
-                 f"closer; no refit ({record['seconds']:.1f} s)")
+                 f"least as fine in every direction, within {limits}, is predicted closer; no refit "
+                 f"({record['seconds']:.1f} s)")
         return Decision(record, remaining=now)
     record.update(status="refit", options=options.table(), n_nodes=int(model.mesh.n_nodes))
     progress(f"discretisation control at the fitted values: beyond the target {target:g}; refitting on "
