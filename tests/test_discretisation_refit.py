@@ -156,3 +156,22 @@ def test_a_refined_model_refused_after_the_fit_leaves_the_fit_reported(case, mon
     assert {z: p["value"] for z, p in result["parameters"].items()} == only["at"]
     assert result["model"]["mesh_size"] == 2.0
     assert "the fit so far is reported" in capsys.readouterr().out
+
+
+def test_include_mode_weighs_the_refit_models_remaining_error_and_continues_after_the_refit(case):
+    """With identify.model_error = "include" the model error is the last round's estimate for the refined model
+    (the control's, no other refinement), and the reweighted fit starts where the refit ended."""
+    folder, at_start, at_truth = case
+    target = float(np.sqrt(at_start * at_truth))
+    path = control_config(folder, "include", 2.0, START, "measured.csv",
+                          f'refine_target = {target!r}\nmodel_error = "include"\n')
+    assert main(["identify", str(path)]) == 0
+    result = json.loads((folder / "runs/include/result.json").read_text())
+    first, second = result["model"]["discretisation"]["at_fitted"]
+    error = result["fit"]["model_error"]
+    assert first["status"] == "refit" and second["status"] == "within target"
+    assert error["source"] == "discretisation control" and result["model"]["mesh_size"] == pytest.approx(1.0)
+    # the error carried is the second round's at the refit's values (in noise levels RMS, one kind here)
+    assert np.sqrt(np.mean(np.square(error["in_noise"]))) == pytest.approx(second["error_fitted"]["u"], rel=1e-3)
+    assert error["before_include"] == [second["at"][zone] for zone in TRUE]
+    assert result["n_iterations"] > second["n_iterations"]
