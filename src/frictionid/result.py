@@ -254,8 +254,8 @@ def stopped_result(config, setup, evaluator, iterations, status: str, message: s
 def solve_timings(store: RunStore, backend_s: float | None = None) -> dict:
     """result.json's ``timings``: the backend's set-up time [s] (model condensed, or ccx checked) and, per kind
     of evaluation in the store ("forward", "forward+sensitivities", "held ...", "refit <digest> ...",
-    "discretisation estimate: ..."), the count and the wall times [s] of its successful solves as measured where they ran (in a worker process with run.workers; replayed
-    evaluations keep the time of the run that made them)."""
+    "discretisation estimate: ..."), the count and the wall times [s] of its successful solves as measured where
+    they ran (in a worker process with run.workers; replayed evaluations keep the time of the run that made them)."""
     walls: dict[str, list[float]] = {}
     for evaluation in store.evaluations():
         if evaluation.status == "ok":
