@@ -175,3 +175,20 @@ def test_include_mode_weighs_the_refit_models_remaining_error_and_continues_afte
     assert np.sqrt(np.mean(np.square(error["in_noise"]))) == pytest.approx(second["error_fitted"]["u"], rel=1e-3)
     assert error["before_include"] == [second["at"][zone] for zone in TRUE]
     assert result["n_iterations"] > second["n_iterations"]
+
+
+def test_a_control_decision_shared_by_two_runs_keeps_each_runs_rounds_apart(case, monkeypatch):
+    """A study that reuses one decision for several fits (benchmarks/dense_acceptance.py) gets each fit's rounds
+    only: the rounds go into a copy of the control's record."""
+    from frictionid import identification
+
+    made = {}
+
+    def kept(*args, **kwargs):
+        return made.setdefault("decision", control(*args, **kwargs))
+
+    monkeypatch.setattr(identification, "control", kept)
+    folder, _, at_truth = case
+    first, second = (_identify(folder, name, 2.0 * at_truth) for name in ("shared1", "shared2"))
+    assert len(first["model"]["discretisation"]["at_fitted"]) == len(second["model"]["discretisation"]["at_fitted"])
+    assert len(second["model"]["discretisation"]["at_fitted"]) == 1 and "at_fitted" not in made["decision"].record

@@ -268,8 +268,10 @@ def _refits(config, fit: _Fit, store: RunStore, progress, echo, outcome: Optimis
     record, ident, obs = fit.setup.discretisation, config.identify, fit.setup.observations
     if fit.given is None or record.get("status") in ("off", "skipped"):
         return outcome
+    record = {**record, "at_fitted": []}      # the control's own record stays as it made it (a study may share it)
+    fit.setup = replace(fit.setup, discretisation=record)
     window = strain_window(fit.setup.window, obs)
-    current, rounds = tuple(record["factors"].values()), record.setdefault("at_fitted", [])
+    current, rounds = tuple(record["factors"].values()), record["at_fitted"]
     for index in range(1, refit_at_fitted.MAX_ROUNDS + 1):
         params = fit.setup.parameters
         mu = params.full(outcome.x)
