@@ -14,7 +14,10 @@ The control's choice and its predicted remaining error depend on the model, the 
 start values, never on the measured values (``discretisation_control.control`` does not read them;
 tests/test_remaining_error.py checks it). So it runs once per set of observables, at the start values 0.1 of the
 config, and every fit of that set (all replicates, the "include" mode) gets that same decision: the model it
-chose and the remaining error the result's systematic errors come from. It is kept in ``--out`` (control_<set>.npz
+chose and the remaining error the result's systematic errors come from. The control again at the fitted values
+(``discretisation_refit``, ``model.discretisation.at_fitted``) reads the fit, so it runs in every fit; each fit's
+line says what it found (``at fitted``: per round the estimated error of the model fitted, its status and, with a
+refit, the refit's coefficients), and the process's peak. It is kept in ``--out`` (control_<set>.npz
 and .json) for later invocations, and the condensations in ``--out``/cache (embedded.use_cache). The first
 replicate of a mode starts at 0.1; later ones start at the first's fitted values (the same minimum, fewer
 iterations). Replicate k is generate.py's ``replicate(values, force, k)`` of the noise-free ``--reference``
@@ -61,6 +64,7 @@ from frictionid import identification
 from frictionid.backends.embedded import use_cache
 from frictionid.builders.registry import build_model
 from frictionid.config import read_config
+from frictionid.fem import memory
 from frictionid.identification import identify_config
 from frictionid.options import ModelSpec
 from frictionid.simulation import simulate
@@ -194,8 +198,6 @@ def twin_reference(out: Path) -> Path:
 
 def at_truth(name: str, options: str, out: Path, max_memory: float | None) -> dict:
     """--at-truth: the block with the ``[model]`` lines ``options`` simulated at the truth (module docstring)."""
-    from frictionid.fem import memory
-
     folder = out / name
     folder.mkdir(parents=True, exist_ok=True)
     text = config_text(FIXTURE / "measured.csv", OBSERVABLES["u"], "off", folder / "run", max_memory, TRUTH,
@@ -234,6 +236,18 @@ def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None,
                               "off_se": off, "covered": bool(low <= TRUTH[zone] <= high), "why": p.get("why"),
                               "systematic": p.get("stderr_systematic"), "bias": p.get("discretisation_bias")}
     return row
+
+
+def at_fitted_text(record: dict) -> str:
+    """The control's rounds at the fitted values (model.discretisation.at_fitted), one clause each."""
+    def clause(r):
+        text = (f"round {r['round']}: error of the model fitted " + ", ".join(f"{q} {v:.2f}" for q, v in
+                r.get("error_fitted", {}).items()) + f" -> {r['status']} ({r['seconds']:.0f} s)")
+        if "refit" in r:
+            text += (f"; refit on {r['n_nodes']:,} nodes ({r['factors']}): " + ", ".join(
+                f"{z} {v:.4f}" for z, v in r["refit"]["value"].items()) + f" ({r['refit']['seconds']:.0f} s)")
+        return text
+    return "; ".join(map(clause, record.get("at_fitted", []))) or "not run"
 
 
 def table(rows: list[dict]) -> str:
@@ -298,10 +312,12 @@ def main(argv=None) -> int:
                 print(f"{mode}: the control: {json.dumps(row['model']['discretisation'], default=dict)}", flush=True)
                 start = {z: min(max(e["value"], 0.01), 0.99) for z, e in row["zones"].items()}
             rows.append(row)
+            print(f"{mode} {k}: at fitted: {at_fitted_text(row['model']['discretisation'])}", flush=True)
             print(f"{mode} {k}: chi2/dof {row['reduced_chi2']:.3g}, " + ", ".join(
                 f"{z} {e['value']:.4f} +- {e['stderr'] or float('nan'):.4f}{' claimed' if e['claimed'] else ''}"
                 for z, e in row["zones"].items()) + f" ({row['seconds']:.0f} s); per kind " + ", ".join(
-                f"{q} {v:.2f}" for q, v in row["kinds"].items()) + f"; beyond the noise: {row['beyond']}",
+                f"{q} {v:.2f}" for q, v in row["kinds"].items()) + f"; beyond the noise: {row['beyond']}; process "
+                f"peak {memory.process_peak() / memory.GB:.2f} GB",
                 flush=True)
             (args.out / "rows.json").write_text(json.dumps(rows, indent=1, default=dict))
     earlier = [row for path in args.merge for row in json.loads(path.read_text())]

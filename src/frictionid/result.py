@@ -247,14 +247,15 @@ def stopped_result(config, setup, evaluator, iterations, status: str, message: s
                            for p, v in zip(setup.parameters.items, mu)},
             "n_iterations": len(iterations) - 1 if iterations else 0, "n_forward_solves": evaluator.n_forward,
             "n_sensitivity_solves": evaluator.n_sensitivity, "n_replayed": evaluator.n_replayed,
-            "wall_time_s": wall}
+            "wall_time_s": wall,
+            **({"model": {"discretisation": setup.discretisation}} if setup.discretisation else {})}
 
 
 def solve_timings(store: RunStore, backend_s: float | None = None) -> dict:
     """result.json's ``timings``: the backend's set-up time [s] (model condensed, or ccx checked) and, per kind
-    of evaluation in the store ("forward", "forward+sensitivities", "held ..."), the count and the wall times [s]
-    of its successful solves as measured where they ran (in a worker process with run.workers; replayed
-    evaluations keep the time of the run that made them)."""
+    of evaluation in the store ("forward", "forward+sensitivities", "held ...", "refit <digest> ...",
+    "discretisation estimate: ..."), the count and the wall times [s] of its successful solves as measured where
+    they ran (in a worker process with run.workers; replayed evaluations keep the time of the run that made them)."""
     walls: dict[str, list[float]] = {}
     for evaluation in store.evaluations():
         if evaluation.status == "ok":

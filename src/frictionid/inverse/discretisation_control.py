@@ -33,6 +33,9 @@ change from the model as given misses the predicted change by more than half, th
 the error as given less the actual change (:func:`_checked`), and the target counts as reached only if that is
 within it.
 
+After the fit the identification makes the estimate again at the fitted values and refits on a finer model where
+it asks for one (:mod:`.discretisation_refit`, with :func:`directional` and :func:`_choose`'s ``floor``).
+
 ``identify.refine_target = 0`` switches the control off. The record goes to result.json (``model.discretisation``)
 and one line per phase to the run's progress.
 """
@@ -76,6 +79,10 @@ class Control:
         """(n_obs,) the control's error (model minus converged, at its orders) after refining by ``factors``."""
         terms, orders, nested = self.split
         return combined(terms, factors, orders, nested)
+
+
+class TooLarge(Exception):
+    """A directional model's condensation would take more than ``[solver] max_memory``: not built."""
 
 
 #: a refinement's prediction holds in a quantity kind when it misses the actual change (RMS) by at most this
@@ -180,30 +187,11 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     with memory.Peak() as took:
         coarse = values(model, observations, mu, window, keep=True, factorisation=factorisation)
     _calibrate(ratios, took, memory.estimate(model, "model", max_memory, factorisation))
-    differences, terms, sizes, steps = [], [], [], []
-    for d, name in enumerate(names):
-        begun = time.perf_counter()
-        options = refinement(model_options, tuple(2 if j == d else 1 for j in range(len(names))))
-        fine_model = build_model(options, f"[model] ({name} x2)")
-        cost = memory.estimate(fine_model, f"discretisation control: {name} x2", max_memory, factorisation,
-                               scale=_scale(ratios))
-        if not cost.fits:
-            return Control(model_options, model, _skipped(target, f"{cost.line()}: more than [solver] max_memory "
-                                                                  "allows, not condensed", progress))
-        progress(cost.line() + "; condensing")
-        with memory.Peak() as took:
-            differences.append(coarse - values(fine_model, observations, mu, window, factorisation=factorisation))
-        _calibrate(ratios, took, memory.estimate(fine_model, "", max_memory, factorisation))
-        terms.append(differences[-1] * gain / (gain - 1.0))
-        sizes.append(fine_model.mesh.n_nodes)
-        steps.append({"direction": name, "options": options.table(), "n_nodes": int(fine_model.mesh.n_nodes),
-                      "rms": kind_rms(np.abs(terms[-1]) / observations.sigma, kinds),
-                      "memory_gb": round(cost.needed / memory.GB, 2),
-                      "measured_gb": None if took.above is None else round((cost.held + took.above) / memory.GB, 2),
-                      "seconds": round(time.perf_counter() - begun, 1)})
-        part = "" if nested[d] is None else f" (part of the {names[nested[d]]}')"
-        progress(f"discretisation control: error from the {name}{part}: {_rms_text(steps[-1]['rms'])} noise levels "
-                 f"RMS ({steps[-1]['seconds']:.1f} s)")
+    try:
+        differences, terms, sizes, steps = directional(model_options, model, observations, mu, coarse, window,
+                                                       max_memory, factorisation, progress, ratios)
+    except TooLarge as exc:
+        return Control(model_options, model, _skipped(target, str(exc), progress))
     scale = _scale(ratios)
     if scale > 1.0:
         progress(f"discretisation control: the builds took up to {scale:.2f} times the memory law's estimate; the "
@@ -238,6 +226,65 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     progress(f"discretisation control: took {seconds:.1f} s")
     log.info("discretisation control: %s", record)
     return Control(options, fitted, record, left, before, (terms, np.log2(gain), nested))
+
+
+def directional(model_options: ModelSpec, model, observations, mu, coarse: np.ndarray, window=None,
+                max_memory: float | None = None, factorisation: str = "auto", progress=None, ratios=None,
+                memo=None) -> tuple[list, list, list, list]:
+    """(differences, terms e_d, node counts, record steps) of the model refined by 2 in each :func:`directions`
+    entry on its own, solved at ``mu`` against the model's values ``coarse`` (n_obs,); ``ratios`` gathers each
+    build's measured / estimated peak (:func:`_calibrate`). ``memo`` (optional): ``memo.get(name)`` gives a
+    direction's (difference, step) kept from an earlier call at the same ``mu`` (nothing solved), and
+    ``memo.put(name, difference, step)`` keeps a new one as soon as it is made.
+
+    Raises
+    ------
+    TooLarge
+        When a directional model's condensation would exceed ``max_memory`` (its message says which).
+    """
+    progress, ratios = progress or (lambda text: None), [] if ratios is None else ratios
+    names, kinds, nested = directions(model_options), observation_kinds(observations), within(model_options)
+    orders = convergence_orders(ELEMENT_ORDER[model.mesh.cell_type])
+    gain = 2.0 ** np.array([orders[k] for k in kinds])
+    differences, terms, sizes, steps = [], [], [], []
+    for d, name in enumerate(names):
+        kept = None if memo is None else memo.get(name)
+        if kept is None:
+            difference, step = _direction(model_options, observations, mu, coarse, d, window, max_memory,
+                                          factorisation, ratios, progress)
+            if memo is not None:
+                memo.put(name, difference, step)
+        else:
+            difference, step = kept
+            progress(f"discretisation control: {name} x2 at these values read from the run's store")
+        differences.append(difference)
+        terms.append(difference * gain / (gain - 1.0))
+        sizes.append(step["n_nodes"])
+        steps.append({**step, "rms": kind_rms(np.abs(terms[-1]) / observations.sigma, kinds)})
+        part = "" if nested[d] is None else f" (part of the {names[nested[d]]}')"
+        progress(f"discretisation control: error from the {name}{part}: {_rms_text(steps[-1]['rms'])} noise levels "
+                 f"RMS ({steps[-1]['seconds']:.1f} s)")
+    return differences, terms, sizes, steps
+
+
+def _direction(model_options, observations, mu, coarse, d, window, max_memory, factorisation, ratios, progress):
+    """(difference coarse minus refined, step record) of the model refined by 2 in direction ``d`` only."""
+    begun, names = time.perf_counter(), directions(model_options)
+    options = refinement(model_options, tuple(2 if j == d else 1 for j in range(len(names))))
+    fine_model = build_model(options, f"[model] ({names[d]} x2)")
+    cost = memory.estimate(fine_model, f"discretisation control: {names[d]} x2", max_memory, factorisation,
+                           scale=_scale(ratios))
+    if not cost.fits:
+        raise TooLarge(f"{cost.line()}: more than [solver] max_memory allows, not condensed")
+    progress(cost.line() + "; condensing")
+    with memory.Peak() as took:
+        difference = coarse - values(fine_model, observations, mu, window, factorisation=factorisation)
+    _calibrate(ratios, took, memory.estimate(fine_model, "", max_memory, factorisation))
+    return difference, {"direction": names[d], "options": options.table(), "n_nodes": int(fine_model.mesh.n_nodes),
+                        "memory_gb": round(cost.needed / memory.GB, 2),
+                        "measured_gb": None if took.above is None else round((cost.held + took.above) / memory.GB,
+                                                                              2),
+                        "seconds": round(time.perf_counter() - begun, 1)}
 
 
 def _checked(left: RemainingError, before: RemainingError, actual: np.ndarray, sigma, kinds):
@@ -288,15 +335,19 @@ def _scale(ratios: list) -> float:
 
 
 def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_memory, factors_tried,
-            scale: float = 1.0, factorisation: str = "auto"):
+            scale: float = 1.0, factorisation: str = "auto", floor=None):
     """(factors, options, model, predicted rms per kind) of the cheapest refinement within the target that fits
-    in memory (its estimate times ``scale``), else of the smallest worst-kind error that does."""
+    in memory (its estimate times ``scale``), else of the smallest worst-kind error that does. ``floor``: only
+    refinements at least this fine in every direction (a model fitted already); the floor itself comes back
+    without options and model (None, None), as it is not built again."""
     base, nested = model.mesh.n_nodes, within(model_options)
+    floor = tuple(floor or [1] * len(terms))
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
         # no refinement is left out for sliding: the small-sliding check's gap error is that of the solution, not
         # of the element length (fem/problem.py, check_small_sliding), and each refinement's solves run it
-        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors):
+        if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors) \
+                or any(k < f for k, f in zip(factors, floor)):
             continue
         error = combined(terms, factors, np.log2(gain), nested)
         rms = kind_rms(np.abs(error) / sigma, kinds)
@@ -306,6 +357,8 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     for _, _, factors, rms, nodes in sorted(rows, key=lambda row: row[:2]):
         if all(k == 1 for k in factors):
             return factors, model_options, model, rms
+        if factors == floor:
+            return factors, None, None, rms
         if not memory.estimate(model, "discretisation control", max_memory, factorisation, n_nodes=int(nodes),
                                scale=scale).fits:
             continue                                   # refused on its predicted size, before meshing
@@ -313,7 +366,7 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
         candidate = build_model(options, "[model] (refined)")
         if memory.estimate(candidate, "discretisation control", max_memory, factorisation, scale=scale).fits:
             return factors, options, candidate, rms
-    raise AssertionError("unreachable: the model as given is always a candidate")
+    raise AssertionError("unreachable: the model as given (or the floor) is always a candidate")
 
 
 def _nodes(model_options: ModelSpec, factors, base: int, sizes) -> float:

@@ -27,7 +27,8 @@ quadrature and claims no zone whose systematic error exceeds its statistical sta
 factor of about 2.
 
 Both deltas are at the start values, as the control's decision is: they depend on the model, the observation
-layout and the stated noise, not on the measured values.
+layout and the stated noise, not on the measured values. Where the control runs again at the fitted values
+(:mod:`.discretisation_refit`) the identification replaces them by its estimate there, for the model it fitted last.
 """
 
 from __future__ import annotations

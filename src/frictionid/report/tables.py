@@ -129,7 +129,20 @@ def discretisation_lines(record: dict | None) -> list[str]:
     predicted = ", ".join(f"{kind} {value:.2f}" for kind, value in record["predicted_error"].items())
     return [f"    discretisation control: estimated error of the mesh as given {rms} noise levels RMS (target "
             f"{record['target']:g}); refined: {factors} ({record['n_nodes']:,} nodes), predicted {predicted}: "
-            f"target {record['status']}; {record['seconds']:.0f} s"]
+            f"target {record['status']}; {record['seconds']:.0f} s"] + [_at_fitted_line(r)
+                                                                        for r in record.get("at_fitted", [])]
+
+
+def _at_fitted_line(row: dict) -> str:
+    """One round of the control at the fitted values (``model.discretisation.at_fitted``)."""
+    fitted = ", ".join(f"{kind} {value:.2f}" for kind, value in row.get("error_fitted", {}).items())
+    line = (f"    at the fitted values (round {row['round']}): " + (f"estimated error of the model fitted {fitted} "
+            "noise levels RMS: " if fitted else "") + f"{row['status']}; {row['seconds']:.0f} s")
+    if "refit" in row:
+        factors = ", ".join(f"{name} x{k}" for name, k in row["factors"].items() if k != 1)
+        line += (f"; refitted on {factors} ({row['n_nodes']:,} nodes) from the fitted values in "
+                 f"{row['refit']['n_iterations']} iterations, {row['refit']['seconds']:.0f} s")
+    return line
 
 
 def _adequacy_lines(fit: dict) -> list[str]:
