@@ -1,15 +1,20 @@
 """The small-sliding check (Problem.check_small_sliding): the fixed pairing's gap error against the deformed
 coupling, what it accepts and refuses against finite sliding, its message and its [solver] key."""
 
+import json
+import shutil
+
 import numpy as np
 import pytest
 
 from frictionid.builders.block import block_model
+from frictionid.cli import main
 from frictionid.config import config_from_dict
 from frictionid.errors import InputError, SolverError
 from frictionid.fem.problem import SLIP_TOLERANCE, Problem
 from frictionid.fem.sliding import pairing_gap_error
 from sliding3d_case import MU, POINTS, QUANTITIES, REGIONS
+from conftest import ROOT
 
 
 def _moved(model, block_shift, plate_slope):
@@ -115,12 +120,42 @@ def test_slip_tolerance_takes_a_positive_number_or_false(value, accepted):
         config_from_dict(tables)
 
 
-def test_the_backend_takes_the_setting():
+def test_the_backend_checks_on_request_with_its_setting():
+    """predict (a fit's trial points) solves unchecked; check_sliding makes the check at the setting."""
     from frictionid.backends.embedded import EmbeddedBackend
     model = block_model(pull=2.0, mesh_size=5.0, n_pull=20)
+    backend = EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS)
+    backend.predict(MU)
     with pytest.raises(SolverError, match=f"slip_tolerance = {SLIP_TOLERANCE:g}"):
-        EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS).predict(MU)
-    EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS, slip_tolerance=False).predict(MU)
+        backend.check_sliding(MU)
+    EmbeddedBackend(model, POINTS, QUANTITIES, REGIONS, slip_tolerance=False).check_sliding(MU)
+
+
+def _pulled(folder, pull: float, tolerance: str) -> None:
+    """examples/first in ``folder`` with the pull and [solver] slip_tolerance set in both configs."""
+    shutil.copytree(ROOT / "examples" / "first", folder)
+    for name in ("truth.toml", "identify.toml"):
+        path = folder / name
+        text = path.read_text().replace("pull = 0.05", f"pull = {pull}")
+        path.write_text(text + f"[solver]\nslip_tolerance = {tolerance}\n")
+
+
+def test_simulate_and_identify_check_their_answer(tmp_path, capsys):
+    """The plane-strain block pulled 2 mm (gross slip, ratio about 0.36): simulate refuses its solve (exit 1, the
+    message); identify fits, then refuses the fitted point, and result.json keeps the fit as "failed" with the
+    message; with slip_tolerance = false both go through."""
+    folder = tmp_path / "first"
+    _pulled(folder, 2.0, "0.1")
+    assert main(["simulate", str(folder / "truth.toml"), "--out", str(folder / "measured.csv")]) == 1
+    assert "beyond [solver] slip_tolerance = 0.1" in capsys.readouterr().err
+    _pulled(tmp_path / "off", 2.0, "false")
+    assert main(["simulate", str(tmp_path / "off" / "truth.toml"), "--out", str(folder / "measured.csv")]) == 0
+    assert main(["identify", str(folder / "identify.toml")]) == 1
+    result = json.loads((folder / "runs" / "first" / "result.json").read_text())
+    assert result["status"] == "failed" and "beyond [solver] slip_tolerance = 0.1" in result["message"]
+    assert len(result["history"]["coefficients"]) > 1                  # the fit's iterations are kept
+    shutil.copy(folder / "measured.csv", tmp_path / "off")
+    assert main(["identify", str(tmp_path / "off" / "identify.toml")]) == 0
 
 
 def test_the_displacements_of_several_increments_come_from_one_solve_and_equal_each_one():

@@ -231,6 +231,9 @@ def _finish(config, fit: _Fit, store: RunStore, run_dir: Path, start: float, on_
             error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
             echo(f"model error: RMS {error.summary['all']['rms']:.3g} noise levels, largest "
                  f"{error.summary['all']['max']:.3g} ({error.seconds:.1f} s)")
+        check_sliding = getattr(evaluator.backend, "check_sliding", None)
+        if check_sliding is not None:   # the answer within small sliding (its trial points were solved unchecked)
+            check_sliding(setup.parameters.full(outcome.x))
     except KeyboardInterrupt:
         _stopped(config, fit.setup, fit.evaluator, store, run_dir, "interrupted",
                  "stopped by the user; continue with --resume", time.perf_counter() - start, write_files)

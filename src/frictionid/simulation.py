@@ -84,6 +84,9 @@ def _simulate(config: Config, out, echo) -> Path:
     except PointsOutside as exc:
         raise exc.named(labels, source.source) from None
     prediction = backend.predict(mu.full(mu.x0))
+    check_sliding = getattr(backend, "check_sliding", None)
+    if check_sliding is not None:
+        check_sliding(mu.full(mu.x0))
     n_points, n_stages = len(labels), model.n_stages
     n_rows = n_points * len(quantities)
     values = prediction.values[:, :n_rows].reshape(n_stages, n_points, len(quantities)).copy()

@@ -29,7 +29,9 @@ class Backend(Protocol):
     (analytic Jacobians; without them identify.jacobian must be a finite difference). A backend may also offer
     ``contact_states(mu)`` (per stage end, each zone's open / stick / slip fractions and normal force) and
     ``fields(mu)`` (the fields written to VTU) and ``stick_thresholds(mu, movable)`` (per zone that sticks along
-    the whole load path, the lowest coefficient with the same outputs); callers look for them with ``getattr``.
+    the whole load path, the lowest coefficient with the same outputs) and ``check_sliding(mu)`` (raises
+    SolverError when the solution at mu lies beyond the backend's small-sliding range); callers look for them with
+    ``getattr``.
     """
 
     name: str

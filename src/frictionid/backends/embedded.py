@@ -159,8 +159,7 @@ class EmbeddedBackend:
         self.reactions = tuple(reactions)
         self._reaction_rows = [self.problem.reaction_labels.index(r) for r in self.reactions]
         self._key = _key(model, points, tuple(quantities), regions, window, factorisation, sliding) \
-            + ((increments,) if increments != "fixed" else ()) \
-            + ((self.max_slip,) if self.max_slip != SLIP_TOLERANCE else ()) if _CACHE else None
+            + ((increments,) if increments != "fixed" else ()) if _CACHE else None
 
     def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
         """The observation rows at ``mu``; with :func:`use_cache` read from (or written to) the cache folder."""
@@ -170,8 +169,7 @@ class EmbeddedBackend:
         if path is not None and path.exists():
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
-        solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments,
-                                      max_slip=self.max_slip)
+        solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments, max_slip=None)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
         derivatives = None
@@ -186,7 +184,7 @@ class EmbeddedBackend:
 
     def contact_states(self, mu: np.ndarray) -> list[dict[str, dict[str, float]]]:
         """Per stage end: each zone's area fractions open / stick / slip and its normal force [N] at ``mu``."""
-        solution = self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip)
+        solution = self.problem.solve(mu, increments=self.increments, max_slip=None)
         out = []
         for stage in range(self.model.n_stages):
             end = solution.stage_end(stage)
@@ -199,12 +197,21 @@ class EmbeddedBackend:
     def stick_thresholds(self, mu: np.ndarray, movable=None) -> np.ndarray:
         """(n_zones,) each zone's stick threshold at ``mu`` (:meth:`Solution.stick_thresholds`): one forward
         solve."""
-        return self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip).stick_thresholds(movable)
+        return self.problem.solve(mu, increments=self.increments, max_slip=None).stick_thresholds(movable)
 
     def fields(self, mu):
         """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
         :func:`frictionid.fem.fields.solution_fields`)."""
         from ..fem.fields import solution_fields
 
-        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments,
-                                                                max_slip=self.max_slip))
+        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments, max_slip=None))
+
+    def check_sliding(self, mu: np.ndarray) -> None:
+        """Raise :class:`~frictionid.errors.SolverError` when the solution at ``mu`` lies beyond small sliding
+        (:meth:`Problem.check_small_sliding` at ``slip_tolerance``; nothing with False or finite sliding): one
+        forward solve and the check. The other methods solve without it: the check costs several solves' time
+        (the deformed coupling's search), and it is the answer that must lie within small sliding, not each trial
+        point of a fit (:func:`frictionid.identification.identify_config` checks the fitted point, ``simulate``
+        its one solve)."""
+        if self.max_slip is not None:
+            self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip)

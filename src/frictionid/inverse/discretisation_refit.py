@@ -9,8 +9,8 @@ in each direction on its own, solved at the fitted mu, and the refinement fitted
 predicted and checked there as before the fit (:func:`frictionid.inverse.discretisation_control._checked`, the
 actual change of the fitted model's values from the model as given at the fitted mu). When that remaining error is
 within the target in every quantity kind nothing more happens. Otherwise the cheapest refinement at least as fine
-as the fitted one in every direction (factors up to 2^``refine_budget``, within ``max_memory``) whose prediction at the fitted values is within the target (else the one with the smallest
-worst-kind error) is built, and the fit continues from the fitted values on it; at most :data:`MAX_ROUNDS` rounds,
+as the fitted one in every direction (factors up to 2^``refine_budget``, within ``max_memory``) whose prediction
+at the fitted values is within the target (else the one with the smallest worst-kind error) is built, and the fit continues from the fitted values on it; at most :data:`MAX_ROUNDS` rounds,
 and none when the choice stays the fitted model.
 
 Each round costs the directional condensations again (they are not kept through the fit: on the dense 3-D block
