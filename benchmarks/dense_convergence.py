@@ -22,7 +22,8 @@ The order is searched in [0.25, 4]; an order at a limit is printed as such (the 
 Each row also gives the changes of the block's rigid motion at the end of the pull, in noise levels: ``slide``
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
-after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
+after the first is compared with the first (``sink_press`` / ``sink_pull``: the change of the block faces' mean uz at the end of the press /
+the pull): variants of the deck on one mesh (contact parameters, increments,
 convergence criteria), or levels of different families under names that are no level's (``ring=DIR``), the same
 numbers per variant (with ``--where``, by region too). A column that one export lacks (``frictionid simulate``
 with displacements only, say) is left out of every comparison. ``--where`` adds, per pair of levels, the end of the pull's
@@ -127,11 +128,14 @@ def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray
 
 def rigid(labels: list[str], values: np.ndarray) -> dict[str, float]:
     """The block's rigid motion at the end of the pull in noise levels: ``slide`` the block faces' mean uy,
-    ``tilt`` the mean uz of the face y = -5 minus that of y = +5, ``roll`` x = -5's minus x = +5's."""
+    ``tilt`` the mean uz of the face y = -5 minus that of y = +5, ``roll`` x = -5's minus x = +5's; and the block
+    faces' mean uz at the end of the press and of the pull (``sink_press``, ``sink_pull``)."""
     face = np.array([label.split(":")[0] for label in labels])
     mean = lambda name, axis: float(np.mean(values[1, face == name, axis]) / dense.NOISE_U)
+    sink = lambda stage: float(np.mean(values[stage, face != "plate", 2]) / dense.NOISE_U)
     return {"slide": float(np.mean(values[1, face != "plate", 1]) / dense.NOISE_U),
-            "tilt": mean("y-5", 2) - mean("y+5", 2), "roll": mean("x-5", 2) - mean("x+5", 2)}
+            "tilt": mean("y-5", 2) - mean("y+5", 2), "roll": mean("x-5", 2) - mean("x+5", 2),
+            "sink_press": sink(0), "sink_pull": sink(1)}
 
 
 def differences(coarse, fine, raw: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
@@ -148,7 +152,7 @@ def differences(coarse, fine, raw: tuple[np.ndarray, np.ndarray] | None = None) 
             d = fine[1][kind][s] - coarse[1][kind][s]
             if d.size:                                      # empty: a kind one of the exports does not have
                 row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
-    row.update({k: round(fine[2][k] - coarse[2][k], 3) for k in ("slide", "tilt", "roll")})
+    row.update({k: round(fine[2][k] - coarse[2][k], 3) for k in ("slide", "tilt", "roll", "sink_press", "sink_pull")})
     return row
 
 
