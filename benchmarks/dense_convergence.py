@@ -30,6 +30,10 @@ with displacements only, say) is left out of every comparison. ``--where`` adds,
 differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
 in noise levels and share of the kind's sum of squares (also the block faces and the plate pooled).
 
+``--splitting P ref=DIR model=DIR d1=DIR ...``: the discretisation control's splitting estimate of a frictionid
+model's error (each directional refinement by 2 exported by ``dense_acceptance.py --at-truth``) against its actual
+error, the reference being the first export.
+
 Levels of several graded families (``g2Qrp g3Qrp g4Qrp g2Qrpc g3Qrpc g4Qrpc``: the same k, other flags) are
 compared within their family; with two or more families of three levels each, their Richardson limits (per
 value, at each family's own order per stage and kind) are compared with each other, and every level with each
@@ -156,6 +160,25 @@ def differences(coarse, fine, raw: tuple[np.ndarray, np.ndarray] | None = None) 
     return row
 
 
+def splitting(values: list[np.ndarray], labels: list[str], p: float) -> dict:
+    """``--splitting``: ``values`` (2, n, 9) of the reference, a model and its directional refinements by 2; the
+    model's displacement error against the reference and the splitting extrapolation's estimate of it,
+    sum_d (f - f_d) 2^p / (2^p - 1) (the discretisation control's error as given), in noise levels: per
+    component RMS over both stages, the block faces' mean uz at the press / the pull (``sink_*``), and the RMS
+    left when the estimate is taken off (``*_left``)."""
+    reference, model, refined = values[0][:, :, :3], values[1][:, :, :3], [v[:, :, :3] for v in values[2:]]
+    actual = (model - reference) / dense.NOISE_U
+    estimate = sum(model - f for f in refined) * 2 ** p / (2 ** p - 1) / dense.NOISE_U
+    faces = np.array([not label.startswith("plate:") for label in labels])
+    row = {"order": p, "directions": len(refined)}
+    for name, d in (("actual", actual), ("estimate", estimate), ("left", actual - estimate)):
+        for axis, component in enumerate(("ux", "uy", "uz")):
+            row[f"{component}_{name}"] = round(rms(d[:, :, axis]), 3)
+        row[f"sink_press_{name}"], row[f"sink_pull_{name}"] = (round(float(np.mean(d[s, faces, 2])), 3)
+                                                                for s in (0, 1))
+    return row
+
+
 def is_level(name: str) -> bool:
     """A level of tilt_ccx.py's LEVELS ("2") or of its graded family ("g5")."""
     return name.isdigit() or any(family.fullmatch(name) for family in (dense.tilt.GRADED, dense.tilt.EDGE))
@@ -245,6 +268,9 @@ def main(argv=None) -> int:
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
     parser.add_argument("--where", action="store_true", help="also where the differences sit (regions of points)")
+    parser.add_argument("--splitting", type=float, metavar="P", help="the first export the reference, the second a "
+                        "model, the others that model refined by 2 in one direction each: the model's error against "
+                        "the reference and the splitting extrapolation's estimate of it at order P (module docstring)")
     parser.add_argument("--order", type=float, help="also each family's limit from its two finest levels at this "
                         "order (e.g. another family's), named '<family>@<order>', in the comparisons of limits")
     args = parser.parse_args(argv)
@@ -259,6 +285,9 @@ def main(argv=None) -> int:
         raw[name] = values
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
+    if args.splitting:
+        emit(splitting([raw[name] for name, _ in named], data[named[0][0]][0], args.splitting), args.out)
+        return 0
     if not all(is_level(name) for name, _ in named):
         base = named[0][0]
         for name, _ in named[1:]:
