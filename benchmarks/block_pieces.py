@@ -1,5 +1,6 @@
 """frictionid's block model at the truth on the dense reference's points with pieces of its mesh refined that no
-`[model]` option refines on its own: the source of the linear family's uz offset (docs/fit-quality.md).
+`[model]` option refines on its own: the source of the linear family's uz offset (docs/fit-quality.md; the
+footprint's interior is the builder's ``interior_splits``).
 
     PYTHONPATH=src .venv/bin/python benchmarks/block_pieces.py NAME OPTIONS [PIECE=K ...] [--out DIR]
 
@@ -7,8 +8,6 @@ OPTIONS are ``[model]`` lines as for ``dense_acceptance.py --at-truth`` (e.g. ``
 0.5\\ninterface_splits = 4'``); each PIECE=K splits the intervals of one piece of the block mesh's layout
 (:func:`frictionid.builders.block_mesh.layout`) into K equal parts, outside the bands the options refine:
 
-- ``inner``: the intervals across the footprint (x and y, block and plate under it) outside the edge band: where
-  the pull's lift-off front lies (about y = -2.5 mm at the truth);
 - ``outer``: the plate's intervals outside the footprint and outside the edge band;
 - ``plate_z`` / ``block_z``: the plate's / block's layers outside the interface band.
 
@@ -31,7 +30,7 @@ from frictionid.builders.block_mesh import BLOCK_HEIGHT, BLOCK_SIDE, PLATE_THICK
 
 import dense_acceptance
 
-PIECES = ("inner", "outer", "plate_z", "block_z")
+PIECES = ("outer", "plate_z", "block_z")
 
 
 def split_layout(original, splits: dict[str, int]):
@@ -40,10 +39,6 @@ def split_layout(original, splits: dict[str, int]):
     def layout(block_divisions, n_block_z, n_plate_z, grading=1.0, bands=Bands()):
         places = original(block_divisions, n_block_z, n_plate_z, grading, bands)
         half, changes = BLOCK_SIDE / 2, {}
-        if "inner" in splits:
-            x = half * _graded(places.quarter, grading)
-            changes["quarter"] = _split(places.quarter, half - (x[:-1] + x[1:]) / 2 >= bands.edge_band,
-                                        splits["inner"])
         if "outer" in splits:
             if places.outer is None:
                 sys.exit("outer: needs edge_splits > 1 (the plate outside the footprint as explicit positions)")
