@@ -22,12 +22,17 @@ The order is searched in [0.25, 4]; an order at a limit is printed as such (the 
 Each row also gives the changes of the block's rigid motion at the end of the pull, in noise levels: ``slide``
 the block faces' mean uy, ``tilt`` the mean uz of the face y = -5 minus that of y = +5 (about x), ``roll`` that of
 x = -5 minus x = +5 (about y). With names that are not level numbers (``base=DIR penalty_x10=DIR ...``) every export
-after the first is compared with the first: variants of the deck on one mesh (contact parameters, increments,
+after the first is compared with the first (``sink_press`` / ``sink_pull``: the change of the block faces' mean uz at the end of the press /
+the pull): variants of the deck on one mesh (contact parameters, increments,
 convergence criteria), or levels of different families under names that are no level's (``ring=DIR``), the same
 numbers per variant (with ``--where``, by region too). A column that one export lacks (``frictionid simulate``
 with displacements only, say) is left out of every comparison. ``--where`` adds, per pair of levels, the end of the pull's
 differences by region (block faces by height above the contact edge, plate by distance from the footprint): RMS
 in noise levels and share of the kind's sum of squares (also the block faces and the plate pooled).
+
+``--splitting P ref=DIR model=DIR d1=DIR ...``: the discretisation control's splitting estimate of a frictionid
+model's error (each directional refinement by 2 exported by ``dense_acceptance.py --at-truth``) against its actual
+error, the reference being the first export.
 
 Levels of several graded families (``g2Qrp g3Qrp g4Qrp g2Qrpc g3Qrpc g4Qrpc``: the same k, other flags) are
 compared within their family; with two or more families of three levels each, their Richardson limits (per
@@ -127,11 +132,14 @@ def in_noise(values: np.ndarray, force: np.ndarray) -> dict[str, list[np.ndarray
 
 def rigid(labels: list[str], values: np.ndarray) -> dict[str, float]:
     """The block's rigid motion at the end of the pull in noise levels: ``slide`` the block faces' mean uy,
-    ``tilt`` the mean uz of the face y = -5 minus that of y = +5, ``roll`` x = -5's minus x = +5's."""
+    ``tilt`` the mean uz of the face y = -5 minus that of y = +5, ``roll`` x = -5's minus x = +5's; and the block
+    faces' mean uz at the end of the press and of the pull (``sink_press``, ``sink_pull``)."""
     face = np.array([label.split(":")[0] for label in labels])
     mean = lambda name, axis: float(np.mean(values[1, face == name, axis]) / dense.NOISE_U)
+    sink = lambda stage: float(np.mean(values[stage, face != "plate", 2]) / dense.NOISE_U)
     return {"slide": float(np.mean(values[1, face != "plate", 1]) / dense.NOISE_U),
-            "tilt": mean("y-5", 2) - mean("y+5", 2), "roll": mean("x-5", 2) - mean("x+5", 2)}
+            "tilt": mean("y-5", 2) - mean("y+5", 2), "roll": mean("x-5", 2) - mean("x+5", 2),
+            "sink_press": sink(0), "sink_pull": sink(1)}
 
 
 def differences(coarse, fine, raw: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
@@ -148,7 +156,26 @@ def differences(coarse, fine, raw: tuple[np.ndarray, np.ndarray] | None = None) 
             d = fine[1][kind][s] - coarse[1][kind][s]
             if d.size:                                      # empty: a kind one of the exports does not have
                 row[f"{kind}{s + 1}_rms"], row[f"{kind}{s + 1}_max"] = round(rms(d), 3), round(float(np.abs(d).max()), 3)
-    row.update({k: round(fine[2][k] - coarse[2][k], 3) for k in ("slide", "tilt", "roll")})
+    row.update({k: round(fine[2][k] - coarse[2][k], 3) for k in ("slide", "tilt", "roll", "sink_press", "sink_pull")})
+    return row
+
+
+def splitting(values: list[np.ndarray], labels: list[str], p: float) -> dict:
+    """``--splitting``: ``values`` (2, n, 9) of the reference, a model and its directional refinements by 2; the
+    model's displacement error against the reference and the splitting extrapolation's estimate of it,
+    sum_d (f - f_d) 2^p / (2^p - 1) (the discretisation control's error as given), in noise levels: per
+    component RMS over both stages, the block faces' mean uz at the press / the pull (``sink_*``), and the RMS
+    left when the estimate is taken off (``*_left``)."""
+    reference, model, refined = values[0][:, :, :3], values[1][:, :, :3], [v[:, :, :3] for v in values[2:]]
+    actual = (model - reference) / dense.NOISE_U
+    estimate = sum(model - f for f in refined) * 2 ** p / (2 ** p - 1) / dense.NOISE_U
+    faces = np.array([not label.startswith("plate:") for label in labels])
+    row = {"order": p, "directions": len(refined)}
+    for name, d in (("actual", actual), ("estimate", estimate), ("left", actual - estimate)):
+        for axis, component in enumerate(("ux", "uy", "uz")):
+            row[f"{component}_{name}"] = round(rms(d[:, :, axis]), 3)
+        row[f"sink_press_{name}"], row[f"sink_pull_{name}"] = (round(float(np.mean(d[s, faces, 2])), 3)
+                                                                for s in (0, 1))
     return row
 
 
@@ -241,6 +268,9 @@ def main(argv=None) -> int:
     parser.add_argument("exports", nargs="+", help="level=folder holding that level's measured.csv")
     parser.add_argument("--out", type=Path, help="append the JSON lines here")
     parser.add_argument("--where", action="store_true", help="also where the differences sit (regions of points)")
+    parser.add_argument("--splitting", type=float, metavar="P", help="the first export the reference, the second a "
+                        "model, the others that model refined by 2 in one direction each: the model's error against "
+                        "the reference and the splitting extrapolation's estimate of it at order P (module docstring)")
     parser.add_argument("--order", type=float, help="also each family's limit from its two finest levels at this "
                         "order (e.g. another family's), named '<family>@<order>', in the comparisons of limits")
     args = parser.parse_args(argv)
@@ -255,6 +285,9 @@ def main(argv=None) -> int:
         raw[name] = values
     if any(data[name][0] != data[named[0][0]][0] for name, _ in named):
         sys.exit("the exports do not hold the same points")
+    if args.splitting:
+        emit(splitting([raw[name] for name, _ in named], data[named[0][0]][0], args.splitting), args.out)
+        return 0
     if not all(is_level(name) for name, _ in named):
         base = named[0][0]
         for name, _ in named[1:]:

@@ -277,6 +277,26 @@ def test_3d_bands_split_only_the_intervals_next_to_the_edges_and_the_interface(g
         assert np.sum(inside_band) >= 2                                      # one each side at least
 
 
+def test_3d_interior_splits_only_the_intervals_across_the_footprint_outside_the_edge_band(graded_3d):
+    """interior_splits 3 on the graded mesh: the x, y intervals under the footprint whose middle lies 1 mm or more
+    from x, y = +-5 are split into 3 (where the pull's lift-off front lies); the edge band's intervals, the plate
+    outside the footprint and the layers stay; the interface stays conforming and the layout counts the nodes."""
+    kwargs = dict(mesh_size=1.7, block_divisions=8)
+    given = graded_3d[1]
+    split = block_model(**kwargs, interior_splits=3)
+    assert split.mesh.n_nodes == block_layout(**kwargs, interior_splits=3).n_nodes() > given.mesh.n_nodes
+    assert_conforming(split, "block", "plate")
+    for axis in (0, 1, 2):
+        old = np.unique(np.round(given.mesh.points[:, axis], 6))
+        new = np.unique(np.round(split.mesh.points[:, axis], 6))
+        assert set(old) <= set(new)                                        # nothing moved, lines added
+        middles = np.abs((old[:-1] + old[1:]) / 2)
+        interior = (middles < 5.0) & (5.0 - middles >= 1.0) if axis < 2 else np.zeros(len(middles), bool)
+        added = [np.sum((new > a + 1e-9) & (new < b - 1e-9)) for a, b in zip(old[:-1], old[1:])]
+        assert np.array_equal(np.array(added), np.where(interior, 2, 0)), (axis, added, interior)
+        assert axis == 2 or np.sum(interior) >= 4                          # two each side of the border at least
+
+
 # ---------------------------------------------------------------------------------------------- bad input
 
 @pytest.mark.parametrize("builder, kwargs, argument", [
@@ -294,6 +314,7 @@ def test_3d_bands_split_only_the_intervals_next_to_the_edges_and_the_interface(g
     (block_model, {"interface_splits": 1.5}, "interface_splits"),
     (block_model, {"edge_band": -1.0}, "edge_band"),
     (block_model, {"interface_band": 0.0}, "interface_band"),
+    (block_model, {"interior_splits": 0}, "interior_splits"),
     (block_model_2d, {"kind": "axisymmetric"}, "kind"),
     (block_model_2d, {"width": 0.0}, "width"),
     (block_model_2d, {"base_width": 8.0}, "base_width"),

@@ -198,3 +198,55 @@ def test_the_acceptance_study_leaves_out_plate_points_and_splits_the_misfit_by_r
     assert [r["mean_r2"] for r in rows if r["quantity"] == "force"] == [9.0]
     chi2 = sum(r["mean_r2"] * r["n"] for r in uz)
     assert abs(chi2 - sum((o["model"] / 0.5) ** 2 for o in observations[:-1])) < 1e-2 * chi2
+
+
+def _benchmark(name):
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    return importlib.import_module(name)
+
+
+def test_the_splitting_estimate_of_a_model_against_the_reference_adds_its_directions():
+    """benchmarks/dense_convergence.py ``--splitting P``: a model whose error is C_1 + C_2, each direction
+    refined by 2 dividing its own term by 2^p, gets the estimate C_1 + C_2 at order p (nothing left over) and a
+    wrong one at another order; the block faces' mean uz is the ``sink``."""
+    conv = _benchmark("dense_convergence")
+    rng = np.random.default_rng(3)
+    labels = [f"y-5:{k}" for k in range(6)] + [f"plate:{k}" for k in range(4)]
+    noise = dense.NOISE_U
+    reference = rng.normal(size=(2, 10, 9))
+    c1, c2 = (rng.normal(size=(2, 10, 9)) * noise for _ in range(2))
+    model = reference + c1 + c2
+    refined = [reference + c1 / 4 + c2, reference + c1 + c2 / 4]          # p = 2
+    row = conv.splitting([reference, model, *refined], labels, 2.0)
+    for component, axis in (("ux", 0), ("uy", 1), ("uz", 2)):
+        actual = (c1 + c2)[:, :, axis] / noise
+        assert abs(row[f"{component}_actual"] - np.sqrt(np.mean(actual ** 2))) < 1e-3
+        assert abs(row[f"{component}_estimate"] - row[f"{component}_actual"]) < 2e-3
+        assert row[f"{component}_left"] < 1e-3
+    assert abs(row["sink_pull_actual"] - np.mean((c1 + c2)[1, :6, 2]) / noise) < 1e-3
+    assert row["sink_pull_left"] == 0.0
+    assert conv.splitting([reference, model, *refined], labels, 1.0)["uz_left"] > 0.1
+
+
+def test_the_block_pieces_benchmark_splits_only_its_piece_outside_the_bands():
+    """benchmarks/block_pieces.py: ``plate_z`` splits the plate's layers outside the interface band, ``outer`` the
+    plate's intervals outside the footprint and the edge band; everything else of the layout is kept."""
+    pieces = _benchmark("block_pieces")
+    from frictionid.builders import block_mesh
+    from frictionid.builders.block_mesh import Bands, _graded
+    bands = Bands(edge_splits=4, edge_band=0.5, interface_splits=4)
+    given = block_mesh.layout(10, 10, 5, 4.0, bands)
+    outer = pieces.split_layout(block_mesh.layout, {"outer": 2})(10, 10, 5, 4.0, bands)
+    plate = pieces.split_layout(block_mesh.layout, {"plate_z": 3})(10, 10, 5, 4.0, bands)
+    band = given.outer < 5.0 + 0.5                                 # the edge band's nodes (and the edge) stay
+    assert set(np.round(given.outer, 9)) <= set(np.round(outer.outer, 9))
+    np.testing.assert_array_equal(outer.outer[outer.outer < 5.5], given.outer[band])
+    assert len(outer.outer) - len(given.outer) == len(given.outer) - band.sum()
+    np.testing.assert_array_equal(outer.quarter, given.quarter)
+    z0, z1 = (5.0 * _graded(g, 4.0, both_ends=False) for g in (given.plate_z, plate.plate_z))
+    outside = int(np.sum((z0[:-1] + z0[1:]) / 2 >= 1.0))
+    assert len(z1) - len(z0) == 2 * outside and np.allclose(z1[z1 < 1.0], z0[z0 < 1.0])
+    for name in ("quarter", "block_z", "outer"):
+        np.testing.assert_array_equal(getattr(plate, name), getattr(given, name))
+    assert plate.n_nodes() > given.n_nodes() and outer.n_nodes() > given.n_nodes()

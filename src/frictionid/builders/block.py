@@ -84,7 +84,7 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
                 n_press: int = 1, n_pull: int = 10, block_divisions: int | None = None,
                 grading: float = DEFAULT_GRADING, pull_levels=(), element: str | None = None,
                 edge_splits: int = 1, edge_band: float = 1.0, interface_splits: int = 1,
-                interface_band: float = 1.0) -> Model:
+                interface_band: float = 1.0, interior_splits: int = 1) -> Model:
     """The 3-D block-on-plate reference test (DESIGN.md, reference test 1) on a conforming hexahedral mesh.
 
     Parameters
@@ -137,6 +137,10 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
         ``interface_band`` of z = 0 are split into this many equal layers. Default 1.
     interface_band : float [mm]
         Depth of that band on each side of the interface. Default 1.0.
+    interior_splits : int >= 1
+        The other intervals across the footprint (x and y, outside ``edge_band``; block and plate under it) split
+        into this many equal parts: the footprint's interior, where the pull's lift-off front lies (the back of
+        zones A and B lifts off) and which the edge band does not refine. Default 1.
 
     Notes
     -----
@@ -178,7 +182,8 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     element = _element(element, order)
     stages, pulled = _pull_stages(n_press, n_pull, pull, _pull_levels(pull_levels, pull))
     divisions, n_block_z, n_plate_z, grading, bands = _mesh_arguments(
-        mesh_size, block_divisions, grading, edge_splits, edge_band, interface_splits, interface_band)
+        mesh_size, block_divisions, grading, edge_splits, edge_band, interface_splits, interface_band,
+        interior_splits)
     mesh = block_mesh(divisions, n_block_z, n_plate_z, order, grading, bands)
     pressure = force / BLOCK_SIDE ** 2
     return Model(
@@ -193,7 +198,8 @@ def block_model(pull: float = 0.2, force: float = 2000.0, mesh_size: float = 1.0
     )
 
 
-def _mesh_arguments(mesh_size, block_divisions, grading, edge_splits, edge_band, interface_splits, interface_band):
+def _mesh_arguments(mesh_size, block_divisions, grading, edge_splits, edge_band, interface_splits, interface_band,
+                    interior_splits=1):
     """(block_divisions, n_block_z, n_plate_z, grading, bands) of :func:`block_mesh` from the options, checked."""
     mesh_size = positive("mesh_size", mesh_size)
     if block_divisions is None:
@@ -205,7 +211,8 @@ def _mesh_arguments(mesh_size, block_divisions, grading, edge_splits, edge_band,
     n_block_z = max(2, math.ceil(BLOCK_HEIGHT / mesh_size - 1e-9))
     n_plate_z = max(2, math.ceil(PLATE_THICKNESS / mesh_size - 1e-9))
     bands = Bands(count("edge_splits", edge_splits), positive("edge_band", edge_band),
-                  count("interface_splits", interface_splits), positive("interface_band", interface_band))
+                  count("interface_splits", interface_splits), positive("interface_band", interface_band),
+                  count("interior_splits", interior_splits))
     return block_divisions, n_block_z, n_plate_z, checked_grading(grading), bands
 
 
@@ -219,7 +226,7 @@ def block_layout(**arguments):
     (0.546, 0.219)
     """
     sizes = {"mesh_size": 1.0, "block_divisions": None, "grading": DEFAULT_GRADING, "edge_splits": 1,
-             "edge_band": 1.0, "interface_splits": 1, "interface_band": 1.0}
+             "edge_band": 1.0, "interface_splits": 1, "interface_band": 1.0, "interior_splits": 1}
     return layout(*_mesh_arguments(**{key: arguments.get(key, value) for key, value in sizes.items()}))
 
 

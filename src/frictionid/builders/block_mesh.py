@@ -54,13 +54,15 @@ class Bands:
     The bands keep their width as the splits grow, so their elements' size goes to 0 as 1 / splits: each split is
     a refinement direction whose error converges like the uniform one's (the discretisation control's splitting
     extrapolation). The mesh stays a tensor product, so an edge split adds lines across the whole plate, but only
-    as many as the band has intervals.
+    as many as the band has intervals. ``interior_splits`` splits the other intervals across the footprint, those
+    outside the edge band (the footprint's interior, where the pull's lift-off front lies), into that many parts.
     """
 
     edge_splits: int = 1
     edge_band: float = 1.0
     interface_splits: int = 1
     interface_band: float = 1.0
+    interior_splits: int = 1
 
 
 @dataclass(frozen=True)
@@ -90,15 +92,18 @@ class Layout:
                        for n, z in ((plate, self.plate_z), (block, self.block_z))))
 
 
-def _split(grid: np.ndarray, inside: np.ndarray, parts: int) -> np.ndarray:
-    """``grid`` (increasing) with each interval where ``inside`` (one flag per interval) split into ``parts``.
+def _split(grid: np.ndarray, inside: np.ndarray, parts: int, others: int = 1) -> np.ndarray:
+    """``grid`` (increasing) with each interval where ``inside`` (one flag per interval) split into ``parts``, the
+    others into ``others``.
 
     >>> _split(np.array([0.0, 1.0, 3.0]), np.array([False, True]), 2).tolist()
     [0.0, 1.0, 2.0, 3.0]
+    >>> _split(np.array([0.0, 1.0, 3.0]), np.array([False, True]), 1, others=2).tolist()
+    [0.0, 0.5, 1.0, 3.0]
     """
     pieces = [grid[:1]]
     for a, b, flag in zip(grid[:-1], grid[1:], inside):
-        n = parts if flag else 1
+        n = parts if flag else others
         pieces.append(a + (b - a) * np.arange(1, n + 1) / n)
     return np.concatenate(pieces)
 
@@ -115,7 +120,8 @@ def layout(block_divisions: int, n_block_z: int, n_plate_z: int, grading: float 
         return (x[:-1] + x[1:]) / 2
 
     quarter = np.linspace(0.0, 1.0, n_quarter + 1)
-    quarter = _split(quarter, half - middles(quarter, half) < bands.edge_band, bands.edge_splits)
+    quarter = _split(quarter, half - middles(quarter, half) < bands.edge_band, bands.edge_splits,
+                     bands.interior_splits)
     z = {}
     for name, n, length in (("block", n_block_z, BLOCK_HEIGHT), ("plate", n_plate_z, PLATE_THICKNESS)):
         grid = np.linspace(0.0, 1.0, n + 1)
