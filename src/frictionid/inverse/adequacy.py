@@ -154,14 +154,16 @@ def point_group(label: str, regions: dict | None = None) -> str:
 
 
 def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inner=None, sigma=None,
-           regions: dict | None = None, model_kind: str | None = None) -> Adequacy:
+           regions: dict | None = None, model_kind: str | None = None, check_groups: bool = False) -> Adequacy:
     """Adequacy of a fit from its weighted residuals r (n_obs,) and weighted Jacobian (n_obs, n_free).
 
     ``labels``, ``y``, ``f``: observation labels, measured and fitted values; ``inner``: (n_free,) bool, the
     zones not held at a bound (the leave-group-out refits move only these; default all); ``sigma`` (n_obs,): the
     stated standard deviations (for the unit and column hints; default |f - y| / |r|); ``regions``: point label ->
     region, grouping points whose labels are plain numbers (:func:`point_group`); ``model_kind``: the model's
-    kind ("plane_strain": a force per mm of thickness).
+    kind ("plane_strain": a force per mm of thickness); ``check_groups``: the leave-group-out refits also for a
+    consistent fit (weights with the model error included, scaled per quantity: each quantity's own test then
+    passes by construction, and whether the groups agree about each zone is what is left to test).
     """
     r, jac = np.asarray(r, dtype=float), np.asarray(jac, dtype=float)
     n_obs, n_free = jac.shape
@@ -182,7 +184,7 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
     worst = [(labels[i], r[i], y[i], f[i]) for i in order]
     inner = np.ones(n_free, dtype=bool) if inner is None else np.asarray(inner, dtype=bool)
     shifts: tuple[Shift, ...] = ()
-    if consistent is False:
+    if consistent is False or (check_groups and consistent is not None):
         of_group = [point_group(label, regions) for label in labels]
         groups = {**{f"the {q} values": [s[1] == q for s in split] for q in by_quantity},
                   **{f"stage {s}": [t[2] == s for t in split] for s in by_stage},
