@@ -134,3 +134,15 @@ def test_an_include_fit_the_scaled_estimate_does_not_explain_claims_no_zone(monk
     for x, se, ok, at_bound, why, consistent, systematic in _fits(clean, "include", 0.02, range(2)):
         assert consistent is False and not ok.any()
         assert all(w.startswith("the fit with the model error included does not explain the data") for w in why)
+
+
+def test_a_consistent_include_fit_is_still_checked_by_leaving_groups_out():
+    """With a scale per quantity each quantity's chi-square passes by construction, so an include fit's claims
+    rest on the leave-group-out check, made for a consistent fit too: in replicate 1 of the quadratic-mesh data
+    B's standard error is within the resolution, but leaving out the ux values moves it by 4 standard deviations,
+    and it is not claimed."""
+    truth = np.array([0.02, 0.2])
+    (x, se, ok, at_bound, why, consistent, systematic), = _fits(_data(truth, mesh_size=0.25, order=2), "include",
+                                                                0.02, [1])
+    assert consistent is True and se[1] <= 0.02
+    assert not ok[1] and why[1].startswith("the data contradict each other: leaving out the ux values moves B")
