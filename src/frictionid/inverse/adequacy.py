@@ -73,6 +73,7 @@ class Adequacy:
     affected : (n_free,) bool, zones a leave-group-out refit moves by more than SHIFT_LIMIT
     hint : what to do about an inconsistent fit ("" when consistent)
     kinds_beyond : the quantities whose own misfit the stated noise does not explain (:func:`kinds_beyond_noise`)
+    model_error_weighted : the weights include a model error (mode "include"): the reasons say so
     """
 
     chi2: float
@@ -91,12 +92,16 @@ class Adequacy:
     low_threshold: float = 0.0
     too_small: bool = False
     kinds_beyond: tuple[str, ...] = ()
+    #: the weights hold the stated noise and an included model error (``check_groups``), not the noise alone
+    model_error_weighted: bool = False
 
     def why_affected(self, k: int, names) -> str:
         """A zone's reason for being contradicted by the data: the group whose omission moves it most."""
         best = max(self.shifts, key=lambda s: s.z[k] if np.isfinite(s.z[k]) else -1.0)
         return (f"the data contradict each other: leaving out {best.group} moves {names[k]} by "
-                f"{best.z[k]:.0f} standard deviations of the stated noise (model error)")
+                f"{best.z[k]:.0f} standard deviations of " + ("the stated noise and the included model error"
+                                                              if self.model_error_weighted else
+                                                              "the stated noise (model error)"))
 
     def as_dict(self, names) -> dict:
         """JSON-ready summary; names are the free zones, in the order of the Jacobian's columns."""
@@ -211,7 +216,7 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
     elif too_small:
         hint = noise_hint({q: g.rms for q, g in by_quantity.items()})
     return Adequacy(chi2, dof, reduced, threshold, p_value, consistent, by_quantity, by_stage, by_group, worst,
-                    shifts, affected, hint, low_threshold, too_small, beyond)
+                    shifts, affected, hint, low_threshold, too_small, beyond, check_groups)
 
 
 def kinds_beyond_noise(by_quantity: dict) -> tuple[str, ...]:
