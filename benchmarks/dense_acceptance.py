@@ -8,7 +8,9 @@ claim the zone, the largest error of a claim in standard errors and the coverage
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
 machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
-force only; "u-include" that with "include". Truth A 0.35, B 0.20, C 0.45, D 0.15.
+force only; "u-include" that with "include"; "include-no-force" and "u-include-no-force" those without the
+machine force (the control's estimate at the start values has no force error: there the force is mu times the
+normal force on any mesh). Truth A 0.35, B 0.20, C 0.45, D 0.15.
 
 The control's choice and its predicted remaining error depend on the model, the points, the stated noise and the
 start values, never on the measured values (``discretisation_control.control`` does not read them;
@@ -75,9 +77,11 @@ from frictionid.inverse.remaining_error import RemainingError
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "fixtures" / "dense_block"
 TRUTH = {"A": 0.35, "B": 0.20, "C": 0.45, "D": 0.15}
-MODES = {"default": ("all", "off"), "include": ("all", "include"), "u": ("u", "off"), "u-include": ("u", "include")}
+MODES = {"default": ("all", "off"), "include": ("all", "include"), "u": ("u", "off"), "u-include": ("u", "include"),
+         "include-no-force": ("no-force", "include"), "u-include-no-force": ("u-no-force", "include")}
 OBSERVABLES = {"all": '["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz", "force"]',
-               "u": '["ux", "uy", "uz", "force"]'}
+               "u": '["ux", "uy", "uz", "force"]',
+               "no-force": '["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz"]', "u-no-force": '["ux", "uy", "uz"]'}
 
 
 
@@ -145,11 +149,17 @@ def config_text(data: Path, observables: str, model_error: str, run: Path, max_m
     lines = model_lines.replace("\\n", "\n")                 # "\n" typed in a shell's quotes: a new line
     return ('[model]\nbuilder = "block"\n' + (lines + "\n" if lines else "") + '[friction]\nzones = { ' + zones + ' }\n'
             f'[data]\nfile = "{data}"\nobservables = {observables}\nstages = [1, 2]\n'
-            'noise = { u = 0.0005, e = 2e-5, force = 1.0 }\nregions = { "plate:*" = "plate", "*" = "block" }\n'
+            f'noise = {{ {_noise(observables)} }}\n' 'regions = { "plate:*" = "plate", "*" = "block" }\n'
             'strain_window = 2.0\nstrain_window_shape = "circle"\n'
             f'[identify]\nmodel_error = "{model_error}"\n' + ("" if control else "refine_target = 0\n")
             + "[solver]\n" + (f"max_memory = {max_memory}\n" if max_memory else "")
             + ("slip_tolerance = false\n" if model_lines else "") + f'[run]\ndir = "{run}"\nfields = false\n')
+
+
+def _noise(observables: str) -> str:
+    """The stated noise of the observed kinds (a kind stated but not observed is refused with a note)."""
+    noise = {"u": "u = 0.0005", "e": "e = 2e-5", "force": "force = 1.0"}
+    return ", ".join(text for kind, text in noise.items() if f'"{kind}' in observables)
 
 
 class KeptControl:

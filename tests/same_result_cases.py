@@ -21,7 +21,10 @@ bases' inverse map on triangles and tetrahedra began to start from the straight 
 cells, where Newton from scikit-fem's start stopped within 1e-10): coefficients and standard errors moved by at
 most 5.5e-12 relative, misfits by at most 2.7e-10, and example_tightening's round-off-size torque misfit share by
 1.2e-5. Every case's ``fit`` then got ``kinds_beyond_noise`` (the quantities whose own chi-square fails), empty in
-all of them, with nothing else changed (checked by running the cases against the files with the key added)."""
+all of them, with nothing else changed (checked by running the cases against the files with the key added).
+model_error and model_error_include were written again when include's error scale became one per quantity: their
+``fit.model_error`` got ``scales`` (null; {"ux": 0, "uy": 0} in include, whose misfit the noise explains), and
+include's ``fit.shifts`` the leave-group-out moves now made for every include fit; nothing else changed."""
 
 from __future__ import annotations
 

@@ -15,6 +15,8 @@ import pytest
 
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model
+from frictionid.inverse import discretisation
+from frictionid.inverse.discretisation import error_scales
 from frictionid.inverse.parameters import Parameters
 from helpers.fits import fit_as_identify, point_observations
 from frictionid.options import ModelSpec
@@ -96,3 +98,52 @@ def test_with_a_discretisation_error_included_zones_are_still_claimed_and_hold()
     for x, se, ok, at_bound, *_ in rows:
         inside = np.abs(x - truth) <= 1.96 * se
         assert np.all(inside | ~ok)
+
+
+def test_each_quantity_s_scale_brings_its_own_chi_square_to_its_share_of_the_degrees_of_freedom():
+    """One scale for all quantities cannot fit an estimate that is right for one quantity and three times too
+    large for another; a scale per quantity can, within the ceiling, and a quantity the estimate sees no error
+    in gets none."""
+    rng = np.random.default_rng(0)
+    n, n_free = 4000, 4
+    quantities = np.repeat(["ux", "exy", "force"], [n, n, 2])
+    actual = np.concatenate([rng.normal(0.0, 2.0, n), rng.normal(0.0, 1.0, n), [0.0, 0.0]])
+    estimate = np.abs(actual) * np.where(quantities == "exy", 3.0, 1.0)
+    residual = actual + rng.normal(0.0, 1.0, actual.size)
+    scales = error_scales(residual, np.ones(actual.size), estimate, n_free, quantities)
+    share = (actual.size - n_free) / actual.size
+    k = np.array([scales[q] for q in quantities])
+    for q in ("ux", "exy"):
+        rows = quantities == q
+        chi2 = np.sum(residual[rows] ** 2 / (1.0 + (k[rows] * estimate[rows]) ** 2))
+        assert chi2 == pytest.approx(share * rows.sum(), rel=1e-6)
+    assert scales["ux"] == pytest.approx(1.0, abs=0.1) and scales["exy"] == pytest.approx(1 / 3, abs=0.05)
+    assert scales["force"] == 0.0
+    assert error_scales(residual, np.ones(actual.size), estimate, n_free, quantities, ceiling=0.5)["ux"] == 0.5
+
+
+def test_an_include_fit_the_scaled_estimate_does_not_explain_claims_no_zone(monkeypatch):
+    """Data from quadratic triangles four times finer: with the estimate's scales held at 0 (the ceiling
+    lowered) the model error is not in the weights, the fit is inconsistent, and an include fit then claims
+    nothing and says why; with the ceiling as shipped the same data are explained and zones are claimed."""
+    truth = np.array([0.02, 0.2])
+    clean = _data(truth, mesh_size=0.25, order=2)
+    rows = _fits(clean, "include", 0.02, range(2))
+    assert all(row[5] is True for row in rows) and any(row[2].any() for row in rows)
+    monkeypatch.setattr(discretisation, "SCALE_CEILING", 0.0)
+    for x, se, ok, at_bound, why, consistent, systematic in _fits(clean, "include", 0.02, range(2)):
+        assert consistent is False and not ok.any()
+        assert all(w.startswith("the fit with the model error included does not explain the data") for w in why)
+
+
+def test_a_consistent_include_fit_is_still_checked_by_leaving_groups_out():
+    """With a scale per quantity each quantity's chi-square passes by construction, so an include fit's claims
+    rest on the leave-group-out check, made for a consistent fit too: in replicate 1 of the quadratic-mesh data
+    B's standard error is within the resolution, but leaving out the ux values moves it by 4 standard deviations,
+    and it is not claimed."""
+    truth = np.array([0.02, 0.2])
+    (x, se, ok, at_bound, why, consistent, systematic), = _fits(_data(truth, mesh_size=0.25, order=2), "include",
+                                                                0.02, [1])
+    assert consistent is True and se[1] <= 0.02
+    assert not ok[1] and why[1].startswith("the data contradict each other: leaving out the ux values moves B")
+    assert why[1].endswith("standard deviations of the stated noise and the included model error")

@@ -250,3 +250,21 @@ def test_the_block_pieces_benchmark_splits_only_its_piece_outside_the_bands():
     for name in ("quarter", "block_z", "outer"):
         np.testing.assert_array_equal(getattr(plate, name), getattr(given, name))
     assert plate.n_nodes() > given.n_nodes() and outer.n_nodes() > given.n_nodes()
+
+
+def test_the_acceptance_study_states_the_noise_of_the_observed_kinds_only(tmp_path):
+    """benchmarks/dense_acceptance.py's configs: each mode's [data] states the noise of the kinds it observes and no
+    other (a noise stated for an unobserved kind is noted by the config check), and the no-force modes observe
+    no force."""
+    import sys
+    import tomllib
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import dense_acceptance as acceptance
+    kinds = {"u": ("ux", "uy", "uz"), "e": ("exx", "eyy", "ezz", "exy", "eyz", "exz"), "force": ("force",)}
+    for mode, (observables, model_error) in acceptance.MODES.items():
+        text = acceptance.config_text(tmp_path / "data.csv", acceptance.OBSERVABLES[observables], model_error,
+                                      tmp_path / "run", 5.0, dict.fromkeys(acceptance.TRUTH, 0.1))
+        data = tomllib.loads(text)["data"]
+        observed = {kind for kind, names in kinds.items() if set(names) & set(data["observables"])}
+        assert set(data["noise"]) == observed, mode
+        assert ("force" in data["observables"]) == ("no-force" not in mode), mode

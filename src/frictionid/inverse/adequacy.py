@@ -73,6 +73,7 @@ class Adequacy:
     affected : (n_free,) bool, zones a leave-group-out refit moves by more than SHIFT_LIMIT
     hint : what to do about an inconsistent fit ("" when consistent)
     kinds_beyond : the quantities whose own misfit the stated noise does not explain (:func:`kinds_beyond_noise`)
+    model_error_weighted : the weights include a model error (mode "include"): the reasons say so
     """
 
     chi2: float
@@ -91,12 +92,16 @@ class Adequacy:
     low_threshold: float = 0.0
     too_small: bool = False
     kinds_beyond: tuple[str, ...] = ()
+    #: the weights hold the stated noise and an included model error (``check_groups``), not the noise alone
+    model_error_weighted: bool = False
 
     def why_affected(self, k: int, names) -> str:
         """A zone's reason for being contradicted by the data: the group whose omission moves it most."""
         best = max(self.shifts, key=lambda s: s.z[k] if np.isfinite(s.z[k]) else -1.0)
         return (f"the data contradict each other: leaving out {best.group} moves {names[k]} by "
-                f"{best.z[k]:.0f} standard deviations of the stated noise (model error)")
+                f"{best.z[k]:.0f} standard deviations of " + ("the stated noise and the included model error"
+                                                              if self.model_error_weighted else
+                                                              "the stated noise (model error)"))
 
     def as_dict(self, names) -> dict:
         """JSON-ready summary; names are the free zones, in the order of the Jacobian's columns."""
@@ -154,14 +159,16 @@ def point_group(label: str, regions: dict | None = None) -> str:
 
 
 def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inner=None, sigma=None,
-           regions: dict | None = None, model_kind: str | None = None) -> Adequacy:
+           regions: dict | None = None, model_kind: str | None = None, check_groups: bool = False) -> Adequacy:
     """Adequacy of a fit from its weighted residuals r (n_obs,) and weighted Jacobian (n_obs, n_free).
 
     ``labels``, ``y``, ``f``: observation labels, measured and fitted values; ``inner``: (n_free,) bool, the
     zones not held at a bound (the leave-group-out refits move only these; default all); ``sigma`` (n_obs,): the
     stated standard deviations (for the unit and column hints; default |f - y| / |r|); ``regions``: point label ->
     region, grouping points whose labels are plain numbers (:func:`point_group`); ``model_kind``: the model's
-    kind ("plane_strain": a force per mm of thickness).
+    kind ("plane_strain": a force per mm of thickness); ``check_groups``: the leave-group-out refits also for a
+    consistent fit (weights with the model error included, scaled per quantity: each quantity's own test then
+    passes by construction, and whether the groups agree about each zone is what is left to test).
     """
     r, jac = np.asarray(r, dtype=float), np.asarray(jac, dtype=float)
     n_obs, n_free = jac.shape
@@ -182,7 +189,7 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
     worst = [(labels[i], r[i], y[i], f[i]) for i in order]
     inner = np.ones(n_free, dtype=bool) if inner is None else np.asarray(inner, dtype=bool)
     shifts: tuple[Shift, ...] = ()
-    if consistent is False:
+    if consistent is False or (check_groups and consistent is not None):
         of_group = [point_group(label, regions) for label in labels]
         groups = {**{f"the {q} values": [s[1] == q for s in split] for q in by_quantity},
                   **{f"stage {s}": [t[2] == s for t in split] for s in by_stage},
@@ -209,7 +216,7 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
     elif too_small:
         hint = noise_hint({q: g.rms for q, g in by_quantity.items()})
     return Adequacy(chi2, dof, reduced, threshold, p_value, consistent, by_quantity, by_stage, by_group, worst,
-                    shifts, affected, hint, low_threshold, too_small, beyond)
+                    shifts, affected, hint, low_threshold, too_small, beyond, check_groups)
 
 
 def kinds_beyond_noise(by_quantity: dict) -> tuple[str, ...]:

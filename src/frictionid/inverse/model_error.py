@@ -128,8 +128,10 @@ class ModelError:
     factor : refinement factor r; refined_options : the refined model's [model] table
     n_points : number of coefficient sets the estimate is the largest over
     seconds : wall time of the refined model's build, condensation and solves [s]
-    scale : factor on ``estimate`` where it is used as extra variance (:func:`inflated_sigma`): the size of the
-        error the data show relative to the estimate (``frictionid.inverse.discretisation.error_scale``); 1 by default
+    scale : factor on ``estimate`` where it is used as extra variance (:func:`inflated_sigma`), a number or one
+        per observation: the size of the error the data show relative to the estimate; 1 by default
+    scales : {quantity: k_q} of mode "include" (``frictionid.inverse.discretisation.error_scales``): ``scale`` is
+        each observation's quantity's; None otherwise
     signed : (n_obs,) the signed error (model minus converged value, observations' units) at the last
         coefficient set (an identification's fitted point): what the coarse model's values would be corrected
         by; it moves the fitted coefficients along the sensitivities, which the misfit alone cannot show
@@ -148,7 +150,8 @@ class ModelError:
     refined_options: ModelSpec
     n_points: int
     seconds: float
-    scale: float = 1.0
+    scale: float | np.ndarray = 1.0
+    scales: dict | None = None
     signed: np.ndarray | None = None
     before: np.ndarray | None = None
     #: where the estimate comes from: the model refined by ``factor`` ("richardson") or the discretisation
@@ -167,7 +170,8 @@ class ModelError:
         return {"source": self.source, "estimate": self.estimate.tolist(), "in_noise": self.in_noise.tolist(),
                 "orders": dict(self.orders), "factor": self.factor, "refined_options": self.refined_options.table(),
                 "n_points": self.n_points,
-                "seconds": self.seconds, "scale": self.scale, "summary": self.summary,
+                "seconds": self.seconds, "scale": float(np.max(self.scale, initial=0.0)),
+                "scales": None if self.scales is None else dict(self.scales), "summary": self.summary,
                 "signed": None if self.signed is None else self.signed.tolist(),
                 "before_include": None if self.before is None else self.before.tolist()}
 
@@ -186,7 +190,8 @@ def from_control(remaining, observations: Observations, options: ModelSpec) -> M
 
 
 def inflated_sigma(observations: Observations, error: ModelError) -> np.ndarray:
-    """(n_obs,) standard deviations with the model error as extra variance: sqrt(sigma^2 + (scale e)^2)."""
+    """(n_obs,) standard deviations with the model error as extra variance: sqrt(sigma^2 + (scale e)^2), scale
+    a number or one per observation."""
     if error.estimate.shape != observations.sigma.shape:
         raise InputError(f"model error: {error.estimate.size} estimates for {observations.n_obs} observations")
     return np.hypot(observations.sigma, error.scale * error.estimate)

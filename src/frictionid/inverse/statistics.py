@@ -3,12 +3,13 @@ per measurement point, and why a zone is not identifiable in terms of its contac
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..backends.base import Backend
 from .adequacy import Adequacy, assess, bias_shift
+from .discretisation import SCALE_CEILING
 from .evaluator import Evaluator
 from .least_squares import LeastSquares, robust_weights
 from .remaining_error import systematic as remaining_systematic
@@ -49,14 +50,17 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     r, jac = np.sqrt(weights) * r, np.sqrt(weights)[:, None] * jac
     inner = ~at_bounds(x, params.lower, params.upper)
     model = getattr(evaluator.backend, "model", None)
+    included = error is not None and error.before is not None          # "include": the error is in the weights
     adequacy = assess(r, jac, obs.labels, obs.y, evaluator.model_values(x), obs.noise_known, inner=inner,
                       sigma=obs.sigma, regions=dict(zip(obs.point_labels, obs.point_regions)),
-                      model_kind=getattr(model, "kind", None))
+                      model_kind=getattr(model, "kind", None), check_groups=included)
     shift = systematic = offset = limit = None
     if error is not None and error.signed is not None:
-        shift = bias_shift(jac, np.sqrt(weights) * obs.weight * error.signed, inner)
-        if error.before is not None:                   # "include": the error's effect is part of the interval
-            systematic = systematic_error(shift, error.scale, error.before, x)
+        weight = np.sqrt(weights) * obs.weight
+        shift = bias_shift(jac, weight * error.signed, inner)
+        if included:                                    # the scaled error's effect is part of the interval
+            scale = np.maximum(np.broadcast_to(np.asarray(error.scale, dtype=float), obs.sigma.shape), 1.0)
+            systematic = systematic_error(bias_shift(jac, weight * scale * error.signed, inner), error.before, x)
     if remaining is not None:
         offset, left = remaining_systematic(jac, np.sqrt(weights) * obs.weight, remaining, inner)
         if systematic is None:                          # a prediction the misfit did not check: claims limited
@@ -65,7 +69,22 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
             systematic = np.fmax(systematic, left)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
                    shift, systematic, limit)
+    if included and adequacy.consistent is False:
+        unc = _unexplained(unc, adequacy)
     return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic, offset)
+
+
+def _unexplained(unc: Uncertainty, adequacy) -> Uncertainty:
+    """No zone claimed in a fit that the noise and the included model error do not explain: the estimate,
+    scaled per quantity up to its ceiling, does not describe the misfit, so the intervals built on it do not
+    hold (docs/fit-quality.md)."""
+    which = (f"{', '.join(adequacy.kinds_beyond)} beyond the noise" if adequacy.kinds_beyond else
+             f"reduced chi-square {adequacy.reduced_chi2:.3g} > {adequacy.threshold:.3g}")
+    reason = (f"the fit with the model error included does not explain the data ({which}): the estimated "
+              f"discretisation error, scaled per quantity up to {SCALE_CEILING:g} times, does not describe that "
+              "misfit, so no interval resting on it is claimed")
+    why = tuple(reason + (f"; {w}" if w else "") for w in unc.why)
+    return replace(unc, identifiable=np.zeros_like(unc.identifiable), why=why)
 
 
 def point_misfit(obs, r: np.ndarray) -> list[dict]:

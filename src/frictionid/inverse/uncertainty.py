@@ -157,22 +157,21 @@ def _why_bound(value: float, adequacy) -> str:
             "= \"include\")")
 
 
-def systematic_error(shift, scale: float, before, after) -> np.ndarray:
+def systematic_error(scaled_shift, before, after) -> np.ndarray:
     """(n_free,) standard error of the part of a coefficient's error a model error makes (include mode).
 
     The error included as variance is a fixed vector, not noise: it does not average out over many
     observations, so the statistical standard error understates its effect. Two measures of that effect,
-    the larger kept: ``shift`` (n_free,), the linearised move of the coefficients were the model corrected by
-    its estimated error (:func:`~.adequacy.bias_shift`), times ``scale`` (the size of the error the misfit shows
-    relative to the estimate, at least 1); and how far including the error in the weights moved the fit
-    (``after`` - ``before``): under a right model both weightings estimate the same coefficients.
+    the larger kept: ``scaled_shift`` (n_free,), the linearised move of the coefficients were the model
+    corrected by its estimated error scaled to the size each quantity's misfit shows (at least the estimate
+    itself: :func:`~.adequacy.bias_shift` of max(k_q, 1) e); and how far including the error in the weights
+    moved the fit (``after`` - ``before``): under a right model both weightings estimate the same coefficients.
 
-    >>> systematic_error(np.array([0.01, np.nan]), 0.5, np.array([0.1, 0.2]), np.array([0.13, 0.2])).tolist()
+    >>> systematic_error(np.array([0.01, np.nan]), np.array([0.1, 0.2]), np.array([0.13, 0.2])).tolist()
     [0.03, 0.0]
     """
     moved = np.abs(np.asarray(after, dtype=float) - np.asarray(before, dtype=float))
-    corrected = max(float(scale), 1.0) * np.nan_to_num(np.abs(np.asarray(shift, dtype=float)), nan=0.0)
-    return np.maximum(moved, corrected)
+    return np.maximum(moved, np.nan_to_num(np.abs(np.asarray(scaled_shift, dtype=float)), nan=0.0))
 
 
 def _intervals(x, lower, upper, stderr, bound, two_sided: float, one_sided: float) -> np.ndarray:

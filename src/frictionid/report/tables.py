@@ -173,8 +173,8 @@ def _adequacy_lines(fit: dict) -> list[str]:
         kinds = ", ".join(f"{key[5:]} {v['rms']:.3g}" for key, v in error["summary"].items() if key.startswith("kind "))
         lines.append(f"    estimated discretisation error (model refined x{error['factor']}, Richardson): "
                      f"{all_['rms']:.3g} noise levels RMS, max {all_['max']:.3g} (by kind: {kinds})"
-                     + (f"; included in the weights scaled by {error['scale']:.3g} (the size the misfit shows)"
-                        if error["mode"] == "include" else
+                     + (f"; included in the weights scaled per quantity by {_scales(error)} (the size each "
+                        "quantity's misfit shows)" if error["mode"] == "include" else
                         "; not included in the weights (identify.model_error = \"include\" does)"))
         shift = {zone: v for zone, v in error.get("shift", {}).items() if v is not None}
         if shift:
@@ -198,6 +198,12 @@ def _adequacy_lines(fit: dict) -> list[str]:
     elif fit.get("too_small"):
         lines.append(f"    what to try: {fit['hint']}")
     return lines
+
+
+def _scales(error: dict) -> str:
+    """fit.model_error's per-quantity scales of mode "include" ("ux 1.2, exy 0.4"; one number without them)."""
+    scales = error.get("scales")
+    return ", ".join(f"{q} {k:.3g}" for q, k in scales.items()) if scales else f"{error['scale']:.3g}"
 
 
 def _se(value) -> str:
