@@ -146,4 +146,5 @@ def test_a_consistent_include_fit_is_still_checked_by_leaving_groups_out():
                                                                 0.02, [1])
     assert consistent is True and se[1] <= 0.02
     assert not ok[1] and why[1].startswith("the data contradict each other: leaving out the ux values moves B")
-    assert why[1].endswith("standard deviations of the stated noise and the included model error")
+    assert why[1].endswith("standard deviations of the stated noise and the included model error, its systematic "
+                           "part counted")

@@ -10,13 +10,16 @@ Which coefficients such a misfit moves is measured by leaving observation groups
 one point group at a time) and refitting the linearised problem: with J^T r = 0 at the fit, leaving out group
 g moves x by dx = (J_-^T J_-)^-1 J_g^T r_g, whose variance under the stated noise alone is
 (J_-^T J_-)^-1 - (J^T J)^-1 (the nested-estimator difference). A zone that moves by more than
-:data:`SHIFT_LIMIT` such standard deviations is one the data contradict themselves about.
+:data:`SHIFT_LIMIT` such standard deviations is one the data contradict themselves about. With the model error
+included in the weights (identify.model_error = "include") that error is one fixed field, which moves a zone by up
+to its systematic standard error whichever group is left out: the moves are then measured against
+sqrt(var + systematic^2) (:meth:`Adequacy.with_systematic`).
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -46,10 +49,13 @@ class GroupMisfit:
 
 @dataclass(frozen=True)
 class Shift:
-    """How far leaving out one observation group moves each zone, in standard deviations of that move."""
+    """How far leaving out one observation group moves each zone, in standard deviations of that move: ``z``
+    = |``move``| / ``sd`` (all (n_free,); nan where not measurable)."""
 
     group: str
     z: np.ndarray
+    move: np.ndarray | None = None
+    sd: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -99,9 +105,29 @@ class Adequacy:
         """A zone's reason for being contradicted by the data: the group whose omission moves it most."""
         best = max(self.shifts, key=lambda s: s.z[k] if np.isfinite(s.z[k]) else -1.0)
         return (f"the data contradict each other: leaving out {best.group} moves {names[k]} by "
-                f"{best.z[k]:.0f} standard deviations of " + ("the stated noise and the included model error"
+                f"{best.z[k]:.0f} standard deviations of " + ("the stated noise and the included model error, "
+                                                              "its systematic part counted"
                                                               if self.model_error_weighted else
                                                               "the stated noise (model error)"))
+
+    def with_systematic(self, systematic: np.ndarray) -> "Adequacy":
+        """The leave-group-out moves measured against the move's statistical deviation and the coefficients'
+        systematic standard error together, sqrt(sd^2 + systematic^2) (include mode: the model error is one
+        fixed field, so leaving a group out moves a zone by up to its systematic part even where the groups
+        agree), and the zones they move by more than SHIFT_LIMIT of that."""
+        systematic = np.nan_to_num(np.asarray(systematic, dtype=float), nan=0.0)
+        shifts = []
+        for shift in self.shifts:
+            if shift.move is None:
+                shifts.append(shift)
+                continue
+            with np.errstate(invalid="ignore", divide="ignore"):
+                z = np.abs(shift.move) / np.hypot(shift.sd, systematic)
+            shifts.append(replace(shift, z=z))
+        affected = np.zeros_like(self.affected)
+        for shift in shifts:
+            affected |= np.nan_to_num(shift.z, nan=0.0) > SHIFT_LIMIT
+        return replace(self, shifts=tuple(shifts), affected=affected)
 
     def as_dict(self, names) -> dict:
         """JSON-ready summary; names are the free zones, in the order of the Jacobian's columns."""
@@ -194,7 +220,7 @@ def assess(r: np.ndarray, jac: np.ndarray, labels, y, f, noise_known: bool, inne
         groups = {**{f"the {q} values": [s[1] == q for s in split] for q in by_quantity},
                   **{f"stage {s}": [t[2] == s for t in split] for s in by_stage},
                   **{_group_name(g): [t == g for t in of_group] for g in by_group if g not in by_quantity}}
-        shifts = tuple(Shift(name, _shift(jac, r, np.array(rows), inner))
+        shifts = tuple(Shift(name, *_shift(jac, r, np.array(rows), inner))
                        for name, rows in groups.items() if 0 < sum(rows) < n_obs)
     affected = np.zeros(n_free, dtype=bool)
     for shift in shifts:
@@ -247,20 +273,23 @@ def _group_name(group: str) -> str:
         else f"the points {group}*"
 
 
-def _shift(jac: np.ndarray, r: np.ndarray, out: np.ndarray, inner: np.ndarray) -> np.ndarray:
-    """(n_free,) |dx| / sd(dx) of the linearised refit without the rows ``out`` (nan: not measurable)."""
-    z = np.full(jac.shape[1], np.nan)
+def _shift(jac: np.ndarray, r: np.ndarray, out: np.ndarray, inner: np.ndarray):
+    """(z, dx, sd), each (n_free,): the linearised refit without the rows ``out`` moves the coefficients by dx,
+    whose statistical deviation is sd, z = |dx| / sd (nan: not measurable)."""
+    z, move, sd = (np.full(jac.shape[1], np.nan) for _ in range(3))
     J, keep = jac[:, inner], ~out
     full = J.T @ J
     rest = J[keep].T @ J[keep]
     if np.linalg.matrix_rank(rest) < J.shape[1] or np.linalg.matrix_rank(full) < J.shape[1]:
-        return z
+        return z, move, sd
     rest_inv = np.linalg.inv(rest)
     dx = rest_inv @ (J[out].T @ r[out])
     variance = np.diag(rest_inv - np.linalg.inv(full))
+    move[inner] = dx
+    sd[inner] = np.where(variance > 0, np.sqrt(np.maximum(variance, 0.0)), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
-        z[inner] = np.where(variance > 0, np.abs(dx) / np.sqrt(np.maximum(variance, 0.0)), np.nan)
-    return z
+        z[inner] = np.abs(dx) / sd[inner]
+    return z, move, sd
 
 
 def bias_shift(jac: np.ndarray, bias: np.ndarray, inner=None) -> np.ndarray:

@@ -67,6 +67,8 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
             systematic, limit = left, SYSTEMATIC_LIMIT
         else:
             systematic = np.fmax(systematic, left)
+    if included and systematic is not None and adequacy.shifts:
+        adequacy = adequacy.with_systematic(systematic)
     unc = estimate(jac, r, x, params.lower, params.upper, obs.noise_known, resolution, params.free_names, adequacy,
                    shift, systematic, limit)
     if included and adequacy.consistent is False:
