@@ -142,13 +142,13 @@ def test_the_refit_phase_keeps_its_evaluations_apart_from_the_first_fits(tmp_pat
 def test_a_refined_model_refused_after_the_fit_leaves_the_fit_reported(case, monkeypatch, capsys):
     """A refinement the set-up check refuses (here: the contact check, forced) ends the rounds with the fit so far
     reported and the reason recorded, not a run without a result."""
-    from frictionid import identification
+    from frictionid import fitted_control
     from frictionid.errors import InputError
 
     def refused(*args, **kwargs):
         raise InputError("contact 'block_base': refused for this test")
 
-    monkeypatch.setattr(identification, "checked_contact", refused)
+    monkeypatch.setattr(fitted_control, "checked_contact", refused)
     folder, at_start, at_truth = case
     result = _identify(folder, "refused", float(np.sqrt(at_start * at_truth)))
     (only,) = result["model"]["discretisation"]["at_fitted"]
