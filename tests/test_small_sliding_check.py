@@ -170,3 +170,22 @@ def test_the_displacements_of_several_increments_come_from_one_solve_and_equal_e
 def test_the_configs_default_is_the_solvers():
     from frictionid.options import SolverOptions
     assert SolverOptions().slip_tolerance == SLIP_TOLERANCE
+
+
+def test_a_single_closed_pair_is_measured_against_its_own_normal_displacement(tmp_path):
+    """The coarse axisymmetric block of the element cross-check (CAX3) ends its pull with one closed pair: the
+    range of the target's normal displacement over the closed pairs is 0 there, and the gap error is measured
+    against that pair's normal displacement instead (it stopped the solve with a division by zero)."""
+    from test_calculix_elements import element_model
+    model, zones = element_model("CAX3", tmp_path)
+    problem = Problem.build(model)
+    solution = problem.solve(np.array([zones[z] for z in model.zone_names]), max_slip=None)
+    assert np.count_nonzero(solution.state[-1]) == 1
+    last = next(found for found in problem.gap_errors(solution) if found["increment"] == len(solution.state) - 1)
+    u = problem.displacement(solution, [len(solution.state) - 1])[0]
+    closed = solution.state[-1] != 0
+    pairs = problem.pairs
+    target_n = np.einsum("pi,pi->p", pairs.frames[:, 0, :], u[pairs.nodes]) - solution.w[-1, :, 0]
+    assert last["mean"] > 0.0 and last["spread"] == pytest.approx(abs(target_n[closed][0]), rel=1e-12)
+    assert np.isfinite(last["ratio"]) and last["ratio"] < SLIP_TOLERANCE
+    problem.check_small_sliding(solution)                                      # accepted, no error

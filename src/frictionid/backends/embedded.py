@@ -170,6 +170,8 @@ class EmbeddedBackend:
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
         solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments, max_slip=None)
+        # kept for check_sliding at the same mu (simulate's one solve), not with sensitivities (their size)
+        self._last = None if sensitivities else (mu.copy(), solution)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
         derivatives = None
@@ -212,6 +214,17 @@ class EmbeddedBackend:
         forward solve and the check. The other methods solve without it: the check costs several solves' time
         (the deformed coupling's search), and it is the answer that must lie within small sliding, not each trial
         point of a fit (:func:`frictionid.identification.identify_config` checks the fitted point, ``simulate``
-        its one solve)."""
-        if self.max_slip is not None:
+        its one solve, whose solution :meth:`predict` keeps for this)."""
+        if self.max_slip is None:
+            return
+        mu = np.asarray(mu, dtype=float)
+        last = getattr(self, "_last", None)
+        if last is not None and np.array_equal(last[0], mu):
+            self.problem.check_small_sliding(last[1], self.max_slip)
+        else:
             self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip)
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_last", None)                # a solution of this process, not shipped to workers
+        return state

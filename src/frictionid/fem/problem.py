@@ -373,12 +373,14 @@ class Problem:
                 # the normal deformation the contact resolves: the range of its normal displacement (a force
                 # fixes the pressure's mean), or an initial interference (which fixes it)
                 spread = float(max(np.ptp(target_n[mine & closed]), -np.min(pairs.gap[mine & closed], initial=0.0)))
+                if spread == 0.0:       # one closed pair, or the target moved as a whole: its normal displacement
+                    spread = float(np.abs(target_n[mine & closed]).max())
                 mean = float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[mine & closed]))
                 if mean <= ROUND_OFF * np.abs(u).max():
                     mean = 0.0                                   # a uniform field's round-off, not an error
                 worst = int(np.flatnonzero(mine)[np.argmax(error[mine])])
-                found.append(dict(interface=index, increment=inc, mean=mean, spread=spread,
-                                  ratio=mean / spread if mean > 0.0 else 0.0, worst=worst,
+                ratio = 0.0 if mean == 0.0 else mean / spread if spread > 0.0 else np.inf
+                found.append(dict(interface=index, increment=inc, mean=mean, spread=spread, ratio=ratio, worst=worst,
                                   largest=float(error[worst]), slip=float(slip[inc, worst]),
                                   uncovered=int(np.count_nonzero(uncovered & mine & closed))))
                 if found[-1]["ratio"] > tolerance:
