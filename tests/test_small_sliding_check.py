@@ -189,3 +189,17 @@ def test_a_single_closed_pair_is_measured_against_its_own_normal_displacement(tm
     assert last["mean"] > 0.0 and last["spread"] == pytest.approx(abs(target_n[closed][0]), rel=1e-12)
     assert np.isfinite(last["ratio"]) and last["ratio"] < SLIP_TOLERANCE
     problem.check_small_sliding(solution)                                      # accepted, no error
+
+
+def test_a_pickled_backend_ships_no_solution_and_still_checks():
+    """predict keeps its last solution for check_sliding in its own process; a copy sent to a worker holds none
+    and solves when asked to check."""
+    import pickle
+
+    from frictionid.backends.embedded import EmbeddedBackend
+    backend = EmbeddedBackend(block_model(mesh_size=5.0), POINTS, QUANTITIES, REGIONS)
+    backend.predict(MU)
+    assert backend._last is not None
+    copy = pickle.loads(pickle.dumps(backend))
+    assert copy._last is None
+    copy.check_sliding(MU)

@@ -150,6 +150,7 @@ class EmbeddedBackend:
         self.model = model
         self.increments = increments
         self.max_slip = None if slip_tolerance is False else float(slip_tolerance)
+        self._last = None                       # (mu, solution) of the last predict without sensitivities
         points = None if points is None or len(points) == 0 or not quantities else points
         self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation, sliding)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
@@ -218,13 +219,10 @@ class EmbeddedBackend:
         if self.max_slip is None:
             return
         mu = np.asarray(mu, dtype=float)
-        last = getattr(self, "_last", None)
-        if last is not None and np.array_equal(last[0], mu):
-            self.problem.check_small_sliding(last[1], self.max_slip)
+        if self._last is not None and np.array_equal(self._last[0], mu):
+            self.problem.check_small_sliding(self._last[1], self.max_slip)
         else:
             self.problem.solve(mu, increments=self.increments, max_slip=self.max_slip)
 
     def __getstate__(self):
-        state = dict(self.__dict__)
-        state.pop("_last", None)                # a solution of this process, not shipped to workers
-        return state
+        return {**self.__dict__, "_last": None}    # a solution of this process, not shipped to workers
