@@ -150,7 +150,7 @@ class EmbeddedBackend:
         self.model = model
         self.increments = increments
         self.max_slip = None if slip_tolerance is False else float(slip_tolerance)
-        self._last = None                       # (mu, solution) of the last predict without sensitivities
+        self._last = None                       # (mu, solution) of the last predict
         points = None if points is None or len(points) == 0 or not quantities else points
         self.problem = _built(model, points, tuple(quantities), regions, keep, window, factorisation, sliding)
         unknown = [r for r in reactions if r not in self.problem.reaction_labels]
@@ -171,8 +171,9 @@ class EmbeddedBackend:
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
         solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments, max_slip=None)
-        # kept for check_sliding at the same mu (simulate's one solve), not with sensitivities (their size)
-        self._last = None if sensitivities else (mu.copy(), solution)
+        # kept for check_sliding at the same mu (simulate's one solve; a fit's last solve, often at its answer):
+        # the contact unknowns and the observation rows per increment, without the displacement field
+        self._last = (mu.copy(), solution)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
         derivatives = None
