@@ -192,8 +192,7 @@ RANGES = {"solver.timeout": (0, False), "solver.threads": (1, True), "solver.loa
 
 def _check_ranges(tables: dict, path: Path) -> None:
     tolerance = tables["solver"].get("slip_tolerance")
-    if isinstance(tolerance, bool) and tolerance or not isinstance(tolerance, bool) and tolerance is not None \
-            and not tolerance > 0:
+    if tolerance is True or tolerance is not None and tolerance is not False and not tolerance > 0:
         raise InputError(f"{path}: solver.slip_tolerance must be a number > 0 or false, got {tolerance!r} (expected "
                          f"{TYPES['solver.slip_tolerance'][1]})")
     for dotted, (low, inclusive) in RANGES.items():

@@ -23,9 +23,8 @@ target in every kind is built and fitted, after :func:`frictionid.fem.memory.che
 largest ratio of measured to estimated peak of the control's own builds (:class:`frictionid.fem.memory.Peak`) (no
 refinement is left out for its element length against the slip: the small-sliding check,
 :meth:`frictionid.fem.problem.Problem.check_small_sliding`, measures the pairing's gap error, a property of the
-solution, which the solves of the chosen model run); when none is, the one with the smallest largest-kind error that
-fits in memory, and the record says
-the target was not reached. A model that cannot be refined (a model object, another backend) is fitted as it is, and
+solution, on the fitted answer); when none is, the one with the smallest largest-kind error that fits in memory,
+and the record says the target was not reached. A model that cannot be refined (a model object, another backend) is fitted as it is, and
 the record says why.
 
 The choice is checked: the chosen model is solved at the start values, and in a quantity kind where its actual
@@ -345,7 +344,7 @@ def _choose(model_options, model, terms, sizes, gain, sigma, kinds, target, max_
     rows = []
     for factors in itertools.product(factors_tried, repeat=len(terms)):
         # no refinement is left out for sliding: the small-sliding check's gap error is that of the solution, not
-        # of the element length (fem/problem.py, check_small_sliding), and each refinement's solves run it
+        # of the element length (fem/problem.py, check_small_sliding), and the fitted answer is checked
         if model_options.builder == "mesh" and any(k not in (1, 2, 4) for k in factors) \
                 or any(k < f for k, f in zip(factors, floor)):
             continue
