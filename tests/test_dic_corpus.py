@@ -5,7 +5,6 @@ CSV."""
 
 import json
 import re
-import sys
 import tomllib
 from pathlib import Path
 
