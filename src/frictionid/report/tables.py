@@ -167,8 +167,10 @@ def _adequacy_lines(fit: dict) -> list[str]:
         lines.append(f"    robust loss {fit['loss']}: {fit['n_downweighted']} observation(s) kept less than half their "
                      "weight; chi-square and standard errors use the weights the fit ends with, so they treat "
                      "the down-weighted observations as outliers (too narrow if those are model error)")
-    error = fit.get("model_error")
-    if error:
+    error = fit.get("model_error") or {}
+    if error.get("requested") == "auto":
+        lines.append(f"    model error {error['mode']}: {error['why']}")
+    if error.get("summary"):
         all_ = error["summary"]["all"]
         kinds = ", ".join(f"{key[5:]} {v['rms']:.3g}" for key, v in error["summary"].items() if key.startswith("kind "))
         lines.append(f"    estimated discretisation error (model refined x{error['factor']}, Richardson): "
