@@ -114,3 +114,20 @@ def test_bad_settings_exit_2_naming_the_key(measured, capsys, identify, key):
     assert main(["identify", str(_config(measured, "bad", 1.0, {"A": 0.1, "B": 0.1}, "measured.csv",
                                          identify))]) == 2
     assert key in capsys.readouterr().err
+
+
+def test_a_misspelt_model_error_names_the_key_the_choices_and_the_closest(measured, capsys):
+    assert main(["identify", str(_config(measured, "typo", 1.0, {"A": 0.1, "B": 0.1}, "measured.csv",
+                                         'model_error = "inclued"\n'))]) == 2
+    err = capsys.readouterr().err
+    assert 'identify.model_error must be "auto", "off", "estimate" or "include", got \'inclued\'' in err
+    assert "(did you mean 'include'?)" in err and "Traceback" not in err
+
+
+def test_the_api_refuses_an_unknown_model_error_naming_it(measured):
+    from frictionid import identify
+    from frictionid.errors import InputError
+
+    with pytest.raises(InputError, match=r"identify.model_error must be .*got 'maybe'"):
+        identify({"builder": "block2d", "mesh_size": 1.0}, measured / "measured.csv", {"A": 0.1, "B": 0.1},
+                 observables=["ux", "uy"], stages=[2], noise={"u": 1e-4}, model_error="maybe")
