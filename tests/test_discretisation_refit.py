@@ -219,6 +219,8 @@ def test_the_default_includes_the_controls_estimate_where_the_control_ran(case, 
     assert auto["parameters"]["A"]["value"] != pytest.approx(only["at"]["A"], abs=1e-4)
     assert off["fit"]["model_error"] == {"mode": "off", "requested": "off", "why": 'identify.model_error = "off"'}
     assert 'model error include: identify.model_error = "auto": the discretisation control\'s prediction' in out
+    page = (folder / "runs/mode_None/report.html").read_text()
+    assert "mode include (identify.model_error = &quot;auto&quot;: the discretisation control&#x27;s prediction" in page
 
 
 @pytest.mark.parametrize("how", ["refine_target = 0", "model object"])
@@ -246,3 +248,5 @@ def test_the_default_is_off_where_the_control_did_not_run(case, capsys, how):
     assert set(error) == {"mode", "requested", "why"}                       # nothing estimated
     assert "refit with the model error" not in result["message"]
     assert "the model refined by 2" not in out
+    page = (folder / "runs" / ("object" if how == "model object" else "no_control") / "report.html").read_text()
+    assert "Discretisation error not checked" in page and cause.replace("'", "&#x27;") in page
