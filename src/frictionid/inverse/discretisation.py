@@ -76,8 +76,8 @@ def used_mode(requested: str, remaining, record: dict | None) -> tuple[str, str]
     (``record``: the control's ``model.discretisation``, which says why); the other modes are used as given.
 
     >>> mode, why = used_mode("auto", None, {"target": 0.0, "status": "off"})
-    >>> mode, why[:72]
-    ('off', 'identify.model_error = "auto": the discretisation control is off (identif')
+    >>> mode, "the discretisation control is off (identify.refine_target = 0)" in why
+    ('off', True)
     >>> used_mode("estimate", None, {})
     ('estimate', 'identify.model_error = "estimate"')
     """
