@@ -7,10 +7,11 @@ claim the zone, the largest error of a claim in standard errors and the coverage
         [--model-lines OPTIONS] [--at-truth NAME OPTIONS]
 
 Modes: "default" all observations of the fixture's identify.toml (displacements, the 2 mm VSG strains, the
-machine force, both stages); "include" the same with identify.model_error = "include"; "u" displacements and the
-force only; "u-include" that with "include"; "include-no-force" and "u-include-no-force" those without the
-machine force (the control's estimate at the start values has no force error: there the force is mu times the
-normal force on any mesh). Truth A 0.35, B 0.20, C 0.45, D 0.15.
+machine force, both stages) with the defaults (identify.model_error "auto": the control's error included where it
+ran); "off" and "include" the same with identify.model_error = "off" / "include"; "u" displacements and the
+force only, with the defaults; "u-off" and "u-include" that with "off" / "include"; "include-no-force" and
+"u-include-no-force" those without the machine force (the control's estimate at the start values has no force
+error: there the force is mu times the normal force on any mesh). Truth A 0.35, B 0.20, C 0.45, D 0.15.
 
 The control's choice and its predicted remaining error depend on the model, the points, the stated noise and the
 start values, never on the measured values (``discretisation_control.control`` does not read them;
@@ -43,6 +44,11 @@ fixture's points, written to ``--out``/NAME/measured.csv for ``dense_convergence
 NAME=DIR``; prints the nodes, the seconds and the process's peak. The solver's small-sliding check is off there
 (``[solver] slip_tolerance = false``): the reference is ccx's small-sliding limit, the same problem.
 
+``--fresh``: before each replicate the session's kept condensations are dropped (``embedded._RECENT``; they are
+read back from ``--out``/cache) and freed memory is returned to the system, so that each fit holds what a fit of its
+own process holds: without it a later replicate of "default" at ``--max-memory 5`` held enough more that the
+control's estimate at the fitted values (the footprint divisions' model, estimated at 5.0 GB) was skipped.
+
 ``--model-lines OPTIONS``: the fits' ``[model]`` gets these lines (as ``--at-truth``), with the control and the
 small-sliding check off (``slip_tolerance = false``): a fixed refinement of the model fitted as it is.
 """
@@ -50,6 +56,8 @@ small-sliding check off (``slip_tolerance = false``): a fixed refinement of the 
 from __future__ import annotations
 
 import argparse
+import ctypes
+import gc
 import json
 import math
 import re
@@ -63,6 +71,7 @@ import _tests  # noqa: F401  (tests/ importable)
 import dense_convergence
 from fixtures.dense_block import generate
 from frictionid import identification
+from frictionid.backends import embedded
 from frictionid.backends.embedded import use_cache
 from frictionid.builders.registry import build_model
 from frictionid.config import read_config
@@ -77,7 +86,8 @@ from frictionid.inverse.remaining_error import RemainingError
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "fixtures" / "dense_block"
 TRUTH = {"A": 0.35, "B": 0.20, "C": 0.45, "D": 0.15}
-MODES = {"default": ("all", "off"), "include": ("all", "include"), "u": ("u", "off"), "u-include": ("u", "include"),
+MODES = {"default": ("all", None), "off": ("all", "off"), "include": ("all", "include"), "u": ("u", None),
+         "u-off": ("u", "off"), "u-include": ("u", "include"),
          "include-no-force": ("no-force", "include"), "u-include-no-force": ("u-no-force", "include")}
 OBSERVABLES = {"all": '["ux", "uy", "uz", "exx", "eyy", "ezz", "exy", "eyz", "exz", "force"]',
                "u": '["ux", "uy", "uz", "force"]',
@@ -143,7 +153,7 @@ def where_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def config_text(data: Path, observables: str, model_error: str, run: Path, max_memory: float | None,
+def config_text(data: Path, observables: str, model_error: str | None, run: Path, max_memory: float | None,
                 start: dict, control: bool = True, model_lines: str = "") -> str:
     zones = ", ".join(f"{z} = {v:.6g}" for z, v in start.items())
     lines = model_lines.replace("\\n", "\n")                 # "\n" typed in a shell's quotes: a new line
@@ -151,7 +161,8 @@ def config_text(data: Path, observables: str, model_error: str, run: Path, max_m
             f'[data]\nfile = "{data}"\nobservables = {observables}\nstages = [1, 2]\n'
             f'noise = {{ {_noise(observables)} }}\n' 'regions = { "plate:*" = "plate", "*" = "block" }\n'
             'strain_window = 2.0\nstrain_window_shape = "circle"\n'
-            f'[identify]\nmodel_error = "{model_error}"\n' + ("" if control else "refine_target = 0\n")
+            "[identify]\n" + (f'model_error = "{model_error}"\n' if model_error else "")
+            + ("" if control else "refine_target = 0\n")
             + "[solver]\n" + (f"max_memory = {max_memory}\n" if max_memory else "")
             + ("slip_tolerance = false\n" if model_lines else "") + f'[run]\ndir = "{run}"\nfields = false\n')
 
@@ -234,7 +245,7 @@ def fit(mode: str, k: int, out: Path, reference: Path, max_memory: float | None,
     row = {"mode": mode, "replicate": k, "seconds": round(time.perf_counter() - start, 1),
            "reduced_chi2": result["fit"]["reduced_chi2"], "model": result["model"], "zones": {},
            "kinds": {q: round(g["rms"] ** 2, 3) for q, g in result["fit"]["misfit"]["by_quantity"].items()},
-           "beyond": result["fit"]["kinds_beyond_noise"]}
+           "beyond": result["fit"]["kinds_beyond_noise"], "model_error": result["fit"]["model_error"]["mode"]}
     if where:
         row["where"] = misfit_where(result, data)
         print(f"{mode} {k}: mean squared weighted residual by region and kind (share of the kind's chi-square, "
@@ -281,6 +292,18 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def release() -> None:
+    """Drop the session's kept condensations (the disk cache keeps them) and return freed memory to the system;
+    prints what the process holds then."""
+    embedded._RECENT.clear()
+    gc.collect()
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except OSError:                                     # not glibc: the freed memory stays with the process
+        pass
+    print(f"holding {memory.resident() / memory.GB:.2f} GB before the fit", flush=True)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("replicates", type=int)
@@ -300,6 +323,8 @@ def main(argv=None) -> int:
                         "fitted with the control off (module docstring)")
     parser.add_argument("--at-truth", nargs=2, metavar=("NAME", "OPTIONS"), help="simulate the block with these "
                         "[model] lines at the truth, displacements only, into --out/NAME (module docstring)")
+    parser.add_argument("--fresh", action="store_true", help="each replicate starts holding what a process of its "
+                        "own holds (module docstring)")
     parser.add_argument("--model-lines", default="", metavar="OPTIONS", help="these [model] lines in the fits, the "
                         "control and the small-sliding check off (module docstring)")
     args = parser.parse_args(argv)
@@ -315,6 +340,8 @@ def main(argv=None) -> int:
     for mode in args.modes.split(","):
         start = dict.fromkeys(TRUTH, 0.1)
         for k in range(args.first, args.first + args.replicates):
+            if args.fresh:
+                release()
             row = fit(mode, k, args.out, args.reference, args.max_memory, start,
                       control=not (args.twin or args.model_lines), exclude=args.exclude_plate_within,
                       where=args.where, model_lines=args.model_lines)
@@ -326,7 +353,8 @@ def main(argv=None) -> int:
             print(f"{mode} {k}: chi2/dof {row['reduced_chi2']:.3g}, " + ", ".join(
                 f"{z} {e['value']:.4f} +- {e['stderr'] or float('nan'):.4f}{' claimed' if e['claimed'] else ''}"
                 for z, e in row["zones"].items()) + f" ({row['seconds']:.0f} s); per kind " + ", ".join(
-                f"{q} {v:.2f}" for q, v in row["kinds"].items()) + f"; beyond the noise: {row['beyond']}; process "
+                f"{q} {v:.2f}" for q, v in row["kinds"].items()) + f"; beyond the noise: {row['beyond']}; model error "
+                f"{row['model_error']}; process "
                 f"peak {memory.process_peak() / memory.GB:.2f} GB",
                 flush=True)
             (args.out / "rows.json").write_text(json.dumps(rows, indent=1, default=dict))

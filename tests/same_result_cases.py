@@ -24,7 +24,10 @@ most 5.5e-12 relative, misfits by at most 2.7e-10, and example_tightening's roun
 all of them, with nothing else changed (checked by running the cases against the files with the key added).
 model_error and model_error_include were written again when include's error scale became one per quantity: their
 ``fit.model_error`` got ``scales`` (null; {"ux": 0, "uy": 0} in include, whose misfit the noise explains), and
-include's ``fit.shifts`` the leave-group-out moves now made for every include fit; nothing else changed."""
+include's ``fit.shifts`` the leave-group-out moves now made for every include fit; nothing else changed. When
+identify.model_error = "auto" became the default, every case's ``fit.model_error`` got the mode used, the mode
+requested and why ("off" for "auto" here, the control being off; null before), added to the files by a script and
+checked by running the cases against them; nothing else changed."""
 
 from __future__ import annotations
 

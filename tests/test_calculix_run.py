@@ -245,6 +245,30 @@ def test_simulate_and_identify_commands(tmp_path, capsys):
     assert "no analytic sensitivities; set identify.jacobian = 'forward' or 'central'" in capsys.readouterr().err
 
 
+@needs_ccx
+@pytest.mark.slow          # 3 ccx runs per iteration
+def test_with_calculix_the_default_model_error_is_off_and_says_why(tmp_path, capsys):
+    """The discretisation control needs the embedded backend: with CalculiX it is skipped, so the default
+    model_error ("auto") fits without a model error and refines nothing, and result.json says why."""
+    import json
+
+    (tmp_path / "points.csv").write_text("point,x,y,z,stage\nP1,-4,1,0,2\nP2,4,1,0,2\n")
+    model = ('[model]\nbuilder = "block2d"\nmesh_size = 2.0\norder = 1\nquads = true\nn_pull = 4\n'
+             '[friction]\nzones = { A = 0.3, B = 0.2 }\n[data]\nfile = "points.csv"\nobservables = ["ux"]\n'
+             'stages = [2]\nregions = { "*" = "block" }\nnoise = { u = 0.0005 }\n')
+    (tmp_path / "truth.toml").write_text(model)
+    assert main(["simulate", str(tmp_path / "truth.toml"), "--out", str(tmp_path / "measured.csv")]) == 0
+    (tmp_path / "fit.toml").write_text(model.replace('"points.csv"', '"measured.csv"')
+                                       + '[identify]\njacobian = "forward"\nmax_iterations = 1\nrefine_target = 0.5\n'
+                                       '[solver]\nbackend = "calculix"\n[run]\ndir = "run"\nfields = false\n')
+    assert main(["identify", str(tmp_path / "fit.toml")]) == 0
+    result = json.loads((tmp_path / "run/result.json").read_text())
+    assert result["model"]["discretisation"]["status"] == "skipped"
+    error = result["fit"]["model_error"]
+    assert (error["mode"], error["requested"]) == ("off", "auto") and "backend 'calculix'" in error["why"]
+    assert "model error off" in capsys.readouterr().out
+
+
 # ------------------------------------------------------------------------------------ failures (fake ccx)
 
 def fake_ccx(tmp_path, script: str) -> str:

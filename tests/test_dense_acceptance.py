@@ -5,8 +5,11 @@ The 3-D reference (tests/fixtures/dense_block) costs minutes per fit (the contro
 10,300-20,500 nodes; benchmarks/dense_acceptance.py and docs/fit-quality.md have its replicate study). The same
 situation in plane strain: 70 points on the block sides and the base top (140 displacements, 0.5 um noise), data
 of a 0.25 mm mesh at A 0.32, B 0.18, fitted from 2 mm with the control (it refines 4 times, 0.5 mm, predicted
-0.60 noise levels RMS). Measured over 6 replicates (seeds 0-5): reduced chi-square 0.88-1.23, A never claimed
-(its systematic part 0.035 of 0.038), B claimed in all, 2.35, 0.78, -0.93, 1.63, 2.18, -0.62 standard errors off.
+0.60 noise levels RMS). Measured over 6 replicates (seeds 0-5) with model_error "off" (the default then): reduced
+chi-square 0.88-1.23, A never claimed (its systematic part 0.035 of 0.038), B claimed in all, 2.35, 0.78, -0.93,
+1.63, 2.18, -0.62 standard errors off. With the default now, "auto" (the control's prediction in the weights):
+reduced chi-square 0.88-1.0, A never claimed (standard errors 0.024-0.077, mostly systematic), B claimed in 4 of 6,
+1.11, -0.76, 1.28, -0.64 standard errors off (not claimed: standard errors 0.024 and 0.037, above the resolution).
 """
 
 import json

@@ -114,3 +114,44 @@ def test_bad_settings_exit_2_naming_the_key(measured, capsys, identify, key):
     assert main(["identify", str(_config(measured, "bad", 1.0, {"A": 0.1, "B": 0.1}, "measured.csv",
                                          identify))]) == 2
     assert key in capsys.readouterr().err
+
+
+def test_a_misspelt_model_error_names_the_key_the_choices_and_the_closest(measured, capsys):
+    assert main(["identify", str(_config(measured, "typo", 1.0, {"A": 0.1, "B": 0.1}, "measured.csv",
+                                         'model_error = "inclued"\n'))]) == 2
+    err = capsys.readouterr().err
+    assert 'identify.model_error must be "auto", "off", "estimate" or "include", got \'inclued\'' in err
+    assert "(did you mean 'include'?)" in err and "Traceback" not in err
+
+
+def test_the_api_refuses_an_unknown_model_error_naming_it(measured):
+    from frictionid import identify
+    from frictionid.errors import InputError
+
+    with pytest.raises(InputError, match=r"identify.model_error must be .*got 'maybe'"):
+        identify({"builder": "block2d", "mesh_size": 1.0}, measured / "measured.csv", {"A": 0.1, "B": 0.1},
+                 observables=["ux", "uy"], stages=[2], noise={"u": 1e-4}, model_error="maybe")
+
+
+@pytest.mark.parametrize("record, remaining, mode, because", [
+    ({"target": 0.5, "status": "skipped", "why": "backend 'calculix' (the estimate needs the embedded backend)"},
+     None, "off", "did not run (backend 'calculix'"),
+    ({"target": 0.5, "status": "skipped", "why": "footprint divisions x2: ... more than [solver] max_memory allows"},
+     None, "off", "more than [solver] max_memory allows"),
+    ({"target": 0.5, "status": "reached", "at_fitted": [{"round": 1, "status": "skipped", "why": "memory"}]},
+     "prediction", "include", "made at the start values (its estimate at the fitted values was skipped)"),
+    ({"target": 0.5, "status": "reached", "at_fitted": [{"round": 1, "status": "refit"},
+                                                        {"round": 2, "status": "no finer model"}]},
+     "prediction", "include", "made at the fitted values (round 2)"),
+    ({"target": 0.5, "status": "not needed"}, "prediction", "include", "made at the start values, is included")])
+def test_auto_is_include_exactly_where_the_control_made_a_prediction_and_says_which(record, remaining, mode,
+                                                                                      because):
+    """The control's record and prediction decide "auto" (the end-to-end runs: test_discretisation_refit.py): a
+    control skipped (CalculiX backend, directional models over max_memory) leaves it off, with the reason; a
+    prediction, from the start values or the last round at the fitted values, is included."""
+    from frictionid.inverse.discretisation import used_mode
+
+    used, why = used_mode("auto", remaining, record)
+    assert used == mode and because in why and why.startswith('identify.model_error = "auto": ')
+    for explicit in ("off", "estimate", "include"):             # explicit modes are used as given
+        assert used_mode(explicit, remaining, record) == (explicit, f'identify.model_error = "{explicit}"')

@@ -36,8 +36,10 @@ def case(tmp_path_factory):
     return folder, at["start"], at["truth"]
 
 
-def _identify(folder, name: str, target: float, *extra) -> dict:
-    identify = f"refine_target = {target!r}\n"
+def _identify(folder, name: str, target: float, *extra, mode: str | None = "off") -> dict:
+    """result.json of the fit of ``name`` with the control's ``target``; ``mode``: identify.model_error (None: the
+    default). "off" where a test compares the result with the control's rounds, which "include" continues from."""
+    identify = f"refine_target = {target!r}\n" + (f'model_error = "{mode}"\n' if mode else "")
     assert main(["identify", str(control_config(folder, name, 2.0, START, "measured.csv", identify)), *extra]) == 0
     return json.loads((folder / f"runs/{name}/result.json").read_text())
 
@@ -80,12 +82,13 @@ def test_a_fit_within_the_target_at_its_values_is_not_refitted(case, capsys):
 def test_an_interrupted_refit_keeps_the_first_fit_and_resumes_from_the_store(case, monkeypatch, capsys):
     """Ctrl-C at the refit's second iteration: result.json says interrupted and keeps the first fit's values and
     the control's record; --resume reads the estimate, the choice and every stored solve back and ends where an
-    uninterrupted run ends."""
+    uninterrupted run ends (both with the default model_error, so the fit with the control's error included
+    follows the refit)."""
     import frictionid.cli as cli_module
 
     folder, at_start, at_truth = case
     target = float(np.sqrt(at_start * at_truth))
-    whole = _identify(folder, "whole", target)
+    whole = _identify(folder, "whole", target, mode=None)        # the default: the control's error included
     capsys.readouterr()
     refit_lines = []                                   # the iteration lines since the refit began
 
@@ -192,3 +195,58 @@ def test_a_control_decision_shared_by_two_runs_keeps_each_runs_rounds_apart(case
     first, second = (_identify(folder, name, 2.0 * at_truth) for name in ("shared1", "shared2"))
     assert len(first["model"]["discretisation"]["at_fitted"]) == len(second["model"]["discretisation"]["at_fitted"])
     assert len(second["model"]["discretisation"]["at_fitted"]) == 1 and "at_fitted" not in made["decision"].record
+
+
+def test_the_default_includes_the_controls_estimate_where_the_control_ran(case, capsys):
+    """identify.model_error = "auto" (the default) is "include" with the control's prediction for the fitted model
+    when the control ran: the same fit as an explicit "include", recorded as used and why; an explicit "off"
+    stays off (no estimate, no refit with it in the weights)."""
+    folder, _, at_truth = case
+    target = 2.0 * at_truth                          # within the target at the fitted values: no control refit
+    auto, include, off = (_identify(folder, f"mode_{mode}", target, mode=mode) for mode in (None, "include", "off"))
+    out = capsys.readouterr().out
+    error = auto["fit"]["model_error"]
+    assert (error["mode"], error["requested"], error["source"]) == ("include", "auto", "discretisation control")
+    assert "at the fitted values (round 1)" in error["why"] and error["before_include"] is not None
+    assert include["fit"]["model_error"]["mode"] == "include" and include["fit"]["model_error"]["requested"] == \
+        "include"
+    for zone in TRUE:
+        assert auto["parameters"][zone]["value"] == pytest.approx(include["parameters"][zone]["value"], rel=1e-12)
+        assert auto["parameters"][zone]["stderr"] == pytest.approx(include["parameters"][zone]["stderr"], rel=1e-12)
+    # the include fit moved from the control's round (its error in the weights), the explicit off did not
+    (only,) = off["model"]["discretisation"]["at_fitted"]
+    assert {z: p["value"] for z, p in off["parameters"].items()} == only["at"]
+    assert auto["parameters"]["A"]["value"] != pytest.approx(only["at"]["A"], abs=1e-4)
+    assert off["fit"]["model_error"] == {"mode": "off", "requested": "off", "why": 'identify.model_error = "off"'}
+    assert 'model error include: identify.model_error = "auto": the discretisation control\'s prediction' in out
+    page = (folder / "runs/mode_None/report.html").read_text()
+    assert "mode include (identify.model_error = &quot;auto&quot;: the discretisation control&#x27;s prediction" in page
+
+
+@pytest.mark.parametrize("how", ["refine_target = 0", "model object"])
+def test_the_default_is_off_where_the_control_did_not_run(case, capsys, how):
+    """No control estimate (the control off, or a model given as an object, which it cannot refine): "auto" fits
+    without a model error and says why, and refines nothing of its own."""
+    from frictionid import identify
+    from frictionid.builders.registry import build_model
+
+    folder = case[0]
+    if how == "model object":
+        table = {"builder": "block2d", "height": 4.0, "order": 1, "mesh_size": 2.0}
+        config = read_config(control_config(folder, "object", 2.0, START, "measured.csv"))
+        result = identify(build_model(ModelSpec.from_table(table)), folder / "measured.csv", START,
+                          observables=["ux", "uy"], stages=[2], noise={"u": 0.0002},
+                          regions=dict(config.data.regions), refine_target=0.5, run_dir=folder / "runs/object",
+                          fields=False).to_dict()
+        cause = "the model is not a builder's [model] table"
+    else:
+        result = _identify(folder, "no_control", 0.0, mode=None)
+        cause = "the discretisation control is off (identify.refine_target = 0)"
+    out = capsys.readouterr().out
+    error = result["fit"]["model_error"]
+    assert (error["mode"], error["requested"]) == ("off", "auto") and cause in error["why"]
+    assert set(error) == {"mode", "requested", "why"}                       # nothing estimated
+    assert "refit with the model error" not in result["message"]
+    assert "the model refined by 2" not in out
+    page = (folder / "runs" / ("object" if how == "model object" else "no_control") / "report.html").read_text()
+    assert "Discretisation error not checked" in page and cause.replace("'", "&#x27;") in page

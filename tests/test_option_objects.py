@@ -72,6 +72,7 @@ DICTS = {
     "inverse.adequacy:point_group.regions": PER_NAME + " (data.regions: point pattern -> region)",
     "inverse.adequacy:assess.regions": PER_NAME + " (data.regions)",
     "inverse.discretisation_control:Control.record": RECORD,
+    "inverse.discretisation:used_mode.record": RECORD + " (model.discretisation, read for the reason)",
     "inverse.gradient_descent:gradient_descent.options": ONE_KEY + " (identify.options, resolved by iterates)",
     "inverse.iterates:Iterates.result.options": RECORD, "inverse.iterates:resolve_options.spec": PER_NAME,
     "inverse.iterates:resolve_options.given": ONE_KEY + " (identify.options)",

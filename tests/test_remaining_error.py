@@ -58,9 +58,10 @@ def test_the_fit_on_the_refined_mesh_carries_the_controls_remaining_error(measur
     within the systematic error (measured: A -0.0022 within 0.0105, B +0.0156 within 0.0195; the offset at the
     control's orders alone, +0.0031 and +0.0057, would not hold B: the 2-D block's displacements converge
     slower than order 1 here). The data's own mesh is taken as converged (its error is a quarter of the 0.5 mm
-    mesh's at order 1)."""
+    mesh's at order 1). model_error "off": the prediction alone, as a fit without it in the weights carries it
+    (the default, "auto", includes it: test_discretisation_refit.py)."""
     assert main(["identify", str(_config(measured, "carried", 2.0, dict.fromkeys(TRUE, 0.1), "measured.csv",
-                                         "refine_target = 0.5\n"))]) == 0
+                                         'refine_target = 0.5\nmodel_error = "off"\n'))]) == 0
     result = json.loads((measured / "runs/carried/result.json").read_text())
     assert result["model"]["discretisation"]["factors"] == {"element sizes": 4}
     assert set(result["model"]["discretisation"]["predicted_error_slow"]) == {"u"}

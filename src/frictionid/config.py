@@ -94,7 +94,7 @@ TYPES = {
     "identify.loss": (str, '"linear" or a robust loss: "soft_l1", "huber", "cauchy", "arctan"'),
     "identify.loss_scale": ((int, float), "a positive number (residual, in units of the stated noise, beyond "
                                           "which a robust loss down-weights an observation)"),
-    "identify.model_error": (str, '"off", "estimate" or "include"'),
+    "identify.model_error": (str, '"auto", "off", "estimate" or "include"'),
     "identify.refine_target": ((int, float), "a number >= 0 (largest RMS model error per quantity kind in "
                                              "noise levels; 0: no discretisation control)"),
     "identify.refine_budget": (int, "a whole number >= 1 (refinement factors up to 2^budget)"),
@@ -176,7 +176,7 @@ def _check_subtables(tables: dict, path: Path) -> None:
 #: allowed values of string keys that take one of a few names (keys checked elsewhere are not listed)
 CHOICES = {"solver.contact": ("surface-to-surface", "node-to-surface"),
            "solver.factorisation": ("auto", "cholmod", "superlu", "mumps"), "solver.increments": ("fixed", "adaptive"),
-           "solver.sliding": ("small", "finite")}
+           "solver.sliding": ("small", "finite"), "identify.model_error": ("auto", "off", "estimate", "include")}
 
 
 #: lowest value of numeric keys, and whether the bound itself is allowed (the keys' meaning is in TYPES)

@@ -21,7 +21,7 @@ from .fem.locate import PointsOutside
 from .fitted_control import Fit, optimise_config, refine_at_fitted
 from .inverse.evaluator import Evaluator
 from .inverse import multistart, profile, refits
-from .inverse.discretisation import with_model_error
+from .inverse.discretisation import ESTIMATING, used_mode, with_model_error
 from .inverse.discretisation_control import control
 from .inverse.fitting import make_evaluator, make_least_squares, recorded
 from .inverse.least_squares import OptimiseResult
@@ -160,7 +160,7 @@ def identify_config(config: Config, resume: bool = False, echo=lambda text: None
             # moment later sees only the process's resident memory drift (and refused its choice by 0.2 GB)
             log.info(memory.estimate(setup.model, "model (checked by the discretisation control)", max_memory,
                                      config.solver.factorisation, scale=chosen.record["memory_scale"]).line())
-        if config.identify.model_error != "off" and setup.remaining_error is None:   # refused now, not after
+        if config.identify.model_error in ESTIMATING and setup.remaining_error is None:  # refused now, not after
             memory.check_growth(setup.model, 2, "model error: the model refined by 2", max_memory)
     try:                    # built before the store is opened: bad points leave no store behind
         condensed = time.perf_counter()
@@ -213,12 +213,14 @@ def _finish(config, fit: Fit, store: RunStore, run_dir: Path, start: float, on_p
                                                      iteration_lines, echo)
         outcome = refine_at_fitted(config, fit, store, progress, echo, outcome)
         setup, evaluator, problem = fit.setup, fit.evaluator, fit.problem
-        error = None
-        if config.identify.model_error != "off":
+        error, mode = None, used_mode(config.identify.model_error, setup.remaining_error, setup.discretisation)
+        if config.identify.model_error == "auto":
+            echo(f"model error: {mode[0]}: {mode[1]}")
+        if mode[0] != "off":
             echo(f"fit {outcome.status}; model error: " + ("the discretisation control's prediction for the fitted "
                  "model" if setup.remaining_error is not None else "the model refined by 2 at the start and the "
                  "fitted point") + " ...")
-            error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome)
+            error, outcome = _with_model_error(config, setup, evaluator, store, progress, outcome, mode[0])
             echo(f"model error: RMS {error.summary['all']['rms']:.3g} noise levels, largest "
                  f"{error.summary['all']['max']:.3g} ({error.seconds:.1f} s)")
         check_sliding = getattr(evaluator.backend, "check_sliding", None)
@@ -232,7 +234,7 @@ def _finish(config, fit: Fit, store: RunStore, run_dir: Path, start: float, on_p
         _stopped(config, fit.setup, fit.evaluator, store, run_dir, "failed", str(exc), time.perf_counter() - start,
                  write_files)
         raise
-    result = fit_result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error)
+    result = fit_result(config, setup, evaluator, problem, outcome, report, time.perf_counter() - start, error, mode)
     held = refits.HeldRefits(evaluator, setup.parameters, evaluator.store, config.identify,
                              lambda problem: optimise_config(problem, config))
     held.check_bounds(result, echo)
@@ -253,7 +255,8 @@ def _finish(config, fit: Fit, store: RunStore, run_dir: Path, start: float, on_p
     return result
 
 
-def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult):
+def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, progress, outcome: OptimiseResult,
+                      mode: str):
     """The discretisation error along the fit, and with "include" the refit (:func:`~.inverse.discretisation.
     with_model_error`); the refit's iterations are stored after the fit's."""
     def refit(x0, offset):
@@ -262,7 +265,7 @@ def _with_model_error(config, setup, evaluator: Evaluator, store: RunStore, prog
 
     try:
         return with_model_error(evaluator, setup.parameters, setup.model_options, setup.model, outcome,
-                                config.identify.model_error, refit, config.solver.max_memory,
+                                mode, refit, config.solver.max_memory,
                                 remaining=setup.remaining_error)
     except InputError as exc:       # after the fit: stored as a failed run, the fit kept (_stopped)
         raise SolverError(str(exc)) from None

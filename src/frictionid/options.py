@@ -167,7 +167,7 @@ class IdentifyOptions(_Table):
     suggestions: int = 5
     loss: str = "linear"
     loss_scale: float = 3.0
-    model_error: str = "off"
+    model_error: str = "auto"
     refine_target: float = 0.5
     refine_budget: int = 2
     starts: Any = 1

@@ -22,7 +22,7 @@ from .errors import InputError
 from .fem import memory
 from .fem.points import StrainWindow
 from .inverse import multistart, profile
-from .inverse.discretisation import check_options
+from .inverse.discretisation import ESTIMATING, check_options
 from .inverse.evaluator import JACOBIANS
 from .inverse.least_squares import ROBUST_WEIGHTS
 from .inverse.observations import observations_from
@@ -106,7 +106,7 @@ def _prepare(config: Config, model, measurements, parameters, echo) -> Setup:
     profile.profiled_zones(ident.profile, parameters.free_names, f"{where}:")
     check_options(ident, model_options, f"{where}:")
     memory.limit(config.solver.max_memory, f"{where}: [solver]")
-    if ident.model_error != "off" and config.solver.backend != "embedded":
+    if ident.model_error in ESTIMATING and config.solver.backend != "embedded":
         raise InputError(f"{where}: identify.model_error = {ident.model_error!r} needs the embedded "
                          "backend (the estimate refines the embedded model)")
     data_file = data_paths(config.data, config.resolve)[0] if measurements is None else None

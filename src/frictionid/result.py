@@ -162,11 +162,15 @@ class IdentificationResult(Mapping):
         return f"IdentificationResult(status={self.status!r}, {values})"
 
 
-def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, error=None) -> dict:
+def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, error=None,
+               mode: tuple[str, str] | None = None) -> dict:
     """result.json of a finished fit (docs/results.md): the coefficients with their statistics at ``outcome.x``
     (:func:`~frictionid.inverse.statistics.fit_statistics`), the fit's adequacy, observations and misfit per
-    point, the model error (``error``, if estimated), the data's frames and files, identifiability with the
-    prefit ``report``, the counts of solves and the history."""
+    point, the model error (``error``, if estimated, and ``mode``: the mode used and why,
+    :func:`~frictionid.inverse.discretisation.used_mode`; default the configured one), the data's frames and
+    files, identifiability with the prefit ``report``, the counts of solves and the history."""
+    requested = config.identify.model_error
+    mode = mode or (requested, f'identify.model_error = "{requested}"')
     params, obs = setup.parameters, evaluator.obs          # obs.sigma with the model error, if included
     free = list(params.free_names)
     stats = fit_statistics(evaluator, problem, outcome.x, config.identify.resolution, error,
@@ -203,8 +207,8 @@ def fit_result(config, setup, evaluator, problem, outcome, report, wall: float, 
                 "observations": [{"label": label, "measured": float(y), "model": float(v),
                                   "sigma": float(s) if obs.noise_known else None}
                                  for label, y, v, s in zip(obs.labels, obs.y, f, obs.sigma)],
-                "model_error": None if error is None else {
-                    "mode": config.identify.model_error, **error.as_dict(),
+                "model_error": {"mode": mode[0], "requested": requested, "why": mode[1]} if error is None else {
+                    "mode": mode[0], "requested": requested, "why": mode[1], **error.as_dict(),
                     "shift": {name: None if not np.isfinite(v) else float(v)
                               for name, v in zip(free, stats.model_shift)}}},
         "model": {**(setup.model_options.table() if setup.model_options else {}),

@@ -3,7 +3,11 @@
 ``identify.model_error`` chooses what an identification does with the Richardson estimate of
 :mod:`frictionid.inverse.model_error` (one extra condensation, of the model refined by 2):
 
-- "off" (default): nothing; the fit-adequacy test still says when the misfit exceeds the stated noise;
+- "auto" (default): "include" with the discretisation control's prediction for the fitted model where the control
+  produced one on this fit (:func:`used_mode`), "off" where it did not (the control off, skipped, or not possible:
+  a model object, the CalculiX backend, directional models beyond ``max_memory``); never a refinement of its own,
+  so it costs no more memory than the control;
+- "off": nothing; the fit-adequacy test still says when the misfit exceeds the stated noise;
 - "estimate": the estimate at the start and the fitted coefficients is reported (``fit.model_error``);
 - "include": as "estimate", then the fit is repeated from its end with sigma_eff^2 = sigma^2 + (k_q e)^2, so the
   intervals include the model error. The estimate gives the error's pattern over the observations of each
@@ -38,7 +42,9 @@ from .adequacy import parts
 from .model_error import estimate_model_error, from_control, inflated_sigma
 
 log = logging.getLogger(__name__)
-MODES = ("off", "estimate", "include")
+MODES = ("auto", "off", "estimate", "include")
+#: the modes that estimate the error themselves when the control has not (the model refined by 2)
+ESTIMATING = ("estimate", "include")
 #: the largest scale k_q of the estimate a quantity's misfit may ask for: the estimate's orders are bounds, and
 #: the slowest convergence measured (face displacements of the 3-D block, observed order 0.3) makes the actual
 #: error 2.7 times the order-1 estimate; beyond 4 the estimate does not describe that quantity's misfit
@@ -54,12 +60,41 @@ def check_options(identify: IdentifyOptions, model_options: ModelSpec | None, wh
         raise InputError(f"{where} identify.refine_target must be >= 0 (0: no refinement), got {target!r}")
     if budget < 1:
         raise InputError(f"{where} identify.refine_budget must be at least 1, got {budget!r}")
-    if mode != "off":                   # refine_target on a model that cannot be refined: the control says so
+    if mode in ESTIMATING:              # "auto" and refine_target on a model that cannot be refined: the record says so
         try:
             refined(model_options or ModelSpec(None))
         except InputError as exc:
             raise InputError(f"{where} identify.model_error needs a model frictionid can refine: "
                              f"{exc}") from None
+
+
+def used_mode(requested: str, remaining, record: dict | None) -> tuple[str, str]:
+    """(mode, why): the mode a fit uses for ``identify.model_error = requested`` and the reason, for result.json's
+    ``fit.model_error`` and the report. "auto" is "include" where the discretisation control made a prediction of
+    the fitted model's error (``remaining``, :class:`~frictionid.inverse.remaining_error.RemainingError`; at the
+    fitted values where its last round there was made, else at the start values) and "off" where it did not
+    (``record``: the control's ``model.discretisation``, which says why); the other modes are used as given.
+
+    >>> mode, why = used_mode("auto", None, {"target": 0.0, "status": "off"})
+    >>> mode, "the discretisation control is off (identify.refine_target = 0)" in why
+    ('off', True)
+    >>> used_mode("estimate", None, {})
+    ('estimate', 'identify.model_error = "estimate"')
+    """
+    lead = f'identify.model_error = "{requested}"'
+    if requested != "auto":
+        return requested, lead
+    record = record or {}
+    if remaining is None:
+        cause = ("is off (identify.refine_target = 0)" if record.get("status") == "off" else
+                 f"did not run ({record['why']})" if record.get("why") else "did not run")
+        return "off", (f"{lead}: the discretisation control {cause}, so there is no estimate of the fitted model's "
+                       "error to include")
+    rounds = [r for r in record.get("at_fitted", []) if r.get("status") != "skipped"]
+    where = (f"at the fitted values (round {rounds[-1]['round']})" if rounds else "at the start values" +
+             (" (its estimate at the fitted values was skipped)" if record.get("at_fitted") else ""))
+    return "include", (f"{lead}: the discretisation control's prediction for the fitted model, made {where}, is "
+                       "included (no refinement of its own)")
 
 
 def with_model_error(evaluator, parameters, model_options: ModelSpec, model, outcome, mode: str, refit,

@@ -189,13 +189,17 @@ def _adequacy(fit: dict | None) -> str:
 
 
 def _model_error(error: dict | None) -> str:
-    if not error:
-        return _missing("Discretisation error not checked (identify.model_error = \"estimate\" checks it).")
+    if not (error or {}).get("summary"):
+        why = f" {error['why']}." if (error or {}).get("requested") == "auto" else ""
+        return _missing(f"Discretisation error not checked (identify.model_error = \"estimate\" checks it).{why}")
     rows = [[_e(key), _num(v.get("rms"), ".3g"), _num(v.get("max"), ".3g")]
             for key, v in error.get("summary", {}).items()]
     shift = {zone: v for zone, v in (error.get("shift") or {}).items() if v is not None}
-    text = (f"<h3>Estimated model (discretisation) error</h3><p>mode {_e(error.get('mode'))}, model refined "
-            f"x{_e(error.get('factor', '?'))}; in noise levels:</p>" + _table(["where", "RMS", "max"], rows, (0,)))
+    how = ("the discretisation control's prediction for the fitted model" if error.get("source") ==
+           "discretisation control" else f"model refined x{error.get('factor', '?')}")
+    text = (f"<h3>Estimated model (discretisation) error</h3><p>mode {_e(error.get('mode'))}"
+            + (f" ({_e(error['why'])})" if error.get("requested") == "auto" else "")
+            + f", {_e(how)}; in noise levels:</p>" + _table(["where", "RMS", "max"], rows, (0,)))
     if shift:
         text += "<p>Corrected for it the coefficients would move by (linearised): " + ", ".join(
             f"{_e(zone)} {v:+.3g}" for zone, v in shift.items()) + "</p>"

@@ -167,11 +167,15 @@ def _adequacy_lines(fit: dict) -> list[str]:
         lines.append(f"    robust loss {fit['loss']}: {fit['n_downweighted']} observation(s) kept less than half their "
                      "weight; chi-square and standard errors use the weights the fit ends with, so they treat "
                      "the down-weighted observations as outliers (too narrow if those are model error)")
-    error = fit.get("model_error")
-    if error:
+    error = fit.get("model_error") or {}
+    if error.get("requested") == "auto":
+        lines.append(f"    model error {error['mode']}: {error['why']}")
+    if error.get("summary"):
         all_ = error["summary"]["all"]
         kinds = ", ".join(f"{key[5:]} {v['rms']:.3g}" for key, v in error["summary"].items() if key.startswith("kind "))
-        lines.append(f"    estimated discretisation error (model refined x{error['factor']}, Richardson): "
+        how = ("the discretisation control's prediction for the fitted model" if error.get("source") ==
+               "discretisation control" else f"model refined x{error['factor']}, Richardson")
+        lines.append(f"    estimated discretisation error ({how}): "
                      f"{all_['rms']:.3g} noise levels RMS, max {all_['max']:.3g} (by kind: {kinds})"
                      + (f"; included in the weights scaled per quantity by {_scales(error)} (the size each "
                         "quantity's misfit shows)" if error["mode"] == "include" else
