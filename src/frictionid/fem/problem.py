@@ -38,6 +38,9 @@ SLIP_TOLERANCE = 0.1
 TWIST_LENGTHS = 1.0
 #: gap errors whose area mean is below this share of the largest displacement are round-off (a uniform field)
 ROUND_OFF = 1e-9
+#: the deformed coupling measures a pair only where, undeformed, it finds the pair's own gap within this share of
+#: the local element length (on a conforming interface exactly: a larger difference is another target facet)
+MATCHED = 0.01
 
 
 def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix, tuple[str, ...]]:
@@ -316,7 +319,11 @@ class Problem:
         displacement across the closed pairs, or their largest initial interference if larger. Pairs the
         deformed coupling does not cover (slid off the target's end) are left out; a mean below
         :data:`ROUND_OFF` of the largest displacement is zero. Pairs that stay open along the whole path are not
-        checked. With twist (no deformed coupling) or a helical interface (``lead``: its pairs' normals are the
+        checked. A pair the deformed coupling does not measure is held to one local element length of slip
+        instead: where, undeformed, the coupling does not find the pair's own gap (within :data:`MATCHED` of the
+        local element length: it projects onto another facet, as on a coarse helical thread whose flank is
+        narrower than an element), or where a closed pair's error exceeds its tangential relative displacement,
+        which bounds it (the slid-to point is at most that far from the partner on the target). With twist (no deformed coupling) or a helical interface (``lead``: its pairs' normals are the
         helicoid's, not the deformed coupling's facet normals) the slip (with twist: along t1) is limited to one
         local element length instead, whatever the tolerance.
         """
@@ -337,6 +344,9 @@ class Problem:
                     f"{int(self.pairs.nodes[worst])} (position {np.round(self.pairs.position[worst], 4).tolist()}, "
                     f"slip {found['slip']:.3g} mm); set [solver] sliding = \"finite\", reduce the imposed sliding, "
                     "or raise slip_tolerance (false: no check)")
+            if found["unmeasured_slip"] > TWIST_LENGTHS:
+                self._slip_too_long(found["increment"], found["unmeasured_worst"], found["unmeasured_slip"],
+                                    TWIST_LENGTHS, "pairs the deformed coupling does not measure")
 
     def gap_errors(self, solution: Solution, tolerance: float = np.inf, builder=None) -> list[dict]:
         """The fixed pairing's gap error per interface at the increment of each stage with the largest slip
@@ -344,9 +354,11 @@ class Problem:
         mean over the closed pairs), ``spread`` [mm] (the normal deformation: the range of the target's normal
         displacement across them, or their largest initial interference),
         ``ratio`` = mean / spread, ``worst`` (pair index), ``largest`` [mm], ``slip`` [mm] at the worst pair,
-        ``uncovered`` (closed pairs the deformed coupling does not cover, left out); the search stops at the first
-        ratio above ``tolerance``."""
-        from .sliding import mortar_builder, pairing_gap_error
+        ``uncovered`` (closed pairs the deformed coupling does not cover, left out), ``unmeasured`` (closed pairs it
+        does not measure, :meth:`check_small_sliding`, left out of the mean), ``unmeasured_slip`` (their largest
+        slip in local element lengths, 0 without them) and ``unmeasured_worst`` (its pair index); the search stops
+        at the first ratio above ``tolerance``."""
+        from .sliding import UNCOVERED_GAP, mortar_builder, pairing_gap_error
         slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
         builder = builder or mortar_builder(self.space, self.model)
@@ -356,15 +368,23 @@ class Problem:
         if not checked:
             return []
         pairs, found = self.pairs, []
+        length = self.pair_length()
+        reference = self._coupled_gap
+        matched = (reference < UNCOVERED_GAP) & (np.abs(reference - pairs.gap) <= MATCHED * length)
         for inc, u in zip(checked, self.displacement(solution, checked)):
             w_n = solution.w[inc, :, 0]
-            error = pairing_gap_error(self, u.ravel(), w_n, builder, self._coupled_gap)
+            error = pairing_gap_error(self, u.ravel(), w_n, builder, reference)
             # a pair the coupling does not cover (here or undeformed: the target's end) has no gap error to measure
             uncovered = ~np.isfinite(error)
             closed = solution.state[inc] != 0
+            # a closed pair's error is at most its tangential relative displacement: beyond it (or unmatched), the
+            # coupling measures another facet, and the pair is held to the slip rule instead
+            bound = np.linalg.norm(solution.w[inc, :, 1:], axis=1) + ROUND_OFF * np.abs(u).max()
+            unmeasured = ~uncovered & (~matched | (closed & (np.abs(np.where(uncovered, 0.0, error)) > bound)))
             # an open pair counts where the deformed configuration closes it
-            error = np.where(uncovered, 0.0, np.where(closed, np.abs(error),
-                                                      np.maximum(0.0, -(pairs.gap + w_n + error))))
+            error = np.where(uncovered | unmeasured, 0.0, np.where(closed, np.abs(error),
+                                                                   np.maximum(0.0, -(pairs.gap + w_n + error))))
+            long_slip = np.where(unmeasured & closed, slip[inc] / length, 0.0)
             target_n = np.einsum("pi,pi->p", pairs.frames[:, 0, :], u[pairs.nodes]) - w_n
             for index in range(len(self.model.interfaces)):
                 mine = pairs.interface == index
@@ -375,15 +395,20 @@ class Problem:
                 spread = float(max(np.ptp(target_n[mine & closed]), -np.min(pairs.gap[mine & closed], initial=0.0)))
                 if spread == 0.0:       # one closed pair, or the target moved as a whole: its normal displacement
                     spread = float(np.abs(target_n[mine & closed]).max())
-                mean = float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[mine & closed]))
+                measured = mine & closed & ~unmeasured
+                mean = (float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[measured]))
+                        if np.any(measured) else 0.0)
                 if mean <= ROUND_OFF * np.abs(u).max():
                     mean = 0.0                                   # a uniform field's round-off, not an error
                 worst = int(np.flatnonzero(mine)[np.argmax(error[mine])])
                 ratio = 0.0 if mean == 0.0 else mean / spread if spread > 0.0 else np.inf
                 found.append(dict(interface=index, increment=inc, mean=mean, spread=spread, ratio=ratio, worst=worst,
                                   largest=float(error[worst]), slip=float(slip[inc, worst]),
-                                  uncovered=int(np.count_nonzero(uncovered & mine & closed))))
-                if found[-1]["ratio"] > tolerance:
+                                  uncovered=int(np.count_nonzero(uncovered & mine & closed)),
+                                  unmeasured=int(np.count_nonzero(unmeasured & mine & closed)),
+                                  unmeasured_slip=float(long_slip[mine].max()),
+                                  unmeasured_worst=int(np.flatnonzero(mine)[np.argmax(long_slip[mine])])))
+                if found[-1]["ratio"] > tolerance or found[-1]["unmeasured_slip"] > TWIST_LENGTHS:
                     return found
         return found
 
@@ -396,12 +421,18 @@ class Problem:
         ratio = slip / self.pair_length()
         if ratio.size and ratio.max() > limit:
             inc, pair = np.unravel_index(np.argmax(ratio), ratio.shape)
-            raise SolverError(
-                f"slip of {slip[inc, pair]:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
-                f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds "
-                f"{limit:g} x the local element length {self.pair_length()[pair]:.3g} mm, the small-sliding range of "
-                "a model with twist or a helical interface (lead); reduce the imposed sliding, coarsen the contact "
-                "mesh, or set [solver] slip_tolerance = false (no check)")
+            self._slip_too_long(int(inc), int(pair), float(ratio[inc, pair]), limit,
+                                "a model with twist or a helical interface (lead)")
+
+    def _slip_too_long(self, inc: int, pair: int, lengths: float, limit: float, where: str) -> None:
+        """Raise: the slip of ``pair`` at increment ``inc`` is ``lengths`` local element lengths, beyond ``limit``,
+        the small-sliding range of ``where``."""
+        length = self.pair_length()[pair]
+        raise SolverError(
+            f"slip of {lengths * length:.3g} mm at contact node {int(self.pairs.nodes[pair])} "
+            f"(position {np.round(self.pairs.position[pair], 4).tolist()}, increment {inc + 1}) exceeds "
+            f"{limit:g} x the local element length {length:.3g} mm, the small-sliding range of {where}; reduce the "
+            "imposed sliding, coarsen the contact mesh, or set [solver] slip_tolerance = false (no check)")
 
     def solve(self, mu, sensitivities: bool = False, max_slip: float | None = SLIP_TOLERANCE,
               increments: str = "fixed") -> Solution:
