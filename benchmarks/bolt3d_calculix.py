@@ -23,19 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from _measure import peak_memory_mb
-from bolt3d import ten_points
+from bolt3d import SLIP_CHECK, layout_of, ten_points
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings
-from frictionid.builders.bolt import bolt_layout, bolt_model
+from frictionid.builders.bolt import bolt_model
 from frictionid.fem import space
 from frictionid.fem.problem import Problem
 
 QUANTITIES = ("ux", "uy", "uz")
-
-
-def layout_of(options: dict):
-    return bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
-                       options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
-                       options.get("bearing_diameter"), options.get("thread_length"))
 
 
 def rim_points(layout) -> np.ndarray:
@@ -72,7 +66,7 @@ def embedded_result(model, points, regions, mu: float, factorisation: str, order
     try:
         problem = Problem.build(model, points=points, quantities=QUANTITIES, regions=regions,
                                 factorisation=factorisation)
-        solution = problem.solve(np.full(len(model.zone_names), mu))
+        solution = problem.solve(np.full(len(model.zone_names), mu), max_slip=SLIP_CHECK)
     finally:
         space.INTORDER["tetra10"] = product
     out["embedded_seconds"], out["embedded_cpu"] = time.perf_counter() - start, time.process_time() - cpu

