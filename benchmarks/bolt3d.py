@@ -32,12 +32,6 @@ from frictionid.builders.bolt import bolt_layout, bolt_model
 from frictionid.builders.bolt3d import measurement_points_3d
 from frictionid.fem.problem import Problem
 
-#: the small-sliding check's tolerance for the comparisons' tensile solves (bolt3d_vs_axisymmetric.py,
-#: bolt3d_calculix.py): off. On the helical thread in tension (facet normals, no lead) the check's deformed
-#: coupling reported a gap error of 0.248 mm at a flank pair that slid 1.65 um (M6, two pitches, 1,500 N),
-#: a false alarm that stopped these runs; the slips are micrometres against elements of 0.25-1 mm
-SLIP_CHECK = None
-
 
 def ten_points(layout) -> np.ndarray:
     """(10, 3) [mm] the seed's P1-P5 on flanks 1 and 2, moved 0.1 mm radially into the bolt tooth: the tets are

@@ -17,7 +17,7 @@ moved by P theta / 2 pi at N angles theta of the helix (faces, countersinks and 
 they are) and compares the helix per turn with the average of their rings, and each of N sectors of the helix
 with the ring model of its centre's phase; ``--axisymmetric-only`` stops before the 3-D model. ``--axis Y1,Y2,...``
 instead compares uy's change between those stations [mm] on the axis, with ``--phases N`` also against the ring
-model averaged over the N phases. The solves run without the small-sliding check (bolt3d.SLIP_CHECK).
+model averaged over the N phases.
 """
 
 import dataclasses
@@ -29,7 +29,7 @@ from unittest import mock
 import numpy as np
 
 from _measure import peak_memory_mb
-from bolt3d import SLIP_CHECK, built, layout_of
+from bolt3d import built, layout_of
 from frictionid.builders.bolt import bolt_model
 from frictionid.builders.thread import engaged_flanks, nut_bore
 from frictionid.fem.problem import Problem
@@ -56,7 +56,7 @@ def solved(model, layout, dim: int, factorisation: str = "auto", heights=None):
     problem = Problem.build(model, points=points, quantities=("uy",), regions=["bolt"] * len(points),
                             factorisation=factorisation)
     built = time.perf_counter() - start
-    solution = problem.solve(np.full(len(model.zone_names), MU), max_slip=SLIP_CHECK)
+    solution = problem.solve(np.full(len(model.zone_names), MU))
     uy = np.asarray(solution.observations[-1]).ravel()
     print(f"  {model.kind}: {model.mesh.n_nodes:,} nodes, {problem.pairs.n_pairs:,} contact pairs; condensation "
           f"{built:.1f} s, solve {time.perf_counter() - start - built:.1f} s, peak {peak_memory_mb():.0f} MB",
