@@ -1,0 +1,305 @@
+"""Are the include mode's intervals calibrated? Coverage over a population of plane-strain references whose model
+errors differ (not noise replicates of one reference, where a systematic error is the same in every replicate).
+
+    PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/coverage_population.py [N] [--seed S] [--noise K]
+        [--first I] [--out FILE.jsonl] [--summary FILE.jsonl]
+
+Each reference i (seeded by ``--seed`` and i) draws: 2 or 3 zones with truth coefficients in [0.1, 0.5], the pull
+(0.05-0.2 mm) and the pressing force (100-300 N/mm), the block's height (4 or 6 mm), the fitted mesh (``block2d``,
+linear triangles of 1, 1.5 or 2 mm, or quadratic ones of 1.5, 2 or 3 mm), the data's mesh (the same order 2, 4 or
+8 times finer, or the other order: quadratic at the same size or 2 times finer for a linear fit, linear 4 or 8
+times finer for a quadratic one), 4-18 points on the block's sides and the base top, the observed quantities (ux
+and uy; with the machine force; with the strains; uy alone; ...), the stages (the pull, or both) and the
+displacement noise (0.2, 0.5 or 1 um; strains 2e-5, force 0.5 N/mm). The data are the data mesh's solution at
+the truth (``frictionid simulate``) plus ``--noise`` seeded noise replicates; each replicate, and the noise-free
+data, is fitted by ``frictionid.identify`` with the discretisation control on (refine_target 0.5, the default)
+and ``model_error = "include"`` from 0.1 in every zone.
+
+Per fitted zone it records the error (value - truth), the standard error, its systematic part and the parts it is
+the largest of (statistics.fit_statistics: the scaled estimate's coefficient shift, how far including the error
+moved the fit, the control's remaining error propagated at the orders p and p / 2), the statistical part, the
+control's predicted bias (order p, ``discretisation_bias``) against the actual bias (the noise-free fit's value
+minus the truth), and whether the zone is claimed. The same fits are also summarised with the systematic part
+chosen by other rules (``RULES``, fit_statistics re-evaluated at the fitted point with the rule swapped in, so
+their claims are decided as identify would decide them).
+
+Prints one JSON line per fit (and writes them to ``--out``), then per rule: the number of claims, the coverage of
+the claimed 95 % intervals with its Clopper-Pearson 95 % range, the quantiles of |error| / stderr, the claims more
+than 3 standard errors off; the same for the statistical part alone (the claims' |error| / statistical stderr);
+and over the noise-free fits |actual bias| / systematic part and actual / predicted bias.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+import frictionid.inverse.statistics as statistics
+import frictionid.result as result_module
+from frictionid import identify
+from frictionid.config import config_from_dict
+from frictionid.data.measurements import read_measurements
+from frictionid.data.table import Measurements
+from frictionid.inverse.remaining_error import bias
+from frictionid.simulation import simulate
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _measure import peak_memory_mb  # noqa: E402
+
+QUANTITY_SETS = (("ux", "uy"), ("ux", "uy", "force"), ("ux", "uy", "exx", "eyy", "exy"), ("ux", "uy", "exy", "force"))
+NOISE = {"e": 2e-5, "force": 0.5}              # [-], [N/mm]; displacements drawn per reference
+START = 0.1
+#: identify.resolution: the largest standard error of a claimed zone (tests/test_coverage.py's)
+RESOLUTION = 0.05
+#: the keys of a fit's line printed (``--out`` keeps them all)
+BRIEF = ("reference", "replicate", "truth", "value", "stderr", "claimed", "predicted_bias", "consistent", "control",
+         "factors", "seconds")
+
+
+def draw(index: int, seed: int) -> dict:
+    """Reference ``index`` of the population ``seed``: truth, loads, meshes, points, quantities, stages, noise."""
+    rng = np.random.default_rng([seed, index])
+    n_zones = int(rng.choice([2, 3], p=[0.6, 0.4]))
+    order = int(rng.choice([1, 2]))
+    mesh = float(rng.choice([1.0, 1.5, 2.0] if order == 1 else [1.5, 2.0, 3.0]))
+    # finer than any mesh the control may fit (its factors go up to 4), off its grid
+    if rng.random() < 0.7:
+        data = {"order": order, "mesh_size": mesh / float(rng.choice([6, 8, 12]))}
+    else:
+        data = ({"order": 2, "mesh_size": mesh / float(rng.choice([3, 6]))} if order == 1 else
+                {"order": 1, "mesh_size": mesh / float(rng.choice([12, 16]))})
+    height = float(rng.choice([4.0, 6.0]))
+    common = {"builder": "block2d", "n_zones": n_zones, "height": height, "pull": round(float(rng.uniform(0.05, 0.2)), 4),
+              "force": round(float(rng.uniform(100.0, 300.0)), 1)}
+    side = np.round(rng.uniform(0.25, height - 0.25, int(rng.integers(4, 16)) * 2), 3)
+    base = np.round(rng.uniform(5.5, 19.0, int(rng.integers(4, 16)) * 2), 3)
+    points = ([(-5.0 if k % 2 else 5.0, y, "block") for k, y in enumerate(side)]
+              + [(-x if k % 2 else x, 0.0, "base") for k, x in enumerate(base)])
+    return {"index": index, "truth": np.round(rng.uniform(0.1, 0.5, n_zones), 4).tolist(),
+            "model": {**common, "order": order, "mesh_size": mesh}, "data": {**common, **data},
+            "points": points, "quantities": list(QUANTITY_SETS[int(rng.integers(len(QUANTITY_SETS)))]),
+            "stages": [2] if rng.random() < 0.7 else [1, 2], "u_noise": float(rng.choice([2e-4, 5e-4, 1e-3]))}
+
+
+def clean_data(case: dict, folder: Path) -> Measurements:
+    """The data mesh's solution at the truth at the case's points (``frictionid simulate``)."""
+    points = folder / "points.csv"
+    points.write_text("point,x,y,z,stage\n" + "".join(f"{'P' if r == 'block' else 'Q'}{i + 1},{x},{y},0.0,2\n"
+                                                      for i, (x, y, r) in enumerate(case["points"])))
+    zones = {chr(ord("A") + k): v for k, v in enumerate(case["truth"])}
+    observables = [q for q in case["quantities"] if q != "force"]
+    config = config_from_dict({"model": case["data"], "friction": {"zones": zones},
+                               "data": {"file": str(points), "observables": observables, "stages": [1, 2],
+                                        "regions": regions(case)},
+                               "run": {"fields": False}}, need=("model", "friction", "data"), base=folder)
+    return read_measurements(simulate(config, folder / "clean.csv"))
+
+
+def regions(case: dict) -> dict:
+    return {f"{'P' if r == 'block' else 'Q'}{i + 1}": r for i, (x, y, r) in enumerate(case["points"])}
+
+
+def noisy(clean: Measurements, case: dict, replicate: int, seed: int) -> Measurements:
+    """Replicate ``replicate`` (>= 1; 0 is the noise-free data) of the case's data."""
+    if replicate == 0:
+        return clean
+    rng = np.random.default_rng([seed, case["index"], replicate])
+    values = {q: v + rng.normal(0.0, sigma(q, case), v.shape) for q, v in clean.values.items()}
+    force = clean.force.copy()
+    for stage in np.unique(clean.stage):                 # one machine force per stage
+        force[clean.stage == stage] += rng.normal(0.0, NOISE["force"])
+    return Measurements(clean.points, clean.coordinates, clean.stage, force, values, source="population")
+
+
+def sigma(quantity: str, case: dict) -> float:
+    return case["u_noise"] if quantity.startswith("u") else NOISE["force"] if quantity == "force" else NOISE["e"]
+
+
+# the systematic part by rule: (include's measures kept?, the control's part from the biases at p and p / 2)
+RULES = {
+    "shipped": (True, lambda b1, bh: np.fmax(np.abs(b1), np.abs(bh))),
+    "control only": (False, lambda b1, bh: np.fmax(np.abs(b1), np.abs(bh))),
+    "order p": (False, lambda b1, bh: np.abs(b1)),
+    "p, spread": (False, lambda b1, bh: np.hypot(b1, bh - b1)),
+    "include only": (True, None),
+}
+
+
+@contextmanager
+def _swapped(rule, seen: dict):
+    """statistics.fit_statistics with the systematic part of ``rule``; records the parts in ``seen``."""
+    keep, control = rule
+    original_error, original_remaining = statistics.systematic_error, statistics.remaining_systematic
+
+    def systematic_error(scaled_shift, before, after):
+        seen["shift"] = np.nan_to_num(np.abs(np.asarray(scaled_shift, dtype=float)), nan=0.0)
+        seen["moved"] = np.abs(np.asarray(after, dtype=float) - np.asarray(before, dtype=float))
+        return original_error(scaled_shift, before, after) if keep else np.zeros_like(seen["moved"])
+
+    def remaining_systematic(jac, weight, remaining, inner=None):
+        b1, bh = bias(jac, weight, remaining.nominal, inner), bias(jac, weight, remaining.slow, inner)
+        seen["b1"], seen["bh"] = b1, bh
+        part = np.zeros_like(b1) if control is None else np.nan_to_num(control(b1, bh), nan=0.0)
+        return b1, part
+
+    statistics.systematic_error, statistics.remaining_systematic = systematic_error, remaining_systematic
+    try:
+        yield
+    finally:
+        statistics.systematic_error, statistics.remaining_systematic = original_error, original_remaining
+
+
+class Recorder:
+    """Wraps result.fit_statistics: the shipped statistics for result.json, every rule's on the side."""
+
+    def __init__(self):
+        self.original, self.rows = result_module.fit_statistics, {}
+
+    def __call__(self, evaluator, problem, x, resolution, error=None, remaining=None):
+        self.rows = {}
+        for name, rule in RULES.items():
+            seen = {}
+            with _swapped(rule, seen):
+                fitted = self.original(evaluator, problem, x, resolution, error, remaining)
+            unc = fitted.uncertainty
+            systematic = np.zeros(len(x)) if fitted.systematic is None else np.asarray(fitted.systematic)
+            self.rows[name] = {"stderr": unc.stderr, "systematic": systematic, "ci95": unc.ci95,
+                               "claimed": unc.identifiable, "at_bound": unc.at_bound, **seen}
+        with _swapped(RULES["shipped"], {}):
+            return self.original(evaluator, problem, x, resolution, error, remaining)
+
+
+def fit(case: dict, data: Measurements, recorder: Recorder) -> dict:
+    zones = {chr(ord("A") + k): START for k in range(len(case["truth"]))}
+    noise = {"u": case["u_noise"], "e": NOISE["e"], "force": NOISE["force"]}
+    used = {k: v for k, v in noise.items() if any(q == k or q.startswith(k) for q in case["quantities"])}
+    result = identify(case["model"], data, zones, observables=case["quantities"], stages=case["stages"],
+                      noise=used, regions=regions(case), fields=False, model_error="include", refine_target=0.5,
+                      resolution=RESOLUTION)
+    out = result.to_dict()
+    return {"result": out, "rules": recorder.rows}
+
+
+def _floats(values) -> list:
+    return [None if v is None or not np.isfinite(v) else float(v) for v in np.asarray(values, dtype=float).ravel()]
+
+
+def row(case: dict, replicate: int, fitted: dict, seconds: float) -> dict:
+    result, truth = fitted["result"], np.array(case["truth"])
+    names = [chr(ord("A") + k) for k in range(len(truth))]
+    params = [result["parameters"][n] for n in names]
+    record = result["model"].get("discretisation", {})
+    rules = {name: {key: (_floats(v) if key != "ci95" else [_floats(c) for c in v])
+                    for key, v in r.items()} for name, r in fitted["rules"].items()}
+    return {"reference": case["index"], "replicate": replicate, "truth": case["truth"],
+            "value": [p["value"] for p in params], "stderr": [p["stderr"] for p in params],
+            "claimed": [p["identifiable"] for p in params], "predicted_bias": [p.get("discretisation_bias")
+                                                                                for p in params],
+            "status": result["status"], "consistent": result["fit"]["consistent"],
+            "control": record.get("status"), "factors": record.get("factors"),
+            "rounds": [r.get("status") for r in record.get("at_fitted", [])], "rules": rules,
+            "seconds": round(seconds, 1), "peak_mb": round(peak_memory_mb())}
+
+
+def clopper_pearson(k: int, n: int) -> tuple[float, float]:
+    if n == 0:
+        return float("nan"), float("nan")
+    low = stats.beta.ppf(0.025, k, n - k + 1) if k > 0 else 0.0
+    high = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
+    return float(low), float(high)
+
+
+def summary(rows: list[dict]) -> list[dict]:
+    """Per rule: claims, coverage with its range, |error| / stderr, and the statistical part alone."""
+    noisy_rows = [r for r in rows if r["replicate"] > 0]
+    clean = {r["reference"]: r for r in rows if r["replicate"] == 0}
+    out = []
+    for name in RULES:
+        z, zs, inside, inside_stat, zones, references = [], [], 0, 0, set(), set()
+        for r in noisy_rows:
+            rule = r["rules"][name]
+            for k, truth in enumerate(r["truth"]):
+                if not rule["claimed"][k]:
+                    continue
+                error, se, sys_ = r["value"][k] - truth, rule["stderr"][k], rule["systematic"][k]
+                stat = float(np.sqrt(max(se ** 2 - sys_ ** 2, 0.0)))
+                low, high = rule["ci95"][k]
+                inside += low <= truth <= high
+                inside_stat += abs(error) <= 1.959964 * stat
+                z.append(abs(error) / se)
+                zs.append(abs(error) / stat if stat > 0 else np.inf)
+                zones.add((r["reference"], k))
+                references.add(r["reference"])
+        n = len(z)
+        ratio, actual_over_predicted = [], []
+        for ref, r in clean.items():
+            rule = r["rules"][name]
+            for k, truth in enumerate(r["truth"]):
+                actual = r["value"][k] - truth
+                if rule["systematic"][k] and not rule["at_bound"][k]:
+                    ratio.append(abs(actual) / rule["systematic"][k])
+                if r["predicted_bias"][k] and not rule["at_bound"][k]:
+                    actual_over_predicted.append(actual / r["predicted_bias"][k])
+        quantiles = (lambda a: [round(float(q), 3) for q in np.quantile(a, [0.5, 0.9, 1.0])] if len(a) else [])
+        out.append({"rule": name, "claims": n, "zones claimed": len(zones), "references claiming": len(references),
+                    "coverage": round(inside / n, 4) if n else None, "coverage 95% range": clopper_pearson(inside, n),
+                    "|error|/stderr median, 90%, max": quantiles(z), "beyond 3 stderr": int(np.sum(np.array(z) > 3)),
+                    "statistical coverage": round(inside_stat / n, 4) if n else None,
+                    "|error|/statistical median, 90%, max": quantiles(zs),
+                    "noise-free |bias|/systematic median, 90%, max": quantiles(ratio),
+                    "noise-free bias/predicted median, 10%, 90%": ([round(float(q), 3) for q in
+                                                                    np.quantile(actual_over_predicted, [0.5, 0.1, 0.9])]
+                                                                   if actual_over_predicted else [])})
+    return out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("n", type=int, nargs="?", default=30, help="references in the population")
+    parser.add_argument("--seed", type=int, default=1, help="the population's seed")
+    parser.add_argument("--noise", type=int, default=2, help="noise replicates per reference")
+    parser.add_argument("--first", type=int, default=0, help="first reference index")
+    parser.add_argument("--out", help="append each fit's JSON line to this file")
+    parser.add_argument("--summary", nargs="+", help="no fits: summarise these files' lines")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING)
+    if args.summary:
+        rows = [json.loads(line) for path in args.summary for line in Path(path).read_text().splitlines() if line]
+        for line in summary(rows):
+            print(json.dumps(line))
+        return 0
+    recorder = Recorder()
+    result_module.fit_statistics = recorder
+    rows = []
+    begun = time.perf_counter()
+    for index in range(args.first, args.first + args.n):
+        case = draw(index, args.seed)
+        with tempfile.TemporaryDirectory(prefix="population-") as folder:
+            clean = clean_data(case, Path(folder))
+        for replicate in range(args.noise + 1):
+            start = time.perf_counter()
+            fitted = fit(case, noisy(clean, case, replicate, args.seed), recorder)
+            rows.append(row(case, replicate, fitted, time.perf_counter() - start))
+            line = json.dumps(rows[-1])
+            print(json.dumps({key: rows[-1][key] for key in BRIEF}), flush=True)
+            if args.out:
+                with open(args.out, "a") as file:
+                    file.write(line + "\n")
+    print(json.dumps({"references": args.n, "fits": len(rows), "wall_s": round(time.perf_counter() - begun, 1),
+                      "peak_mb": round(peak_memory_mb())}))
+    for line in summary(rows):
+        print(json.dumps(line))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
