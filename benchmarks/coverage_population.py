@@ -124,12 +124,17 @@ def sigma(quantity: str, case: dict) -> float:
     return case["u_noise"] if quantity.startswith("u") else NOISE["force"] if quantity == "force" else NOISE["e"]
 
 
-# the systematic part by rule: (include's measures kept?, the control's part from the biases at p and p / 2)
+#: the systematic part by rule: (include's two measures kept, the control's part from its biases b_p, b_p/2 at the
+#: orders p and p / 2). "shipped": max(scaled shift, moved, |b_p|, |b_p/2|), what identify reports; "control only":
+#: max(|b_p|, |b_p/2|); "order p": |b_p|; "p, spread": the order-p bias with the spread between the orders as its
+#: uncertainty, hypot(b_p, b_p/2 - b_p); "shipped, p spread": max(scaled shift, moved, that); "include only":
+#: max(scaled shift, moved)
 RULES = {
     "shipped": (True, lambda b1, bh: np.fmax(np.abs(b1), np.abs(bh))),
     "control only": (False, lambda b1, bh: np.fmax(np.abs(b1), np.abs(bh))),
     "order p": (False, lambda b1, bh: np.abs(b1)),
     "p, spread": (False, lambda b1, bh: np.hypot(b1, bh - b1)),
+    "shipped, p spread": (True, lambda b1, bh: np.hypot(b1, bh - b1)),
     "include only": (True, None),
 }
 
@@ -218,13 +223,28 @@ def clopper_pearson(k: int, n: int) -> tuple[float, float]:
     return float(low), float(high)
 
 
+def clustered(held: list[tuple[int, bool]], n_draws: int = 2000) -> tuple[float, float]:
+    """95 % range of the coverage with the references resampled (bootstrap): the replicates of one reference share
+    its systematic error, so they are not independent trials (Clopper-Pearson's range treats them as such)."""
+    if not held:
+        return float("nan"), float("nan")
+    by_reference = {}
+    for reference, inside in held:
+        by_reference.setdefault(reference, []).append(inside)
+    counts = np.array([(sum(v), len(v)) for v in by_reference.values()], dtype=float)
+    rng = np.random.default_rng(0)
+    draws = counts[rng.integers(len(counts), size=(n_draws, len(counts)))].sum(axis=1)
+    coverage = draws[:, 0] / draws[:, 1]
+    return float(np.quantile(coverage, 0.025)), float(np.quantile(coverage, 0.975))
+
+
 def summary(rows: list[dict]) -> list[dict]:
     """Per rule: claims, coverage with its range, |error| / stderr, and the statistical part alone."""
     noisy_rows = [r for r in rows if r["replicate"] > 0]
     clean = {r["reference"]: r for r in rows if r["replicate"] == 0}
     out = []
-    for name in RULES:
-        z, zs, inside, inside_stat, zones, references = [], [], 0, 0, set(), set()
+    for name in [name for name in RULES if all(name in r["rules"] for r in rows)]:    # older lines: fewer rules
+        z, zs, inside, inside_stat, zones, references, held = [], [], 0, 0, set(), set(), []
         for r in noisy_rows:
             rule = r["rules"][name]
             for k, truth in enumerate(r["truth"]):
@@ -234,6 +254,7 @@ def summary(rows: list[dict]) -> list[dict]:
                 stat = float(np.sqrt(max(se ** 2 - sys_ ** 2, 0.0)))
                 low, high = rule["ci95"][k]
                 inside += low <= truth <= high
+                held.append((r["reference"], low <= truth <= high))
                 inside_stat += abs(error) <= 1.959964 * stat
                 z.append(abs(error) / se)
                 zs.append(abs(error) / stat if stat > 0 else np.inf)
@@ -252,13 +273,16 @@ def summary(rows: list[dict]) -> list[dict]:
         quantiles = (lambda a: [round(float(q), 3) for q in np.quantile(a, [0.5, 0.9, 1.0])] if len(a) else [])
         out.append({"rule": name, "claims": n, "zones claimed": len(zones), "references claiming": len(references),
                     "coverage": round(inside / n, 4) if n else None, "coverage 95% range": clopper_pearson(inside, n),
+                    "coverage 95% range, references resampled": clustered(held),
                     "|error|/stderr median, 90%, max": quantiles(z), "beyond 3 stderr": int(np.sum(np.array(z) > 3)),
                     "statistical coverage": round(inside_stat / n, 4) if n else None,
                     "|error|/statistical median, 90%, max": quantiles(zs),
                     "noise-free |bias|/systematic median, 90%, max": quantiles(ratio),
                     "noise-free bias/predicted median, 10%, 90%": ([round(float(q), 3) for q in
                                                                     np.quantile(actual_over_predicted, [0.5, 0.1, 0.9])]
-                                                                   if actual_over_predicted else [])})
+                                                                   if actual_over_predicted else []),
+                    "noise-free bias of the predicted sign": (round(float(np.mean(np.array(actual_over_predicted) > 0)),
+                                                                    3) if actual_over_predicted else None)})
     return out
 
 
