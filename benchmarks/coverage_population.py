@@ -45,83 +45,17 @@ from scipy import stats
 
 import frictionid.inverse.statistics as statistics
 import frictionid.result as result_module
-from frictionid import identify
-from frictionid.config import config_from_dict
-from frictionid.data.measurements import read_measurements
 from frictionid.data.table import Measurements
 from frictionid.inverse.remaining_error import bias
-from frictionid.simulation import simulate
 
 sys.path.insert(0, str(Path(__file__).parent))
+import _tests  # noqa: E402,F401  (tests/ on the path)
 from _measure import peak_memory_mb  # noqa: E402
+from population_case import clean_data, draw, identify_case, noisy  # noqa: E402
 
-QUANTITY_SETS = (("ux", "uy"), ("ux", "uy", "force"), ("ux", "uy", "exx", "eyy", "exy"), ("ux", "uy", "exy", "force"))
-NOISE = {"e": 2e-5, "force": 0.5}              # [-], [N/mm]; displacements drawn per reference
-START = 0.1
-#: identify.resolution: the largest standard error of a claimed zone (tests/test_coverage.py's)
-RESOLUTION = 0.05
 #: the keys of a fit's line printed (``--out`` keeps them all)
 BRIEF = ("reference", "replicate", "truth", "value", "stderr", "claimed", "predicted_bias", "consistent", "control",
          "factors", "seconds")
-
-
-def draw(index: int, seed: int) -> dict:
-    """Reference ``index`` of the population ``seed``: truth, loads, meshes, points, quantities, stages, noise."""
-    rng = np.random.default_rng([seed, index])
-    n_zones = int(rng.choice([2, 3], p=[0.6, 0.4]))
-    order = int(rng.choice([1, 2]))
-    mesh = float(rng.choice([1.0, 1.5, 2.0] if order == 1 else [1.5, 2.0, 3.0]))
-    # finer than any mesh the control may fit (its factors go up to 4), off its grid
-    if rng.random() < 0.7:
-        data = {"order": order, "mesh_size": mesh / float(rng.choice([6, 8, 12]))}
-    else:
-        data = ({"order": 2, "mesh_size": mesh / float(rng.choice([3, 6]))} if order == 1 else
-                {"order": 1, "mesh_size": mesh / float(rng.choice([12, 16]))})
-    height = float(rng.choice([4.0, 6.0]))
-    common = {"builder": "block2d", "n_zones": n_zones, "height": height, "pull": round(float(rng.uniform(0.05, 0.2)), 4),
-              "force": round(float(rng.uniform(100.0, 300.0)), 1)}
-    side = np.round(rng.uniform(0.25, height - 0.25, int(rng.integers(4, 16)) * 2), 3)
-    base = np.round(rng.uniform(5.5, 19.0, int(rng.integers(4, 16)) * 2), 3)
-    points = ([(-5.0 if k % 2 else 5.0, y, "block") for k, y in enumerate(side)]
-              + [(-x if k % 2 else x, 0.0, "base") for k, x in enumerate(base)])
-    return {"index": index, "truth": np.round(rng.uniform(0.1, 0.5, n_zones), 4).tolist(),
-            "model": {**common, "order": order, "mesh_size": mesh}, "data": {**common, **data},
-            "points": points, "quantities": list(QUANTITY_SETS[int(rng.integers(len(QUANTITY_SETS)))]),
-            "stages": [2] if rng.random() < 0.7 else [1, 2], "u_noise": float(rng.choice([2e-4, 5e-4, 1e-3]))}
-
-
-def clean_data(case: dict, folder: Path) -> Measurements:
-    """The data mesh's solution at the truth at the case's points (``frictionid simulate``)."""
-    points = folder / "points.csv"
-    points.write_text("point,x,y,z,stage\n" + "".join(f"{'P' if r == 'block' else 'Q'}{i + 1},{x},{y},0.0,2\n"
-                                                      for i, (x, y, r) in enumerate(case["points"])))
-    zones = {chr(ord("A") + k): v for k, v in enumerate(case["truth"])}
-    observables = [q for q in case["quantities"] if q != "force"]
-    config = config_from_dict({"model": case["data"], "friction": {"zones": zones},
-                               "data": {"file": str(points), "observables": observables, "stages": [1, 2],
-                                        "regions": regions(case)},
-                               "run": {"fields": False}}, need=("model", "friction", "data"), base=folder)
-    return read_measurements(simulate(config, folder / "clean.csv"))
-
-
-def regions(case: dict) -> dict:
-    return {f"{'P' if r == 'block' else 'Q'}{i + 1}": r for i, (x, y, r) in enumerate(case["points"])}
-
-
-def noisy(clean: Measurements, case: dict, replicate: int, seed: int) -> Measurements:
-    """Replicate ``replicate`` (>= 1; 0 is the noise-free data) of the case's data."""
-    if replicate == 0:
-        return clean
-    rng = np.random.default_rng([seed, case["index"], replicate])
-    values = {q: v + rng.normal(0.0, sigma(q, case), v.shape) for q, v in clean.values.items()}
-    force = clean.force.copy()
-    for stage in np.unique(clean.stage):                 # one machine force per stage
-        force[clean.stage == stage] += rng.normal(0.0, NOISE["force"])
-    return Measurements(clean.points, clean.coordinates, clean.stage, force, values, source="population")
-
-
-def sigma(quantity: str, case: dict) -> float:
-    return case["u_noise"] if quantity.startswith("u") else NOISE["force"] if quantity == "force" else NOISE["e"]
 
 
 #: the systematic part by rule: (include's two measures kept, the control's part from its biases b_p, b_p/2 at the
@@ -184,14 +118,7 @@ class Recorder:
 
 
 def fit(case: dict, data: Measurements, recorder: Recorder) -> dict:
-    zones = {chr(ord("A") + k): START for k in range(len(case["truth"]))}
-    noise = {"u": case["u_noise"], "e": NOISE["e"], "force": NOISE["force"]}
-    used = {k: v for k, v in noise.items() if any(q == k or q.startswith(k) for q in case["quantities"])}
-    result = identify(case["model"], data, zones, observables=case["quantities"], stages=case["stages"],
-                      noise=used, regions=regions(case), fields=False, model_error="include", refine_target=0.5,
-                      resolution=RESOLUTION)
-    out = result.to_dict()
-    return {"result": out, "rules": recorder.rows}
+    return {"result": identify_case(case, data), "rules": recorder.rows}
 
 
 def _floats(values) -> list:
@@ -223,6 +150,10 @@ def clopper_pearson(k: int, n: int) -> tuple[float, float]:
     return float(low), float(high)
 
 
+#: the measures the shipped systematic part is the largest of, and their keys in a rule's record
+PARTS = {"scaled shift": "shift", "moved": "moved", "control at p": "b1", "control at p/2": "bh"}
+
+
 def clustered(held: list[tuple[int, bool]], n_draws: int = 2000) -> tuple[float, float]:
     """95 % range of the coverage with the references resampled (bootstrap): the replicates of one reference share
     its systematic error, so they are not independent trials (Clopper-Pearson's range treats them as such)."""
@@ -245,6 +176,7 @@ def summary(rows: list[dict]) -> list[dict]:
     out = []
     for name in [name for name in RULES if all(name in r["rules"] for r in rows)]:    # older lines: fewer rules
         z, zs, inside, inside_stat, zones, references, held = [], [], 0, 0, set(), set(), []
+        split, largest = [], dict.fromkeys(PARTS, 0)
         for r in noisy_rows:
             rule = r["rules"][name]
             for k, truth in enumerate(r["truth"]):
@@ -258,6 +190,9 @@ def summary(rows: list[dict]) -> list[dict]:
                 inside_stat += abs(error) <= 1.959964 * stat
                 z.append(abs(error) / se)
                 zs.append(abs(error) / stat if stat > 0 else np.inf)
+                split.append(sys_ / stat if stat > 0 else np.inf)
+                parts = [abs(rule[key][k] or 0.0) for key in PARTS.values()]
+                largest[list(PARTS)[int(np.argmax(parts))]] += 1
                 zones.add((r["reference"], k))
                 references.add(r["reference"])
         n = len(z)
@@ -275,6 +210,9 @@ def summary(rows: list[dict]) -> list[dict]:
                     "coverage": round(inside / n, 4) if n else None, "coverage 95% range": clopper_pearson(inside, n),
                     "coverage 95% range, references resampled": clustered(held),
                     "|error|/stderr median, 90%, max": quantiles(z), "beyond 3 stderr": int(np.sum(np.array(z) > 3)),
+                    "systematic/statistical median, 10%, 90%": ([round(float(q), 3) for q in
+                                                                  np.quantile(split, [0.5, 0.1, 0.9])] if n else []),
+                    "largest part": largest,
                     "statistical coverage": round(inside_stat / n, 4) if n else None,
                     "|error|/statistical median, 90%, max": quantiles(zs),
                     "noise-free |bias|/systematic median, 90%, max": quantiles(ratio),
