@@ -4,16 +4,17 @@ errors differ (not noise replicates of one reference, where a systematic error i
     PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/coverage_population.py [N] [--seed S] [--noise K]
         [--first I] [--out FILE.jsonl] [--summary FILE.jsonl]
 
-Each reference i (seeded by ``--seed`` and i) draws: 2 or 3 zones with truth coefficients in [0.1, 0.5], the pull
-(0.05-0.2 mm) and the pressing force (100-300 N/mm), the block's height (4 or 6 mm), the fitted mesh (``block2d``,
-linear triangles of 1, 1.5 or 2 mm, or quadratic ones of 1.5, 2 or 3 mm), the data's mesh (the same order 2, 4 or
-8 times finer, or the other order: quadratic at the same size or 2 times finer for a linear fit, linear 4 or 8
-times finer for a quadratic one), 4-18 points on the block's sides and the base top, the observed quantities (ux
-and uy; with the machine force; with the strains; uy alone; ...), the stages (the pull, or both) and the
-displacement noise (0.2, 0.5 or 1 um; strains 2e-5, force 0.5 N/mm). The data are the data mesh's solution at
-the truth (``frictionid simulate``) plus ``--noise`` seeded noise replicates; each replicate, and the noise-free
-data, is fitted by ``frictionid.identify`` with the discretisation control on (refine_target 0.5, the default)
-and ``model_error = "include"`` from 0.1 in every zone.
+Each reference i (seeded by ``--seed`` and i; tests/population_case.py) draws: 2 or 3 zones with truth
+coefficients in [0.1, 0.5], the pull (0.05-0.2 mm) and the pressing force (100-300 N/mm), the block's height (4 or
+6 mm), the fitted mesh (``block2d``, linear triangles of 1, 1.5 or 2 mm, or quadratic ones of 1.5, 2 or 3 mm), the
+data's mesh (the same order 6, 8 or 12 times finer, or the other order: quadratic 3 or 6 times finer for a linear
+fit, linear 12 or 16 times finer for a quadratic one: finer than any mesh the control may choose, whose factors go
+up to 4, and off its grid), 16-60 points on the block's sides and the base top, the observed quantities (ux and
+uy; with the machine force; with the strains exx, eyy, exy; with exy and the force), the stages (the pull, or
+both) and the displacement noise (0.2, 0.5 or 1 um; strains 2e-5, force 0.5 N/mm). The data are the data mesh's
+solution at the truth (``frictionid simulate``) plus ``--noise`` seeded noise replicates; each replicate, and the
+noise-free data, is fitted by ``frictionid.identify`` with the discretisation control on (refine_target 0.5, the
+default), ``model_error = "include"`` and ``resolution = 0.05``, from 0.1 in every zone.
 
 Per fitted zone it records the error (value - truth), the standard error, its systematic part and the parts it is
 the largest of (statistics.fit_statistics: the scaled estimate's coefficient shift, how far including the error
@@ -23,10 +24,13 @@ minus the truth), and whether the zone is claimed. The same fits are also summar
 chosen by other rules (``RULES``, fit_statistics re-evaluated at the fitted point with the rule swapped in, so
 their claims are decided as identify would decide them).
 
-Prints one JSON line per fit (and writes them to ``--out``), then per rule: the number of claims, the coverage of
-the claimed 95 % intervals with its Clopper-Pearson 95 % range, the quantiles of |error| / stderr, the claims more
-than 3 standard errors off; the same for the statistical part alone (the claims' |error| / statistical stderr);
-and over the noise-free fits |actual bias| / systematic part and actual / predicted bias.
+Prints one short JSON line per fit (``--out`` keeps the whole record), then per rule: the number of claims (over
+the noisy replicates), the coverage of the claimed 95 % intervals with its Clopper-Pearson 95 % range and a range
+with the references resampled (a reference's replicates share its systematic error, so they are not independent
+trials), the quantiles of |error| / stderr, the claims more than 3 standard errors off, the systematic part over
+the statistical one and which measure was the largest; the same coverage for the statistical part alone; and over
+the noise-free fits |actual bias| / systematic part, actual / predicted bias and how often it has the predicted
+sign. ``--summary FILES`` prints the summary of earlier ``--out`` files without fitting.
 """
 
 from __future__ import annotations
