@@ -50,6 +50,7 @@ from scipy import stats
 import frictionid.inverse.statistics as statistics
 import frictionid.result as result_module
 from frictionid.data.table import Measurements
+from frictionid.inverse.discretisation import SCALE_CEILING
 from frictionid.inverse.remaining_error import bias
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -142,6 +143,7 @@ def row(case: dict, replicate: int, fitted: dict, seconds: float) -> dict:
                                                                                 for p in params],
             "status": result["status"], "consistent": result["fit"]["consistent"],
             "control": record.get("status"), "factors": record.get("factors"),
+            "scales": (result["fit"].get("model_error") or {}).get("scales"),
             "rounds": [r.get("status") for r in record.get("at_fitted", [])], "rules": rules,
             "seconds": round(seconds, 1), "peak_mb": round(peak_memory_mb())}
 
@@ -180,7 +182,7 @@ def summary(rows: list[dict]) -> list[dict]:
     out = []
     for name in [name for name in RULES if all(name in r["rules"] for r in rows)]:    # older lines: fewer rules
         z, zs, inside, inside_stat, zones, references, held = [], [], 0, 0, set(), set(), []
-        split, largest = [], dict.fromkeys(PARTS, 0)
+        split, largest, ceiling = [], dict.fromkeys(PARTS, 0), []
         for r in noisy_rows:
             rule = r["rules"][name]
             for k, truth in enumerate(r["truth"]):
@@ -191,6 +193,8 @@ def summary(rows: list[dict]) -> list[dict]:
                 low, high = rule["ci95"][k]
                 inside += low <= truth <= high
                 held.append((r["reference"], low <= truth <= high))
+                if r.get("scales") and max(r["scales"].values()) >= SCALE_CEILING:
+                    ceiling.append(low <= truth <= high)
                 inside_stat += abs(error) <= 1.959964 * stat
                 z.append(abs(error) / se)
                 zs.append(abs(error) / stat if stat > 0 else np.inf)
@@ -217,6 +221,7 @@ def summary(rows: list[dict]) -> list[dict]:
                     "systematic/statistical median, 10%, 90%": ([round(float(q), 3) for q in
                                                                   np.quantile(split, [0.5, 0.1, 0.9])] if n else []),
                     "largest part": largest,
+                    "claims with a scale k_q at its ceiling, held": (len(ceiling), int(np.sum(ceiling))),
                     "statistical coverage": round(inside_stat / n, 4) if n else None,
                     "|error|/statistical median, 90%, max": quantiles(zs),
                     "noise-free |bias|/systematic median, 90%, max": quantiles(ratio),
