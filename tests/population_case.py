@@ -1,0 +1,93 @@
+"""A population of plane-strain references whose model errors differ, for the include mode's calibration
+(tests/test_coverage_population.py, benchmarks/coverage_population.py): per reference the truth, the loads, the
+fitted mesh, the data's mesh, the points, the quantities, the stages and the noise are drawn from a seed; the data
+are the data mesh's solution at the truth (``frictionid simulate``) plus seeded noise, fitted by
+``frictionid.identify`` with the discretisation control on and ``model_error = "include"``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from frictionid import identify
+from frictionid.config import config_from_dict
+from frictionid.data.measurements import read_measurements
+from frictionid.data.table import Measurements
+from frictionid.simulation import simulate
+
+QUANTITY_SETS = (("ux", "uy"), ("ux", "uy", "force"), ("ux", "uy", "exx", "eyy", "exy"), ("ux", "uy", "exy", "force"))
+NOISE = {"e": 2e-5, "force": 0.5}              # [-], [N/mm]; displacements drawn per reference
+START = 0.1
+#: identify.resolution: the largest standard error of a claimed zone (tests/test_coverage.py's)
+RESOLUTION = 0.05
+
+
+def draw(index: int, seed: int) -> dict:
+    """Reference ``index`` of the population ``seed``: truth, loads, meshes, points, quantities, stages, noise."""
+    rng = np.random.default_rng([seed, index])
+    n_zones = int(rng.choice([2, 3], p=[0.6, 0.4]))
+    order = int(rng.choice([1, 2]))
+    mesh = float(rng.choice([1.0, 1.5, 2.0] if order == 1 else [1.5, 2.0, 3.0]))
+    # finer than any mesh the control may fit (its factors go up to 4), off its grid
+    if rng.random() < 0.7:
+        data = {"order": order, "mesh_size": mesh / float(rng.choice([6, 8, 12]))}
+    else:
+        data = ({"order": 2, "mesh_size": mesh / float(rng.choice([3, 6]))} if order == 1 else
+                {"order": 1, "mesh_size": mesh / float(rng.choice([12, 16]))})
+    height = float(rng.choice([4.0, 6.0]))
+    common = {"builder": "block2d", "n_zones": n_zones, "height": height, "pull": round(float(rng.uniform(0.05, 0.2)), 4),
+              "force": round(float(rng.uniform(100.0, 300.0)), 1)}
+    side = np.round(rng.uniform(0.25, height - 0.25, int(rng.integers(4, 16)) * 2), 3)
+    base = np.round(rng.uniform(5.5, 19.0, int(rng.integers(4, 16)) * 2), 3)
+    points = ([(-5.0 if k % 2 else 5.0, y, "block") for k, y in enumerate(side)]
+              + [(-x if k % 2 else x, 0.0, "base") for k, x in enumerate(base)])
+    return {"index": index, "truth": np.round(rng.uniform(0.1, 0.5, n_zones), 4).tolist(),
+            "model": {**common, "order": order, "mesh_size": mesh}, "data": {**common, **data},
+            "points": points, "quantities": list(QUANTITY_SETS[int(rng.integers(len(QUANTITY_SETS)))]),
+            "stages": [2] if rng.random() < 0.7 else [1, 2], "u_noise": float(rng.choice([2e-4, 5e-4, 1e-3]))}
+
+
+def clean_data(case: dict, folder: Path) -> Measurements:
+    """The data mesh's solution at the truth at the case's points (``frictionid simulate``)."""
+    points = folder / "points.csv"
+    points.write_text("point,x,y,z,stage\n" + "".join(f"{'P' if r == 'block' else 'Q'}{i + 1},{x},{y},0.0,2\n"
+                                                      for i, (x, y, r) in enumerate(case["points"])))
+    zones = {chr(ord("A") + k): v for k, v in enumerate(case["truth"])}
+    observables = [q for q in case["quantities"] if q != "force"]
+    config = config_from_dict({"model": case["data"], "friction": {"zones": zones},
+                               "data": {"file": str(points), "observables": observables, "stages": [1, 2],
+                                        "regions": regions(case)},
+                               "run": {"fields": False}}, need=("model", "friction", "data"), base=folder)
+    return read_measurements(simulate(config, folder / "clean.csv"))
+
+
+def regions(case: dict) -> dict:
+    return {f"{'P' if r == 'block' else 'Q'}{i + 1}": r for i, (x, y, r) in enumerate(case["points"])}
+
+
+def noisy(clean: Measurements, case: dict, replicate: int, seed: int) -> Measurements:
+    """Replicate ``replicate`` (>= 1; 0 is the noise-free data) of the case's data."""
+    if replicate == 0:
+        return clean
+    rng = np.random.default_rng([seed, case["index"], replicate])
+    values = {q: v + rng.normal(0.0, sigma(q, case), v.shape) for q, v in clean.values.items()}
+    force = clean.force.copy()
+    for stage in np.unique(clean.stage):                 # one machine force per stage
+        force[clean.stage == stage] += rng.normal(0.0, NOISE["force"])
+    return Measurements(clean.points, clean.coordinates, clean.stage, force, values, source="population")
+
+
+def sigma(quantity: str, case: dict) -> float:
+    return case["u_noise"] if quantity.startswith("u") else NOISE["force"] if quantity == "force" else NOISE["e"]
+
+
+def identify_case(case: dict, data: Measurements) -> dict:
+    """result.json of ``data`` fitted as the population fits (from 0.1 in every zone, the control on with its
+    default target 0.5, ``model_error = "include"``, resolution :data:`RESOLUTION`)."""
+    zones = {chr(ord("A") + k): START for k in range(len(case["truth"]))}
+    noise = {"u": case["u_noise"], "e": NOISE["e"], "force": NOISE["force"]}
+    used = {k: v for k, v in noise.items() if any(q == k or q.startswith(k) for q in case["quantities"])}
+    return identify(case["model"], data, zones, observables=case["quantities"], stages=case["stages"], noise=used,
+                    regions=regions(case), fields=False, model_error="include", refine_target=0.5,
+                    resolution=RESOLUTION).to_dict()

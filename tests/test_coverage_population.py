@@ -1,0 +1,52 @@
+"""Calibration of the include mode's intervals over a population of references whose model errors differ.
+
+A systematic error is the same in every noise replicate of one reference, so the coverage over one reference's
+replicates is all or none per zone when an interval is mostly systematic (the dense reference's 107 of 107). A
+population of plane-strain references (population_case.py: truth, loads, fitted and data meshes, points,
+quantities drawn per reference) measures it instead. benchmarks/coverage_population.py measured two populations
+of 80 (docs/fit-quality.md, "The include mode over a population of references"): 98.4 % and 98.7 % of the claimed
+intervals held the truth, the median claim was 0.30-0.35 standard errors off, and the statistical part alone held
+86-89 %. This test fits a smaller population of its own seed: 43 of its 46 claimed intervals hold the truth
+(93.5 %; one claim is 4.5 standard errors off, a quadratic model whose control predicted no bias for the zone);
+with the systematic part set to 0 the same fits claim 68 zones and 59 hold (86.8 %).
+"""
+
+import numpy as np
+import pytest
+
+from population_case import clean_data, draw, identify_case, noisy
+
+pytestmark = pytest.mark.slow           # 60 identifications with the control on, about 2.5 minutes
+
+SEED, N_REFERENCES, N_REPLICATES = 3, 30, 2
+
+
+@pytest.fixture(scope="module")
+def claims(tmp_path_factory):
+    """(reference, |error|, stderr, systematic part, interval holds the truth) of every claimed zone."""
+    rows = []
+    for index in range(N_REFERENCES):
+        case = draw(index, SEED)
+        clean = clean_data(case, tmp_path_factory.mktemp(f"reference{index}"))
+        for replicate in range(1, N_REPLICATES + 1):
+            result = identify_case(case, noisy(clean, case, replicate, SEED))
+            for zone, truth in zip("ABC", case["truth"]):
+                p = result["parameters"][zone]
+                if p["identifiable"]:
+                    low, high = p["ci95"]
+                    rows.append((index, abs(p["value"] - truth), p["stderr"], p["stderr_systematic"],
+                                 low <= truth <= high))
+    return rows
+
+
+def test_claimed_intervals_hold_the_truth_over_a_population_of_references(claims):
+    """At least 90 % of the claimed 95 % intervals hold the truth, from several references (not one reference's
+    all-or-none); without the systematic part fewer would; and the intervals are not so wide that a claim says
+    little (the median claim is more than 0.15 standard errors from its truth: 0.30-0.35 over the benchmark's
+    populations)."""
+    reference, error, stderr, systematic, inside = (np.array(column) for column in zip(*claims))
+    assert len(claims) >= 20 and len(set(reference.tolist())) >= 8            # not vacuous
+    assert inside.mean() >= 0.90, (inside.sum(), len(inside))
+    statistical = np.sqrt(np.maximum(stderr ** 2 - systematic ** 2, 0.0))
+    assert np.mean(error <= 1.959964 * statistical) < inside.mean()
+    assert np.median(error / stderr) > 0.15
