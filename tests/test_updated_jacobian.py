@@ -229,3 +229,61 @@ def test_clamp_same_as_dense(clamp, monkeypatch):
     dense, updated = _both(clamp, np.array([0.15, 0.2, 0.25, 0.18, 0.22, 0.3]), monkeypatch)
     assert {"partial slip", "gross slip", "lift-off"} <= _phases(dense.state)     # the press already slips at the pad edges
     _assert_same(dense, updated, rtol=1e-9)
+
+
+def _random_operators(n_pairs, m, seed):
+    """(Wfull, Wa_T): a random symmetric positive definite W (n_w = 3 n_pairs) bordered by m floating modes."""
+    rng = np.random.default_rng(seed)
+    n_w = 3 * n_pairs
+    X = rng.normal(size=(n_w, n_w))
+    W = X @ X.T / n_w + 0.1 * np.eye(n_w)
+    Wa = rng.normal(size=(n_w, m))
+    return np.hstack([W, Wa]), Wa.T.copy()
+
+
+@pytest.mark.parametrize("m", [0, 2])
+@pytest.mark.parametrize("n_open", [0, 7])
+def test_cholesky_stuck_inverse_is_the_inverse_of_j0(m, n_open):
+    """A from the Cholesky factor of r W_CC and the border's Schur complement (every branch: no body floating or
+    m = 2, no pair or 7 of 40 held open) against J0^-1 by LU: the same to round-off of cond(J0)."""
+    n_pairs, r = 40, 3.0
+    Wfull, Wa_T = _random_operators(n_pairs, m, seed=m + n_open)
+    open_pairs = np.zeros(n_pairs, dtype=bool)
+    open_pairs[np.random.default_rng(1).choice(n_pairs, n_open, replace=False)] = True
+    A = updated_jacobian.symmetric_inverse(Wfull, Wa_T, r, open_pairs, 3)
+    P0, Q0 = np.zeros((n_pairs, 3, 3)), np.broadcast_to(r * np.eye(3), (n_pairs, 3, 3)).copy()
+    P0[open_pairs], Q0[open_pairs] = np.eye(3), 0.0
+    J0 = jacobian(P0, Q0, Wfull, Wa_T)
+    assert A.flags.f_contiguous
+    assert np.abs(A @ J0 - np.eye(len(J0))).max() <= 1e-12 * np.linalg.cond(J0)
+    assert np.abs(A - np.linalg.inv(J0)).max() <= 1e-13 * np.linalg.cond(J0) * np.abs(A).max()
+
+
+def test_cholesky_stuck_inverse_refuses_an_indefinite_block():
+    """A W that is not positive definite (a negative eigenvalue) leaves J0 to the LU path: None."""
+    Wfull, Wa_T = _random_operators(10, 0, seed=3)
+    Wfull[0, 0] = -1.0
+    assert updated_jacobian.symmetric_inverse(Wfull, Wa_T, 1.0, np.zeros(10, dtype=bool), 3) is None
+
+
+def test_block_3d_path_with_the_cholesky_inverse_same_as_with_lu(monkeypatch):
+    """The whole load path of the 3-D block (three floating modes; stick, partial slip, gross slip and lift-off),
+    sensitivities included, with the stuck inverse from the Cholesky factor against the one from LU: equal to
+    1e-10 of each field's largest value (they differ by round-off of A only)."""
+    problem = Problem.build(block_model(mesh_size=2.5), points=np.array([[-5.0, 0.0, 0.5], [0.0, -5.0, 1.5]]),
+                            quantities=("ux", "uy", "uz"), regions=["block", "block"])
+    c = problem.condensed
+    assert c.n_modes == 3
+    assert updated_jacobian.symmetric_inverse(c.gap_ops.full, c.equilibrium.on_lam, loadpath.contact_scale(c),
+                                              np.zeros(problem.pairs.n_pairs, dtype=bool), 3) is not None
+    out = {}
+    for stuck in ("lu", "auto"):
+        monkeypatch.setattr(updated_jacobian, "STUCK", stuck)
+        problem.__dict__.pop("_stuck_inverses", None)
+        out[stuck] = problem.solve([0.3, 0.2, 0.4, 0.25], sensitivities=True)
+        made = problem._stuck_inverses.base
+        J0 = jacobian(made.P0, made.Q0, problem.condensed.gap_ops.full, problem.condensed.equilibrium.on_lam)
+        assert np.abs(made.A @ J0 - np.eye(len(J0))).max() <= 1e-10
+    assert {"stick", "partial slip", "lift-off"} <= _phases(out["lu"].state)
+    assert np.any((out["lu"].state == SLIP).sum(axis=1) == (out["lu"].state != OPEN).sum(axis=1))
+    _assert_same(out["lu"], out["auto"], rtol=1e-10)

@@ -18,6 +18,13 @@ iteration to iteration and increment to increment; in partial slip, where the sl
 per Newton step, the new C is an update of the last factorised one (fem/capacitance.py: of order k^2 instead
 of k^3). Each solve checks its residual with J and falls back to a fresh LU factorisation of J where the
 correction lost accuracy.
+
+Where no tangential direction is held (the projectors E all identity), J0's rows of the closed pairs are r W, so
+J0 is, up to its identity rows (pairs held open) and the floating bodies' border, r W_CC with W_CC the closed
+pairs' block of W, symmetric positive definite. A is then made from the Cholesky factor of r W_CC and its inverse
+(LAPACK's potrf and potri: n^3 / 3 + 2 n^3 / 3 flops) and the border's Schur complement (m x m), instead of an
+LU factorisation of J0 and n solves with it (2 n^3 / 3 + 2 n^3), in one n x n array where nothing is held open
+and no body floats (the LU path holds two).
 """
 
 from __future__ import annotations
@@ -35,6 +42,9 @@ from .replaced_rows import ReplacedRows, gather
 
 log = logging.getLogger(__name__)
 
+#: how A is made: "auto" (from the Cholesky factor of r W_CC where J0 allows it, module docstring; else LU) or
+#: "lu" (an LU factorisation of J0 always: the previous path, kept for the equality tests and benchmarks)
+STUCK = "auto"
 #: a solve is refined once, then redone densely, where |J x - b| exceeds this fraction of |b| + |J| |x|
 RESIDUAL_RTOL = 1e-11
 #: J0 is not used where its reciprocal condition number is below this (the dense path solves instead)
@@ -46,7 +56,7 @@ SWITCH_FRACTION = 0.2
 #: (a predictor, Newton's last steps and the sensitivities meet the same few)
 KEEP = 4
 #: the stuck inverses kept per model take at most this many bytes besides the base one (n^2 x 8 bytes each: 288 MB
-#: at 6,000 unknowns)
+#: at 6,000 unknowns), and the capacitance factorisations kept per solver this many (at least one)
 KEEP_BYTES = 400e6
 #: a capacitance matrix is updated from the last fresh factorisation (fem/capacitance.py) where at most this
 #: fraction of that one's rows, and at least UPDATE_MIN rows, differ; else factorised afresh (and the new base)
@@ -87,6 +97,10 @@ class StuckInverse:
         P0[:, 1:, 1:] = eye_T - E
         Q0[:, 1:, 1:] = r * E
         P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
+        if STUCK == "auto" and free_T is None:
+            A = symmetric_inverse(Wfull, Wa_T, r, held_gap, dim)
+            if A is not None:
+                return cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
         J0 = jacobian(P0, Q0, Wfull, Wa_T)
         norm = np.linalg.norm(J0, 1)
         # factorised in place in LAPACK's column order, the identity solved for in place: two n x n arrays at the
@@ -105,10 +119,91 @@ class StuckInverse:
         A = np.asfortranarray(la.lu_solve((lu, piv), np.eye(len(lu), order="F"), overwrite_b=True,
                                           check_finite=False))
         del lu, J0
-        rows = np.flatnonzero(np.repeat(held_gap, dim))
-        open_rows = np.full(n_pairs * dim, -1)
+        return cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
+
+    @classmethod
+    def _with(cls, A, open_pairs, P0, Q0, Wfull, dim: int, r: float) -> "StuckInverse":
+        rows = np.flatnonzero(np.repeat(open_pairs, dim))
+        open_rows = np.full(len(open_pairs) * dim, -1)
         open_rows[rows] = np.arange(len(rows))
         return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
+
+
+#: columns per block where the inverse's upper triangle is copied to its lower one
+_BLOCK = 1024
+
+
+def _symmetrise(A: np.ndarray) -> None:
+    """Copy the upper triangle of a Fortran-ordered square A to its lower triangle, in place, block by block."""
+    n = len(A)
+    for start in range(0, n, _BLOCK):
+        end = min(start + _BLOCK, n)
+        A[start:end, start:end] = np.triu(A[start:end, start:end]) + np.triu(A[start:end, start:end], 1).T
+        A[end:, start:end] = A[start:end, end:].T
+
+
+def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -> np.ndarray | None:
+    """A = J0^-1 (n, n), Fortran order, for J0 with every tangential direction free: the pairs ``open_pairs``
+    held open (identity rows), the others closed and stuck (rows r Wfull), the border [Wa_T, 0]; from the Cholesky
+    factor of r W_CC (module docstring). None where r W_CC is not positive definite to working precision or J0 is
+    too ill-conditioned (:data:`RCOND_MIN`): the LU path decides then.
+
+    With x = (x_C, x_O, alpha): x_O = b_O, and [x_C; alpha] = T ([b_C; b_m] - [r W_CO; Wa_T_O] b_O) with T the
+    inverse of [[M, U], [V, 0]], M = r W_CC, U = r Wa_C, V = Wa_T_C; by the Schur complement S = V M^-1 U (m x m)
+    T = [[M^-1 - Y S^-1 Z, Y S^-1], [S^-1 Z, -S^-1]], Y = M^-1 U, Z = V M^-1."""
+    n_w = len(open_pairs) * dim
+    n = Wfull.shape[1]
+    opened = np.repeat(open_pairs, dim)
+    closed = np.flatnonzero(~opened)
+    every = len(closed) == n_w
+    # W is symmetric: its transpose, Fortran-ordered, is the same block without a transposing copy
+    M = np.array(Wfull[:, :n_w].T, order="F") if every else Wfull[np.ix_(closed, closed)].T
+    M *= r
+    norm = np.abs(M).sum(axis=0).max(initial=0.0)
+    c, info = la.lapack.dpotrf(M, lower=0, clean=0, overwrite_a=1)
+    if info != 0:
+        return None
+    rcond = la.lapack.dpocon(c, norm)[0] if len(c) else 1.0
+    if not rcond >= RCOND_MIN:
+        log.debug("stuck Jacobian's block ill-conditioned (rcond %.3g): LU", rcond)
+        return None
+    M_inv, info = la.lapack.dpotri(c, lower=0, overwrite_c=1)
+    del c
+    if info != 0:
+        return None
+    _symmetrise(M_inv)
+    if every and n == n_w:
+        return M_inv
+    modes, held = np.arange(n_w, n), np.flatnonzero(opened)
+    if len(modes):
+        Y, Z = M_inv @ (r * Wfull[closed, n_w:]), Wa_T[:, closed] @ M_inv
+        S = Z @ (r * Wfull[closed, n_w:])
+        if not np.linalg.cond(S) < 1.0 / RCOND_MIN:
+            return None
+        S_inv = np.linalg.inv(S)
+        YS, SZ = Y @ S_inv, S_inv @ Z
+        del Y
+        M_inv = la.blas.dgemm(-1.0, YS, Z, 1.0, M_inv, overwrite_c=1)      # T_CC = M^-1 - Y S^-1 Z, in place
+    if len(held):                                                          # T times J0's columns of the held rows
+        coupling = r * Wfull[np.ix_(closed, held)]
+        held_C = M_inv @ coupling
+        if len(modes):
+            held_C += YS @ Wa_T[:, held]
+            held_m = SZ @ coupling - S_inv @ Wa_T[:, held]
+    A = np.zeros((n, n), order="F")
+    if every:
+        A[:n_w, :n_w] = M_inv
+    else:
+        A[np.ix_(closed, closed)] = M_inv
+    del M_inv
+    if len(modes):
+        A[np.ix_(closed, modes)], A[np.ix_(modes, closed)], A[np.ix_(modes, modes)] = YS, SZ, -S_inv
+    if len(held):
+        A[np.ix_(closed, held)] = -held_C
+        if len(modes):
+            A[np.ix_(modes, held)] = -held_m
+        A[held, held] = 1.0
+    return A
 
 
 #: a product of a dense matrix with at most this many columns is made column by column (BLAS's matrix-vector
@@ -258,6 +353,11 @@ class UpdatedSolver:
         key = K.tobytes() + P_K.tobytes() + Q_K.tobytes()
         if key in self._kept and not (fresh and isinstance(self._kept[key], Updated)):
             return self._kept[key]
+        # made room for before the new one is made: C and its LU factors are 2 k^2 doubles each (2.2 GB at k
+        # 11,700); the base of the updates is held apart
+        keep = min(KEEP, max(1, int(KEEP_BYTES // (16.0 * max(len(K), 1) ** 2))))
+        while self._kept and len(self._kept) >= keep:
+            self._kept.pop(next(iter(self._kept)))
         factorised = None
         if len(K) and not fresh and self._base is not None:
             factorised = self._updated(self._base, P.reshape(-1, dim), Q.reshape(-1, dim), K)
@@ -267,8 +367,6 @@ class UpdatedSolver:
             factorised = self._base = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
             self._base_layout = layout
             self._base_rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
-        while len(self._kept) >= KEEP:
-            self._kept.pop(next(iter(self._kept)))
         self._kept[key] = factorised
         return factorised
 
