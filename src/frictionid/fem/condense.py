@@ -23,6 +23,7 @@ computed once per geometry, W and G as T K^g B_f^T with sparse rows T = [B_f; O_
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -75,10 +76,22 @@ class Affine:
         n_w = self.on_lam.shape[1]
         return amplitude @ self.channels + self.on_lam @ x[:n_w] + self.on_alpha @ x[n_w:]
 
-    @property
+    @functools.cached_property
     def full(self) -> np.ndarray:
-        """(n_out, n_w + m) derivative with respect to x = (lam, alpha)."""
+        """(n_out, n_w + m) derivative with respect to x = (lam, alpha): ``on_lam`` itself where no body floats,
+        else made once and kept (the load path and the stuck inverses read it; a copy each took n_w^2 doubles,
+        2.45 GB at 17,500 contact dofs). Read only."""
+        if self.on_alpha.shape[1] == 0:
+            return self.on_lam
         return np.hstack([self.on_lam, self.on_alpha])
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("full", None)                      # made again where needed, not shipped
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
 
 class GeneralisedInverse:
