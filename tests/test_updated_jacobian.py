@@ -16,7 +16,7 @@ import pytest
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.registry import build_model
 from frictionid.config import read_config
-from frictionid.fem import loadpath, updated_jacobian
+from frictionid.fem import capacitance, loadpath, updated_jacobian
 from frictionid.fem.contact import OPEN, SLIP, STICK, Increment, jacobian, linearise
 from frictionid.fem.problem import Problem
 from frictionid.fem.updated_jacobian import StuckInverses, UpdatedSolver
@@ -287,3 +287,58 @@ def test_block_3d_path_with_the_cholesky_inverse_same_as_with_lu(monkeypatch):
     assert {"stick", "partial slip", "lift-off"} <= _phases(out["lu"].state)
     assert np.any((out["lu"].state == SLIP).sum(axis=1) == (out["lu"].state != OPEN).sum(axis=1))
     _assert_same(out["lu"], out["auto"], rtol=1e-10)
+
+
+def test_gmres_preconditioned_by_a_nearby_factorisation_solves_to_the_backward_error_of_lu():
+    """C = C1 + a 2 % perturbation of every entry, GMRES preconditioned by C1's LU: C x = v to 1e-13 (|C| |x| +
+    |v|) in a few iterations; a perturbation as large as C1 itself does not converge in MAX_KRYLOV: None."""
+    rng = np.random.default_rng(0)
+    k = 300
+    C1 = rng.normal(size=(k, k)) + np.sqrt(k) * np.eye(k)
+    base = capacitance.Fresh.factorise(np.arange(k), None, None, C1)
+    v = rng.normal(size=k)
+    C = C1 + 0.02 * rng.normal(size=(k, k))
+    x, n = capacitance.gmres(C, v, base.solve)
+    assert 0 < n < capacitance.MAX_KRYLOV
+    assert np.abs(C @ x - v).max() <= 1e-13 * (np.abs(C).sum(axis=1).max() * np.abs(x).max() + np.abs(v).max())
+    far, n = capacitance.gmres(C1 + 3.0 * rng.normal(size=(k, k)), v, base.solve)
+    assert far is None and n == capacitance.MAX_KRYLOV
+
+
+def test_an_iterated_capacitance_that_does_not_converge_is_factorised():
+    rng = np.random.default_rng(1)
+    k = 200
+    C1 = rng.normal(size=(k, k)) + np.sqrt(k) * np.eye(k)
+    C = C1 + 3.0 * rng.normal(size=(k, k))
+    made = []
+    iterated = capacitance.Iterated(np.arange(k), None, None, C,
+                                    capacitance.Fresh.factorise(np.arange(k), None, None, C1), made.append)
+    v = rng.normal(size=(k, 2))
+    x = iterated.solve(v)
+    assert len(made) == 1 and iterated.fallback is made[0]
+    assert np.abs(C @ x - v).max() <= 1e-12 * np.abs(C).max() * np.abs(x).max()
+
+
+def test_block_3d_path_with_iterated_capacitance_solves_same_as_factorised(monkeypatch):
+    """The 3-D block's whole path (stick, partial slip, gross slip, lift-off), sensitivities included: the
+    capacitance matrices whose rows keep their pairs but turn their slip directions solved by GMRES on a kept
+    factorisation, against each factorised afresh (ITERATE "never"): equal to 1e-10 of each field's largest
+    value, with iterated solves taking part."""
+    problem = Problem.build(block_model(mesh_size=2.5), points=np.array([[-5.0, 0.0, 0.5], [0.0, -5.0, 1.5]]),
+                            quantities=("ux", "uy", "uz"), regions=["block", "block"])
+    calls = []
+    gmres = capacitance.gmres
+
+    def counted(*args, **kwargs):
+        x, n = gmres(*args, **kwargs)
+        calls.append(x is not None)
+        return x, n
+    monkeypatch.setattr(capacitance, "gmres", counted)
+    out = {}
+    for iterate in ("never", "auto"):
+        monkeypatch.setattr(updated_jacobian, "ITERATE", iterate)
+        out[iterate] = problem.solve([0.3, 0.2, 0.4, 0.25], sensitivities=True)
+        assert (len(calls) > 0) == (iterate == "auto")
+    assert sum(calls) >= 5
+    assert {"stick", "partial slip", "lift-off"} <= _phases(out["never"].state)
+    _assert_same(out["never"], out["auto"], rtol=1e-10)

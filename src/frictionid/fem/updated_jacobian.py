@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
-from .capacitance import Fresh, Updated
+from .capacitance import Fresh, Iterated, Updated
 from .contact import jacobian
 from .replaced_rows import ReplacedRows, gather
 
@@ -64,6 +64,12 @@ UPDATE_FRACTION = 0.25
 UPDATE_MIN = 8
 #: an update's condition estimate below this is checked by a fresh factorisation
 RCOND_RECHECK = 1e-10
+#: capacitance matrices of the same rows as a kept fresh factorisation but other values (3-D slip directions) are
+#: solved iteratively, preconditioned by it (fem/capacitance.py's Iterated): "auto"; "never": factorised afresh
+#: (the previous path, kept for the equality tests and benchmarks)
+ITERATE = "auto"
+#: fresh factorisations kept as the bases of iterated solves (a predictor's rows and Newton's differ: one each)
+KEEP_BASES = 2
 
 
 @dataclass(frozen=True)
@@ -270,7 +276,11 @@ class UpdatedSolver:
         self._layouts: dict[bytes, ReplacedRows] = {}
         self._last_times: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
         self._base_layout: ReplacedRows | None = None
-        self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
+        #: the last :data:`KEEP_BASES` fresh factorisations, the bases of iterated solves (:class:`Iterated`)
+        self._bases: list[Fresh] = []
+        self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = self.n_iterated = 0
+        #: Krylov iterations of each iterated solve
+        self.krylov_iterations: list[int] = []
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
         """J^-1 b, b (n,) or (n, n_rhs), J from pair rows ``P``, ``Q`` (n_pairs, dim, dim). ``check``: the
@@ -363,12 +373,33 @@ class UpdatedSolver:
             factorised = self._updated(self._base, P.reshape(-1, dim), Q.reshape(-1, dim), K)
         if len(K) and factorised is None:
             layout = self._rows(K, dim)
-            self.n_factorisations += 1
-            factorised = self._base = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
-            self._base_layout = layout
-            self._base_rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
+            rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
+            base = None if fresh or ITERATE == "never" else self._nearest_base(K, P_K, Q_K)
+            if base is not None:
+                self.n_iterated += 1
+                factorised = Iterated(K, P_K, Q_K, layout.capacitance(P_K, Q_K), base,
+                                      lambda made: self._new_base(made, layout, rows),
+                                      self.krylov_iterations.append)
+            else:
+                factorised = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
+                self._new_base(factorised, layout, rows)
         self._kept[key] = factorised
         return factorised
+
+    def _new_base(self, factorised: Fresh, layout: ReplacedRows, rows) -> None:
+        """Make a fresh factorisation the base of the next updates and iterated solves."""
+        self.n_factorisations += 1
+        self._base, self._base_layout, self._base_rows = factorised, layout, rows
+        self._bases = [b for b in self._bases if b is not factorised][-(KEEP_BASES - 1):] + [factorised]
+
+    def _nearest_base(self, K, P_K, Q_K) -> Fresh | None:
+        """The kept fresh factorisation of the same rows K whose rows are nearest J's (largest difference of
+        P and Q / r), None where there is none: the preconditioner of an iterated solve."""
+        same = [b for b in self._bases if np.array_equal(b.K, K)]
+        if not same:
+            return None
+        r = self.stuck.r
+        return min(same, key=lambda b: np.abs(b.P_K - P_K).max() + np.abs(b.Q_K - Q_K).max() / r)
 
     def _updated(self, base: Fresh, P_rows, Q_rows, K) -> Fresh | Updated | None:
         """C of J's rows K as an update of ``base`` (fem/capacitance.py); None where too many rows differ or the
@@ -408,6 +439,7 @@ class UpdatedSolver:
             self._kept.clear()
             self._layouts.clear()
             self._base = self._base_rows = None
+            self._bases = []
             self.n_switches += 1
 
     def _rows(self, K: np.ndarray, dim: int) -> "ReplacedRows":
