@@ -96,13 +96,13 @@ class Interface:
         gap_channels = np.zeros((2, n_w))
         gap_channels[1, 1::3] = 1.0                        # the pull: a tangential displacement along x
         eq_channels = np.array([[-self.P], [0.0]])        # sum lam_N = P amplitude_press
-        obs = W[::max(1, n_w // 30)][:30]                 # 30 observed relative displacements
+        obs = W[::max(1, n_w // 30)][:30].copy()          # 30 observed relative displacements
         reac = np.zeros((2, n_w))
         reac[0, 0::3], reac[1, 1::3] = 1.0, 1.0           # the total normal and tangential force [N]
         self.condensed = Condensed(
             free=np.arange(n_w), prescribed=np.zeros(0, int), modes=np.zeros((n_w, 1)), inverse=None,
             particular=np.zeros((2, n_w)),
-            gap_ops=Affine(gap_channels * self.slide * np.array([[1.0], [1.0]]), W, Wa),
+            gap_ops=Affine.sharing(gap_channels * self.slide, W, Wa),
             obs_ops=Affine(np.zeros((2, len(obs))), obs, np.zeros((len(obs), 1))),
             reac_ops=Affine(np.zeros((2, 2)), reac, np.zeros((2, 1))),
             equilibrium=Affine(eq_channels, Wa.T, np.zeros((1, 1))))
