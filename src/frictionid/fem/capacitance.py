@@ -211,7 +211,8 @@ class Iterated:
     """C of the same rows K as a :class:`Fresh` base with other values (in 3-D the slip directions of the
     slipping pairs turn at each Newton step, so every one of their rows changes a little): solved by
     :func:`gmres` preconditioned by the base's LU factors, factorised afresh (``fallback``) where it does not
-    converge in :data:`MAX_KRYLOV` iterations; ``made(fresh)`` is told of such a factorisation."""
+    converge in :data:`MAX_KRYLOV` iterations; ``made(fresh)`` is told of such a factorisation (not of one made
+    for :meth:`rcond` only)."""
 
     def __init__(self, K, P_K, Q_K, C: np.ndarray, base: Fresh, made=None, counted=None):
         self.K, self.P_K, self.Q_K, self.C, self.base = K, P_K, Q_K, C, base
@@ -238,14 +239,16 @@ class Iterated:
                 out[:, i] = x
             else:
                 return out.reshape(v.shape)
-        return self.fresh().solve(v)
+        fresh = self.fresh()
+        if self._made is not None:
+            self._made(fresh)
+            self._made = None
+        return fresh.solve(v)
 
     def fresh(self) -> Fresh:
         """C's own LU factorisation, made when first asked for."""
         if self.fallback is None:
             self.fallback = Fresh.factorise(self.K, self.P_K, self.Q_K, self.C)
-            if self._made is not None:
-                self._made(self.fallback)
         return self.fallback
 
     def rcond(self) -> float:

@@ -68,8 +68,9 @@ RCOND_RECHECK = 1e-10
 #: solved iteratively, preconditioned by it (fem/capacitance.py's Iterated): "auto"; "never": factorised afresh
 #: (the previous path, kept for the equality tests and benchmarks)
 ITERATE = "auto"
-#: fresh factorisations kept as the bases of iterated solves (a predictor's rows and Newton's differ: one each)
-KEEP_BASES = 2
+#: fresh factorisations kept as the bases of iterated solves (the last made for a solve; a predictor's condition
+#: estimate factorises its matrix without making it a base: its rows differ from Newton's)
+KEEP_BASES = 1
 #: capacitance matrices of fewer rows are factorised afresh, not iterated: on the 3-D block (150 to 230 rows) an
 #: iterative refinement cost 0.122 s CPU per solve against 0.101 s factorised (docs/solver.md); on the half-space
 #: interface of benchmarks/contact_loadpath.py, 1,000 to 2,000 rows, GMRES took 6 iterations per solve and the
@@ -312,6 +313,8 @@ class UpdatedSolver:
         factorised = self._factorised(P, Q, identity)
         if factorised is None:
             return 1.0
+        if isinstance(factorised, Iterated) and factorised.fallback is None:
+            self.n_factorisations += 1                          # made for the estimate, not a base (KEEP_BASES)
         rcond = factorised.rcond()
         if isinstance(factorised, Updated) and rcond < RCOND_RECHECK:
             rcond = self._factorised(P, Q, identity, fresh=True).rcond()
