@@ -171,7 +171,8 @@ def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -
     # W is symmetric: its transpose, Fortran-ordered, is the same block without a transposing copy
     M = np.array(Wfull[:, :n_w].T, order="F") if every else Wfull[np.ix_(closed, closed)].T
     M *= r
-    norm = np.abs(M).sum(axis=0).max(initial=0.0)
+    norm = max((np.abs(M[:, start:start + _BLOCK]).sum(axis=0).max() for start in range(0, len(M), _BLOCK)),
+               default=0.0)                                  # 1-norm by blocks of columns: no n x n temporary
     c, info = la.lapack.dpotrf(M, lower=0, clean=0, overwrite_a=1)
     if info != 0:
         return None
