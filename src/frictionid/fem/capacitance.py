@@ -211,12 +211,15 @@ class Iterated:
     """C of the same rows K as a :class:`Fresh` base with other values (in 3-D the slip directions of the
     slipping pairs turn at each Newton step, so every one of their rows changes a little): solved by
     :func:`gmres` preconditioned by the base's LU factors, factorised afresh (``fallback``) where it does not
-    converge in :data:`MAX_KRYLOV` iterations; ``made(fresh)`` is told of such a factorisation (not of one made
-    for :meth:`rcond` only)."""
+    converge in :data:`MAX_KRYLOV` iterations; ``fell_back`` says a solve needed it (not only :meth:`rcond`).
+    ``counted(n)`` is told each solve's iterations. ``context``: what the owner needs to make the factorisation its
+    base (plain data: no reference back to the owner, whose arrays a reference cycle would keep until the garbage
+    collector runs)."""
 
-    def __init__(self, K, P_K, Q_K, C: np.ndarray, base: Fresh, made=None, counted=None):
+    def __init__(self, K, P_K, Q_K, C: np.ndarray, base: Fresh, counted=None, context=None):
         self.K, self.P_K, self.Q_K, self.C, self.base = K, P_K, Q_K, C, base
-        self._made, self._counted = made, counted
+        self._counted, self.context = counted, context
+        self.fell_back = False
         self.fallback: Fresh | None = None
         self.iterations: list[int] = []
 
@@ -239,11 +242,8 @@ class Iterated:
                 out[:, i] = x
             else:
                 return out.reshape(v.shape)
-        fresh = self.fresh()
-        if self._made is not None:
-            self._made(fresh)
-            self._made = None
-        return fresh.solve(v)
+        self.fell_back = True
+        return self.fresh().solve(v)
 
     def fresh(self) -> Fresh:
         """C's own LU factorisation, made when first asked for."""

@@ -352,6 +352,9 @@ class UpdatedSolver:
         Ry = self._rows_times(K, factorised.P_K, factorised.Q_K, y, b)
         z = b.copy()
         z[K] -= factorised.solve(Ry - b[K])
+        if isinstance(factorised, Iterated) and factorised.fell_back and factorised.context is not None:
+            self._new_base(factorised.fallback, *factorised.context)     # GMRES did not converge: the new base
+            factorised.context = None
         x = times(A, z)                                         # y - A[:, K] u without gathering A's columns
         # identity rows of J (open pairs: F = lam) solved exactly, as a fresh LU factorisation solves them: an
         # open pair's force is exactly zero after a Newton step, not round-off of either sign
@@ -388,8 +391,7 @@ class UpdatedSolver:
             if base is not None:
                 self.n_iterated += 1
                 factorised = Iterated(K, P_K, Q_K, layout.capacitance(P_K, Q_K), base,
-                                      lambda made: self._new_base(made, layout, rows),
-                                      self.krylov_iterations.append)
+                                      self.krylov_iterations.append, (layout, rows))
             else:
                 factorised = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
                 self._new_base(factorised, layout, rows)
