@@ -348,8 +348,9 @@ def test_block_3d_path_with_iterated_capacitance_solves_same_as_factorised(monke
 
 
 def test_a_solver_with_iterated_solves_is_freed_without_the_garbage_collector(plane_strain, monkeypatch):
-    """Each solve makes its own UpdatedSolver, holding k x k arrays: no reference cycle may keep it (and them)
-    alive after the solve until the garbage collector runs (two n_w = 9,000 solves passed 8.9 GB with one)."""
+    """Each solve makes its own UpdatedSolver, holding k x k arrays: it keeps KEEP_BASES fresh factorisations as
+    bases, no more, and no reference cycle may keep it (and them) alive after the solve until the garbage
+    collector runs (two n_w = 9,000 solves passed 8.9 GB with one)."""
     monkeypatch.setattr(updated_jacobian, "ITERATE_MIN_ROWS", 0)
     monkeypatch.setattr(updated_jacobian, "SWITCH_FRACTION", np.inf)     # the random state opens a third
     inverses = loadpath.stuck_inverses(plane_strain.condensed, plane_strain.pairs)
@@ -362,6 +363,9 @@ def test_a_solver_with_iterated_solves_is_freed_without_the_garbage_collector(pl
     P2[changed] *= 1.0 + 1e-3                    # the same rows, other values: an iterated solve
     solver(P2, Q, b)
     assert solver.n_iterated == 1
+    for P3, Q3, _ in _random_states(plane_strain, seed=9, n_states=2):    # other rows: fresh factorisations
+        solver(P3, Q3, b)
+        assert len(solver._bases) == updated_jacobian.KEEP_BASES
     gc.disable()
     try:
         freed = weakref.ref(solver)

@@ -402,7 +402,7 @@ class UpdatedSolver:
         """Make a fresh factorisation the base of the next updates and iterated solves."""
         self.n_factorisations += 1
         self._base, self._base_layout, self._base_rows = factorised, layout, rows
-        self._bases = [b for b in self._bases if b is not factorised][-(KEEP_BASES - 1):] + [factorised]
+        self._bases = ([b for b in self._bases if b is not factorised] + [factorised])[-KEEP_BASES:]
 
     def _nearest_base(self, K, P_K, Q_K) -> Fresh | None:
         """The kept fresh factorisation of the same rows K whose rows are nearest J's (largest difference of
