@@ -363,6 +363,12 @@ def test_a_solver_with_iterated_solves_is_freed_without_the_garbage_collector(pl
     P2[changed] *= 1.0 + 1e-3                    # the same rows, other values: an iterated solve
     solver(P2, Q, b)
     assert solver.n_iterated == 1
+    base = solver._base
+    P4 = P.copy()
+    P4[changed] *= 1.0 - 1e-3
+    assert solver.rcond(P4, Q) > 0.0             # a predictor's estimate factorises its matrix ...
+    solver(P4, Q, b)
+    assert solver.n_iterated == 2 and solver._base is base      # ... without making it the base
     for P3, Q3, _ in _random_states(plane_strain, seed=9, n_states=2):    # other rows: fresh factorisations
         solver(P3, Q3, b)
         assert len(solver._bases) == updated_jacobian.KEEP_BASES

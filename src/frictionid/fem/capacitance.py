@@ -211,7 +211,8 @@ class Iterated:
     """C of the same rows K as a :class:`Fresh` base with other values (in 3-D the slip directions of the
     slipping pairs turn at each Newton step, so every one of their rows changes a little): solved by
     :func:`gmres` preconditioned by the base's LU factors, factorised afresh (``fallback``) where it does not
-    converge in :data:`MAX_KRYLOV` iterations; ``fell_back`` says a solve needed it (not only :meth:`rcond`).
+    converge in :data:`MAX_KRYLOV` iterations; ``fell_back`` says GMRES did not converge (a factorisation made for
+    :meth:`rcond` and then used by the solves does not set it).
     ``counted(n)`` is told each solve's iterations. ``context``: what the owner needs to make the factorisation its
     base (plain data: no reference back to the owner, whose arrays a reference cycle would keep until the garbage
     collector runs)."""
@@ -238,11 +239,11 @@ class Iterated:
                 if self._counted is not None:
                     self._counted(n)
                 if x is None:
+                    self.fell_back = True
                     break
                 out[:, i] = x
             else:
                 return out.reshape(v.shape)
-        self.fell_back = True
         return self.fresh().solve(v)
 
     def fresh(self) -> Fresh:
