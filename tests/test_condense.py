@@ -196,3 +196,19 @@ def test_mumps_gives_superlus_and_cholmods_operators(name, monkeypatch):
     np.testing.assert_allclose(field, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
     again = pickle.loads(pickle.dumps(got)).displacement(args[1], args[2].displacements, amplitude, x)
     np.testing.assert_allclose(again, field, rtol=0, atol=1e-12 * np.abs(field).max())
+
+
+def test_w_is_held_once_with_floating_bodies_and_after_pickling():
+    """With floating bodies (the 3-D block: three modes) gap_ops.on_lam and on_alpha are views of gap_ops.full,
+    not a second copy of W, and stay so after a pickle round trip (a worker's copy), with the same values."""
+    condensed = Problem.build(block_model(mesh_size=2.5)).condensed
+    ops = condensed.gap_ops
+    n_w = ops.on_lam.shape[1]
+    assert condensed.n_modes == 3
+    assert ops.full.shape == (n_w, n_w + 3)
+    assert np.shares_memory(ops.on_lam, ops.full) and np.shares_memory(ops.on_alpha, ops.full)
+    again = pickle.loads(pickle.dumps(condensed)).gap_ops
+    for name in ("on_lam", "on_alpha", "full", "channels"):
+        assert np.array_equal(getattr(again, name), getattr(ops, name)), name
+    assert np.shares_memory(again.on_lam, again.full)
+    assert np.array_equal(again.on_lam @ np.arange(n_w), ops.on_lam @ np.arange(n_w))

@@ -8,6 +8,8 @@ tolerance (rtol 1e-10 of the contact forces; in 2-D, where the equations of a st
 exactly, to round-off).
 """
 
+import gc
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +18,7 @@ import pytest
 from frictionid.builders.block import block_model, block_model_2d
 from frictionid.builders.registry import build_model
 from frictionid.config import read_config
-from frictionid.fem import loadpath, updated_jacobian
+from frictionid.fem import capacitance, loadpath, updated_jacobian
 from frictionid.fem.contact import OPEN, SLIP, STICK, Increment, jacobian, linearise
 from frictionid.fem.problem import Problem
 from frictionid.fem.updated_jacobian import StuckInverses, UpdatedSolver
@@ -229,3 +231,151 @@ def test_clamp_same_as_dense(clamp, monkeypatch):
     dense, updated = _both(clamp, np.array([0.15, 0.2, 0.25, 0.18, 0.22, 0.3]), monkeypatch)
     assert {"partial slip", "gross slip", "lift-off"} <= _phases(dense.state)     # the press already slips at the pad edges
     _assert_same(dense, updated, rtol=1e-9)
+
+
+def _random_operators(n_pairs, m, seed):
+    """(Wfull, Wa_T): a random symmetric positive definite W (n_w = 3 n_pairs) bordered by m floating modes."""
+    rng = np.random.default_rng(seed)
+    n_w = 3 * n_pairs
+    X = rng.normal(size=(n_w, n_w))
+    W = X @ X.T / n_w + 0.1 * np.eye(n_w)
+    Wa = rng.normal(size=(n_w, m))
+    return np.hstack([W, Wa]), Wa.T.copy()
+
+
+@pytest.mark.parametrize("m", [0, 2])
+@pytest.mark.parametrize("n_open", [0, 7])
+def test_cholesky_stuck_inverse_is_the_inverse_of_j0(m, n_open):
+    """A from the Cholesky factor of r W_CC and the border's Schur complement (every branch: no body floating or
+    m = 2, no pair or 7 of 40 held open) against J0^-1 by LU: the same to round-off of cond(J0)."""
+    n_pairs, r = 40, 3.0
+    Wfull, Wa_T = _random_operators(n_pairs, m, seed=m + n_open)
+    open_pairs = np.zeros(n_pairs, dtype=bool)
+    open_pairs[np.random.default_rng(1).choice(n_pairs, n_open, replace=False)] = True
+    A = updated_jacobian.symmetric_inverse(Wfull, Wa_T, r, open_pairs, 3)
+    P0, Q0 = np.zeros((n_pairs, 3, 3)), np.broadcast_to(r * np.eye(3), (n_pairs, 3, 3)).copy()
+    P0[open_pairs], Q0[open_pairs] = np.eye(3), 0.0
+    J0 = jacobian(P0, Q0, Wfull, Wa_T)
+    assert A.flags.f_contiguous
+    assert np.abs(A @ J0 - np.eye(len(J0))).max() <= 1e-12 * np.linalg.cond(J0)
+    assert np.abs(A - np.linalg.inv(J0)).max() <= 1e-13 * np.linalg.cond(J0) * np.abs(A).max()
+
+
+def test_cholesky_stuck_inverse_refuses_an_indefinite_block():
+    """A W that is not positive definite (a negative eigenvalue) leaves J0 to the LU path: None."""
+    Wfull, Wa_T = _random_operators(10, 0, seed=3)
+    Wfull[0, 0] = -1.0
+    assert updated_jacobian.symmetric_inverse(Wfull, Wa_T, 1.0, np.zeros(10, dtype=bool), 3) is None
+
+
+def test_block_3d_path_with_the_cholesky_inverse_same_as_with_lu(monkeypatch):
+    """The whole load path of the 3-D block (three floating modes; stick, partial slip, gross slip and lift-off),
+    sensitivities included, with the stuck inverse from the Cholesky factor against the one from LU: equal to
+    1e-10 of each field's largest value (they differ by round-off of A only)."""
+    problem = Problem.build(block_model(mesh_size=2.5), points=np.array([[-5.0, 0.0, 0.5], [0.0, -5.0, 1.5]]),
+                            quantities=("ux", "uy", "uz"), regions=["block", "block"])
+    c = problem.condensed
+    assert c.n_modes == 3
+    assert updated_jacobian.symmetric_inverse(c.gap_ops.full, c.equilibrium.on_lam, loadpath.contact_scale(c),
+                                              np.zeros(problem.pairs.n_pairs, dtype=bool), 3) is not None
+    out = {}
+    for stuck in ("lu", "auto"):
+        monkeypatch.setattr(updated_jacobian, "STUCK", stuck)
+        problem.__dict__.pop("_stuck_inverses", None)
+        out[stuck] = problem.solve([0.3, 0.2, 0.4, 0.25], sensitivities=True)
+        made = problem._stuck_inverses.base
+        J0 = jacobian(made.P0, made.Q0, problem.condensed.gap_ops.full, problem.condensed.equilibrium.on_lam)
+        assert np.abs(made.A @ J0 - np.eye(len(J0))).max() <= 1e-10
+    assert {"stick", "partial slip", "lift-off"} <= _phases(out["lu"].state)
+    assert np.any((out["lu"].state == SLIP).sum(axis=1) == (out["lu"].state != OPEN).sum(axis=1))
+    _assert_same(out["lu"], out["auto"], rtol=1e-10)
+
+
+def test_gmres_preconditioned_by_a_nearby_factorisation_solves_to_the_backward_error_of_lu():
+    """C = C1 + a 2 % perturbation of every entry, GMRES preconditioned by C1's LU: C x = v to 1e-13 (|C| |x| +
+    |v|) in a few iterations; a perturbation as large as C1 itself does not converge in MAX_KRYLOV: None."""
+    rng = np.random.default_rng(0)
+    k = 300
+    C1 = rng.normal(size=(k, k)) + np.sqrt(k) * np.eye(k)
+    base = capacitance.Fresh.factorise(np.arange(k), None, None, C1)
+    v = rng.normal(size=k)
+    C = C1 + 0.02 * rng.normal(size=(k, k))
+    x, n = capacitance.gmres(C, v, base.solve)
+    assert 0 < n < capacitance.MAX_KRYLOV
+    assert np.abs(C @ x - v).max() <= 1e-13 * (np.abs(C).sum(axis=1).max() * np.abs(x).max() + np.abs(v).max())
+    far, n = capacitance.gmres(C1 + 3.0 * rng.normal(size=(k, k)), v, base.solve)
+    assert far is None and n == capacitance.MAX_KRYLOV
+
+
+def test_an_iterated_capacitance_that_does_not_converge_is_factorised():
+    rng = np.random.default_rng(1)
+    k = 200
+    C1 = rng.normal(size=(k, k)) + np.sqrt(k) * np.eye(k)
+    C = C1 + 3.0 * rng.normal(size=(k, k))
+    iterated = capacitance.Iterated(np.arange(k), None, None, C,
+                                    capacitance.Fresh.factorise(np.arange(k), None, None, C1))
+    v = rng.normal(size=(k, 2))
+    x = iterated.solve(v)
+    assert iterated.fell_back and iterated.fallback is not None
+    assert np.abs(C @ x - v).max() <= 1e-12 * np.abs(C).max() * np.abs(x).max()
+
+
+def test_block_3d_path_with_iterated_capacitance_solves_same_as_factorised(monkeypatch):
+    """The 3-D block's whole path (stick, partial slip, gross slip, lift-off), sensitivities included: the
+    capacitance matrices whose rows keep their pairs but turn their slip directions solved by GMRES on a kept
+    factorisation, against each factorised afresh (ITERATE "never"): equal to 1e-10 of each field's largest
+    value, with iterated solves taking part (the block's matrices have fewer rows than ITERATE_MIN_ROWS: the
+    threshold is lowered here)."""
+    monkeypatch.setattr(updated_jacobian, "ITERATE_MIN_ROWS", 0)
+    problem = Problem.build(block_model(mesh_size=2.5), points=np.array([[-5.0, 0.0, 0.5], [0.0, -5.0, 1.5]]),
+                            quantities=("ux", "uy", "uz"), regions=["block", "block"])
+    calls = []
+    gmres = capacitance.gmres
+
+    def counted(*args, **kwargs):
+        x, n = gmres(*args, **kwargs)
+        calls.append(x is not None)
+        return x, n
+    monkeypatch.setattr(capacitance, "gmres", counted)
+    out = {}
+    for iterate in ("never", "auto"):
+        monkeypatch.setattr(updated_jacobian, "ITERATE", iterate)
+        out[iterate] = problem.solve([0.3, 0.2, 0.4, 0.25], sensitivities=True)
+        assert (len(calls) > 0) == (iterate == "auto")
+    assert sum(calls) >= 5
+    assert {"stick", "partial slip", "lift-off"} <= _phases(out["never"].state)
+    _assert_same(out["never"], out["auto"], rtol=1e-10)
+
+
+def test_a_solver_with_iterated_solves_is_freed_without_the_garbage_collector(plane_strain, monkeypatch):
+    """Each solve makes its own UpdatedSolver, holding k x k arrays: it keeps KEEP_BASES fresh factorisations as
+    bases, no more, and no reference cycle may keep it (and them) alive after the solve until the garbage
+    collector runs (two n_w = 9,000 solves passed 8.9 GB with one)."""
+    monkeypatch.setattr(updated_jacobian, "ITERATE_MIN_ROWS", 0)
+    monkeypatch.setattr(updated_jacobian, "SWITCH_FRACTION", np.inf)     # the random state opens a third
+    inverses = loadpath.stuck_inverses(plane_strain.condensed, plane_strain.pairs)
+    solver = UpdatedSolver(inverses)
+    P, Q, _ = next(_random_states(plane_strain, seed=3))
+    b = np.ones(len(P) * 2 + plane_strain.condensed.n_modes)
+    solver(P, Q, b)
+    changed = np.any((P != inverses.base.P0) | (Q != inverses.base.Q0), axis=(1, 2))
+    P2 = P.copy()
+    P2[changed] *= 1.0 + 1e-3                    # the same rows, other values: an iterated solve
+    solver(P2, Q, b)
+    assert solver.n_iterated == 1
+    base = solver._base
+    P4 = P.copy()
+    P4[changed] *= 1.0 - 1e-3
+    assert solver.rcond(P4, Q) > 0.0             # a predictor's estimate factorises its matrix ...
+    solver(P4, Q, b)
+    assert solver.n_iterated == 2 and solver._base is base      # ... without making it the base
+    for P3, Q3, _ in _random_states(plane_strain, seed=9, n_states=2):    # other rows: fresh factorisations
+        solver(P3, Q3, b)
+        assert len(solver._bases) == updated_jacobian.KEEP_BASES
+    gc.disable()
+    try:
+        freed = weakref.ref(solver)
+        del solver
+        assert freed() is None
+    finally:
+        gc.enable()

@@ -149,3 +149,109 @@ class Updated:
         """An estimate of C_U's reciprocal condition number: the product of the base's and S's (C_U is
         singular where C1 or S is: det C_U = det C1 det S)."""
         return self.base.rcond() * _rcond(self.lu, self.norm)
+
+
+#: an iterated solve (:class:`Iterated`) takes at most this many Krylov iterations per right-hand side, then C is
+#: factorised afresh (an iteration costs two products of order k^2, a factorisation 2 k^3 / 3 flops)
+MAX_KRYLOV = 30
+#: an iterated solve ends where |C x - v| <= KRYLOV_RTOL (|C| |x| + |v|) (maximum norms), the backward error of
+#: a direct LU solve of these sizes or below
+KRYLOV_RTOL = 1e-13
+
+
+def gmres(C: np.ndarray, v: np.ndarray, precondition, rtol: float = KRYLOV_RTOL,
+          max_iterations: int = MAX_KRYLOV) -> tuple[np.ndarray | None, int]:
+    """(x, iterations) with C x = v by GMRES right-preconditioned by ``precondition`` (an approximate C^-1),
+    restarted when its residual estimate is met and the true residual is not; x None where |C x - v| did not
+    reach ``rtol`` (|C| |x| + |v|) (maximum norms) in ``max_iterations``. v (k,)."""
+    norm_C = np.abs(C).sum(axis=1).max(initial=0.0)
+    x = precondition(v)
+    used = 0
+    while True:
+        r = v - C @ x
+        scale = rtol * (norm_C * np.abs(x).max(initial=0.0) + np.abs(v).max(initial=0.0))
+        if np.abs(r).max(initial=0.0) <= scale:
+            return x, used
+        if used >= max_iterations or not np.all(np.isfinite(r)):
+            return None, used
+        size = max_iterations - used
+        basis, H, g = [r / np.linalg.norm(r)], np.zeros((size + 1, size)), np.zeros(size + 1)
+        g[0] = np.linalg.norm(r)
+        rotations: list[tuple[float, float]] = []
+        for j in range(size):
+            w = C @ precondition(basis[j])
+            for i, q in enumerate(basis):                                 # modified Gram-Schmidt
+                H[i, j] = q @ w
+                w -= H[i, j] * q
+            below = np.linalg.norm(w)
+            for i, (c, s) in enumerate(rotations):                        # the earlier rotations on column j
+                H[i, j], H[i + 1, j] = c * H[i, j] + s * H[i + 1, j], -s * H[i, j] + c * H[i + 1, j]
+            c, s = _givens(H[j, j], below)
+            rotations.append((c, s))
+            H[j, j] = c * H[j, j] + s * below
+            g[j], g[j + 1] = c * g[j], -s * g[j]
+            used += 1
+            if abs(g[j + 1]) <= 0.5 * scale or below == 0.0:
+                break
+            basis.append(w / below)
+        k = len(rotations)
+        y = la.solve_triangular(H[:k, :k], g[:k], check_finite=False)
+        if not np.all(np.isfinite(y)):
+            return None, used
+        x = x + precondition(np.column_stack(basis[:k]) @ y)
+
+
+def _givens(a: float, b: float) -> tuple[float, float]:
+    """(c, s) with [c s; -s c] [a; b] = [h; 0]."""
+    h = np.hypot(a, b)
+    return (1.0, 0.0) if h == 0.0 else (a / h, b / h)
+
+
+class Iterated:
+    """C of the same rows K as a :class:`Fresh` base with other values (in 3-D the slip directions of the
+    slipping pairs turn at each Newton step, so every one of their rows changes a little): solved by
+    :func:`gmres` preconditioned by the base's LU factors, factorised afresh (``fallback``) where it does not
+    converge in :data:`MAX_KRYLOV` iterations; ``fell_back`` says GMRES did not converge (a factorisation made for
+    :meth:`rcond` and then used by the solves does not set it).
+    ``counted(n)`` is told each solve's iterations. ``context``: what the owner needs to make the factorisation its
+    base (plain data: no reference back to the owner, whose arrays a reference cycle would keep until the garbage
+    collector runs)."""
+
+    def __init__(self, K, P_K, Q_K, C: np.ndarray, base: Fresh, counted=None, context=None):
+        self.K, self.P_K, self.Q_K, self.C, self.base = K, P_K, Q_K, C, base
+        self._counted, self.context = counted, context
+        self.fell_back = False
+        self.fallback: Fresh | None = None
+        self.iterations: list[int] = []
+
+    @property
+    def singular(self) -> bool:
+        return self.fallback is not None and self.fallback.singular
+
+    def solve(self, v: np.ndarray) -> np.ndarray:
+        """C^-1 v, v (k,) or (k, n_rhs)."""
+        if self.fallback is None:
+            columns = v.reshape(len(v), -1)
+            out = np.empty_like(columns)
+            for i in range(columns.shape[1]):
+                x, n = gmres(self.C, columns[:, i], self.base.solve)
+                self.iterations.append(n)
+                if self._counted is not None:
+                    self._counted(n)
+                if x is None:
+                    self.fell_back = True
+                    break
+                out[:, i] = x
+            else:
+                return out.reshape(v.shape)
+        return self.fresh().solve(v)
+
+    def fresh(self) -> Fresh:
+        """C's own LU factorisation, made when first asked for."""
+        if self.fallback is None:
+            self.fallback = Fresh.factorise(self.K, self.P_K, self.Q_K, self.C)
+        return self.fallback
+
+    def rcond(self) -> float:
+        """C's reciprocal condition number (from its own factorisation: a predictor asks for it)."""
+        return self.fresh().rcond()

@@ -18,6 +18,13 @@ iteration to iteration and increment to increment; in partial slip, where the sl
 per Newton step, the new C is an update of the last factorised one (fem/capacitance.py: of order k^2 instead
 of k^3). Each solve checks its residual with J and falls back to a fresh LU factorisation of J where the
 correction lost accuracy.
+
+Where no tangential direction is held (the projectors E all identity), J0's rows of the closed pairs are r W, so
+J0 is, up to its identity rows (pairs held open) and the floating bodies' border, r W_CC with W_CC the closed
+pairs' block of W, symmetric positive definite. A is then made from the Cholesky factor of r W_CC and its inverse
+(LAPACK's potrf and potri: n^3 / 3 + 2 n^3 / 3 flops) and the border's Schur complement (m x m), instead of an
+LU factorisation of J0 and n solves with it (2 n^3 / 3 + 2 n^3), in one n x n array where nothing is held open
+and no body floats (the LU path holds two).
 """
 
 from __future__ import annotations
@@ -29,12 +36,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as la
 
-from .capacitance import Fresh, Updated
+from .capacitance import Fresh, Iterated, Updated
 from .contact import jacobian
 from .replaced_rows import ReplacedRows, gather
 
 log = logging.getLogger(__name__)
 
+#: how A is made: "auto" (from the Cholesky factor of r W_CC where J0 allows it, module docstring; else LU) or
+#: "lu" (an LU factorisation of J0 always: the previous path, kept for the equality tests and benchmarks)
+STUCK = "auto"
 #: a solve is refined once, then redone densely, where |J x - b| exceeds this fraction of |b| + |J| |x|
 RESIDUAL_RTOL = 1e-11
 #: J0 is not used where its reciprocal condition number is below this (the dense path solves instead)
@@ -46,7 +56,7 @@ SWITCH_FRACTION = 0.2
 #: (a predictor, Newton's last steps and the sensitivities meet the same few)
 KEEP = 4
 #: the stuck inverses kept per model take at most this many bytes besides the base one (n^2 x 8 bytes each: 288 MB
-#: at 6,000 unknowns)
+#: at 6,000 unknowns), and the capacitance factorisations kept per solver this many (at least one)
 KEEP_BYTES = 400e6
 #: a capacitance matrix is updated from the last fresh factorisation (fem/capacitance.py) where at most this
 #: fraction of that one's rows, and at least UPDATE_MIN rows, differ; else factorised afresh (and the new base)
@@ -54,6 +64,18 @@ UPDATE_FRACTION = 0.25
 UPDATE_MIN = 8
 #: an update's condition estimate below this is checked by a fresh factorisation
 RCOND_RECHECK = 1e-10
+#: capacitance matrices of the same rows as a kept fresh factorisation but other values (3-D slip directions) are
+#: solved iteratively, preconditioned by it (fem/capacitance.py's Iterated): "auto"; "never": factorised afresh
+#: (the previous path, kept for the equality tests and benchmarks)
+ITERATE = "auto"
+#: fresh factorisations kept as the bases of iterated solves (the last made for a solve; a predictor's condition
+#: estimate factorises its matrix without making it a base: its rows differ from Newton's)
+KEEP_BASES = 1
+#: capacitance matrices of fewer rows are factorised afresh, not iterated: on the 3-D block (150 to 230 rows) an
+#: iterative refinement cost 0.122 s CPU per solve against 0.101 s factorised (docs/solver.md); on the half-space
+#: interface of benchmarks/contact_loadpath.py, 1,000 to 2,000 rows, GMRES took 6 iterations per solve and the
+#: solve 1.9 s CPU against 2.7 s
+ITERATE_MIN_ROWS = 500
 
 
 @dataclass(frozen=True)
@@ -87,6 +109,10 @@ class StuckInverse:
         P0[:, 1:, 1:] = eye_T - E
         Q0[:, 1:, 1:] = r * E
         P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
+        if STUCK == "auto" and free_T is None:
+            A = symmetric_inverse(Wfull, Wa_T, r, held_gap, dim)
+            if A is not None:
+                return cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
         J0 = jacobian(P0, Q0, Wfull, Wa_T)
         norm = np.linalg.norm(J0, 1)
         # factorised in place in LAPACK's column order, the identity solved for in place: two n x n arrays at the
@@ -105,10 +131,92 @@ class StuckInverse:
         A = np.asfortranarray(la.lu_solve((lu, piv), np.eye(len(lu), order="F"), overwrite_b=True,
                                           check_finite=False))
         del lu, J0
-        rows = np.flatnonzero(np.repeat(held_gap, dim))
-        open_rows = np.full(n_pairs * dim, -1)
+        return cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
+
+    @classmethod
+    def _with(cls, A, open_pairs, P0, Q0, Wfull, dim: int, r: float) -> "StuckInverse":
+        rows = np.flatnonzero(np.repeat(open_pairs, dim))
+        open_rows = np.full(len(open_pairs) * dim, -1)
         open_rows[rows] = np.arange(len(rows))
         return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
+
+
+#: columns per block where the inverse's upper triangle is copied to its lower one
+_BLOCK = 1024
+
+
+def _symmetrise(A: np.ndarray) -> None:
+    """Copy the upper triangle of a Fortran-ordered square A to its lower triangle, in place, block by block."""
+    n = len(A)
+    for start in range(0, n, _BLOCK):
+        end = min(start + _BLOCK, n)
+        A[start:end, start:end] = np.triu(A[start:end, start:end]) + np.triu(A[start:end, start:end], 1).T
+        A[end:, start:end] = A[start:end, end:].T
+
+
+def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -> np.ndarray | None:
+    """A = J0^-1 (n, n), Fortran order, for J0 with every tangential direction free: the pairs ``open_pairs``
+    held open (identity rows), the others closed and stuck (rows r Wfull), the border [Wa_T, 0]; from the Cholesky
+    factor of r W_CC (module docstring). None where r W_CC is not positive definite to working precision or J0 is
+    too ill-conditioned (:data:`RCOND_MIN`): the LU path decides then.
+
+    With x = (x_C, x_O, alpha): x_O = b_O, and [x_C; alpha] = T ([b_C; b_m] - [r W_CO; Wa_T_O] b_O) with T the
+    inverse of [[M, U], [V, 0]], M = r W_CC, U = r Wa_C, V = Wa_T_C; by the Schur complement S = V M^-1 U (m x m)
+    T = [[M^-1 - Y S^-1 Z, Y S^-1], [S^-1 Z, -S^-1]], Y = M^-1 U, Z = V M^-1."""
+    n_w = len(open_pairs) * dim
+    n = Wfull.shape[1]
+    opened = np.repeat(open_pairs, dim)
+    closed = np.flatnonzero(~opened)
+    every = len(closed) == n_w
+    # W is symmetric: its transpose, Fortran-ordered, is the same block without a transposing copy
+    M = np.array(Wfull[:, :n_w].T, order="F") if every else Wfull[np.ix_(closed, closed)].T
+    M *= r
+    norm = max((np.abs(M[:, start:start + _BLOCK]).sum(axis=0).max() for start in range(0, len(M), _BLOCK)),
+               default=0.0)                                  # 1-norm by blocks of columns: no n x n temporary
+    c, info = la.lapack.dpotrf(M, lower=0, clean=0, overwrite_a=1)
+    if info != 0:
+        return None
+    rcond = la.lapack.dpocon(c, norm)[0] if len(c) else 1.0
+    if not rcond >= RCOND_MIN:
+        log.debug("stuck Jacobian's block ill-conditioned (rcond %.3g): LU", rcond)
+        return None
+    M_inv, info = la.lapack.dpotri(c, lower=0, overwrite_c=1)
+    del c
+    if info != 0:
+        return None
+    _symmetrise(M_inv)
+    if every and n == n_w:
+        return M_inv
+    modes, held = np.arange(n_w, n), np.flatnonzero(opened)
+    if len(modes):
+        Y, Z = M_inv @ (r * Wfull[closed, n_w:]), Wa_T[:, closed] @ M_inv
+        S = Z @ (r * Wfull[closed, n_w:])
+        if not np.linalg.cond(S) < 1.0 / RCOND_MIN:
+            return None
+        S_inv = np.linalg.inv(S)
+        YS, SZ = Y @ S_inv, S_inv @ Z
+        del Y
+        M_inv = la.blas.dgemm(-1.0, YS, Z, 1.0, M_inv, overwrite_c=1)      # T_CC = M^-1 - Y S^-1 Z, in place
+    if len(held):                                                          # T times J0's columns of the held rows
+        coupling = r * Wfull[np.ix_(closed, held)]
+        held_C = M_inv @ coupling
+        if len(modes):
+            held_C += YS @ Wa_T[:, held]
+            held_m = SZ @ coupling - S_inv @ Wa_T[:, held]
+    A = np.zeros((n, n), order="F")
+    if every:
+        A[:n_w, :n_w] = M_inv
+    else:
+        A[np.ix_(closed, closed)] = M_inv
+    del M_inv
+    if len(modes):
+        A[np.ix_(closed, modes)], A[np.ix_(modes, closed)], A[np.ix_(modes, modes)] = YS, SZ, -S_inv
+    if len(held):
+        A[np.ix_(closed, held)] = -held_C
+        if len(modes):
+            A[np.ix_(modes, held)] = -held_m
+        A[held, held] = 1.0
+    return A
 
 
 #: a product of a dense matrix with at most this many columns is made column by column (BLAS's matrix-vector
@@ -175,7 +283,11 @@ class UpdatedSolver:
         self._layouts: dict[bytes, ReplacedRows] = {}
         self._last_times: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
         self._base_layout: ReplacedRows | None = None
-        self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = 0
+        #: the last :data:`KEEP_BASES` fresh factorisations, the bases of iterated solves (:class:`Iterated`)
+        self._bases: list[Fresh] = []
+        self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = self.n_iterated = 0
+        #: Krylov iterations of each iterated solve
+        self.krylov_iterations: list[int] = []
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
         """J^-1 b, b (n,) or (n, n_rhs), J from pair rows ``P``, ``Q`` (n_pairs, dim, dim). ``check``: the
@@ -202,6 +314,8 @@ class UpdatedSolver:
         factorised = self._factorised(P, Q, identity)
         if factorised is None:
             return 1.0
+        if isinstance(factorised, Iterated) and factorised.fallback is None:
+            self.n_factorisations += 1                          # made for the estimate, not a base (KEEP_BASES)
         rcond = factorised.rcond()
         if isinstance(factorised, Updated) and rcond < RCOND_RECHECK:
             rcond = self._factorised(P, Q, identity, fresh=True).rcond()
@@ -238,6 +352,9 @@ class UpdatedSolver:
         Ry = self._rows_times(K, factorised.P_K, factorised.Q_K, y, b)
         z = b.copy()
         z[K] -= factorised.solve(Ry - b[K])
+        if isinstance(factorised, Iterated) and factorised.fell_back and factorised.context is not None:
+            self._new_base(factorised.fallback, *factorised.context)     # GMRES did not converge: the new base
+            factorised.context = None
         x = times(A, z)                                         # y - A[:, K] u without gathering A's columns
         # identity rows of J (open pairs: F = lam) solved exactly, as a fresh LU factorisation solves them: an
         # open pair's force is exactly zero after a Newton step, not round-off of either sign
@@ -258,19 +375,43 @@ class UpdatedSolver:
         key = K.tobytes() + P_K.tobytes() + Q_K.tobytes()
         if key in self._kept and not (fresh and isinstance(self._kept[key], Updated)):
             return self._kept[key]
+        # made room for before the new one is made: C and its LU factors are 2 k^2 doubles each (2.2 GB at k
+        # 11,700); the base of the updates is held apart
+        keep = min(KEEP, max(1, int(KEEP_BYTES // (16.0 * max(len(K), 1) ** 2))))
+        while self._kept and len(self._kept) >= keep:
+            self._kept.pop(next(iter(self._kept)))
         factorised = None
         if len(K) and not fresh and self._base is not None:
             factorised = self._updated(self._base, P.reshape(-1, dim), Q.reshape(-1, dim), K)
         if len(K) and factorised is None:
             layout = self._rows(K, dim)
-            self.n_factorisations += 1
-            factorised = self._base = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
-            self._base_layout = layout
-            self._base_rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
-        while len(self._kept) >= KEEP:
-            self._kept.pop(next(iter(self._kept)))
+            rows = P.reshape(-1, dim).copy(), Q.reshape(-1, dim).copy()
+            base = None if fresh or ITERATE == "never" or len(K) < ITERATE_MIN_ROWS else \
+                self._nearest_base(K, P_K, Q_K)
+            if base is not None:
+                self.n_iterated += 1
+                factorised = Iterated(K, P_K, Q_K, layout.capacitance(P_K, Q_K), base,
+                                      self.krylov_iterations.append, (layout, rows))
+            else:
+                factorised = Fresh.factorise(K, P_K, Q_K, layout.capacitance(P_K, Q_K))
+                self._new_base(factorised, layout, rows)
         self._kept[key] = factorised
         return factorised
+
+    def _new_base(self, factorised: Fresh, layout: ReplacedRows, rows) -> None:
+        """Make a fresh factorisation the base of the next updates and iterated solves."""
+        self.n_factorisations += 1
+        self._base, self._base_layout, self._base_rows = factorised, layout, rows
+        self._bases = ([b for b in self._bases if b is not factorised] + [factorised])[-KEEP_BASES:]
+
+    def _nearest_base(self, K, P_K, Q_K) -> Fresh | None:
+        """The kept fresh factorisation of the same rows K whose rows are nearest J's (largest difference of
+        P and Q / r), None where there is none: the preconditioner of an iterated solve."""
+        same = [b for b in self._bases if np.array_equal(b.K, K)]
+        if not same:
+            return None
+        r = self.stuck.r
+        return min(same, key=lambda b: np.abs(b.P_K - P_K).max() + np.abs(b.Q_K - Q_K).max() / r)
 
     def _updated(self, base: Fresh, P_rows, Q_rows, K) -> Fresh | Updated | None:
         """C of J's rows K as an update of ``base`` (fem/capacitance.py); None where too many rows differ or the
@@ -310,6 +451,7 @@ class UpdatedSolver:
             self._kept.clear()
             self._layouts.clear()
             self._base = self._base_rows = None
+            self._bases = []
             self.n_switches += 1
 
     def _rows(self, K: np.ndarray, dim: int) -> "ReplacedRows":
