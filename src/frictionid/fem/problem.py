@@ -323,9 +323,10 @@ class Problem:
         instead: where, undeformed, the coupling does not find the pair's own gap (within :data:`MATCHED` of the
         local element length: it projects onto another facet, as on a coarse helical thread whose flank is
         narrower than an element), or where a closed pair's error exceeds its tangential relative displacement,
-        which bounds it (the slid-to point is at most that far from the partner on the target). With twist (no deformed coupling) or a helical interface (``lead``: its pairs' normals are the
-        helicoid's, not the deformed coupling's facet normals) the slip (with twist: along t1) is limited to one
-        local element length instead, whatever the tolerance.
+        which bounds it (the slid-to point is at most that far from the partner on the target). With twist (no
+        deformed coupling) or a helical interface (``lead``: its pairs' normals are the helicoid's, not the deformed
+        coupling's facet normals) the slip (with twist: along t1) is limited to one local element length instead,
+        whatever the tolerance.
         """
         if self.sliding == "finite" or self.pairs.n_pairs == 0:
             return
