@@ -4,9 +4,9 @@ A systematic error is the same in every noise replicate of one reference, so the
 replicates is all or none per zone when an interval is mostly systematic (the dense reference's 107 of 107). A
 population of plane-strain references (population_case.py: truth, loads, fitted and data meshes, points,
 quantities drawn per reference) measures it instead. benchmarks/coverage_population.py measured two populations
-of 80 (docs/fit-quality.md, "The include mode over a population of references"): 98.4 % and 98.7 % of the claimed
+of 80 (docs/fit-quality.md, "The include mode over a population of references"): 98.4 % and 99.3 % of the claimed
 intervals held the truth, the median claim was 0.30-0.35 standard errors off, and the statistical part alone held
-86-89 %. This test fits a smaller population of its own seed: 43 of its 46 claimed intervals hold the truth
+86-90 %. This test fits a smaller population of its own seed: 43 of its 46 claimed intervals hold the truth
 (93.5 %; one claim is 4.5 standard errors off, a quadratic model whose control predicted no bias for the zone);
 with the systematic part set to 0 the same fits claim 68 zones and 59 hold (86.8 %).
 """

@@ -143,6 +143,27 @@ def test_the_bound_verdict_refuses_a_dip_a_flat_profile_and_a_wide_one():
     assert upper["passed"] and upper["interval"][1] == 1.0 and upper["interval"][0] < 1.0
 
 
+def test_the_bound_verdict_counts_the_systematic_part_as_a_claim_inside_the_bounds_does():
+    """A profile of the weighted chi-square does not see the model error's systematic part: with it counted in
+    quadrature, hypot(h, 1.645 systematic) for the profile's half-width h = 1.645 s, a zone on its bound passes
+    exactly when a zone inside with statistical standard error s would be claimed, hypot(s, systematic) <= limit,
+    and its interval widens by as much."""
+    values = np.linspace(0.0, 0.08, 81)
+    s = 0.01                                       # the statistical standard error: the profile rises by 2.706
+    parabola = 50.0 + (values / s) ** 2            # at sqrt(2.706) s = 1.645 s
+    plain = bound_verdict(values, parabola, 0.0, CHI2_BOUND_95, 0.02)
+    assert plain["passed"] and plain["interval"][1] == pytest.approx(1.6448536 * s, rel=2e-3)
+    for systematic in (0.015, 0.0175, 0.02):
+        check = bound_verdict(values, parabola, 0.0, CHI2_BOUND_95, 0.02, systematic)
+        assert check["passed"] == (np.hypot(s, systematic) <= 0.02)
+        assert check["interval"][1] == pytest.approx(1.6448536 * np.hypot(s, systematic), rel=2e-3)
+        assert check["systematic"] == systematic
+    failed = bound_verdict(values, parabola, 0.0, CHI2_BOUND_95, 0.02, 0.02)
+    assert "with the systematic part 0.02 of its standard error counted" in failed["why"]
+    upper = bound_verdict(1.0 - values, parabola, 1.0, CHI2_BOUND_95, 0.02, 0.015)
+    assert upper["interval"][0] == pytest.approx(1.0 - 1.6448536 * np.hypot(s, 0.015), rel=2e-3)
+
+
 @pytest.mark.slow                                               # identification and 7 refits: 25 s
 def test_a_zone_that_fails_its_bound_check_is_not_claimed_and_says_why(folder, monkeypatch):
     """The identification acts on a failed check: the zone is not claimed, its why names the check's reason, and

@@ -126,11 +126,12 @@ def _profile(zone, names, params, fitted_x, stderr, chi2_of, refit, parallel: bo
 
 
 def bound_checks(zones, names, params, fitted_x, stderr, limit: float, chi2_of, refit, parallel: bool,
-                 n_points: int, s2: float) -> dict:
+                 n_points: int, s2: float, systematic=None) -> dict:
     """The profile-likelihood check of each zone in ``zones`` (claimed on a bound): {zone: :func:`bound_verdict`}.
 
     Arguments as for :func:`profiles`; ``limit`` is the largest standard error of a claimed zone
-    (identify.resolution).
+    (identify.resolution); ``systematic``: (n_free,) the systematic part of each zone's standard error (the
+    model error's, in ``names`` order; None: 0), which the profile of the weighted chi-square does not hold.
     """
     out = {}
     for zone in zones:
@@ -139,18 +140,23 @@ def bound_checks(zones, names, params, fitted_x, stderr, limit: float, chi2_of, 
         on = np.array(fitted_x, dtype=float)
         on[k] = lower if abs(on[k] - lower) <= abs(upper - on[k]) else upper       # the grid starts on it
         values, chi2, _ = _profile(zone, names, params, on, stderr, chi2_of, refit, parallel, n_points)
-        out[zone] = bound_verdict(values, chi2, float(on[k]), CHI2_BOUND_95 * s2, limit)
+        out[zone] = bound_verdict(values, chi2, float(on[k]), CHI2_BOUND_95 * s2, limit,
+                                  0.0 if systematic is None else float(systematic[k] or 0.0))
     return out
 
 
-def bound_verdict(values: np.ndarray, chi2: np.ndarray, bound: float, threshold: float, limit: float) -> dict:
+def bound_verdict(values: np.ndarray, chi2: np.ndarray, bound: float, threshold: float, limit: float,
+                  systematic: float = 0.0) -> dict:
     """Does the profile from a bound exclude the interior? (result.json ``parameters.<zone>.bound_check``)
 
     A zone fitted on its bound is claimed when (1) no held value refits to a lower chi-square than the bound's
     (by more than 1e-6 of it: else the bound is not the data's best value), (2) the refitted chi-square rises
     by ``threshold`` (the one-sided 95 % level CHI2_BOUND_95 times s^2) within the grid, and (3) where it does,
-    the one-sided interval [bound, end] is no wider than that of a zone with standard error ``limit``
-    (1.645 limit). ``passed`` says whether all hold, ``why`` which did not.
+    the one-sided interval [bound, bound +- half] is no wider than that of a zone with standard error ``limit``
+    (1.645 limit). ``half`` is the profile's half-width h and the ``systematic`` standard error (the model
+    error's, which a profile of the weighted chi-square does not see) in quadrature, hypot(h, 1.645
+    systematic): with h = 1.645 s for a statistical standard error s, (3) is then the rule a zone inside its
+    bounds is claimed by, hypot(s, systematic) <= limit. ``passed`` says whether all hold, ``why`` which did not.
 
     >>> v = np.linspace(0.0, 0.08, 9)
     >>> check = bound_verdict(v, 100 + (v / 0.01) ** 2, 0.0, CHI2_BOUND_95, 0.02)
@@ -170,16 +176,20 @@ def bound_verdict(values: np.ndarray, chi2: np.ndarray, bound: float, threshold:
     end, inward = found["interval"][side], found["open"][side]
     lowest = int(np.argmin(np.where(ok, chi2, np.inf)))
     dips = bool(chi2[lowest] < base - 1e-6 * max(abs(base), 1.0))
-    half = float(abs(end - bound))
+    profiled = float(abs(end - bound))
+    half = float(np.hypot(profiled, 1.645 * systematic))
+    beyond = (f"the profile excludes the interior only beyond {profiled:.3g} from the bound" if half == profiled
+              else f"the profile excludes the interior beyond {profiled:.3g} from the bound, {half:.3g} with the "
+              f"systematic part {systematic:.3g} of its standard error counted")
     why = (f"the profile falls into the interior: chi-square {chi2[lowest]:.6g} at {values[lowest]:.4g} < "
            f"{base:.6g} on the bound" if dips else
            f"the profile does not rise by {threshold:.3g} within {width:.3g} of the bound: the data do not exclude "
            "the interior" if inward else
-           f"the profile excludes the interior only beyond {half:.3g} from the bound (> 1.645 x {limit:g})"
-           if half > 1.645 * limit else "")
+           f"{beyond} (> 1.645 x {limit:g})" if half > 1.645 * limit else "")
     return {"level": 0.95, "threshold": float(threshold), "values": values.tolist(),
-            "chi2": [None if not np.isfinite(c) else float(c) for c in chi2],
-            "interval": sorted([float(bound), float(end)]), "passed": not why, "why": why}
+            "chi2": [None if not np.isfinite(c) else float(c) for c in chi2], "systematic": float(systematic),
+            "interval": sorted([float(bound), float(bound + (half if side else -half))]), "passed": not why,
+            "why": why}
 
 
 

@@ -56,9 +56,10 @@ class HeldRefits:
         echo(f"bound check of {', '.join(zones)} (claimed on a bound): {self.ident.profile_points} "
              "refits each ...")
         fitted, stderr, s2 = self._fitted(result)
+        systematic = [result["parameters"][z].get("stderr_systematic") for z in self.names]
         checks = profile.bound_checks(zones, self.names, self.params, fitted, stderr,
                                       self.ident.resolution, self.chi2_of, self.refit,
-                                      self.evaluator.executor.parallel, self.ident.profile_points, s2)
+                                      self.evaluator.executor.parallel, self.ident.profile_points, s2, systematic)
         for zone, check in checks.items():
             entry = result["parameters"][zone]
             entry["bound_check"] = check

@@ -57,12 +57,15 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     shift = systematic = offset = limit = None
     if error is not None and error.signed is not None:
         weight = np.sqrt(weights) * obs.weight
-        shift = bias_shift(jac, weight * error.signed, inner)
+        shift = _bound_zones_free(lambda free: bias_shift(jac, weight * error.signed, free), inner)
         if included:                                    # the scaled error's effect is part of the interval
             scale = np.maximum(np.broadcast_to(np.asarray(error.scale, dtype=float), obs.sigma.shape), 1.0)
-            systematic = systematic_error(bias_shift(jac, weight * scale * error.signed, inner), error.before, x)
+            scaled = _bound_zones_free(lambda free: bias_shift(jac, weight * scale * error.signed, free), inner)
+            systematic = systematic_error(scaled, error.before, x)
     if remaining is not None:
-        offset, left = remaining_systematic(jac, np.sqrt(weights) * obs.weight, remaining, inner)
+        weight = np.sqrt(weights) * obs.weight
+        left = _bound_zones_free(lambda free: remaining_systematic(jac, weight, remaining, free)[1], inner)
+        offset = remaining_systematic(jac, weight, remaining, inner)[0]
         if systematic is None:                          # a prediction the misfit did not check: claims limited
             systematic, limit = left, SYSTEMATIC_LIMIT
         else:
@@ -74,6 +77,18 @@ def fit_statistics(evaluator: Evaluator, problem: LeastSquares, x: np.ndarray, r
     if included and adequacy.consistent is False:
         unc = _unexplained(unc, adequacy)
     return FitStatistics(r, evaluator.model_values(x), weights, adequacy, unc, shift, systematic, offset)
+
+
+def _bound_zones_free(measure, inner: np.ndarray) -> np.ndarray:
+    """(n_free,) ``measure(free)``, a linearised coefficient shift over the zones ``free`` (bool (n_free,)): that
+    of the ``inner`` zones for them, that of every zone free for the zones on a bound. A zone on a bound is
+    counted free in the covariance (:func:`~.uncertainty.estimate`), so its systematic part is measured free
+    too: held there, how far the model error pulls it off the bound would not be measured at all (0), and a
+    claim on a bound would rest on less than a claim inside (docs/fit-quality.md)."""
+    if inner.all():
+        return measure(inner)
+    on_bound = measure(np.ones_like(inner))
+    return np.where(inner, measure(inner), on_bound)
 
 
 def _unexplained(unc: Uncertainty, adequacy) -> Uncertainty:

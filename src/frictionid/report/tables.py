@@ -64,9 +64,11 @@ def result_summary(result: dict) -> str:
         if p.get("why"):
             lines.append(f"               why: {p['why']}")
         if p.get("bound_check", {}).get("passed"):
-            lines.append(f"               on its bound: the profile excludes values beyond {p['ci95'][1]:.4f} "
+            profile = ("the profile, its systematic part counted," if p["bound_check"].get("systematic")
+                       else "the profile")
+            lines.append(f"               on its bound: {profile} excludes values beyond {p['ci95'][1]:.4f} "
                          "(one-sided 95 %)" if p["ci95"][0] == p["bounds"][0] else
-                         f"               on its bound: the profile excludes values below {p['ci95'][0]:.4f} "
+                         f"               on its bound: {profile} excludes values below {p['ci95'][0]:.4f} "
                          "(one-sided 95 %)")
         if p.get("stderr_systematic"):
             lines.append(f"               includes {p['stderr_systematic']:.4f} systematic (the model error's "
