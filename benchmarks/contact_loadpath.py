@@ -11,8 +11,9 @@ twice with the same model: the second is what each later solve of a fit costs. `
 each path in turn, the model's stuck inverse made anew for each, and prints the largest differences of their
 results relative to each field's largest value: "old" the stuck inverse by LU and every capacitance matrix that
 no low-rank update serves factorised afresh (fem/updated_jacobian.py ``STUCK = "lu"``, ``ITERATE = "never"``),
-"new" the product's default (the stuck inverse from the Cholesky factor, iterated capacitance solves), "cholesky"
-the new stuck inverse with fresh factorisations.
+"new" the product's default (the stuck inverse from the Cholesky factor, iterated capacitance solves, capacitance
+factorisations of many rows in single precision with refined solves: fem/capacitance.py ``PRECISION = "mixed"``),
+"double" the same in double precision, "cholesky" the new stuck inverse with fresh double factorisations.
 
 Run: .venv/bin/python benchmarks/contact_loadpath.py 3000 6000 9000 [--solves 2] [--paths old new]
 """
@@ -42,6 +43,8 @@ from frictionid.fem.threads import one_blas_thread  # noqa: E402
 PARTS = (
     (updated_jacobian.StuckInverse, "build", "stuck inverse (per model)"),
     (capacitance.Fresh, "factorise", "capacitance LU factorisations"),
+    (capacitance.Fresh, "solve", "capacitance solves (single factors refined)"),
+    (capacitance.Fresh, "double", "capacitance double factorisations after single"),
     (capacitance.Updated, "build", "capacitance updates"),
     (capacitance, "gmres", "capacitance iterated solves (GMRES)"),
     (updated_jacobian.UpdatedSolver, "_factorised", "capacitance matrices: gathers, other"),
@@ -130,11 +133,13 @@ def difference(a: dict, b: dict) -> str:
         scale = np.max(np.abs(a[name]))
         parts.append(f"{name} {np.max(np.abs(a[name] - b[name])) / scale:.1e}")
     parts.append("states " + ("equal" if np.array_equal(a["state"], b["state"]) else "DIFFER"))
+    parts.append("Newton iterations " + ("equal" if a["newton"] == b["newton"] else f"{a['newton']} / {b['newton']}"))
     return ", ".join(parts)
 
 
-#: path name -> (STUCK, ITERATE) of fem/updated_jacobian.py
-PATHS = {"old": ("lu", "never"), "cholesky": ("auto", "never"), "new": ("auto", "auto")}
+#: path name -> (STUCK, ITERATE) of fem/updated_jacobian.py, PRECISION of fem/capacitance.py
+PATHS = {"old": ("lu", "never", "double"), "cholesky": ("auto", "never", "double"),
+         "double": ("auto", "auto", "double"), "new": ("auto", "auto", "mixed")}
 
 
 def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
@@ -147,7 +152,7 @@ def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
           flush=True)
     results = {}
     for name in path_names:
-        updated_jacobian.STUCK, updated_jacobian.ITERATE = PATHS[name]
+        updated_jacobian.STUCK, updated_jacobian.ITERATE, capacitance.PRECISION = PATHS[name]
         stuck = None
         for k in range(n_solves):
             wall, start = time.perf_counter(), time.process_time()
