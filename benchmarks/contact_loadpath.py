@@ -164,15 +164,15 @@ def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
             if k == 0:
                 print(checks(interface, out, mu))
                 print(f"  states per increment (open, stick, slip): {counts}")
-            s = out["solver"]
+            s = out.pop("solver")             # its kept factorisations: not held into the next solve
             print(f"  [{name}] solve {k + 1}: {total:.1f} s CPU ({wall:.1f} s wall), Newton {out['newton']}, "
                   f"capacitance: {s.n_factorisations} LU factorisations, {s.n_updates} updates, {s.n_iterated} "
                   f"iterated ({sum(s.krylov_iterations)} Krylov iterations in {len(s.krylov_iterations)} solves), "
                   f"{s.n_dense} dense solves, {s.n_switches} switches; peak so far {process_peak() / 2**30:.2f} GB = "
                   f"{process_peak() / (8.0 * n_w ** 2):.1f} n_w^2 doubles", flush=True)
+            del s
             for label, spent in sorted(parts.own.items(), key=lambda kv: -kv[1]):
                 print(f"      {spent:8.2f} s CPU {100 * spent / total:5.1f} %  {label} ({parts.calls[label]} calls)")
-            out.pop("solver")                 # its kept factorisations: not held into the next solve
             results[name] = out
         del stuck, out
         results[name].pop("stuck")
