@@ -24,9 +24,10 @@ Above :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs the c
 counted as a second factorisation of the stiffness.
 
 With ``factorisation = "mumps"`` the condensation's part is not this law (fitted on CHOLMOD's factor with the
-contact dofs last, which a multifrontal factor of the interior does not have: 23.6 GB estimated for the short 3-D
-bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies, the space and copies of K beside it
-and the dense contact blocks of the first solve, phase by phase (fem/mumps_memory.py).
+contact dofs last, which a multifrontal factor of the interior does not have: 23.6 GB estimated, with 4 n_w^2
+contact words, for the short 3-D bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies, the
+space and copies of K beside it and the dense contact blocks of the first solve, phase by phase
+(fem/mumps_memory.py).
 
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 
