@@ -49,6 +49,16 @@ def _norm(matrix: np.ndarray) -> float:
     return np.abs(matrix).sum(axis=0).max(initial=0.0)
 
 
+#: rows per block where the maximum row sum of a large matrix is taken (no k x k temporary)
+_BLOCK = 1024
+
+
+def _row_norm(matrix: np.ndarray) -> float:
+    """Maximum row sum of |matrix| (its infinity norm), block by block of rows."""
+    return max((np.abs(matrix[start:start + _BLOCK]).sum(axis=1).max() for start in range(0, len(matrix), _BLOCK)),
+               default=0.0)
+
+
 def _lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(LU, pivots) of a square matrix by LAPACK directly (no wrapper cost per call; ``matrix`` is not
     overwritten); NaN factors where it is exactly singular."""
@@ -70,7 +80,7 @@ def _single_lu(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool] | None
     transposed = matrix.flags.c_contiguous
     lu, pivots, info = la.lapack.sgetrf(np.asfortranarray(matrix.T if transposed else matrix, dtype=np.float32),
                                         overwrite_a=1)
-    norm = np.abs(matrix).sum(axis=1 if transposed else 0).max(initial=0.0)      # 1-norm of what was factorised
+    norm = _row_norm(matrix) if transposed else _norm(matrix)                 # 1-norm of what was factorised
     if info != 0 or not _rcond(lu, norm) >= SINGLE_RCOND_MIN:
         return None
     return lu, pivots, transposed
@@ -147,7 +157,7 @@ class Fresh:
         return self.__dict__["_double"]
 
     def rcond(self) -> float:
-        """Reciprocal condition number of C (1-norm estimate)."""
+        """Reciprocal condition number of C (1-norm estimate; infinity norm where the factors are C^T's)."""
         return self._rcond
 
     @cached_property
@@ -157,7 +167,7 @@ class Fresh:
     @cached_property
     def _norm_rows(self) -> float:
         """Maximum row sum of |C| (the refinement's scale, as :func:`gmres`'s)."""
-        return np.abs(self.C).sum(axis=1).max(initial=0.0)
+        return _row_norm(self.C)
 
 
 @dataclass(frozen=True)
