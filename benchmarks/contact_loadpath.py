@@ -11,8 +11,9 @@ twice with the same model: the second is what each later solve of a fit costs. `
 each path in turn, the model's stuck inverse made anew for each, and prints the largest differences of their
 results relative to each field's largest value: "old" the stuck inverse by LU and every capacitance matrix that
 no low-rank update serves factorised afresh (fem/updated_jacobian.py ``STUCK = "lu"``, ``ITERATE = "never"``),
-"new" the product's default (the stuck inverse from the Cholesky factor, iterated capacitance solves), "cholesky"
-the new stuck inverse with fresh factorisations.
+"new" the product's default (the stuck inverse from the Cholesky factor, iterated capacitance solves, capacitance
+factorisations of many rows in single precision with refined solves: fem/capacitance.py ``PRECISION = "mixed"``),
+"double" the same in double precision, "cholesky" the new stuck inverse with fresh double factorisations.
 
 Run: .venv/bin/python benchmarks/contact_loadpath.py 3000 6000 9000 [--solves 2] [--paths old new]
 """
@@ -42,6 +43,8 @@ from frictionid.fem.threads import one_blas_thread  # noqa: E402
 PARTS = (
     (updated_jacobian.StuckInverse, "build", "stuck inverse (per model)"),
     (capacitance.Fresh, "factorise", "capacitance LU factorisations"),
+    (capacitance.Fresh, "solve", "capacitance solves (single factors refined)"),
+    (capacitance.Fresh, "double", "capacitance double factorisations after single"),
     (capacitance.Updated, "build", "capacitance updates"),
     (capacitance, "gmres", "capacitance iterated solves (GMRES)"),
     (updated_jacobian.UpdatedSolver, "_factorised", "capacitance matrices: gathers, other"),
@@ -130,11 +133,13 @@ def difference(a: dict, b: dict) -> str:
         scale = np.max(np.abs(a[name]))
         parts.append(f"{name} {np.max(np.abs(a[name] - b[name])) / scale:.1e}")
     parts.append("states " + ("equal" if np.array_equal(a["state"], b["state"]) else "DIFFER"))
+    parts.append("Newton iterations " + ("equal" if a["newton"] == b["newton"] else f"{a['newton']} / {b['newton']}"))
     return ", ".join(parts)
 
 
-#: path name -> (STUCK, ITERATE) of fem/updated_jacobian.py
-PATHS = {"old": ("lu", "never"), "cholesky": ("auto", "never"), "new": ("auto", "auto")}
+#: path name -> (STUCK, ITERATE) of fem/updated_jacobian.py, PRECISION of fem/capacitance.py
+PATHS = {"old": ("lu", "never", "double"), "cholesky": ("auto", "never", "double"),
+         "double": ("auto", "auto", "double"), "new": ("auto", "auto", "mixed")}
 
 
 def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
@@ -147,7 +152,7 @@ def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
           flush=True)
     results = {}
     for name in path_names:
-        updated_jacobian.STUCK, updated_jacobian.ITERATE = PATHS[name]
+        updated_jacobian.STUCK, updated_jacobian.ITERATE, capacitance.PRECISION = PATHS[name]
         stuck = None
         for k in range(n_solves):
             wall, start = time.perf_counter(), time.process_time()
@@ -159,15 +164,15 @@ def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
             if k == 0:
                 print(checks(interface, out, mu))
                 print(f"  states per increment (open, stick, slip): {counts}")
-            s = out["solver"]
+            s = out.pop("solver")             # its kept factorisations: not held into the next solve
             print(f"  [{name}] solve {k + 1}: {total:.1f} s CPU ({wall:.1f} s wall), Newton {out['newton']}, "
                   f"capacitance: {s.n_factorisations} LU factorisations, {s.n_updates} updates, {s.n_iterated} "
                   f"iterated ({sum(s.krylov_iterations)} Krylov iterations in {len(s.krylov_iterations)} solves), "
                   f"{s.n_dense} dense solves, {s.n_switches} switches; peak so far {process_peak() / 2**30:.2f} GB = "
                   f"{process_peak() / (8.0 * n_w ** 2):.1f} n_w^2 doubles", flush=True)
+            del s
             for label, spent in sorted(parts.own.items(), key=lambda kv: -kv[1]):
                 print(f"      {spent:8.2f} s CPU {100 * spent / total:5.1f} %  {label} ({parts.calls[label]} calls)")
-            out.pop("solver")                 # its kept factorisations: not held into the next solve
             results[name] = out
         del stuck, out
         results[name].pop("stuck")

@@ -10,19 +10,24 @@ whose estimate condensed mesh 0.5; measured 2026-11-26 with /usr/bin/time), time
 plane-strain block's condensation (52,374 dofs: 0.37 GB, docs/solver.md) doubled for its assembly. SuperLU (the
 fallback) took about three times CHOLMOD's.
 
-The dense contact blocks come on top (:func:`contact_bytes`): with n_w = dim n_c contact dofs the condensed
-operator W (n_w^2), the Schur complement's per-body factor and its triangular solves (about n_w^2 each for a
-two-body interface) and the load path's stuck Jacobian and its inverse (n_w^2 each) hold about
-:data:`CONTACT_WORDS` n_w^2 doubles at the peak. The block's anchors have a few hundred contact pairs, where this is
-negligible; the 3-D bolt's thread has thousands, where it dominates (5,777 pairs, 17,331 contact dofs: 9.0 GB).
+The dense contact blocks come on top (:func:`contact_bytes`): with n_w = dim n_c contact dofs the condensation
+holds the condensed operator W (n_w^2), the Schur complement's per-body factor and its triangular solves (about
+n_w^2 each for a two-body interface): about 4 n_w^2 doubles at its peak (benchmarks/contact_dense.py); a solve
+then holds W, the stuck Jacobian's inverse (fem/updated_jacobian.py), the kept capacitance factorisations and
+A's block of their rows: measured 4.9 n_w^2 doubles in the first solve and 5.0 over two on the half-space
+interface at n_w 9,000 in gross slip (``benchmarks/contact_loadpath.py 9000 --solves 2``, the process's peak, W
+included). :data:`CONTACT_WORDS` n_w^2 doubles is the larger. The block's anchors have a few hundred contact
+pairs, where this is negligible; the 3-D bolt's thread has thousands, where it dominates (5,777 pairs, 17,331
+contact dofs: 11.2 GB).
 Above :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs the condensation never forms them
 (fem/condense_implicit.py); the load path's penalised factor (fem/contact_krylov.py) comes on top instead,
 counted as a second factorisation of the stiffness.
 
 With ``factorisation = "mumps"`` the condensation's part is not this law (fitted on CHOLMOD's factor with the
-contact dofs last, which a multifrontal factor of the interior does not have: 23.6 GB estimated for the short 3-D
-bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies, the space and copies of K beside it
-and the dense contact blocks of the first solve, phase by phase (fem/mumps_memory.py).
+contact dofs last, which a multifrontal factor of the interior does not have: 23.6 GB estimated, with 4 n_w^2
+contact words, for the short 3-D bolt that peaked at 8.3 GiB) but MUMPS's own analysis of the model's bodies, the
+space and copies of K beside it and the dense contact blocks of the first solve, phase by phase
+(fem/mumps_memory.py).
 
 ``[solver] max_memory`` [GB] is what a run may take; default :data:`DEFAULT_FRACTION` of the machine's memory.
 
@@ -52,8 +57,8 @@ LAWS = {3: (113_616, 3.6 * GB, 1.3), 2: (52_374, 0.74 * GB, 1.2)}
 SAFETY = 1.25
 #: SuperLU against CHOLMOD (docs/solver.md: 4.0 against 1.9 GB at 114k dofs with the process's own)
 SUPERLU_FACTOR = 3.0
-#: dense (n_w, n_w) arrays of doubles held at once by a condensation and its first solve (module docstring)
-CONTACT_WORDS = 4
+#: dense (n_w, n_w) arrays of doubles held at once by a condensation or a solve, the larger (module docstring)
+CONTACT_WORDS = 5
 
 
 def machine_memory() -> float:
@@ -165,7 +170,7 @@ def contact_bytes(n_pairs: int, dim: int) -> float:
     docstring).
 
     >>> round(contact_bytes(5_777, 3) / GB, 1)
-    9.0
+    11.2
     """
     return CONTACT_WORDS * 8.0 * (dim * n_pairs) ** 2
 
