@@ -183,3 +183,19 @@ def test_a_zone_that_fails_its_bound_check_is_not_claimed_and_says_why(folder, m
     assert b["at_bound"] and not b["identifiable"] and b["why"] == "on its bound, but made to fail"
     assert len(b["bound_check"]["chi2"]) == 7                            # the interval stays the linearised one
     assert b["ci95"][1] == pytest.approx(b["ci95"][0] + 1.6448536 * b["stderr"], rel=1e-6)
+
+
+@pytest.mark.parametrize("systematic, wording", [(0.012, "the profile, its systematic part counted, excludes"),
+                                                 (0.0, "on its bound: the profile excludes")])
+def test_the_text_report_says_whether_a_bound_claim_counts_a_systematic_part(systematic, wording):
+    """The text report of a zone claimed on its bound names the systematic part where its profile check counted
+    one (result.json ``bound_check.systematic``), and the interval's end the check gave."""
+    from pathlib import Path
+    from frictionid.report.tables import result_summary
+    fixture = Path(__file__).parent / "fixtures" / "same_result" / "model_error_include.json"
+    result = {**json.loads(fixture.read_text()), "wall_time_s": 1.0}
+    result["parameters"]["B"].update(value=0.0, at_bound=True, identifiable=True, why="", ci95=[0.0, 0.031],
+                                     bound_check={"passed": True, "systematic": systematic})
+    line = next(t for t in result_summary(result).splitlines() if "on its bound" in t)
+    assert wording in line and "beyond 0.0310 (one-sided 95 %)" in line
+    assert ("systematic part" in line) == (systematic > 0)
