@@ -31,7 +31,7 @@ from frictionid.builders.bolt_layout import bolt_layout
 from frictionid.builders.curved import curved_where_valid
 from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
 from frictionid.model import Mesh
-from thread_stiffness import _name_faces, _size_field, axis_uy
+from thread_stiffness import _name_faces, _size_field, _tooth_range, axis_uy
 
 LAYOUT = bolt_layout("M6", length=24.0, n_axial=2, thread_length=9.5)
 #: stations on the axis [mm] (tests/test_bolt3d_verification.py's and docs/bolt-study.md's table's above the head)
@@ -44,9 +44,8 @@ def whole_turns(layout, theta0: float) -> list[tuple[int, int]]:
     """The grooves as whole turns from the seam, the lowest the first whose centre at theta0 + pi lies at or
     above y_thread (the builder's cut before the thread started at the plane y_thread)."""
     P = layout.size.P
-    first = math.ceil((layout.y_thread - layout.bolt_phase) / P + 0.5)
-    last = math.floor((layout.length - layout.bolt_phase) / P + 0.5)
-    return [(3, groove(layout, layout.bolt_phase + (k - 0.5) * P, theta0)) for k in range(first - 1, last + 1)]
+    return [(3, groove(layout, layout.bolt_phase + (k - 0.5) * P, theta0))
+            for k in _tooth_range(layout, layout.y_thread, layout.length)]
 
 
 def helix(flank: float, root: float, largest: float, whole: bool = False) -> Mesh:

@@ -100,7 +100,7 @@ def rod_3d(layout, y_thread: float, y_end: float, length: float, size: float, gr
     def make():
         occ = gmsh.model.occ
         rod = [(3, cylinder(layout.r_shank, 0.0, length))]
-        if grooves:        # as frictionid.builders.bolt3d_mesh._bolt: seams at theta = pi
+        if grooves:        # whole turns, seams at theta = pi (the builder cuts them off at its y_thread)
             cuts = [(3, groove(layout, layout.bolt_phase + (k - 0.5) * P, math.pi))
                     for k in _tooth_range(layout, y_thread, y_end)]
             rod, _ = occ.cut(rod, cuts)

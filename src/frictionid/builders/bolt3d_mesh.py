@@ -55,7 +55,7 @@ class Options3d:
 
 
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
-    """The bolt blank minus one groove per turn; the turns' seams lie at theta_match + pi."""
+    """The bolt blank minus the thread's grooves (:func:`thread_grooves`), their seams at theta_match + pi."""
     s, occ = layout.size, gmsh.model.occ
     head = hexagon_prism(s.head_s, -s.head_k, 0.0, HEAD_ANGLE)
     blank, _ = occ.fuse([(3, head)], [(3, cylinder(layout.r_shank, 0.0, layout.length))])
