@@ -47,18 +47,23 @@ RING_FINE = 0.025       # [mm] the rings' reference mesh on the thread's faces
 _TOL = 1e-3          # [mm] OCC bounding boxes are enlarged by the shapes' tolerances
 
 
-def _size_field(dim: int, tags: list[int], size: float) -> None:
+def _size_field(dim: int, tags: list[int], size: float, size_max: float = SIZE_MAX, growth: float = SIZE_GROWTH,
+                alone: bool = True) -> int:
+    """Size ``size`` on the entities, growing by ``growth`` per mm to ``size_max``; the only size field unless
+    ``alone`` is false (then the caller combines the returned fields)."""
     field = gmsh.model.mesh.field
     near = field.add("Distance")
     field.setNumbers(near, "SurfacesList" if dim == 2 else "CurvesList", tags)
     field.setNumber(near, "Sampling", 30)
     threshold = field.add("Threshold")
     field.setNumber(threshold, "InField", near)
-    for name, value in (("SizeMin", size), ("SizeMax", SIZE_MAX), ("DistMin", 0.0),
-                        ("DistMax", (SIZE_MAX - size) / SIZE_GROWTH)):
+    for name, value in (("SizeMin", size), ("SizeMax", size_max), ("DistMin", 0.0),
+                        ("DistMax", (size_max - size) / growth)):
         field.setNumber(threshold, name, value)
-    use_size_fields(threshold)
-    gmsh.option.setNumber("Mesh.MeshSizeMax", SIZE_MAX)
+    if alone:
+        use_size_fields(threshold)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size_max)
+    return threshold
 
 
 def _name_faces(dim: int, entities, y_thread: float, y_end: float, length: float, P: float) -> list[int]:
@@ -95,7 +100,7 @@ def rod_3d(layout, y_thread: float, y_end: float, length: float, size: float, gr
     def make():
         occ = gmsh.model.occ
         rod = [(3, cylinder(layout.r_shank, 0.0, length))]
-        if grooves:        # as frictionid.builders.bolt3d_mesh._bolt: seams at theta = pi
+        if grooves:        # whole turns, seams at theta = pi (the builder cuts them off at its y_thread)
             cuts = [(3, groove(layout, layout.bolt_phase + (k - 0.5) * P, math.pi))
                     for k in _tooth_range(layout, y_thread, y_end)]
             rod, _ = occ.cut(rod, cuts)

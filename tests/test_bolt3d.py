@@ -14,9 +14,10 @@ import pytest
 
 from frictionid.builders.bolt import bolt_model
 from frictionid.builders.bolt3d import WINDOW_CENTRE, WINDOW_WIDTH, measurement_points_3d
-from frictionid.builders.bolt3d_geometry import groove_section
+from frictionid.builders.bolt3d_geometry import _wire, cylinder, groove_section, thread_grooves
 from frictionid.builders.bolt3d_mesh import mesh_with_fallback
 from frictionid.builders.bolt_layout import bolt_layout
+from frictionid.builders.gmsh_mesh import gmsh_session
 from frictionid.builders.registry import build_model
 from frictionid.errors import InputError
 from frictionid.fem.rigid import bodies
@@ -69,6 +70,34 @@ def test_groove_section_is_the_iso_profile(layout):
     on_load = np.abs(root[:, 1] - (z + s.P - (apex - root[:, 0]) / SQRT3)) < 1e-9
     assert np.all(on_arc | on_free | on_load) and on_arc.sum() > 10
     assert root[:, 0].min() == pytest.approx(s.d3 / 2 - layout.shift, abs=1e-6)
+
+
+def test_helix_starts_at_the_thread_plane_as_the_rings_do():
+    """The helical thread starts at the plane y = y_thread at every angle, as the axisymmetric profile does at every
+    phase of its teeth, so that each section of the helix is the ring model at that phase: a rod cut by the
+    builder's grooves keeps the shank's whole section over the pitch below the plane, and over the first pitch above
+    it holds the rings' volume per pitch (the shank minus the groove's volume of revolution, Pappus), as it does a
+    pitch further up. Whole groove turns (the lowest at most half a pitch below the plane at its seam) left 24.74
+    mm^3 there on this M6 against 22.54 (a pitch further up: 22.54)."""
+    layout = bolt_layout("M6", length=24.0, n_axial=2, thread_length=9.5)
+    P, y0, r = layout.size.P, layout.y_thread, layout.r_shank
+    with gmsh_session("thread start"):
+        occ = gmsh.model.occ
+        grooves = [g for g in thread_grooves(layout, math.pi) if occ.getBoundingBox(*g)[1] < y0 + 3 * P]
+        rod, _ = occ.cut([(3, cylinder(r, 0.0, y0 + 3 * P))], grooves)
+        slabs = []
+        for y in (y0 - P, y0, y0 + P):
+            piece, _ = occ.intersect(rod, [(3, cylinder(2 * r, y, y + P))], removeObject=False)
+            occ.synchronize()
+            slabs.append(sum(occ.getMass(3, tag) for dim, tag in piece if dim == 3))
+        ring = occ.addPlaneSurface([_wire(groove_section(layout, 0.0), 0.0, 0.0)])
+        inside, _ = occ.intersect([(2, ring)], [(2, occ.addRectangle(0.0, -P, 0.0, r, 3 * P))])
+        occ.synchronize()
+        groove = sum(2 * math.pi * occ.getCenterOfMass(2, tag)[0] * occ.getMass(2, tag) for _, tag in inside)
+    assert slabs[0] == pytest.approx(math.pi * r ** 2 * P, rel=1e-6)
+    assert slabs[1] == pytest.approx(slabs[2], rel=1e-6)
+    # the loft through SECTIONS sections per turn holds 1.5e-4 less than the ring (0.0033 mm^3 per pitch)
+    assert slabs[1] == pytest.approx(math.pi * r ** 2 * P - groove, rel=5e-4)
 
 
 @pytest.mark.parametrize("options, message", [

@@ -108,6 +108,33 @@ def groove(layout: BoltLayout, z: float, theta0: float) -> int:
     return next(tag for dim, tag in out if dim == 3)
 
 
+def thread_grooves(layout: BoltLayout, theta0: float) -> list[tuple[int, int]]:
+    """The bolt thread's helical grooves, one :func:`groove` turn per pitch with its seam at theta0, cut off below
+    the plane y = ``layout.y_thread``: the thread starts at that plane at every angle, as the axisymmetric
+    profile (:func:`frictionid.builders.thread.bolt_profile` from y_thread) does at every phase of its teeth, so
+    that the helix's section at any angle is the ring model at that phase. Whole turns instead would leave the
+    lowest part turn uncut at some angles and reach below y_thread at others (M6: 2.2 mm^3 more steel over the
+    first pitch, docs/bolt-study.md). The turns reach the bolt's end."""
+    s, occ = layout.size, gmsh.model.occ
+    P, reach = s.P, 15 * s.P / 32                      # a groove's half width at r_out about its centre line
+    # groove k: its centre line at bolt_phase + k P at the seam, rising by P over the turn
+    first = math.floor((layout.y_thread - reach - layout.bolt_phase) / P) - 1
+    last = math.ceil((layout.length + reach - layout.bolt_phase) / P)
+    grooves, crossing = [], []
+    for k in range(first, last + 1):
+        low, high = layout.bolt_phase + k * P - reach, layout.bolt_phase + (k + 1) * P + reach
+        if high <= layout.y_thread or low >= layout.length:
+            continue
+        tag = (3, groove(layout, layout.bolt_phase + (k - 0.5) * P, theta0))
+        (crossing if low < layout.y_thread else grooves).append(tag)
+    if crossing:
+        r_far = s.d / 2 + s.H
+        above = cylinder(r_far, layout.y_thread, layout.length + 2 * P)
+        cut, _ = occ.intersect(crossing, [(3, above)])
+        grooves += [(d, t) for d, t in cut if d == 3]
+    return grooves
+
+
 def hexagon_prism(s: float, y0: float, y1: float, angle0: float) -> int:
     """Volume tag of a hexagonal prism, width across flats s [mm], y in [y0, y1]; flat normals at angle0 +
     k 60 deg in the (x, z) plane (angle from +x towards -z, as theta)."""

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Mesh
-from .bolt3d_geometry import (Window, countersink, cylinder, direction, groove, hexagon_prism)
+from .bolt3d_geometry import Window, countersink, cylinder, direction, hexagon_prism, thread_grooves
 from .bolt_layout import BoltLayout
 from .curved import curved_where_valid
 from .gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
@@ -55,16 +55,11 @@ class Options3d:
 
 
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
-    """The bolt blank minus one groove per turn; the turns' seams lie at theta_match + pi."""
+    """The bolt blank minus the thread's grooves (:func:`thread_grooves`), their seams at theta_match + pi."""
     s, occ = layout.size, gmsh.model.occ
     head = hexagon_prism(s.head_s, -s.head_k, 0.0, HEAD_ANGLE)
     blank, _ = occ.fuse([(3, head)], [(3, cylinder(layout.r_shank, 0.0, layout.length))])
-    theta0 = theta_match + math.pi
-    first = math.ceil((layout.y_thread - layout.bolt_phase) / s.P + 0.5)
-    last = math.floor((layout.length - layout.bolt_phase) / s.P + 0.5)
-    # tooth k is centred at bolt_phase + k P at theta_match, so at bolt_phase + (k - 1/2) P at the seam
-    grooves = [(3, groove(layout, layout.bolt_phase + (k - 0.5) * s.P, theta0)) for k in range(first - 1, last + 1)]
-    bolt, _ = occ.cut(blank, grooves)
+    bolt, _ = occ.cut(blank, thread_grooves(layout, theta_match + math.pi))
     return bolt
 
 
