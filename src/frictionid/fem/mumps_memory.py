@@ -23,7 +23,10 @@ as MUMPS takes it). :func:`phases` estimates the three peaks of a build and its 
   (:data:`ASSEMBLY_CELL_BYTES` per cell) and K;
 - condensation: the space, :data:`K_COPIES` copies of K and MUMPS's part above;
 - solve (the first, with sensitivities): the space, :data:`K_KEPT` copies of K and :data:`SOLVE_CONTACT_WORDS`
-  n_w^2 doubles of dense contact operators (W, the stuck Jacobian, its factor and inverse, the sensitivities').
+  n_w^2 doubles of dense contact operators (W, the stuck Jacobian's factor and inverse, the sensitivities'). The
+  small-sliding check after it makes MUMPS's factors again to recover the displacement field (0.23-0.86 GB above
+  the solved problem on the 3-D block and the M6 bolts); its peak stayed below the condensation's measured peak
+  on each (docs/solver.md).
 
 The estimate is :data:`SAFETY` times the largest. The constants are the largest of what the phases measured
 (``benchmarks/mumps_memory.py``; resident memory sampled per phase, above the process before, this machine) on
@@ -57,9 +60,12 @@ ASSEMBLY_CELL_BYTES = {"tetra10": 8e3, "hexahedron": 50e3}
 K_COPIES = 6.5
 #: copies of K held by the condensed problem during its first solve
 K_KEPT = 6.3
-#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c)
-SOLVE_CONTACT_WORDS = 10
-#: margin on the estimate (the largest phase against the measured peak: 0.93-1.17 on the models of docs/solver.md)
+#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c): its measured
+#: peak less the space and K_KEPT copies of K was 5.1-7.2 n_w^2 doubles on the 3-D block at 0.5 mm and two M6
+#: bolts (n_w 1,323-2,751; benchmarks/mumps_memory.py, docs/solver.md), the solve's own arrays 4.9-5.2 of them
+#: (their traced peak above the built problem); 8 is 11 % above the largest
+SOLVE_CONTACT_WORDS = 8
+#: margin on the estimate (the largest phase against the measured peak: 0.89-1.17 on the models of docs/solver.md)
 SAFETY = 1.05
 
 #: [id(model)] -> (MUMPS's bytes, stored entries of K) of a model analysed before (:func:`condensation_bytes`)
