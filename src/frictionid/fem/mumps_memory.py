@@ -60,11 +60,11 @@ ASSEMBLY_CELL_BYTES = {"tetra10": 8e3, "hexahedron": 50e3}
 K_COPIES = 6.5
 #: copies of K held by the condensed problem during its first solve
 K_KEPT = 6.3
-#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c): its measured
-#: peak less the space and K_KEPT copies of K was 5.1-7.2 n_w^2 doubles on the 3-D block at 0.5 mm and two M6
-#: bolts (n_w 1,323-2,751; benchmarks/mumps_memory.py, docs/solver.md), the solve's own arrays 4.9-5.2 of them
-#: (their traced peak above the built problem); 8 is 11 % above the largest
-SOLVE_CONTACT_WORDS = 8
+#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c): the solve's
+#: own arrays peaked at 4.9-5.2 n_w^2 doubles above the built problem (traced), its resident peak less the space
+#: and K_KEPT copies of K at 5.1-8.8 on the 3-D block at 0.5 mm (n_w 1,323; two runs, 0.05 GB apart) and 5.5-7.2
+#: on two M6 bolts (n_w 2,499-2,751; benchmarks/mumps_memory.py, docs/solver.md); 10 is 14 % above the largest
+SOLVE_CONTACT_WORDS = 10
 #: margin on the estimate (the largest phase against the measured peak: 0.89-1.17 on the models of docs/solver.md)
 SAFETY = 1.05
 
