@@ -65,7 +65,7 @@ K_KEPT = 6.3
 #: and K_KEPT copies of K at 5.1-8.8 on the 3-D block at 0.5 mm (n_w 1,323; two runs, 0.05 GB apart) and 5.5-7.2
 #: on two M6 bolts (n_w 2,499-2,751; benchmarks/mumps_memory.py, docs/solver.md); 10 is 14 % above the largest
 SOLVE_CONTACT_WORDS = 10
-#: margin on the estimate (the largest phase against the measured peak: 0.89-1.17 on the models of docs/solver.md)
+#: margin on the estimate (the largest phase against the measured peak: 0.87-1.17 on the models of docs/solver.md)
 SAFETY = 1.05
 
 #: [id(model)] -> (MUMPS's bytes, stored entries of K) of a model analysed before (:func:`condensation_bytes`)
