@@ -7,7 +7,9 @@ condensation, the first solve), then the work it stands for: assembly and conden
 (``Problem.build``, with the ten points observed on a bolt, the block's default points on the block) and one
 forward + sensitivities solve at mu 0.15. Measured: the peak of the whole above what the process held before
 (:class:`frictionid.fem.memory.Peak`, Linux's VmHWM) and the largest resident memory sampled every 5 ms in each
-phase (the space and the stiffness's assembly, the condensation, the solve). Also MUMPS's own figures per body:
+phase (the space and the stiffness's assembly, the condensation, the solve without the small-sliding check, then
+the check, which makes MUMPS's factors again to recover the displacement field). The solve's n_w^2 doubles: its
+measured peak less the estimate's space and copies of K, per n_w^2 doubles. Also MUMPS's own figures per body:
 the analysis's estimate here (INFOG(17)) against the factorisation's estimate and what it used (INFOG(22)).
 
 Run: .venv/bin/python benchmarks/mumps_memory.py block 1.0          (the 3-D block at mesh_size 1.0 mm)
@@ -98,14 +100,25 @@ def main(kind: str, *args) -> None:
     held = memory.resident()
     with phases, memory.Peak() as took:
         problem = Problem.build(model, factorisation="mumps", **observe)
+        built = memory.resident()
         phases.phase = "solve"
-        problem.solve(np.full(len(model.zone_names), 0.15), sensitivities=True)
+        solution = problem.solve(np.full(len(model.zone_names), 0.15), sensitivities=True, max_slip=None)
+        solved = memory.resident()
+        phases.phase = "check"             # the small-sliding check the solve makes by default, apart
+        problem.check_small_sliding(solution)
     print("  analysis here (INFOG(17)) per body: " + ", ".join(f"{a.estimated_mb:,} MB (Schur onto {a.schur_size:,})"
                                                             for a in analyses))
     print("  factorisations: " + ", ".join(f"estimated {s.estimated_mb:,} MB, used {s.used_mb:,} MB (Schur onto "
                                           f"{s.schur_size:,})" for s in problem.condensed.inverse.bodies.stats))
     print("  measured peak per phase above held: " + ", ".join(f"{k} {(v - held) / GB:.2f}"
                                                              for k, v in phases.peaks.items() if k != "build"))
+    n_w = problem.pairs.B.shape[0]
+    added, checked = phases.peaks["solve"] - built, phases.peaks.get("check", solved) - solved
+    words = (phases.peaks["solve"] - held - estimated["solve"]) / (8.0 * n_w ** 2) + mumps_memory.SOLVE_CONTACT_WORDS
+    print(f"  the solve: n_w {n_w:,} contact rows ({memory.contact_pairs(model):,} pairs estimated); "
+          f"{added / GB:.3f} GB above the built problem; {words:.1f} n_w^2 doubles beside the space and K_KEPT "
+          f"copies of K (the estimate counts {mumps_memory.SOLVE_CONTACT_WORDS}); its small-sliding check "
+          f"{checked / GB:.3f} GB above the solved problem (MUMPS's factors made again)", flush=True)
     print(f"  measured above held: {took.above / GB:.2f} GB; estimate / measured {cost.above / took.above:.2f}; "
           f"without the margin {cost.above / mumps_memory.SAFETY / took.above:.2f}; CHOLMOD's law / measured "
           f"{memory.estimate(model, kind, factorisation='cholmod').above / took.above:.2f}; process peak "

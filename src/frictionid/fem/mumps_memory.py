@@ -23,7 +23,10 @@ as MUMPS takes it). :func:`phases` estimates the three peaks of a build and its 
   (:data:`ASSEMBLY_CELL_BYTES` per cell) and K;
 - condensation: the space, :data:`K_COPIES` copies of K and MUMPS's part above;
 - solve (the first, with sensitivities): the space, :data:`K_KEPT` copies of K and :data:`SOLVE_CONTACT_WORDS`
-  n_w^2 doubles of dense contact operators (W, the stuck Jacobian, its factor and inverse, the sensitivities').
+  n_w^2 doubles of dense contact operators (W, the stuck Jacobian's factor and inverse, the sensitivities'). The
+  small-sliding check after it makes MUMPS's factors again to recover the displacement field (0.23-0.86 GB above
+  the solved problem on the 3-D block and the M6 bolts); its peak stayed below the condensation's measured peak
+  on each (docs/solver.md).
 
 The estimate is :data:`SAFETY` times the largest. The constants are the largest of what the phases measured
 (``benchmarks/mumps_memory.py``; resident memory sampled per phase, above the process before, this machine) on
@@ -57,9 +60,12 @@ ASSEMBLY_CELL_BYTES = {"tetra10": 8e3, "hexahedron": 50e3}
 K_COPIES = 6.5
 #: copies of K held by the condensed problem during its first solve
 K_KEPT = 6.3
-#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c)
+#: dense (n_w, n_w) arrays of doubles the first solve with sensitivities holds at once (n_w = 3 n_c): the solve's
+#: own arrays peaked at 4.9-5.2 n_w^2 doubles above the built problem (traced), its resident peak less the space
+#: and K_KEPT copies of K at 5.1-8.8 on the 3-D block at 0.5 mm (n_w 1,323; two runs, 0.05 GB apart) and 5.5-7.2
+#: on two M6 bolts (n_w 2,499-2,751; benchmarks/mumps_memory.py, docs/solver.md); 10 is 14 % above the largest
 SOLVE_CONTACT_WORDS = 10
-#: margin on the estimate (the largest phase against the measured peak: 0.93-1.17 on the models of docs/solver.md)
+#: margin on the estimate (the largest phase against the measured peak: 0.87-1.17 on the models of docs/solver.md)
 SAFETY = 1.05
 
 #: [id(model)] -> (MUMPS's bytes, stored entries of K) of a model analysed before (:func:`condensation_bytes`)
