@@ -124,17 +124,8 @@ def main() -> None:
         problem = Problem.build(build_model(ModelSpec.from_table(options)))
         print(f"{name}: {problem.pairs.n_pairs} contact pairs")
         for condition in ("idle", "one core busy"):
-            stop = multiprocessing.Event()
-            worker = multiprocessing.Process(target=_busy, args=(stop,)) if condition != "idle" else None
-            if worker:
-                worker.start()
-                time.sleep(0.5)
-            try:
+            with _condition(condition):
                 one, default = solve_time(problem, mu, True), solve_time(problem, mu, False)
-            finally:
-                if worker:
-                    stop.set()
-                    worker.join()
             print(f"  {condition:14s} one BLAS thread {one:7.3f} s   BLAS default {default:7.3f} s   "
                   f"ratio {default / one:6.1f}")
 
