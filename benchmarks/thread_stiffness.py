@@ -108,16 +108,19 @@ def rod_3d(layout, y_thread: float, y_end: float, length: float, size: float, gr
         volume[:] = [sum(occ.getMass(3, tag) for _, tag in rod)]
         _size_field(2, _name_faces(3, rod, y_thread, y_end, length, P), size)
 
-    def read():
-        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-        gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
-        gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh("thread rod")
-        points, _ = curved_where_valid(mesh.points, mesh.cells)
-        return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
-                    boundaries=dict(mesh.boundaries))
+    return mesh_with_fallback(make, lambda: curved_rod("thread rod"), "thread rod"), volume[0]
 
-    return mesh_with_fallback(make, read, "thread rod"), volume[0]
+
+def curved_rod(name: str) -> Mesh:
+    """The gmsh session's model as a tetra10 mesh, its mid-side nodes on the curved faces where the cells stay
+    valid (as the 3-D builder makes them)."""
+    gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
+    gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
+    gmsh.model.mesh.setOrder(2)
+    mesh = mesh_from_gmsh(name)
+    points, _ = curved_where_valid(mesh.points, mesh.cells)
+    return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
+                boundaries=dict(mesh.boundaries))
 
 
 def rod_axisymmetric(layout, y_thread: float, y_end: float, length: float, size: float, grooves: bool = True):
