@@ -13,7 +13,9 @@ results relative to each field's largest value: "old" the stuck inverse by LU an
 no low-rank update serves factorised afresh (fem/updated_jacobian.py ``STUCK = "lu"``, ``ITERATE = "never"``),
 "new" the product's default (the stuck inverse from the Cholesky factor, iterated capacitance solves, capacitance
 factorisations of many rows in single precision with refined solves: fem/capacitance.py ``PRECISION = "mixed"``),
-"double" the same in double precision, "cholesky" the new stuck inverse with fresh double factorisations.
+"double" the same in double precision, "cholesky" the new stuck inverse with fresh double factorisations,
+"one-thread" the new path with every factorisation on one BLAS thread (fem/threads.py ``LARGE`` raised: the
+product gives factorisations of ``LARGE`` rows or more the threads the process had before the solve).
 
 Run: .venv/bin/python benchmarks/contact_loadpath.py 3000 6000 9000 [--solves 2] [--paths old new]
 """
@@ -34,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from halfspace import Interface  # noqa: E402
 
-from frictionid.fem import capacitance, contact, loadpath, updated_jacobian  # noqa: E402
+from frictionid.fem import capacitance, contact, loadpath, threads, updated_jacobian  # noqa: E402
 from frictionid.fem.contact import OPEN, SLIP  # noqa: E402
 from frictionid.fem.memory import process_peak  # noqa: E402
 from frictionid.fem.threads import one_blas_thread  # noqa: E402
@@ -137,9 +139,11 @@ def difference(a: dict, b: dict) -> str:
     return ", ".join(parts)
 
 
-#: path name -> (STUCK, ITERATE) of fem/updated_jacobian.py, PRECISION of fem/capacitance.py
-PATHS = {"old": ("lu", "never", "double"), "cholesky": ("auto", "never", "double"),
-         "double": ("auto", "auto", "double"), "new": ("auto", "auto", "mixed")}
+#: path name -> (STUCK, ITERATE) of fem/updated_jacobian.py, PRECISION of fem/capacitance.py, LARGE of
+#: fem/threads.py (the rows from which a solve's factorisations take the process's BLAS threads)
+PATHS = {"old": ("lu", "never", "double", threads.LARGE), "cholesky": ("auto", "never", "double", threads.LARGE),
+         "double": ("auto", "auto", "double", threads.LARGE), "new": ("auto", "auto", "mixed", threads.LARGE),
+         "one-thread": ("auto", "auto", "mixed", np.inf)}
 
 
 def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
@@ -152,7 +156,7 @@ def one(n_w: int, n_solves: int, path_names: list[str]) -> None:
           flush=True)
     results = {}
     for name in path_names:
-        updated_jacobian.STUCK, updated_jacobian.ITERATE, capacitance.PRECISION = PATHS[name]
+        updated_jacobian.STUCK, updated_jacobian.ITERATE, capacitance.PRECISION, threads.LARGE = PATHS[name]
         stuck = None
         for k in range(n_solves):
             wall, start = time.perf_counter(), time.process_time()

@@ -7,7 +7,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 from frictionid.builders.block import block_model_2d
 from frictionid.fem import loadpath
 from frictionid.fem.problem import Problem
-from frictionid.fem.threads import SMALL, blas_threads_for
+from frictionid.fem.threads import LARGE, SMALL, blas_threads_for, large_kernel, one_blas_thread
 
 
 def _threads() -> set[int]:
@@ -41,3 +41,19 @@ def test_small_condensation_blocks_take_one_thread_large_ones_the_default():
         with blas_threads_for(SMALL):
             assert _threads() == {2}
         assert _threads() == {2}
+
+
+def test_large_factorisations_in_a_solve_take_the_threads_from_before_it():
+    with threadpool_limits(2, user_api="blas"):
+        with large_kernel(LARGE):                               # outside a solve: no change
+            assert _threads() == {2}
+        with one_blas_thread():
+            with large_kernel(LARGE - 1):
+                assert _threads() == {1}
+            with large_kernel(LARGE):
+                assert _threads() == {2}
+            assert _threads() == {1}
+        assert _threads() == {2}
+    with threadpool_limits(1, user_api="blas"):                 # a process held to one thread stays there
+        with one_blas_thread(), large_kernel(LARGE):
+            assert _threads() == {1}

@@ -29,6 +29,8 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as la
 
+from .threads import large_kernel
+
 #: how fresh factorisations are made: "mixed" (single precision from SINGLE_MIN_ROWS rows, refined; module
 #: docstring) or "double" (always double: the previous path, kept for the equality tests and benchmarks)
 PRECISION = "mixed"
@@ -109,11 +111,12 @@ class Fresh:
 
     @classmethod
     def factorise(cls, K, P_K, Q_K, C: np.ndarray) -> "Fresh":
-        if PRECISION == "mixed" and len(C) >= SINGLE_MIN_ROWS:
-            single = _single_lu(C)
-            if single is not None:
-                return cls(K, P_K, Q_K, C, *single)
-        return cls(K, P_K, Q_K, C, *_lu(C))
+        with large_kernel(len(C)):                              # BLAS threads for a large one (fem/threads.py)
+            if PRECISION == "mixed" and len(C) >= SINGLE_MIN_ROWS:
+                single = _single_lu(C)
+                if single is not None:
+                    return cls(K, P_K, Q_K, C, *single)
+            return cls(K, P_K, Q_K, C, *_lu(C))
 
     @property
     def single(self) -> bool:
@@ -153,7 +156,8 @@ class Fresh:
         if not self.single:
             return self
         if "_double" not in self.__dict__:
-            self.__dict__["_double"] = Fresh(self.K, self.P_K, self.Q_K, self.C, *_lu(self.C))
+            with large_kernel(len(self.C)):
+                self.__dict__["_double"] = Fresh(self.K, self.P_K, self.Q_K, self.C, *_lu(self.C))
         return self.__dict__["_double"]
 
     def rcond(self) -> float:

@@ -452,7 +452,8 @@ class Problem:
         # one BLAS thread for the whole solve, its set-up and outputs included: the Newton steps' dense solves (a
         # few hundred to a few thousand unknowns) and the (observations x unknowns) products gain little from
         # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
-        # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py)
+        # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py); its
+        # factorisations of threads.LARGE rows or more take the process's threads back (fem/threads.py)
         with one_blas_thread():
             return self._solve(self.model.coefficients(mu), sensitivities, max_slip, increments == "adaptive")
 

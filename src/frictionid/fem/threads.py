@@ -1,9 +1,15 @@
 """BLAS threads of the dense kernels, chosen for the work: one for the contact solve and for the small dense
-blocks of a condensation, BLAS's own default (all cores) for large ones.
+blocks of a condensation, BLAS's own default (all cores) for large ones; inside a contact solve, the threads the
+process had before it for the factorisations of :data:`LARGE` rows or more (the stuck inverse, capacitance
+matrices).
 
 Threads gain nothing on products and triangular solves of a few hundred to a couple of thousand unknowns, and
 where the cores are shared (another job, or run.workers solves side by side) OpenBLAS's threads, which spin while
-they wait for work, cost up to 60x (benchmarks/blas_threads.py, benchmarks/cli_threads.py).
+they wait for work, cost up to 60x (benchmarks/blas_threads.py, benchmarks/cli_threads.py). Factorisations of
+thousands of rows are another matter: on this 2-core machine idle, the stuck inverse and capacitance LUs took 0.55
+to 0.66 of one thread's wall time with BLAS's default at n_w 3,000 to 9,000; with a second process keeping one
+core busy, 1.40 to 1.82 times at 3,000, 0.80 to 1.16 at 6,000 and 0.87 to 0.96 at 9,000
+(``benchmarks/blas_threads.py --dense N``).
 """
 
 from __future__ import annotations
@@ -15,6 +21,12 @@ from threadpoolctl import ThreadpoolController
 
 #: dense blocks with fewer rows than this are factorised and solved with one BLAS thread
 SMALL = 2000
+#: inside a contact solve, dense factorisations of at least this many rows take the threads the process had
+#: before the solve (module docstring: from about 6,000 rows they pay idle and cost little with a core busy)
+LARGE = 6000
+
+#: the BLAS thread counts in force before each :func:`one_blas_thread` entered and not yet left, innermost last
+_outside: list[int] = []
 
 
 @functools.cache
@@ -23,9 +35,30 @@ def _controller() -> ThreadpoolController:
     return ThreadpoolController()
 
 
+def _blas_threads() -> int:
+    """The largest thread count of the BLAS libraries loaded (1 without any)."""
+    return max((d["num_threads"] for d in _controller().info() if d["user_api"] == "blas"), default=1)
+
+
+@contextlib.contextmanager
 def one_blas_thread():
-    """A context in which the BLAS libraries run one thread each, restored after it."""
-    return _controller().limit(limits=1, user_api="blas")
+    """A context in which the BLAS libraries run one thread each, restored after it; :func:`large_kernel`
+    inside it gives a large factorisation the threads from before it."""
+    before = _blas_threads()
+    with _controller().limit(limits=1, user_api="blas"):
+        _outside.append(before)
+        try:
+            yield
+        finally:
+            _outside.pop()
+
+
+def large_kernel(n: int):
+    """The context for a dense factorisation of ``n`` rows inside :func:`one_blas_thread`: from :data:`LARGE`
+    rows the BLAS threads from before that context, else (and outside it) no change."""
+    if n < LARGE or not _outside or _outside[-1] <= 1:
+        return contextlib.nullcontext()
+    return _controller().limit(limits=_outside[-1], user_api="blas")
 
 
 def blas_threads_for(n: int):

@@ -39,6 +39,7 @@ import scipy.linalg as la
 from .capacitance import Fresh, Iterated, Updated
 from .contact import jacobian
 from .replaced_rows import ReplacedRows, gather
+from .threads import large_kernel
 
 log = logging.getLogger(__name__)
 
@@ -109,29 +110,9 @@ class StuckInverse:
         P0[:, 1:, 1:] = eye_T - E
         Q0[:, 1:, 1:] = r * E
         P0[held_gap], Q0[held_gap] = np.eye(dim), 0.0
-        if STUCK == "auto" and free_T is None:
-            A = symmetric_inverse(Wfull, Wa_T, r, held_gap, dim)
-            if A is not None:
-                return cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
-        J0 = jacobian(P0, Q0, Wfull, Wa_T)
-        norm = np.linalg.norm(J0, 1)
-        # factorised in place in LAPACK's column order, the identity solved for in place: two n x n arrays at the
-        # peak instead of four (LAPACK's dgetri would need one but took 4 times as long as this solve here)
-        J0 = np.asfortranarray(J0)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", la.LinAlgWarning)
-            lu, piv = la.lu_factor(J0, overwrite_a=True, check_finite=False)
-        rcond = la.lapack.dgecon(lu, norm, norm="1")[0] if len(lu) else 1.0
-        if not rcond >= RCOND_MIN:
-            log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
-            return None
-        # Fortran order as lu_solve makes it (the capacitance rows gather from its transpose): the same A in C
-        # order changes the round-off of A b enough to move the clamp's contact forces by 2e-9 of their largest;
-        # the identity solved in place keeps two n x n arrays at the peak
-        A = np.asfortranarray(la.lu_solve((lu, piv), np.eye(len(lu), order="F"), overwrite_b=True,
-                                          check_finite=False))
-        del lu, J0
-        return cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
+        with large_kernel(Wfull.shape[1]):                     # BLAS threads for a large one (fem/threads.py)
+            A = _stuck_inverse(P0, Q0, Wfull, Wa_T, r, held_gap, dim, STUCK == "auto" and free_T is None)
+        return None if A is None else cls._with(A, open_pairs, P0, Q0, Wfull, dim, r)
 
     @classmethod
     def _with(cls, A, open_pairs, P0, Q0, Wfull, dim: int, r: float) -> "StuckInverse":
@@ -152,6 +133,33 @@ def _symmetrise(A: np.ndarray) -> None:
         end = min(start + _BLOCK, n)
         A[start:end, start:end] = np.triu(A[start:end, start:end]) + np.triu(A[start:end, start:end], 1).T
         A[end:, start:end] = A[start:end, end:].T
+
+
+def _stuck_inverse(P0, Q0, Wfull, Wa_T, r: float, held_gap, dim: int, symmetric: bool) -> np.ndarray | None:
+    """J0^-1 for :meth:`StuckInverse.build`: by :func:`symmetric_inverse` where ``symmetric`` allows and it
+    succeeds, else by an LU factorisation of J0; None where J0 is too ill-conditioned."""
+    if symmetric:
+        A = symmetric_inverse(Wfull, Wa_T, r, held_gap, dim)
+        if A is not None:
+            return A
+    J0 = jacobian(P0, Q0, Wfull, Wa_T)
+    norm = np.linalg.norm(J0, 1)
+    # factorised in place in LAPACK's column order, the identity solved for in place: two n x n arrays at the
+    # peak instead of four (LAPACK's dgetri would need one but took 4 times as long as this solve here)
+    J0 = np.asfortranarray(J0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", la.LinAlgWarning)
+        lu, piv = la.lu_factor(J0, overwrite_a=True, check_finite=False)
+    rcond = la.lapack.dgecon(lu, norm, norm="1")[0] if len(lu) else 1.0
+    if not rcond >= RCOND_MIN:
+        log.debug("stuck Jacobian ill-conditioned (rcond %.3g): dense solves", rcond)
+        return None
+    # Fortran order as lu_solve makes it (the capacitance rows gather from its transpose): the same A in C
+    # order changes the round-off of A b enough to move the clamp's contact forces by 2e-9 of their largest;
+    # the identity solved in place keeps two n x n arrays at the peak
+    del J0
+    return np.asfortranarray(la.lu_solve((lu, piv), np.eye(len(lu), order="F"), overwrite_b=True,
+                                         check_finite=False))
 
 
 def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -> np.ndarray | None:
