@@ -26,11 +26,11 @@ import numpy as np
 
 from _measure import peak_memory_mb
 from frictionid.builders.bolt3d_geometry import _wire, cylinder, groove, groove_section, thread_grooves
-from frictionid.builders.bolt3d_mesh import ROOT_GROWTH, SIZE_GROWTH, face_points, mesh_with_fallback
+from frictionid.builders.bolt3d_mesh import ROOT_GROWTH, SIZE_GROWTH, curved_tetra10, face_points, mesh_with_fallback
 from frictionid.builders.bolt_layout import bolt_layout
 from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
 from frictionid.model import Mesh
-from thread_stiffness import _name_faces, _size_field, _tooth_range, axis_uy, curved_rod
+from thread_stiffness import _name_faces, _size_field, _tooth_range, axis_uy
 
 LAYOUT = bolt_layout("M6", length=24.0, n_axial=2, thread_length=9.5)
 #: stations on the axis [mm] (tests/test_bolt3d_verification.py's and docs/bolt-study.md's table's above the head)
@@ -62,7 +62,7 @@ def helix(flank: float, root: float, largest: float, whole: bool = False) -> Mes
                         _size_field(2, roots, min(root, flank), largest, ROOT_GROWTH, alone=False))
         gmsh.option.setNumber("Mesh.MeshSizeMax", largest)
 
-    return mesh_with_fallback(make, lambda: curved_rod("bolt rod"), "bolt rod")
+    return mesh_with_fallback(make, lambda: curved_tetra10("bolt rod"), "bolt rod")
 
 
 def rings(delta: float) -> Mesh:

@@ -31,9 +31,8 @@ import skfem
 from _measure import peak_memory_mb
 from frictionid.builders.bolt import STEEL
 from frictionid.builders.bolt3d_geometry import _wire, cylinder, groove, groove_section
-from frictionid.builders.bolt3d_mesh import SIZE_GROWTH, mesh_with_fallback
+from frictionid.builders.bolt3d_mesh import SIZE_GROWTH, curved_tetra10, mesh_with_fallback
 from frictionid.builders.bolt_layout import bolt_layout
-from frictionid.builders.curved import curved_where_valid
 from frictionid.builders.gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
 from frictionid.fem.assembly import load_channels, stiffness
 from frictionid.fem.cholesky import Cholesky
@@ -108,19 +107,7 @@ def rod_3d(layout, y_thread: float, y_end: float, length: float, size: float, gr
         volume[:] = [sum(occ.getMass(3, tag) for _, tag in rod)]
         _size_field(2, _name_faces(3, rod, y_thread, y_end, length, P), size)
 
-    return mesh_with_fallback(make, lambda: curved_rod("thread rod"), "thread rod"), volume[0]
-
-
-def curved_rod(name: str) -> Mesh:
-    """The gmsh session's model as a tetra10 mesh, its mid-side nodes on the curved faces where the cells stay
-    valid (as the 3-D builder makes them)."""
-    gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-    gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
-    gmsh.model.mesh.setOrder(2)
-    mesh = mesh_from_gmsh(name)
-    points, _ = curved_where_valid(mesh.points, mesh.cells)
-    return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
-                boundaries=dict(mesh.boundaries))
+    return mesh_with_fallback(make, lambda: curved_tetra10("thread rod"), "thread rod"), volume[0]
 
 
 def rod_axisymmetric(layout, y_thread: float, y_end: float, length: float, size: float, grooves: bool = True):

@@ -281,6 +281,18 @@ def _owner(name: str) -> str:
     return "bolt"
 
 
+def curved_tetra10(source: str) -> Mesh:
+    """The gmsh session's meshed model as quadratic tetrahedra (complete, mid-side nodes on the geometry), the
+    mid-side nodes kept on the curved faces where the cells stay valid (:func:`curved_where_valid`)."""
+    gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
+    gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
+    gmsh.model.mesh.setOrder(2)
+    mesh = mesh_from_gmsh(source)
+    points, _ = curved_where_valid(mesh.points, mesh.cells)
+    return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
+                boundaries=dict(mesh.boundaries))
+
+
 def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
     """``read()`` of the volume mesh of the gmsh model that ``make()`` sets up in a fresh gmsh session, meshed by
     the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds. A failure is logged and the next
@@ -325,14 +337,5 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
             if tags and name != "thread_shared":
                 gmsh.model.addPhysicalGroup(2, tags, name=name)
 
-    def read():
-        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)
-        gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
-        gmsh.model.mesh.setOrder(2)
-        mesh = mesh_from_gmsh(source)
-        points, _ = curved_where_valid(mesh.points, mesh.cells)
-        return Mesh(points=points, cell_type=mesh.cell_type, cells=mesh.cells, regions=dict(mesh.regions),
-                    boundaries=dict(mesh.boundaries))
-
-    mesh = mesh_with_fallback(make, read, source)
+    mesh = mesh_with_fallback(make, lambda: curved_tetra10(source), source)
     return separate_bodies(mesh, {name: _owner(name) for name in mesh.boundaries})
