@@ -134,9 +134,9 @@ def test_bolt_elongation_against_the_rings_averaged_over_the_helix_phases(helix_
     or head (benchmarks/thread_start.py), is stiffer than the rings by 2.49 % from 9.8 to 21 mm, and by 1.25 % and
     0.56 % with the roots at 0.15 and 0.1 mm (docs/bolt-study.md, "Against the axisymmetric model"). Checked: stiffer
     by less than 4 %, a margin of 1.2 points for the scatter between meshes of these sizes (mesh_size 2 instead of
-    4: -2.66 %; the shank's segment moved by 0.5 points between the meshes with and without the fix below, which
-    differ only at the thread's start). With the helix's grooves as whole turns from the seam (the builder before
-    its thread started at the plane y_thread, as the rings' does) it was -4.83 %."""
+    4: -2.66 %; the shank's segment differs by 0.5 points between two meshes that differ only at the thread's
+    start). With the helix's grooves cut as whole turns from the seam instead of from the plane y_thread the part
+    above 9.8 mm is -4.83 %, and this test fails."""
     three, rings = helix_and_rings["changes3"], helix_and_rings["changes"]
     _, _, shank, thread = three / rings - 1                     # segments between consecutive STATIONS
     assert abs(shank) < 0.01
