@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
-from ..model import ContactInterface, Model, Rotation, Stage, Support, SurfaceForce
+from ..model import ContactInterface, Mesh, Model, Rotation, Stage, Support, SurfaceForce
 from .arguments import checked_table, positive
 from .bolt import STEEL, measurement_points
 from .bolt3d_geometry import Window, to_xyz
@@ -82,7 +82,13 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
     root_size = ROOT_FRACTION * layout.size.root_radius if root_size is None else root_size
     options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
                         math.radians(JAW_ANGLE), root_size)
-    mesh = bolt3d_mesh(layout, options, engaged_top)
+    return bolt3d_model_on(bolt3d_mesh(layout, options, engaged_top), layout, values, n_increments, jaws, load)
+
+
+def bolt3d_model_on(mesh: Mesh, layout: BoltLayout, values: tuple[float, ...], n_increments: int, jaws: bool,
+                    load: str = "tension") -> Model:
+    """The model of :func:`bolt3d_model` on a mesh it made (supports, loads, interfaces, zones and stages; the
+    arguments as there): a stored mesh gives the same model as the build that made it."""
     supports = [Support("plate2_rim", (0, 1, 2))]
     if jaws:
         supports.append(Support("nut_jaws", (2,)))
