@@ -87,7 +87,8 @@ def ccx_result(model, points, regions, mu: float, settings: CalculixSettings) ->
     ccx = backend.solve(np.full(len(model.zone_names), mu), full_field=False)
     return {"stiffness": (backend.contact.normal_stiffness, backend.contact.stick_slope, backend.contact.pair_type),
             "ccx_seconds": ccx.wall_time, "ccx": ccx.observations[-1].reshape(len(points), 3),
-            "ccx_reactions": ccx.reactions[-1], "ccx_zones": ccx.zone_normal_force[-1],
+            "ccx_reactions": ccx.reactions[-1], "ccx_labels": ccx.reaction_labels,
+            "ccx_zones": ccx.zone_normal_force[-1],
             "ccx_axial": np.abs(ccx.zone_force[-1, :, 1])}
 
 
