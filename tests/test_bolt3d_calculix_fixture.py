@@ -1,6 +1,6 @@
 """Issue 29's verification against CalculiX on the same mesh at the issue's 1 %: the embedded solver on the 3-D M6
 bolt with 0.5 mm flanks stored in tests/fixtures/bolt3d_calculix, against ccx's results on that mesh stored beside
-it (README there; generate.py remakes mesh and results, a ccx run of about half an hour). No ccx at test time."""
+it (README there; generate.py remakes mesh and results, the ccx run took 11 min CPU). No ccx at test time."""
 
 import json
 

@@ -53,7 +53,7 @@ def test_ten_points_and_machine_against_calculix_on_the_same_mesh(small):
     The issue's 1 % of the ten points' range (0.73 um here: 7 nm) does not hold on a mesh this coarse: measured
     2.38 % with the product's order-4 quadrature and 1.90 % with ccx's own 4-point C3D10 rule on the embedded side,
     ccx above at every point (docs/bolt-study.md, "Against CalculiX on the same mesh"). The 1 % is checked on the
-    0.5 mm flank mesh against ccx's stored results (test_bolt3d_calculix_fixture.py; that ccx run took 30 minutes);
+    0.5 mm flank mesh against ccx's stored results (test_bolt3d_calculix_fixture.py; that ccx run took 11 CPU minutes);
     this test runs ccx, so that the backend's deck for the 3-D bolt is exercised. Checked here: 3 % and 2.5 % of the
     range; the machine's displacement within 1 % (measured -0.13 / -0.16 %) and the reactions to 1e-5."""
     calculix = _benchmark("bolt3d_calculix")
