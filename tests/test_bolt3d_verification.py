@@ -5,27 +5,10 @@ share per engaged thread, bolt elongation; the full nut, five threads). The meas
 in docs/bolt-study.md ("Against the axisymmetric model", "Against CalculiX on the same mesh"); the functions are
 the benchmarks' (benchmarks/bolt3d_vs_axisymmetric.py, benchmarks/bolt3d_calculix.py)."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from helpers import needs_ccx
-
-BENCHMARKS = Path(__file__).parents[1] / "benchmarks"
-
-
-def _benchmark(name: str):
-    """A benchmark module of benchmarks/ (they import each other by name)."""
-    if str(BENCHMARKS) not in sys.path:
-        sys.path.insert(0, str(BENCHMARKS))
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
+from helpers import benchmark as _benchmark, needs_ccx
 
 #: the smallest model with the helix and the seed's layout that CalculiX solves within a few CPU minutes: M6, threads
 #: engaged over two pitches, flank_size = P (the 0.6 mm flank is 0.6 element sizes across), coarse elsewhere; 27,330
