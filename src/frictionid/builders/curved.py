@@ -86,10 +86,10 @@ def jacobian_bounds(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, 
     return coefficients.min(axis=1), coefficients.max(axis=1)
 
 
-def _invalid(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(n_cells,) bool outside DET_RANGE, and the lower bounds."""
+def _invalid(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(n_cells,) bool: det J / straight leaves DET_RANGE somewhere in the cell."""
     lower, upper = jacobian_bounds(points, cells)
-    return (lower <= DET_RANGE[0]) | (upper >= DET_RANGE[1]), lower
+    return (lower <= DET_RANGE[0]) | (upper >= DET_RANGE[1])
 
 
 def _most_helpful(out, cells, trial, movable) -> np.ndarray:
@@ -124,7 +124,7 @@ def curved_where_valid(points: np.ndarray, cells: np.ndarray, max_rounds: int = 
     out = middle + kept[:, None] * offset
     out[~curved] = points[~curved]
     for _ in range(max_rounds):
-        bad = np.flatnonzero(_invalid(out, cells)[0])
+        bad = np.flatnonzero(_invalid(out, cells))
         nodes = mids[bad]
         movable = kept[nodes] > 0
         if not bad.size or not movable.any():
@@ -135,7 +135,7 @@ def curved_where_valid(points: np.ndarray, cells: np.ndarray, max_rounds: int = 
         node = nodes[chosen, choice[chosen]]
         kept[node] = smaller[chosen, choice[chosen]]
         out[node] = middle[node] + kept[node, None] * offset[node]
-    bad = _invalid(out, cells)[0]
+    bad = _invalid(out, cells)
     if bad.any():                       # not reached in max_rounds: every mid-side node of those cells goes back
         out[mids[bad]] = middle[mids[bad]]
     n = int(np.count_nonzero(np.any(out != points, axis=1)))
