@@ -5,8 +5,9 @@ For the bolt's cells reaching into y0 <= y <= y1 (default 3 to 9.8 mm): the volu
 convergence) against pi R^2 (y1 - y0), R the largest node radius of the bolt between y0 + 1 and y1 - 1, and the
 integral of dy / A(y) over 0.2 mm slabs against (y1 - y0) / (pi R^2) (the stretch of a bar under uniform stress,
 relative); the mid-side nodes of the lateral surface's edges (edges of boundary faces with three corners at R) that
-are not on the circle, and the cells using them that fail builders/curved.py's rules (SAGITTA, DET_RANGE) with
-those nodes put on their arc's midpoint (the position gmsh gives them on a cylinder).
+are not on the circle, and the cells using them that fail builders/curved.py's rules (SAGITTA, DET_RANGE on the
+determinant's Bernstein bounds) with those nodes put on their arc's midpoint (the position gmsh gives them on a
+cylinder).
 
 With ``--stretch RMAX`` each model (a .pkl, or ``axi``: the axisymmetric model of the test's M6 layout) is solved
 instead at mu = 0.15 and uy's change from y0 to y1 printed on the axis, on circles of radius 1, 2 and 0.98 RMAX
@@ -23,7 +24,7 @@ import sys
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
-from frictionid.builders.curved import DET_RANGE, EDGES, SAGITTA, determinant_ratios
+from frictionid.builders.curved import DET_RANGE, EDGES, SAGITTA, jacobian_bounds
 
 FACES = ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3))
 
@@ -51,20 +52,37 @@ def collapsed_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.c_[1 - X.sum(1), X], (wu * wv * wt * (1 - u) ** 2 * (1 - v)).ravel()
 
 
-def volume(P, cells, y0, y1, R, n):
-    """Lines on the cells' volume in the span and the bar's compliance integral, by an n^3-point rule."""
+def shank_measures(P, cells, y0, y1, R, n) -> dict:
+    """The cells' volume [mm^3] in the span y0 <= y <= y1 by an n^3-point rule, pi R^2 (y1 - y0) ("bar"), the mean
+    area [mm^2] of each 0.2 mm slab ("area") and the integral of dy / A over (y1 - y0) / (pi R^2) ("compliance")."""
     L, W = collapsed_rule(n)
     N, dN = shape(L)
     x = np.einsum("mk,nkd->nmd", N, P[cells])
     dv = np.abs(np.linalg.det(np.einsum("nkd,mke->nmde", P[cells], dN))) * W
     inside = (x[..., 1] >= y0) & (x[..., 1] <= y1)
-    v, bar = np.sum(dv * inside), np.pi * R ** 2 * (y1 - y0)
     edges = np.linspace(y0, y1, max(2, round((y1 - y0) / 0.2)) + 1)
     area = np.histogram(x[..., 1].ravel(), edges, weights=dv.ravel())[0] / np.diff(edges)
-    compliance = np.sum(np.diff(edges) / area) / ((y1 - y0) / (np.pi * R ** 2))
+    return {"volume": float(np.sum(dv * inside)), "bar": np.pi * R ** 2 * (y1 - y0), "area": area,
+            "compliance": float(np.sum(np.diff(edges) / area) / ((y1 - y0) / (np.pi * R ** 2)))}
+
+
+def volume(P, cells, y0, y1, R, n):
+    """Lines on the cells' volume in the span and the bar's compliance integral, by an n^3-point rule."""
+    m = shank_measures(P, cells, y0, y1, R, n)
+    v, bar, area = m["volume"], m["bar"], m["area"]
     return (f"  {n}^3 points per cell: volume {v:.3f} mm^3, pi R^2 L {bar:.3f}: {100 * (v / bar - 1):+.3f} %; "
             f"slabs' area {area.min():.3f} to {area.max():.3f} mm^2 (pi R^2 {np.pi * R ** 2:.3f}), "
-            f"integral dy / A {100 * (compliance - 1):+.3f} % over L / (pi R^2)")
+            f"integral dy / A {100 * (m['compliance'] - 1):+.3f} % over L / (pi R^2)")
+
+
+def shank_cells(mesh, y0: float, y1: float) -> tuple[np.ndarray, float]:
+    """(the bolt's cells (n, 10) reaching into y0 <= y <= y1, the shank's radius R [mm]: the largest node radius
+    of the bolt between y0 + 1 and y1 - 1)."""
+    P, C = mesh.points, mesh.cells[mesh.regions["bolt"]]
+    r, nodes = np.hypot(P[:, 0], P[:, 2]), np.unique(C)
+    R = r[nodes[(P[nodes, 1] > y0 + 1) & (P[nodes, 1] < y1 - 1)]].max()
+    y = P[C][..., 1]
+    return C[(y.max(1) > y0) & (y.min(1) < y1)], float(R)
 
 
 def surface_nodes(P, C, r, on, y0, y1):
@@ -114,10 +132,8 @@ def stretch(source: str, y0: float, y1: float, r_max: float) -> None:
 def report(path: str, y0: float, y1: float) -> None:
     mesh = pickle.loads(open(path, "rb").read()).mesh
     P, C = mesh.points, mesh.cells[mesh.regions["bolt"]]
-    r, nodes = np.hypot(P[:, 0], P[:, 2]), np.unique(C)
-    R = r[nodes[(P[nodes, 1] > y0 + 1) & (P[nodes, 1] < y1 - 1)]].max()
-    y = P[C][..., 1]
-    span = C[(y.max(1) > y0) & (y.min(1) < y1)]
+    span, R = shank_cells(mesh, y0, y1)
+    r = np.hypot(P[:, 0], P[:, 2])
     print(f"{path}: {mesh.n_nodes:,} nodes; {len(span)} bolt cells reach into y {y0:g} to {y1:g} mm; R {R:.4f} mm")
     for n in (24, 48):
         print(volume(P, span, y0, y1, R, n), flush=True)
@@ -130,15 +146,15 @@ def report(path: str, y0: float, y1: float) -> None:
     if not len(off):
         return
     cells = C[np.isin(C[:, 4:], off).any(1)]
-    ratios = determinant_ratios(curved, cells)
-    bad = (ratios.min(1) < DET_RANGE[0]) | (ratios.max(1) > DET_RANGE[1])
+    lower, upper = jacobian_bounds(curved, cells)
+    bad = (lower <= DET_RANGE[0]) | (upper >= DET_RANGE[1])
     ends = P[cells[:, [[a, b] for a, b in EDGES]]]
     length = np.linalg.norm(ends[:, :, 1] - ends[:, :, 0], axis=-1)
     sagitta = np.linalg.norm(curved[cells[:, 4:]] - ends.mean(axis=2), axis=-1) / length
     print(f"  with them on their arcs: largest offset {sagitta.max():.3f} of the edge (SAGITTA {SAGITTA}); "
           f"{bad.sum()} of the {len(cells)} cells using them leave DET_RANGE {DET_RANGE}:")
-    for cell, ratio in zip(cells[bad], ratios[bad]):
-        print(f"    det J / straight {ratio.min():+.3f} to {ratio.max():.2f}, corners at R {on[cell[:4]].sum()}, "
+    for cell, low, high in zip(cells[bad], lower[bad], upper[bad]):
+        print(f"    det J / straight bounded by {low:+.3f} and {high:.2f}, corners at R {on[cell[:4]].sum()}, "
               f"surface mid-side nodes {np.isin(cell[4:], off).sum()}, longest edge "
               f"{np.linalg.norm(P[cell[:4], None] - P[cell[None, :4]], axis=-1).max():.2f} mm")
 

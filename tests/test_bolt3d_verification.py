@@ -5,31 +5,14 @@ share per engaged thread, bolt elongation; the full nut, five threads). The meas
 in docs/bolt-study.md ("Against the axisymmetric model", "Against CalculiX on the same mesh"); the functions are
 the benchmarks' (benchmarks/bolt3d_vs_axisymmetric.py, benchmarks/bolt3d_calculix.py)."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from helpers import needs_ccx
-
-BENCHMARKS = Path(__file__).parents[1] / "benchmarks"
-
-
-def _benchmark(name: str):
-    """A benchmark module of benchmarks/ (they import each other by name)."""
-    if str(BENCHMARKS) not in sys.path:
-        sys.path.insert(0, str(BENCHMARKS))
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
+from helpers import benchmark as _benchmark, needs_ccx
 
 #: the smallest model with the helix and the seed's layout that CalculiX solves within a few CPU minutes: M6, threads
-#: engaged over two pitches, flank_size = P (the 0.6 mm flank is 0.6 element sizes across), coarse elsewhere; 27,330
-#: nodes, 833 contact pairs (build 35 s CPU, gmsh's Delaunay fails and Frontal meshes it)
+#: engaged over two pitches, flank_size = P (the 0.6 mm flank is 0.6 element sizes across), coarse elsewhere; 28,374
+#: nodes, 833 contact pairs (build 41 s CPU, gmsh's Delaunay fails and Frontal meshes it)
 SMALL = {"size": "M6", "model": "3d", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5, "n_axial": 2,
          "flank_size": 1.0, "contact_size": 3.0, "root_size": 0.3, "mesh_size": 4.0, "forces": [1500.0],
          "n_increments": 1, "cutout": False, "jaws": False}
@@ -50,19 +33,20 @@ def test_ten_points_and_machine_against_calculix_on_the_same_mesh(small):
     points P1-P5 of flanks 1 and 2, the machine's displacement (plate 1's mean uy at four rim points) and the
     machine reaction (the held plate's; the machine force is prescribed, so it equals 1,500 N in both).
 
-    The issue's 1 % of the ten points' range (0.73 um here: 7 nm) does not hold on a mesh this coarse: measured
-    2.38 % with the product's order-4 quadrature and 1.90 % with ccx's own 4-point C3D10 rule on the embedded side,
-    ccx above at every point (docs/bolt-study.md, "Against CalculiX on the same mesh"). The 1 % is checked on the
-    0.5 mm flank mesh against ccx's stored results (test_bolt3d_calculix_fixture.py; that ccx run took 11 CPU minutes);
-    this test runs ccx, so that the backend's deck for the 3-D bolt is exercised. Checked here: 3 % and 2.5 % of the
-    range; the machine's displacement within 1 % (measured -0.13 / -0.16 %) and the reactions to 1e-5."""
+    The issue's 1 % of the ten points' range (0.72 um here: 7 nm) is not shown on a mesh this coarse: measured
+    1.02 % with the product's order-4 quadrature (ccx above at flank 1's points, below at flank 2's) and 1.74 % with
+    ccx's own 4-point C3D10 rule on the embedded side (docs/bolt-study.md, "Against CalculiX on the same mesh"). The
+    1 % is checked on the 0.5 mm flank mesh against ccx's stored results (test_bolt3d_calculix_fixture.py; that ccx
+    run took 11 CPU minutes); this test runs ccx, so that the backend's deck for the 3-D bolt is exercised. Checked
+    here: 2 % and 2.5 % of the range; the machine's displacement within 1 % (measured -0.04 / -0.08 %) and the
+    reactions to 1e-5."""
     calculix = _benchmark("bolt3d_calculix")
     from frictionid.backends.calculix.backend import CalculixSettings
     points, regions = calculix.observed(SMALL)
     ccx = calculix.ccx_result(small, points, regions, MU, CalculixSettings(normal_stiffness=1e8, stick_slope=1e8,
                                                                             timeout=3600))
     bolt, plate = slice(0, 10), slice(10, 14)
-    for order, tolerance in ((4, 0.03), (2, 0.025)):
+    for order, tolerance in ((4, 0.02), (2, 0.025)):
         embedded = calculix.embedded_result(small, points, regions, MU, "mumps", order)
         uy, uy_ccx = embedded["embedded"][bolt, 1], ccx["ccx"][bolt, 1]
         assert np.abs(uy_ccx - uy).max() < tolerance * np.ptp(uy), order
@@ -105,40 +89,39 @@ def helix_and_rings():
 
 @pytest.mark.slow
 def test_load_per_turn_is_the_rings_averaged_over_the_helix_phases(helix_and_rings):
-    """Load share per engaged thread within 5 % of the first thread's share. A ring model is one section of the
-    helix: the helix at angle theta is the ring model with both threads moved by P theta / 2 pi past the nut's
-    faces and countersinks. So the helix's load is counted per turn (helical coordinate y - P theta / 2 pi, each
-    turn with the ring it passes at theta = 0; :func:`frictionid.report.bolt.pitch_loads` with ``lead = P``, cut
-    midway between the rings' flanks) and compared with the ring model averaged over 16 phases of its teeth, each
-    ring counted where its teeth were before the move; the part of the thread force below the first cut (a part
-    flank at the bearing face's countersink) and above the last on their own. "First share" is the average's
-    first thread with the part below it (29.16 %). Measured: helix 6.67 / 23.65 / 21.47 / 18.85 / 18.69 / 10.67 %
-    against 5.66 / 23.50 / 22.37 / 19.63 / 18.85 / 9.99 %, largest difference 3.48 % of the first share. Against the
-    ring model at the layout's phase alone the helix differs by 22 %: the ends make it (docs/bolt-study.md,
-    "Against the axisymmetric model")."""
+    """Load share per engaged thread within 4 % of the first thread's share (the issue asks 5 %). A ring model is
+    one section of the helix: the helix at angle theta is the ring model with both threads moved by P theta / 2 pi
+    past the nut's faces and countersinks. So the helix's load is counted per turn (helical coordinate
+    y - P theta / 2 pi, each turn with the ring it passes at theta = 0; :func:`frictionid.report.bolt.pitch_loads`
+    with ``lead = P``, cut midway between the rings' flanks) and compared with the ring model averaged over 16
+    phases of its teeth, each ring counted where its teeth were before the move; the part of the thread force below
+    the first cut (a part flank at the bearing face's countersink) and above the last on their own. "First share"
+    is the average's first thread with the part below it (29.16 %). Measured: helix 6.53 / 23.56 / 21.58 / 18.96 /
+    18.73 / 10.64 % against 5.66 / 23.50 / 22.37 / 19.63 / 18.85 / 9.99 %, largest difference 2.99 % of the first
+    share (2.97 % at mesh_size 2). Against the ring model at the layout's phase alone the helix differs by 22 %:
+    the ends make it (docs/bolt-study.md, "Against the axisymmetric model")."""
     helix, rings = helix_and_rings["helix"], helix_and_rings["rings"]
     assert helix.sum() == pytest.approx(1.0, abs=1e-9) and rings.sum() == pytest.approx(1.0, abs=1e-9)
     first = rings[0] + rings[1]
-    assert np.abs(helix - rings).max() < 0.05 * first
+    assert np.abs(helix - rings).max() < 0.04 * first
 
 
 @pytest.mark.slow
 def test_bolt_elongation_against_the_rings_averaged_over_the_helix_phases(helix_and_rings):
-    """Bolt elongation (uy's change along the axis) against the ring model averaged over the same 16 phases (its
-    elongation head to end varies with the phase: 5.695-5.846 um, average 5.733 um).
+    """Bolt elongation (the change of uy averaged over the bolt's sections, benchmarks/bolt3d_vs_axisymmetric.py's
+    measure) against the ring model averaged over the same 16 phases (its elongation head to end varies with the
+    phase: 5.843-5.993 um, average 5.880 um; the 3-D model's 5.815 um is 1.10 % below).
 
     What the two models share is compared station to station, from the head's bearing face (y = 0) down: the head is
-    a hexagon in 3-D and the ring of the same area in axisymmetry (its change here +6.4 %, following its coarse
-    mesh). The plain shank between 3 and 9.8 mm: within 1 % (measured +0.48 %). Above 9.8 mm (the shank below the
-    thread's start at y 14.5, the free thread, the engaged and the nut's top) the 3-D bolt is stiffer by 2.76 %:
-    the tetrahedra at the roots (0.3 mm here). The bolt's threaded end alone on these sizes, without nut, contact
-    or head (benchmarks/thread_start.py), is stiffer than the rings by 2.49 % from 9.8 to 21 mm, and by 1.25 % and
-    0.56 % with the roots at 0.15 and 0.1 mm (docs/bolt-study.md, "Against the axisymmetric model"). Checked: stiffer
-    by less than 4 %, a margin of 1.2 points for the scatter between meshes of these sizes (mesh_size 2 instead of
-    4: -2.66 %; the shank's segment differs by 0.5 points between two meshes that differ only at the thread's
-    start). With the helix's grooves cut as whole turns from the seam instead of from the plane y_thread the part
-    above 9.8 mm is -4.83 %, and this test fails."""
+    a hexagon in 3-D and the ring of the same area in axisymmetry (its change here +1.15 %, -7.65 % at mesh_size 2).
+    The plain shank between 3 and 9.8 mm: within 0.5 % (measured +0.22 %; -0.19 % at mesh_size 2). Above 9.8 mm (the
+    shank below the thread's start at y 14.5, the free thread, the engaged and the nut's top) the 3-D bolt is
+    stiffer by 2.59 % (2.62 % at mesh_size 2): the tetrahedra at the roots (0.3 mm here). The bolt's threaded end
+    alone on these sizes, without nut, contact or head (benchmarks/thread_start.py, uy on the axis), is stiffer than
+    the rings by 2.49 % from 9.8 to 21 mm, and by 1.25 % and 0.56 % with the roots at 0.15 and 0.1 mm
+    (docs/bolt-study.md, "Against the axisymmetric model"). Checked: stiffer by less than 3.5 %, a margin of 0.9
+    points."""
     three, rings = helix_and_rings["changes3"], helix_and_rings["changes"]
     _, _, shank, thread = three / rings - 1                     # segments between consecutive STATIONS
-    assert abs(shank) < 0.01
-    assert -0.04 < thread < 0
+    assert abs(shank) < 0.005
+    assert -0.035 < thread < 0
