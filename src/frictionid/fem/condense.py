@@ -18,7 +18,9 @@ computed once per geometry, W and G as T K^g B_f^T with sparse rows T = [B_f; O_
   tetra10 nodes, 1,703 contact pairs) went past 12 GB in the factorisation with them last;
 - "mumps": per body, MUMPS's multifrontal factorisation with the dofs T touches eliminated last but the interior
   in MUMPS's own nested-dissection order, which returns the body's dense Schur complement (fem/mumps_schur.py);
-  T K^g B_f^T from its Cholesky factor as for "cholmod", the other solves by MUMPS's factor of the interior.
+  T K^g B_f^T from its Cholesky factor as for "cholmod", the other solves by MUMPS's factor of the interior. The
+  Schur complements' Cholesky factors are kept after the condensation, MUMPS's factors of the interiors are not:
+  displacements on the dofs eliminated last come from the former alone (:meth:`Condensed.displacement_at`).
 """
 
 from __future__ import annotations
