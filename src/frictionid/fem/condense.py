@@ -294,7 +294,6 @@ class Condensed:
         u[:, self.prescribed] = amplitude @ prescribed_values
         return u if many else u[0]
 
-
     def displacement_at(self, dofs: np.ndarray, B: sp.csr_matrix, prescribed_values: np.ndarray,
                         amplitude: np.ndarray, x: np.ndarray) -> np.ndarray | None:
         """u [mm] at the dofs ``dofs`` only, (k, len(dofs)) for k states (arguments as :meth:`displacement`), from
