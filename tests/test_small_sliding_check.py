@@ -282,6 +282,13 @@ def test_with_mumps_the_check_makes_no_factor_again_and_finds_what_the_whole_fie
         touched = on != 0.0
         assert touched.any() and not touched.all()
         np.testing.assert_allclose(on[touched], whole[touched], rtol=0, atol=1e-12 * np.abs(whole).max())
+        # prescribed dofs (the block's top: pulled) among those asked for, in any order
+        c = problem.condensed
+        dofs = np.concatenate([c.prescribed[::-3], np.flatnonzero(touched[-1].ravel())[::-1]])
+        at = c.displacement_at(dofs, *problem._loads(solution, np.array(checked)))
+        np.testing.assert_allclose(at, whole.reshape(len(checked), -1)[:, dofs], rtol=0,
+                                   atol=1e-12 * np.abs(whole).max())
+        assert np.abs(at[-1, :len(c.prescribed[::-3])]).max() > 0.1 * pull
         with monkeypatch.context() as m:
             m.setattr(Condensed, "displacement_at", lambda *args: None)
             full = problem.gap_errors(solution)

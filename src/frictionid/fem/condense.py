@@ -323,8 +323,9 @@ class Condensed:
         if on_last is None:
             return None
         u = np.zeros((len(x), len(dofs)))
-        free, prescribed_at = free_at[dofs] >= 0, np.searchsorted(self.prescribed, dofs[free_at[dofs] < 0])
-        u[:, ~free] = amplitude @ prescribed_values[:, prescribed_at]
+        free, prescribed_at = free_at[dofs] >= 0, np.full(n_dofs, -1)
+        prescribed_at[self.prescribed] = np.arange(len(self.prescribed))
+        u[:, ~free] = amplitude @ prescribed_values[:, prescribed_at[dofs[~free]]]
         u[:, free] = amplitude @ self.particular[:, wanted] + x[:, n_w:] @ self.modes[wanted].T
         u[:, np.flatnonzero(free)[solved >= 0]] += on_last[solved[solved >= 0]].T
         return u if many else u[0]
