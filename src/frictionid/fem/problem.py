@@ -291,20 +291,41 @@ class Problem:
         return B, self.channels.displacements, solution.amplitude[index], np.hstack([x, solution.alpha[index]])
 
     def interface_displacement(self, solution: Solution, increments) -> tuple[np.ndarray, bool]:
-        """(k, n_nodes, n_components) [mm] displacements at the increments ``increments`` on the nodes of the
-        interfaces' zones and targets, and whether they come without the field elsewhere: from the Schur
+        """(k, n_nodes, n_components) [mm] displacements at the increments ``increments``, exact on the nodes of
+        the interfaces' zones and targets, and whether they come without the field elsewhere: from the Schur
         complements' factors where the condensation eliminated those nodes' dofs last and kept them
-        (:meth:`Condensed.displacement_at`; "mumps"), zero off the interfaces then; else the whole field (one
-        solve with the stored factor, which "mumps" and "cholmod" make again after the condensation)."""
-        from .sliding import interface_dofs
+        (:meth:`Condensed.displacement_at`; "mumps"), each other node then taking its nearest interface node's
+        (:meth:`interface_field`); else the whole field (one solve with the stored factor, which "mumps" and
+        "cholmod" make again after the condensation)."""
         index = np.atleast_1d(increments)
-        dofs = interface_dofs(self.model, self.space.n_components)
+        dofs = self._interface_sources[0]
         on = self.condensed.displacement_at(dofs, *self._loads(solution, index))
         if on is None:
             return self.displacement(solution, list(index)), False
-        u = np.zeros((len(index), self.space.n_dofs))
-        u[:, dofs] = on
-        return u.reshape(len(index), -1, self.space.n_components), True
+        return self.interface_field(on).reshape(len(index), -1, self.space.n_components), True
+
+    def interface_field(self, on: np.ndarray) -> np.ndarray:
+        """(k, n_dofs) [mm] from the displacements ``on`` (k, n) of the interfaces' dofs
+        (:func:`frictionid.fem.sliding.interface_dofs`): each other node takes its nearest interface node's, so
+        that a cell next to an interface keeps its shape up to the strains, as the coupling's orientation of the
+        facets (by the adjacent cells' corners) needs; exact on the interfaces only."""
+        return np.atleast_2d(on)[:, self._interface_sources[1]]
+
+    @functools.cached_property
+    def _interface_sources(self) -> tuple[np.ndarray, np.ndarray]:
+        """(the interfaces' dofs, (n_dofs,) the index among them each dof takes its value from in
+        :meth:`interface_field`: its own, or the same component's of the nearest interface node)."""
+        from scipy.spatial import cKDTree
+        from .sliding import interface_dofs
+        n = self.space.n_components
+        dofs = interface_dofs(self.model, n)
+        points = self.model.mesh.points
+        if not len(dofs):
+            return dofs, np.zeros(0, dtype=int)
+        nodes = dofs[::n] // n
+        nearest = cKDTree(points[nodes]).query(points)[1]                   # index among the interface nodes
+        nearest[nodes] = np.arange(len(nodes))       # their own: the two sides' nodes coincide on an interface
+        return dofs, (n * nearest[:, None] + np.arange(n)).ravel()
 
     def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
         """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""
@@ -342,8 +363,9 @@ class Problem:
         :data:`ROUND_OFF` of the interfaces' largest nodal displacement is zero. Pairs that stay open along the
         whole path are not checked. The displacements come from :meth:`interface_displacement`: with "mumps"
         from the Schur complements' factors, no factor of the stiffness made again, where the condensation
-        eliminated the interfaces' dofs last; off the interfaces they are then zero, which the coupling reads
-        only to orient the facets (the adjacent cells' corners: the same side while the strains are small).
+        eliminated the interfaces' dofs last; off the interfaces each node then takes its nearest interface
+        node's, which the coupling reads only to orient the facets (the adjacent cells' corners: the same side
+        while the strains are small).
         A pair the deformed coupling does not measure is held to one local element length of slip instead: where,
         undeformed, the coupling does not find the pair's own gap (within :data:`MATCHED` of the local element
         length: it projects onto another facet, as on a coarse helical thread whose flank is narrower than an
@@ -397,8 +419,7 @@ class Problem:
         length = self.pair_length()
         reference = self._coupled_gap
         matched = (reference < UNCOVERED_GAP) & (np.abs(reference - pairs.gap) <= MATCHED * length)
-        from .sliding import interface_dofs
-        on_interfaces = interface_dofs(self.model, self.space.n_components)
+        on_interfaces = self._interface_sources[0]
         for inc, u in zip(checked, self.interface_displacement(solution, checked)[0]):
             # the gap error's round-off scales with the displacements it is computed from, the interfaces' nodes'
             scale = np.abs(u.ravel()[on_interfaces]).max(initial=0.0)
@@ -511,6 +532,7 @@ class Problem:
         state = dict(self.__dict__)
         state.pop("_stuck_inverses", None)                 # made again where needed, not shipped
         state.pop("_krylov", None)
+        state.pop("_interface_sources", None)
         return state
 
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None, adaptive: bool = False) -> Solution:

@@ -251,16 +251,14 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
 
 def _displacement(problem, T: sp.csr_matrix, amplitude: np.ndarray, x: np.ndarray) -> np.ndarray:
     """(n_dofs,) [mm] for interface forces and alpha ``x``: the interface dofs' from the Schur complements' kept
-    factors where the condensation has them ("mumps": :meth:`Condensed.displacement_at`, no interior solve), zero
-    elsewhere (the coupling reads only the interface nodes' positions, and the adjacent cells' corners to orient
-    the facets); else the whole field."""
+    factors where the condensation has them ("mumps": :meth:`Condensed.displacement_at`, no interior solve), the
+    other nodes' their nearest interface node's (:meth:`Problem.interface_field`: the coupling reads only the
+    interface nodes' positions, and the adjacent cells' corners to orient the facets); else the whole field."""
     c, dofs = problem.condensed, problem.interface_dofs
     on = c.displacement_at(dofs, T, problem.channels.displacements, amplitude, x)
     if on is None:
         return c.displacement(T, problem.channels.displacements, amplitude, x)
-    u = np.zeros(T.shape[1])
-    u[dofs] = on
-    return u
+    return problem.interface_field(on)[0]
 
 
 def _with_coupling_change(problem, builder, state: _State, coupling: Coupling, start, end, mu_pair, where,
