@@ -8,7 +8,9 @@ condensation, the first solve), then the work it stands for: assembly and conden
 forward + sensitivities solve at mu 0.15. Measured: the peak of the whole above what the process held before
 (:class:`frictionid.fem.memory.Peak`, Linux's VmHWM) and the largest resident memory sampled every 5 ms in each
 phase (the space and the stiffness's assembly, the condensation, the solve without the small-sliding check, then
-the check, which makes MUMPS's factors again to recover the displacement field). The solve's n_w^2 doubles: its
+the check, which takes the interfaces' displacements from the kept Schur complements' factors where the
+condensation eliminated the interfaces' dofs last, and otherwise makes MUMPS's factors again to recover the
+displacement field). The solve's n_w^2 doubles: its
 measured peak less the estimate's space and copies of K, per n_w^2 doubles. Also MUMPS's own figures per body:
 the analysis's estimate here (INFOG(17)) against the factorisation's estimate and what it used (INFOG(22)).
 
@@ -112,13 +114,15 @@ def main(kind: str, *args) -> None:
                                           f"{s.schur_size:,})" for s in problem.condensed.inverse.bodies.stats))
     print("  measured peak per phase above held: " + ", ".join(f"{k} {(v - held) / GB:.2f}"
                                                              for k, v in phases.peaks.items() if k != "build"))
+    again = any(factor._struc is not None for factor in problem.condensed.inverse.bodies.factors)
+    how = "MUMPS's factors made again" if again else "from the kept Schur factors, no factorisation"
     n_w = problem.pairs.B.shape[0]
     added, checked = phases.peaks["solve"] - built, phases.peaks.get("check", solved) - solved
     words = (phases.peaks["solve"] - held - estimated["solve"]) / (8.0 * n_w ** 2) + mumps_memory.SOLVE_CONTACT_WORDS
     print(f"  the solve: n_w {n_w:,} contact rows ({memory.contact_pairs(model):,} pairs estimated); "
-          f"{added / GB:.3f} GB above the built problem; {words:.1f} n_w^2 doubles beside the space and K_KEPT "
-          f"copies of K (the estimate counts {mumps_memory.SOLVE_CONTACT_WORDS}); its small-sliding check "
-          f"{checked / GB:.3f} GB above the solved problem (MUMPS's factors made again)", flush=True)
+          f"{added / GB:.3f} GB above the built problem; {words:.1f} n_w^2 doubles beside the space, K_KEPT "
+          f"copies of K and the kept Schur factors (the estimate counts {mumps_memory.SOLVE_CONTACT_WORDS}); its "
+          f"small-sliding check {checked / GB:.3f} GB above the solved problem ({how})", flush=True)
     print(f"  measured above held: {took.above / GB:.2f} GB; estimate / measured {cost.above / took.above:.2f}; "
           f"without the margin {cost.above / mumps_memory.SAFETY / took.above:.2f}; CHOLMOD's law / measured "
           f"{memory.estimate(model, kind, factorisation='cholmod').above / took.above:.2f}; process peak "

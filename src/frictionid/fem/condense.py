@@ -18,7 +18,9 @@ computed once per geometry, W and G as T K^g B_f^T with sparse rows T = [B_f; O_
   tetra10 nodes, 1,703 contact pairs) went past 12 GB in the factorisation with them last;
 - "mumps": per body, MUMPS's multifrontal factorisation with the dofs T touches eliminated last but the interior
   in MUMPS's own nested-dissection order, which returns the body's dense Schur complement (fem/mumps_schur.py);
-  T K^g B_f^T from its Cholesky factor as for "cholmod", the other solves by MUMPS's factor of the interior.
+  T K^g B_f^T from its Cholesky factor as for "cholmod", the other solves by MUMPS's factor of the interior. The
+  Schur complements' Cholesky factors are kept after the condensation, MUMPS's factors of the interiors are not:
+  displacements on the dofs eliminated last come from the former alone (:meth:`Condensed.displacement_at`).
 """
 
 from __future__ import annotations
@@ -187,6 +189,22 @@ class GeneralisedInverse:
             self.lu = self._factor()
         return self.lu.solve(np.ascontiguousarray(b))
 
+    def schur_solve(self, b_last: np.ndarray) -> np.ndarray | None:
+        """(K^g b)[last] (m,) or (m, k) for b nonzero on ``last`` only (``b_last`` its values there): S^-1 b_s per
+        body by the Schur complements' Cholesky factors L_ss, no solve with the interior (for the kept dofs
+        ordered [interior i, last s], K x = b with b_i = 0 gives x_s = S^-1 b_s). None where those factors are
+        not kept (CHOLMOD, whose factor :meth:`coupled` drops, SuperLU, or after unpickling)."""
+        if self.bodies is None:
+            return None
+        out = np.zeros(np.shape(b_last))
+        for block, factor in zip(self.bodies.blocks, self.bodies.factors):
+            if not len(block):
+                continue
+            if factor.schur_cholesky is None:
+                return None
+            out[block] = la.cho_solve((factor.schur_cholesky, True), b_last[block], check_finite=False)
+        return out
+
     def _from_schur(self, rows: sp.csr_matrix, n_w: int) -> np.ndarray | None:
         """(L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T), summed over the bodies (the connected parts of K: L_ss has no
         coupling between them, :meth:`~frictionid.fem.cholesky.Cholesky.trailing`; MUMPS's per body), checked on
@@ -276,6 +294,42 @@ class Condensed:
         u[:, self.prescribed] = amplitude @ prescribed_values
         return u if many else u[0]
 
+    def displacement_at(self, dofs: np.ndarray, B: sp.csr_matrix, prescribed_values: np.ndarray,
+                        amplitude: np.ndarray, x: np.ndarray) -> np.ndarray | None:
+        """u [mm] at the dofs ``dofs`` only, (k, len(dofs)) for k states (arguments as :meth:`displacement`), from
+        the Schur complements' kept factors (:meth:`GeneralisedInverse.schur_solve`): no interior solve, so no
+        MUMPS factor made again. None unless B's columns and every free one of ``dofs`` are among the dofs the
+        factorisation eliminated last (or pinned) and those factors are kept; then :meth:`displacement`."""
+        inverse, dofs = self.inverse, np.asarray(dofs, dtype=int)
+        if inverse.bodies is None:
+            return None
+        n_dofs = len(self.free) + len(self.prescribed)
+        free_at, kept_at = np.full(n_dofs, -1), np.full(len(self.free), -1)
+        free_at[self.free] = np.arange(len(self.free))
+        kept_at[inverse.keep] = np.arange(len(inverse.keep))
+        last_at = np.full(len(inverse.keep) + 1, -1)              # -1 (the extra entry): pinned, K^g gives 0 there
+        last_at[inverse.bodies.last] = np.arange(len(inverse.bodies.last))
+        B_f = sp.csr_matrix(B)[:, self.free].tocsr()
+        loaded = kept_at[np.unique(B_f.indices)]
+        wanted = free_at[dofs[free_at[dofs] >= 0]]
+        solved = last_at[kept_at[wanted]]
+        if np.any(last_at[loaded[loaded >= 0]] < 0) or np.any((kept_at[wanted] >= 0) & (solved < 0)):
+            return None
+        many = np.ndim(x) == 2
+        amplitude, x = np.atleast_2d(amplitude), np.atleast_2d(x)
+        n_w = B.shape[0]
+        load = (B_f.T @ x[:, :n_w].T)[inverse.keep[inverse.bodies.last]]        # (m, k) on last
+        on_last = inverse.schur_solve(load)
+        if on_last is None:
+            return None
+        u = np.zeros((len(x), len(dofs)))
+        free, prescribed_at = free_at[dofs] >= 0, np.full(n_dofs, -1)
+        prescribed_at[self.prescribed] = np.arange(len(self.prescribed))
+        u[:, ~free] = amplitude @ prescribed_values[:, prescribed_at[dofs[~free]]]
+        u[:, free] = amplitude @ self.particular[:, wanted] + x[:, n_w:] @ self.modes[wanted].T
+        u[:, np.flatnonzero(free)[solved >= 0]] += on_last[solved[solved >= 0]].T
+        return u if many else u[0]
+
 
 class Partition(NamedTuple):
     """The operators of :func:`condense` split into free dofs f and prescribed dofs p."""
@@ -339,8 +393,9 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     coupled = inverse.coupled(rows, n_w)
     if inverse.bodies is not None:
         # MUMPS's factors (5.5 GB on the short 3-D bolt at 1.25 mm) are not needed by the load path: made again if
-        # the displacement field is asked for, as CHOLMOD's factor is after `coupled`
-        inverse.bodies.free()
+        # the displacement field is asked for, as CHOLMOD's factor is after `coupled`; the Schur complements'
+        # factors (sum of n_s^2 doubles) are kept: displacements on `last` need no more (Condensed.displacement_at)
+        inverse.bodies.free(schur=False)
     W, G = coupled[:n_w], coupled[n_w:]
     W = 0.5 * (W + W.T)
     up = channels.displacements.T

@@ -22,11 +22,13 @@ as MUMPS takes it). :func:`phases` estimates the three peaks of a build and its 
   :data:`frictionid.fem.assembly.CHUNK_CELLS` at most), the entries of all chunks before they are summed
   (:data:`ASSEMBLY_CELL_BYTES` per cell) and K;
 - condensation: the space, :data:`K_COPIES` copies of K and MUMPS's part above;
-- solve (the first, with sensitivities): the space, :data:`K_KEPT` copies of K and :data:`SOLVE_CONTACT_WORDS`
-  n_w^2 doubles of dense contact operators (W, the stuck Jacobian's factor and inverse, the sensitivities'). The
-  small-sliding check after it makes MUMPS's factors again to recover the displacement field (0.23-0.86 GB above
-  the solved problem on the 3-D block and the M6 bolts); its peak stayed below the condensation's measured peak
-  on each (docs/solver.md).
+- solve (the first, with sensitivities): the space, :data:`K_KEPT` copies of K, :data:`SOLVE_CONTACT_WORDS`
+  n_w^2 doubles of dense contact operators (W, the stuck Jacobian's factor and inverse, the sensitivities') and
+  the Schur complements' Cholesky factors, which the condensation keeps (8 m^2 bytes per body). The small-sliding
+  check after it takes the interfaces' displacements from those factors where the interfaces' dofs are among the
+  Schur dofs (the 3-D bolts); where they are not (the 3-D block's plate top reaches beyond the contact) it makes
+  MUMPS's factors again to recover the displacement field (0.23-0.86 GB above the solved problem on the 3-D
+  block); its peak stayed below the condensation's measured peak (docs/solver.md).
 
 The estimate is :data:`SAFETY` times the largest. The constants are the largest of what the phases measured
 (``benchmarks/mumps_memory.py``; resident memory sampled per phase, above the process before, this machine) on
@@ -143,16 +145,19 @@ def phases(model, n_pairs: int, grown: float = 1.0) -> dict:
     contact blocks of ``n_pairs`` pairs, :func:`frictionid.fem.memory.contact_bytes`). A model not built yet,
     ``grown`` times this one's nodes (``n_pairs`` already grown): MUMPS's part grows by ``grown`` ** 1.3
     (frictionid.fem.memory's 3-D law), the space, the cells and K by ``grown``."""
-    factors, entries, _ = analysed(model)
+    factors, entries, analyses = analysed(model)
     cells, cell_type = model.mesh.n_cells * grown, model.mesh.cell_type
     space = SPACE_FIXED + _per_cell(SPACE_CELL_BYTES, cell_type) * cells
     chunk = cells / np.ceil(cells / CHUNK_CELLS) if cells else 0.0       # fem/assembly.py's equal chunks
     K = 12.0 * entries * grown
-    n_w = (3 if model.kind in ("3d", "axisymmetric_twist") else 2) * n_pairs
+    dim = 3 if model.kind in ("3d", "axisymmetric_twist") else 2
+    n_w = dim * n_pairs
+    # the Schur dofs are on surfaces: their number grows by grown ** ((dim - 1) / dim), the factors by its square
+    schur = 8.0 * sum(a.schur_size ** 2 for a in analyses) * grown ** (2 * (dim - 1) / dim)
     return {"assembly": space + _per_cell(CHUNK_CELL_BYTES, cell_type) * chunk
             + _per_cell(ASSEMBLY_CELL_BYTES, cell_type) * cells + K,
             "condensation": space + K_COPIES * K + factors * grown ** 1.3,
-            "solve": space + K_KEPT * K + SOLVE_CONTACT_WORDS * 8.0 * n_w ** 2}
+            "solve": space + K_KEPT * K + SOLVE_CONTACT_WORDS * 8.0 * n_w ** 2 + schur}
 
 
 def _per_cell(table: dict, cell_type: str) -> float:

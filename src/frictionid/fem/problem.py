@@ -36,7 +36,8 @@ SLIDING = ("small", "finite")
 SLIP_TOLERANCE = 0.1
 #: with twist or a helical interface (lead): the slip allowed, in local element lengths
 TWIST_LENGTHS = 1.0
-#: gap errors whose area mean is below this share of the largest displacement are round-off (a uniform field)
+#: gap errors whose area mean is below this share of the interfaces' largest nodal displacement are round-off (a
+#: uniform field)
 ROUND_OFF = 1e-9
 #: the deformed coupling measures a pair only where, undeformed, it finds the pair's own gap within this share of
 #: the local element length (on a conforming interface exactly: a larger difference is another target facet)
@@ -275,15 +276,56 @@ class Problem:
         list of increments (k, n_nodes, n_components), one solve with k right-hand sides."""
         many = np.ndim(increment) == 1
         index = np.atleast_1d(increment)
+        u = self.condensed.displacement(*self._loads(solution, index))
+        u = u.reshape(len(index), -1, self.space.n_components)
+        return u if many else u[0]
+
+    def _loads(self, solution: Solution, index: np.ndarray) -> tuple:
+        """(B, the channels' prescribed displacements, amplitudes, x) of the increments ``index`` of a solution:
+        the arguments of :meth:`Condensed.displacement`."""
         if solution.interface_forces is not None:
             from .sliding import selection
             B, x = selection(self.interface_dofs, self.space.n_dofs), solution.interface_forces[index]
         else:
             B, x = self.pairs.B, solution.lam[index].reshape(len(index), -1)
-        x = np.hstack([x, solution.alpha[index]])
-        u = self.condensed.displacement(B, self.channels.displacements, solution.amplitude[index], x)
-        u = u.reshape(len(index), -1, self.space.n_components)
-        return u if many else u[0]
+        return B, self.channels.displacements, solution.amplitude[index], np.hstack([x, solution.alpha[index]])
+
+    def interface_displacement(self, solution: Solution, increments) -> tuple[np.ndarray, bool]:
+        """(k, n_nodes, n_components) [mm] displacements at the increments ``increments``, exact on the nodes of
+        the interfaces' zones and targets, and whether they come without the field elsewhere: from the Schur
+        complements' factors where the condensation eliminated those nodes' dofs last and kept them
+        (:meth:`Condensed.displacement_at`; "mumps"), each other node then taking its nearest interface node's
+        (:meth:`interface_field`); else the whole field (one solve with the stored factor, which "mumps" and
+        "cholmod" make again after the condensation)."""
+        index = np.atleast_1d(increments)
+        dofs = self._interface_sources[0]
+        on = self.condensed.displacement_at(dofs, *self._loads(solution, index))
+        if on is None:
+            return self.displacement(solution, list(index)), False
+        return self.interface_field(on).reshape(len(index), -1, self.space.n_components), True
+
+    def interface_field(self, on: np.ndarray) -> np.ndarray:
+        """(k, n_dofs) [mm] from the displacements ``on`` (k, n) of the interfaces' dofs
+        (:func:`frictionid.fem.sliding.interface_dofs`): each other node takes its nearest interface node's, so
+        that a cell next to an interface keeps its shape up to the strains, as the coupling's orientation of the
+        facets (by the adjacent cells' corners) needs; exact on the interfaces only."""
+        return np.atleast_2d(on)[:, self._interface_sources[1]]
+
+    @functools.cached_property
+    def _interface_sources(self) -> tuple[np.ndarray, np.ndarray]:
+        """(the interfaces' dofs, (n_dofs,) the index among them each dof takes its value from in
+        :meth:`interface_field`: its own, or the same component's of the nearest interface node)."""
+        from scipy.spatial import cKDTree
+        from .sliding import interface_dofs
+        n = self.space.n_components
+        dofs = interface_dofs(self.model, n)
+        points = self.model.mesh.points
+        if not len(dofs):
+            return dofs, np.zeros(0, dtype=int)
+        nodes = dofs[::n] // n
+        nearest = cKDTree(points[nodes]).query(points)[1]                   # index among the interface nodes
+        nearest[nodes] = np.arange(len(nodes))       # their own: the two sides' nodes coincide on an interface
+        return dofs, (n * nearest[:, None] + np.arange(n)).ravel()
 
     def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
         """(stage of each nominal increment, (n_inc, n_channels) amplitude at its end)."""
@@ -318,11 +360,16 @@ class Problem:
         taken relative to the normal deformation the contact resolves: the range of the target's normal
         displacement across the closed pairs, or their largest initial interference if larger. Pairs the
         deformed coupling does not cover (slid off the target's end) are left out; a mean below
-        :data:`ROUND_OFF` of the largest displacement is zero. Pairs that stay open along the whole path are not
-        checked. A pair the deformed coupling does not measure is held to one local element length of slip
-        instead: where, undeformed, the coupling does not find the pair's own gap (within :data:`MATCHED` of the
-        local element length: it projects onto another facet, as on a coarse helical thread whose flank is
-        narrower than an element), or where a closed pair's error exceeds its tangential relative displacement,
+        :data:`ROUND_OFF` of the interfaces' largest nodal displacement is zero. Pairs that stay open along the
+        whole path are not checked. The displacements come from :meth:`interface_displacement`: with "mumps"
+        from the Schur complements' factors, no factor of the stiffness made again, where the condensation
+        eliminated the interfaces' dofs last; off the interfaces each node then takes its nearest interface
+        node's, which the coupling reads only to orient the facets (the adjacent cells' corners: the same side
+        while the strains are small).
+        A pair the deformed coupling does not measure is held to one local element length of slip instead: where,
+        undeformed, the coupling does not find the pair's own gap (within :data:`MATCHED` of the local element
+        length: it projects onto another facet, as on a coarse helical thread whose flank is narrower than an
+        element), or where a closed pair's error exceeds its tangential relative displacement,
         which bounds it (the slid-to point is at most that far from the partner on the target). With twist (no
         deformed coupling) or a helical interface (``lead``: its pairs' normals are the helicoid's, not the deformed
         coupling's facet normals) the slip (with twist: along t1) is limited to one local element length instead,
@@ -372,7 +419,10 @@ class Problem:
         length = self.pair_length()
         reference = self._coupled_gap
         matched = (reference < UNCOVERED_GAP) & (np.abs(reference - pairs.gap) <= MATCHED * length)
-        for inc, u in zip(checked, self.displacement(solution, checked)):
+        on_interfaces = self._interface_sources[0]
+        for inc, u in zip(checked, self.interface_displacement(solution, checked)[0]):
+            # the gap error's round-off scales with the displacements it is computed from, the interfaces' nodes'
+            scale = np.abs(u.ravel()[on_interfaces]).max(initial=0.0)
             w_n = solution.w[inc, :, 0]
             error = pairing_gap_error(self, u.ravel(), w_n, builder, reference)
             # a pair the coupling does not cover (here or undeformed: the target's end) has no gap error to measure
@@ -380,7 +430,7 @@ class Problem:
             closed = solution.state[inc] != 0
             # a closed pair's error is at most its tangential relative displacement: beyond it (or unmatched), the
             # coupling measures another facet, and the pair is held to the slip rule instead
-            bound = np.linalg.norm(solution.w[inc, :, 1:], axis=1) + ROUND_OFF * np.abs(u).max()
+            bound = np.linalg.norm(solution.w[inc, :, 1:], axis=1) + ROUND_OFF * scale
             unmeasured = ~uncovered & (~matched | (closed & (np.abs(np.where(uncovered, 0.0, error)) > bound)))
             # an open pair counts where the deformed configuration closes it
             error = np.where(uncovered | unmeasured, 0.0, np.where(closed, np.abs(error),
@@ -399,7 +449,7 @@ class Problem:
                 measured = mine & closed & ~unmeasured
                 mean = (float(np.sum((pairs.weight * error)[mine]) / np.sum(pairs.weight[measured]))
                         if np.any(measured) else 0.0)
-                if mean <= ROUND_OFF * np.abs(u).max():
+                if mean <= ROUND_OFF * scale:
                     mean = 0.0                                   # a uniform field's round-off, not an error
                 worst = int(np.flatnonzero(mine)[np.argmax(error[mine])])
                 ratio = 0.0 if mean == 0.0 else mean / spread if spread > 0.0 else np.inf
@@ -482,6 +532,7 @@ class Problem:
         state = dict(self.__dict__)
         state.pop("_stuck_inverses", None)                 # made again where needed, not shipped
         state.pop("_krylov", None)
+        state.pop("_interface_sources", None)
         return state
 
     def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None, adaptive: bool = False) -> Solution:

@@ -233,7 +233,7 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
             path.dw_T = du.reshape(pairs.n_pairs, pairs.dim, -1)[:, 1:, :]
         step = solver.step(path, start, end, mu_pair, sensitivities, where)
         n_newton, n_cuts = n_newton + step.n_newton, n_cuts + step.n_cuts
-        u = problem.condensed.displacement(T, problem.channels.displacements, end, _interface_x(coupling, path.x))
+        u = _displacement(problem, T, end, _interface_x(coupling, path.x))
         change = np.max(np.abs(u[dofs] - coupling.u_ref[dofs]), initial=0.0)
         scale = np.max(np.abs(u[dofs] - state.u[dofs]), initial=0.0)
         if change <= FIXED_POINT_RTOL * scale or (
@@ -247,6 +247,18 @@ def _increment(problem, builder, state: _State, start, end, mu_pair, sensitiviti
         "the target surface over the whole slide")
     raise SolverError(f"finite sliding did not converge in {where}: the re-coupled interface displacements "
                       f"still moved {change:.3g} mm after {MAX_PASSES} passes" + cause)
+
+
+def _displacement(problem, T: sp.csr_matrix, amplitude: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(n_dofs,) [mm] for interface forces and alpha ``x``: the interface dofs' from the Schur complements' kept
+    factors where the condensation has them ("mumps": :meth:`Condensed.displacement_at`, no interior solve), the
+    other nodes' their nearest interface node's (:meth:`Problem.interface_field`: the coupling reads only the
+    interface nodes' positions, and the adjacent cells' corners to orient the facets); else the whole field."""
+    c, dofs = problem.condensed, problem.interface_dofs
+    on = c.displacement_at(dofs, T, problem.channels.displacements, amplitude, x)
+    if on is None:
+        return c.displacement(T, problem.channels.displacements, amplitude, x)
+    return problem.interface_field(on)[0]
 
 
 def _with_coupling_change(problem, builder, state: _State, coupling: Coupling, start, end, mu_pair, where,
