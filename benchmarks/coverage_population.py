@@ -56,7 +56,7 @@ from frictionid.inverse.remaining_error import bias
 sys.path.insert(0, str(Path(__file__).parent))
 import _tests  # noqa: E402,F401  (tests/ on the path)
 from _measure import peak_memory_mb  # noqa: E402
-from population_case import clean_data, draw, identify_case, noisy  # noqa: E402
+from population_case import identify_case, noisy, reference  # noqa: E402
 
 #: the keys of a fit's line printed (``--out`` keeps them all)
 BRIEF = ("reference", "replicate", "truth", "value", "stderr", "claimed", "predicted_bias", "consistent", "control",
@@ -144,7 +144,8 @@ def row(case: dict, replicate: int, fitted: dict, seconds: float) -> dict:
     record = result["model"].get("discretisation", {})
     rules = {name: {key: (_floats(v) if key != "ci95" else [_floats(c) for c in v])
                     for key, v in r.items()} for name, r in fitted["rules"].items()}
-    return {"reference": case["index"], "replicate": replicate, "truth": case["truth"],
+    return {"reference": case["index"], "attempt": case["attempt"], "data": case["data"],
+            "data_check": case["data_check"], "replicate": replicate, "truth": case["truth"],
             "value": [p["value"] for p in params], "stderr": [p["stderr"] for p in params],
             "claimed": [p["identifiable"] for p in params], "predicted_bias": [p.get("discretisation_bias")
                                                                                 for p in params],
@@ -260,9 +261,8 @@ def main(argv=None) -> int:
     rows = []
     begun = time.perf_counter()
     for index in range(args.first, args.first + args.n):
-        case = draw(index, args.seed)
         with tempfile.TemporaryDirectory(prefix="population-") as folder:
-            clean = clean_data(case, Path(folder))
+            case, clean = reference(index, args.seed, Path(folder))
         for replicate in range(args.noise + 1):
             start = time.perf_counter()
             fitted = fit(case, noisy(clean, case, replicate, args.seed), recorder)

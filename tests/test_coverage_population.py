@@ -14,7 +14,7 @@ with the systematic part set to 0 the same fits claim 68 zones and 59 hold (86.8
 import numpy as np
 import pytest
 
-from population_case import clean_data, draw, identify_case, noisy
+from population_case import identify_case, noisy, reference
 
 pytestmark = pytest.mark.slow           # 60 identifications with the control on, about 2.5 minutes
 
@@ -26,8 +26,7 @@ def claims(tmp_path_factory):
     """(reference, |error|, stderr, systematic part, interval holds the truth) of every claimed zone."""
     rows = []
     for index in range(N_REFERENCES):
-        case = draw(index, SEED)
-        clean = clean_data(case, tmp_path_factory.mktemp(f"reference{index}"))
+        case, clean = reference(index, SEED, tmp_path_factory.mktemp(f"reference{index}"))
         for replicate in range(1, N_REPLICATES + 1):
             result = identify_case(case, noisy(clean, case, replicate, SEED))
             for zone, truth in zip("ABC", case["truth"]):
