@@ -72,10 +72,14 @@ def clean_data(case: dict, folder: Path) -> Measurements:
     return read_measurements(simulate(config, folder / "clean.csv"))
 
 
-def reference(index: int, seed: int, folder: Path) -> tuple[dict, Measurements]:
+def reference(index: int, seed: int, folder: Path, check: bool = True) -> tuple[dict, Measurements]:
     """Reference ``index`` of the population ``seed`` and its noise-free data, converged to :data:`REFERENCE_ERROR`
     (:func:`converged`): the first of its draws (attempt 0, then redraws) whose data mesh converges.
-    ``case["data_check"]`` records each pair of data meshes compared, and their differences."""
+    ``case["data_check"]`` records each pair of data meshes compared, and their differences. ``check`` False: the
+    first draw with its drawn data mesh, unchecked."""
+    if not check:
+        drawn = draw(index, seed)
+        return dict(drawn, data_check=[]), clean_data(drawn, folder)
     for attempt in range(REDRAWS + 1):
         found = converged(draw(index, seed, attempt), folder)
         if found is not None:
