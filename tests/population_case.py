@@ -72,11 +72,18 @@ def clean_data(case: dict, folder: Path) -> Measurements:
     return read_measurements(simulate(config, folder / "clean.csv"))
 
 
-def reference(index: int, seed: int, folder: Path, check: bool = True) -> tuple[dict, Measurements]:
+def reference(index: int, seed: int, folder: Path, check: bool = True,
+              chosen: tuple[int, float] | None = None) -> tuple[dict, Measurements]:
     """Reference ``index`` of the population ``seed`` and its noise-free data, converged to :data:`REFERENCE_ERROR`
     (:func:`converged`): the first of its draws (attempt 0, then redraws) whose data mesh converges.
     ``case["data_check"]`` records each pair of data meshes compared, and their differences. ``check`` False: the
-    first draw with its drawn data mesh, unchecked."""
+    first draw with its drawn data mesh, unchecked. ``chosen`` (attempt, data mesh size): the draw and data mesh
+    the check chose before (:func:`choices`), not checked again (``data_check`` "stored")."""
+    if chosen is not None:
+        attempt, size = chosen
+        drawn = draw(index, seed, attempt)
+        case = dict(drawn, data={**drawn["data"], "mesh_size": size}, data_check="stored")
+        return case, clean_data(case, folder)
     if not check:
         drawn = draw(index, seed)
         return dict(drawn, data_check=[]), clean_data(drawn, folder)
@@ -151,3 +158,21 @@ def identify_case(case: dict, data: Measurements) -> dict:
     return identify(case["model"], data, zones, observables=case["quantities"], stages=case["stages"], noise=used,
                     regions=regions(case), fields=False, model_error="include", refine_target=0.5,
                     resolution=RESOLUTION).to_dict()
+
+
+def choices(seed: int, n: int, folder: Path) -> dict[int, tuple[int, float]]:
+    """{index: (attempt, data mesh size)} the check (:func:`reference`) chooses for references 0 to n - 1 of the
+    population ``seed``: what ``reference(..., chosen=...)`` takes without checking again."""
+    out = {}
+    for index in range(n):
+        case, _ = reference(index, seed, folder)
+        out[index] = (case["attempt"], case["data"]["mesh_size"])
+    return out
+
+
+if __name__ == "__main__":      # python tests/population_case.py SEED N: the choices, as a Python literal
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        print(choices(int(sys.argv[1]), int(sys.argv[2]), Path(scratch)))
