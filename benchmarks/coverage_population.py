@@ -2,19 +2,21 @@
 errors differ (not noise replicates of one reference, where a systematic error is the same in every replicate).
 
     PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/coverage_population.py [N] [--seed S] [--noise K]
-        [--first I] [--out FILE.jsonl] [--summary FILE.jsonl]
+        [--first I] [--as-drawn] [--out FILE.jsonl] [--summary FILE.jsonl]
 
-Each reference i (seeded by ``--seed`` and i; tests/population_case.py) draws: 2 or 3 zones with truth
-coefficients in [0.1, 0.5], the pull (0.05-0.2 mm) and the pressing force (100-300 N/mm), the block's height (4 or
-6 mm), the fitted mesh (``block2d``, linear triangles of 1, 1.5 or 2 mm, or quadratic ones of 1.5, 2 or 3 mm), the
-data's mesh (the same order 6, 8 or 12 times finer, or the other order: quadratic 3 or 6 times finer for a linear
-fit, linear 12 or 16 times finer for a quadratic one: finer than any mesh the control may choose, whose factors go
-up to 4, and off its grid), 16-60 points on the block's sides and the base top, the observed quantities (ux and
-uy; with the machine force; with the strains exx, eyy, exy; with exy and the force), the stages (the pull, or
-both) and the displacement noise (0.2, 0.5 or 1 um; strains 2e-5, force 0.5 N/mm). The data are the data mesh's
-solution at the truth (``frictionid simulate``) plus ``--noise`` seeded noise replicates; each replicate, and the
-noise-free data, is fitted by ``frictionid.identify`` with the discretisation control on (refine_target 0.5, the
-default), ``model_error = "include"`` and ``resolution = 0.05``, from 0.1 in every zone.
+Each reference i (seeded by ``--seed`` and i; tests/population_case.py) draws: 2 or 3 zones with truth coefficients
+in [0.1, 0.5], the pull (0.05-0.2 mm) and the pressing force (100-300 N/mm), the block's height (4 or 6 mm), the
+fitted mesh (``block2d``, linear triangles of 1, 1.5 or 2 mm, or quadratic ones of 1.5, 2 or 3 mm), the data's mesh
+(the same order 6, 8 or 12 times finer, or the other order: quadratic 3 or 6 times finer for a linear fit, linear 12
+or 16 times finer for a quadratic one: finer than any mesh the control may choose, whose factors go up to 4, and off
+its grid), 16-60 points on the block's sides and the base top, the observed quantities (ux and uy; with the machine
+force; with the strains exx, eyy, exy; with exy and the force), the stages (the pull, or both) and the displacement
+noise (0.2, 0.5 or 1 um; strains 2e-5, force 0.5 N/mm). The data are the data mesh's solution at the truth
+(``frictionid simulate``), the data mesh halved until converged to 0.25 noise levels RMS per quantity or the
+reference redrawn (``population_case.reference``; ``--as-drawn``: the first draw, unchecked), plus ``--noise``
+seeded noise replicates; each replicate, and the noise-free data, is fitted by ``frictionid.identify`` with the
+discretisation control on (refine_target 0.5, the default), ``model_error = "include"`` and ``resolution = 0.05``,
+from 0.1 in every zone.
 
 Per fitted zone it records the error (value - truth), the standard error, its systematic part and the parts it is
 the largest of (statistics.fit_statistics: the scaled estimate's coefficient shift, how far including the error
@@ -56,7 +58,7 @@ from frictionid.inverse.remaining_error import bias
 sys.path.insert(0, str(Path(__file__).parent))
 import _tests  # noqa: E402,F401  (tests/ on the path)
 from _measure import peak_memory_mb  # noqa: E402
-from population_case import clean_data, draw, identify_case, noisy  # noqa: E402
+from population_case import identify_case, noisy, reference  # noqa: E402
 
 #: the keys of a fit's line printed (``--out`` keeps them all)
 BRIEF = ("reference", "replicate", "truth", "value", "stderr", "claimed", "predicted_bias", "consistent", "control",
@@ -144,7 +146,8 @@ def row(case: dict, replicate: int, fitted: dict, seconds: float) -> dict:
     record = result["model"].get("discretisation", {})
     rules = {name: {key: (_floats(v) if key != "ci95" else [_floats(c) for c in v])
                     for key, v in r.items()} for name, r in fitted["rules"].items()}
-    return {"reference": case["index"], "replicate": replicate, "truth": case["truth"],
+    return {"reference": case["index"], "attempt": case["attempt"], "data": case["data"],
+            "data_check": case["data_check"], "replicate": replicate, "truth": case["truth"],
             "value": [p["value"] for p in params], "stderr": [p["stderr"] for p in params],
             "claimed": [p["identifiable"] for p in params], "predicted_bias": [p.get("discretisation_bias")
                                                                                 for p in params],
@@ -248,6 +251,7 @@ def main(argv=None) -> int:
     parser.add_argument("--first", type=int, default=0, help="first reference index")
     parser.add_argument("--out", help="append each fit's JSON line to this file")
     parser.add_argument("--summary", nargs="+", help="no fits: summarise these files' lines")
+    parser.add_argument("--as-drawn", action="store_true", help="the references' data meshes as drawn, unchecked")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     if args.summary:
@@ -260,9 +264,8 @@ def main(argv=None) -> int:
     rows = []
     begun = time.perf_counter()
     for index in range(args.first, args.first + args.n):
-        case = draw(index, args.seed)
         with tempfile.TemporaryDirectory(prefix="population-") as folder:
-            clean = clean_data(case, Path(folder))
+            case, clean = reference(index, args.seed, Path(folder), check=not args.as_drawn)
         for replicate in range(args.noise + 1):
             start = time.perf_counter()
             fitted = fit(case, noisy(clean, case, replicate, args.seed), recorder)

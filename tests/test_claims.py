@@ -151,11 +151,12 @@ def test_a_consistent_include_fit_is_still_checked_by_leaving_groups_out():
 
 
 def test_a_zone_on_its_bound_in_an_include_fit_counts_the_model_error_s_pull_into_the_interior(tmp_path):
-    """Population seed 2, reference 43, replicate 2 (tests/population_case.py: quadratic triangles of 3 mm refined
-    to 0.75, data of quadratic 0.25 mm, strains): B (true 0.16) ends on its bound 0. Held there, the model error's
-    effect on it was not measured (only how far the refit moved, 0.016), its standard error stayed within the
-    resolution and it was claimed, 3.4 standard errors off. Measured free, as its covariance counts it, the
-    control's estimate at half its orders pulls it 0.15 into the interior: it is not claimed, and says why."""
+    """Population seed 2, reference 43 as drawn (its data mesh not checked for convergence), replicate 2
+    (tests/population_case.py: quadratic triangles of 3 mm refined to 0.75, data of quadratic 0.25 mm, strains):
+    B (true 0.16) ends on its bound 0. Held there, the model error's effect on it was not measured (only how far
+    the refit moved, 0.016), its standard error stayed within the resolution and it was claimed, 3.4 standard
+    errors off. Measured free, as its covariance counts it, the control's estimate at half its orders pulls it
+    0.15 into the interior: it is not claimed, and says why."""
     from population_case import clean_data, draw, identify_case, noisy
 
     case = draw(43, 2)
