@@ -14,7 +14,7 @@ passes at theta = 0, the axisymmetric section); the helix's part turns below the
 bearing face) and above the last (up to its top) are counted to the first and last thread, and apart.
 
 Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
-         [--phases N] [--axisymmetric-only]
+         [--phases N] [--axisymmetric-only] [--axis Y1,Y2,... [--head-radius R]]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
 benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
