@@ -14,7 +14,7 @@ passes at theta = 0, the axisymmetric section); the helix's part turns below the
 bearing face) and above the last (up to its top) are counted to the first and last thread, and apart.
 
 Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
-         [--phases N] [--axisymmetric-only]
+         [--phases N] [--axisymmetric-only] [--axis Y1,Y2,... [--head-radius R]]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
 benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
@@ -22,7 +22,9 @@ moved by P theta / 2 pi at N angles theta of the helix (faces, countersinks and 
 they are) and compares the helix per turn with the average of their rings, and each of N sectors of the helix
 with the ring model of its centre's phase; ``--axisymmetric-only`` stops before the 3-D model. ``--axis Y1,Y2,...``
 instead compares the change of uy's section average between those stations [mm], with ``--phases N`` also against
-the ring model averaged over the N phases.
+the ring model averaged over the N phases, ``--head-radius R`` with the ring model's head of radius R [mm]
+instead of the hexagon's area-equivalent ring (the hexagon lies between R = s/2 and s/sqrt 3), and
+``--axisymmetric-only`` with the ring model alone.
 """
 
 import dataclasses
@@ -37,13 +39,13 @@ from numpy.polynomial.legendre import leggauss
 from _measure import peak_memory_mb
 from bolt3d import built, layout_of
 from frictionid.builders.bolt import bolt_model
-from frictionid.builders.thread import engaged_flanks, nut_bore
+from frictionid.builders.thread import ThreadSize, engaged_flanks, nut_bore
 from frictionid.fem.problem import Problem
 from frictionid.report.bolt import (fit_sopwith, flank_of_pairs, pair_forces, pitch_loads, ring_gap, sopwith_shares,
                                     thread_loads)
 
 MU = 0.15
-AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size")
+AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size", "head_size")
 
 
 #: the sections averaged: a disc of SECTION_FRACTION of the bolt's radius there (the shank's below the thread's
@@ -253,19 +255,28 @@ def sopwith_turns(lam_p: float, n: int, moved: float) -> np.ndarray:
 
 
 def axis(options: dict, heights: list[float], cache: str | None = None, factorisation: str = "auto",
-         n_phases: int = 0):
+         n_phases: int = 0, head_radius: float | None = None, axisymmetric_only: bool = False):
     """The change of uy's section average between consecutive ``heights``, both models, at mu = MU; with
-    ``n_phases`` also the ring model's averaged over that many phases of its teeth (:func:`phase_average`)."""
+    ``n_phases`` also the ring model's averaged over that many phases of its teeth (:func:`phase_average`);
+    ``head_radius`` [mm] the ring model's head radius instead of the hexagon's area-equivalent one."""
     three = {**options, "model": "3d", "cutout": False, "jaws": False}
     axi = {k: v for k, v in options.items() if k not in AXISYMMETRIC_ONLY}
     ys, layout = np.asarray(heights, float), layout_of(options)
-    model2 = bolt_model(**axi)
-    solution2, rings = solved(model2, layout, 2, "auto", ys)
-    average = spread = None
-    if n_phases:
-        y_start = ring_gap(model2, solution2, layout.size.P)
-        _, per_phase = phase_average(axi, layout, y_start, thread_loads(model2, solution2).n_threads, n_phases, ys)
-        average, spread = per_phase.mean(axis=0), per_phase
+    radius = ThreadSize.head_radius if head_radius is None else property(lambda size: head_radius)
+    with mock.patch.object(ThreadSize, "head_radius", radius):
+        model2 = bolt_model(**axi)
+        solution2, rings = solved(model2, layout, 2, "auto", ys)
+        average = spread = None
+        if n_phases:
+            y_start = ring_gap(model2, solution2, layout.size.P)
+            _, per_phase = phase_average(axi, layout, y_start, thread_loads(model2, solution2).n_threads, n_phases,
+                                         ys)
+            average, spread = per_phase.mean(axis=0), per_phase
+    if axisymmetric_only:
+        for k in range(len(ys) - 1):
+            line = f"  y {ys[k]:7.2f} -> {ys[k + 1]:7.2f} mm: axisymmetric {1000 * rings[k]:8.4f} um"
+            print(line + (f", phase average {1000 * average[k]:.4f} um" if n_phases else ""))
+        return
     _, helix = solved(built(three, cache, {}), layout, 3, factorisation, ys)
     for k in range(len(ys) - 1):
         line = (f"  y {ys[k]:7.2f} -> {ys[k + 1]:7.2f} mm: axisymmetric {1000 * rings[k]:8.4f} um, 3-D "
@@ -282,24 +293,23 @@ def axis(options: dict, heights: list[float], cache: str | None = None, factoris
               f"{100 * (helix[1:].sum() / reference[1:].sum() - 1):+.2f} %")
 
 
+def _flag(args: list[str], name: str, convert):
+    """(value after ``name`` converted, or None; args without the two)."""
+    if name not in args:
+        return None, args
+    at = args.index(name)
+    return convert(args[at + 1]), args[:at] + args[at + 2:]
+
+
 if __name__ == "__main__":
-    if "--axis" in sys.argv:
-        at = sys.argv.index("--axis")
-        heights = [float(v) for v in sys.argv[at + 1].split(",")]
-        rest = sys.argv[1:at] + sys.argv[at + 2:]
-        phases = 0
-        if "--phases" in rest:
-            at = rest.index("--phases")
-            phases = int(rest[at + 1])
-            rest = rest[:at] + rest[at + 2:]
-        axis(json.loads(rest[0]), heights, *rest[1:3], n_phases=phases)
+    args = sys.argv[1:]
+    phases, args = _flag(args, "--phases", int)
+    heights, args = _flag(args, "--axis", lambda v: [float(y) for y in v.split(",")])
+    head_radius, args = _flag(args, "--head-radius", float)
+    only = "--axisymmetric-only" in args
+    args = [a for a in args if a != "--axisymmetric-only"]
+    if heights is not None:
+        axis(json.loads(args[0]), heights, *args[1:3], n_phases=phases or 0, head_radius=head_radius,
+             axisymmetric_only=only)
     else:
-        args = sys.argv[1:]
-        phases = 0
-        if "--phases" in args:
-            at = args.index("--phases")
-            phases = int(args[at + 1])
-            args = args[:at] + args[at + 2:]
-        only = "--axisymmetric-only" in args
-        args = [a for a in args if a != "--axisymmetric-only"]
-        main(json.loads(args[0]), *args[1:3], n_phases=phases, axisymmetric_only=only)
+        main(json.loads(args[0]), *args[1:3], n_phases=phases or 0, axisymmetric_only=only)

@@ -133,8 +133,9 @@ def test_a_coarse_curved_cylinder_keeps_its_volume_and_skin():
     assert volumes[True] == pytest.approx(exact_volume, rel=0.01)
 
 
-#: the test's M6 full nut (tests/test_bolt3d_verification.py) at mesh_size 2 and at roots 0.125 mm: meshes with
-#: cells whose curved faces leave det J small at a corner (mesh_size 2) or fold it (both)
+#: the M6 full nut of tests/test_bolt3d_verification.py at coarse sizes (roots 0.3 mm, no head_size), at mesh_size 2
+#: and at roots 0.125 mm: meshes with cells whose curved faces leave det J small at a corner (mesh_size 2) or fold
+#: it (both)
 M6 = {"size": "M6", "model": "3d", "length": 24.0, "thread_length": 9.5, "n_axial": 2, "flank_size": 1.0,
       "contact_size": 3.0, "root_size": 0.3, "mesh_size": 4.0, "forces": [1500.0], "n_increments": 1,
       "cutout": False, "jaws": False}

@@ -65,7 +65,8 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                engaged_length: float | None = None, clearance: float | None = None,
                bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
                model: str = "axisymmetric", cutout=True, jaws: bool | None = None,
-               thread_length: float | None = None, root_size: float | None = None) -> Model:
+               thread_length: float | None = None, root_size: float | None = None,
+               head_size: float | None = None) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -122,8 +123,11 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         True (default with ``load`` = "tension"): the nut's two flats normal to z are held in z (jaws against
         rotation); false (default with "tightening", where the nut is turned): free.
     root_size : float [mm], 3-D only, optional
-        Element size at the bolt's roots where the nut crest faces them (the size grows from there by 1 mm per
+        Element size at the bolt's roots where the nut crest faces them (the size grows from there by 2.5 mm per
         mm); default R/2 (R = H/6 the root radius).
+    head_size : float [mm], 3-D only, optional
+        Element size in the bolt's head (and its bearing face), growing to ``mesh_size`` over k/2 outside it;
+        default none (the head meshed by the other sizes).
     torques : sequence of float [N m], optional
         Wrench torque at the end of each stage instead of ``angles``: a uniform circumferential traction on
         "nut_outer" (the hexagon ring, one radius) whose moment about the axis is the torque; the nut's rotation
@@ -148,8 +152,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     mesh_size = defaults["mesh_size"] if mesh_size is None else positive("mesh_size", mesh_size)
     if model == "3d":
         root_size = None if root_size is None else positive("root_size", root_size)
+        head_size = None if head_size is None else positive("head_size", head_size)
         return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
-                         (load, angles, torques), cutout, jaws, root_size)
+                         (load, angles, torques), cutout, jaws, (root_size, head_size))
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -177,7 +182,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
 
 
 def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, loading, cutout, jaws,
-              root_size: float | None) -> Model:
+              local_sizes: tuple[float | None, float | None]) -> Model:
     from .bolt3d import bolt3d_model
     load, angles, torques = loading
     if load not in ("tension", "tightening"):
@@ -194,8 +199,10 @@ def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, l
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name} in 3-D: expected "
                          f"at most P = {layout.size.P:g} mm")
     engaged = layout.size.nut_m if engaged_length is None else engaged_length
+    root_size, head_size = local_sizes
     return bolt3d_model(layout, layout.y_bearing + engaged, values, count("n_increments", n_increments, 1, 1000),
-                        flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size, load)
+                        flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size, load,
+                        head_size)
 
 
 def _angles(values, name: str) -> tuple[float, ...]:

@@ -55,7 +55,7 @@ def window_of(layout: BoltLayout, cutout) -> Window | None:
 
 def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ...], n_increments: int,
                  flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool,
-                 root_size: float | None = None, load: str = "tension") -> Model:
+                 root_size: float | None = None, load: str = "tension", head_size: float | None = None) -> Model:
     """The 3-D tensile test, or with ``load`` = "tightening" the tightening test (options as
     :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d"); ``values`` the stages' machine forces [N] or
     nut rotations [deg].
@@ -81,7 +81,7 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
         raise InputError(f"`jaws` must be true or false, got {jaws!r}")
     root_size = ROOT_FRACTION * layout.size.root_radius if root_size is None else root_size
     options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
-                        math.radians(JAW_ANGLE), root_size)
+                        math.radians(JAW_ANGLE), root_size, head_size)
     return bolt3d_model_on(bolt3d_mesh(layout, options, engaged_top), layout, values, n_increments, jaws, load)
 
 

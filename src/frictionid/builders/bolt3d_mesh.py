@@ -35,6 +35,8 @@ _TOL = 2e-3  # [mm] distance under which a face point lies on an analytic surfac
 ALGORITHMS_3D = ((1, "Delaunay"), (4, "Frontal"))
 #: normal angle [rad] of one of the head's flats (the others at + k 60 deg)
 HEAD_ANGLE = math.pi / 2
+#: with ``head_size``, the size grows to ``mesh_size`` over this many head heights k outside the head's box
+HEAD_TRANSITION = 0.5
 
 log = logging.getLogger(__name__)
 
@@ -42,8 +44,8 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Options3d:
     """What the 3-D mesh needs beyond the layout: sizes [mm], the window (None: no cut-out), the angle of the
-    section that equals the axisymmetric one (the window's centre) and the normal angle [rad] of the flat the jaws
-    hold (the hexagons' flats are at this angle + k 60 deg)."""
+    section that equals the axisymmetric one (the window's centre), the normal angle [rad] of the flat the jaws
+    hold (the hexagons' flats are at this angle + k 60 deg) and the size in the bolt's head (None: no own size)."""
 
     flank_size: float
     contact_size: float
@@ -52,6 +54,7 @@ class Options3d:
     theta_match: float
     jaw_angle: float
     root_size: float
+    head_size: float | None = None
 
 
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
@@ -249,6 +252,19 @@ def _distance_field(faces: list[int], size_min: float, size_max: float, growth: 
     return threshold
 
 
+def _head_field(layout: BoltLayout, size: float, size_max: float) -> int:
+    """Size ``size`` in the box around the bolt's head (y from -k to the bearing face, |x|, |z| up to the
+    hexagon's corner radius), growing linearly to ``size_max`` over HEAD_TRANSITION k outside it."""
+    s, field = layout.size, gmsh.model.mesh.field
+    box = field.add("Box")
+    corner = s.head_s / SQRT3
+    for name, value in (("VIn", size), ("VOut", max(size, size_max)), ("XMin", -corner), ("XMax", corner),
+                        ("ZMin", -corner), ("ZMax", corner), ("YMin", -s.head_k), ("YMax", 0.0),
+                        ("Thickness", HEAD_TRANSITION * s.head_k)):
+        field.setNumber(box, name, value)
+    return box
+
+
 def separate_bodies(mesh: Mesh, owner: dict[str, str]) -> Mesh:
     """The mesh with every body (region) given its own nodes: a node of a region's cells that an earlier region
     in :data:`BODIES` order already uses is copied; the cells of the later region and the boundaries it owns
@@ -326,10 +342,12 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
         volumes = _fragment(layout, options, engaged_top)
         names = _classify(layout, options, volumes)
         root = min(options.flank_size, options.root_size)
-        use_size_fields(_distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
-                        _distance_field(names["head_plate"] + names["nut_plate"], options.contact_size,
-                                        options.mesh_size),
-                        _distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH))
+        fields = [_distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
+                  _distance_field(names["head_plate"] + names["nut_plate"], options.contact_size, options.mesh_size),
+                  _distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH)]
+        if options.head_size is not None:
+            fields.append(_head_field(layout, options.head_size, options.mesh_size))
+        use_size_fields(*fields)
         gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
         for body, tags in volumes.items():
             gmsh.model.addPhysicalGroup(3, tags, name=body)
