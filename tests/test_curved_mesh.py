@@ -96,6 +96,39 @@ def test_facet_basis_of_a_curved_cell_whose_inverse_map_needs_a_start_inside():
     assert np.allclose(mapping.F(mapping.invF(x, tind=basis.tind), basis.tind), x, atol=1e-9)
 
 
+
+#: a cell of the M6 full nut's mesh with roots at 0.1 mm (bolt3d builder, zone B where the grooves meet): a sliver
+#: (corner 3 near edge (0, 1)'s midpoint) made valid by its curved mid-side nodes; the straight inverse of its face
+#: (2, 0, 1)'s points lies far outside the reference cell, at (2.40, 1.22, -3.88) for one of them
+SLIVER = np.array([[-2.825221407707259, 19.244097086190667, 0.0], [-2.5714457394408803, 19.201963405931714,
+                    0.7376077219485109], [-2.6752404735808355, 19.157505553499465, 0.0],
+                   [-2.6522945631255834, 19.203330590485937, 0.3919437330614486],
+                   [-2.7050953880276443, 19.211043338327858, 0.3704374558771588],
+                   [-2.6490769772992984, 19.179735207898336, 0.3724223708659796],
+                   [-2.7502309406440473, 19.200801319845066, 0.0], [-2.738757985416421, 19.223713838338302,
+                                                                     0.19597186653072377],
+                   [-2.611870151283232, 19.202646998208827, 0.5647757275049797],
+                   [-2.663767518353209, 19.1804180719927, 0.19597186653072396]])
+
+
+def test_facet_basis_of_a_valid_sliver_whose_clipped_newton_stalls_at_a_corner():
+    """The clipped Newton iteration holds this cell's points at a corner of the unit cube (residual 0.14 mm); from
+    the same start without the clip they converge inside the reference tetrahedron, where the basis reads the
+    cell's coordinate field back at its quadrature points."""
+    cells = np.arange(10)[None]
+    assert jacobian_bounds(SLIVER, cells)[0][0] > 0
+    mesh = from_meshio(meshio.Mesh(SLIVER, [("tetra10", cells)]))
+    mapping = _FacetMapping(mesh, mesh.elem(), mesh.bndelem)
+    basis = skfem.FacetBasis(mesh, skfem.ElementTetP2(), mapping=mapping, intorder=5)
+    x = mapping.G(basis.X, find=basis.find)
+    X = mapping.invF(x, tind=basis.tind)
+    assert np.allclose(mapping.F(X, basis.tind), x, atol=1e-9)
+    assert X.min() > -1e-8 and X.sum(axis=0).max() < 1 + 1e-8
+    scalar = skfem.FacetBasis(mesh, skfem.ElementTetP2(), mapping=mapping, intorder=5)
+    for k in range(3):                                       # the cell's own coordinate field, read by the basis
+        field = scalar.interpolate(scalar.project(lambda x: x[k]))
+        assert np.allclose(field, scalar.global_coordinates()[k], atol=1e-9)
+
 def cylinder_mesh(radius: float, length: float, size: float, curved: bool):
     with gmsh_session("cylinder"):
         gmsh.model.occ.addCylinder(0, 0, 0, 0, 0, length, radius)

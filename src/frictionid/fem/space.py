@@ -34,6 +34,10 @@ INTORDER = {"triangle": 2, "triangle6": 4, "quad": 3, "quad9": 5,
 N_CORNERS = {"line": 2, "line3": 2, "triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}
 
 
+#: how far outside the reference simplex (in reference coordinates) an unclipped inverse-map point may land
+INSIDE_TOL = 1e-8
+
+
 class _FacetMapping(skfem.MappingIsoparametric):
     """The isoparametric map with its inverse (facet quadrature points -> cell reference coordinates) by Newton's
     method as scikit-fem's, but
@@ -43,18 +47,37 @@ class _FacetMapping(skfem.MappingIsoparametric):
     - started, on triangles and tetrahedra, from the inverse of the straight cell through the corners instead of
       0.5 in every reference coordinate, which lies outside the reference tetrahedron: there a curved cell's
       quadratic map can fold, and Newton did not converge on valid tetra10 cells whose mid-side nodes lie on a
-      curved face (the 3-D bolt's helical flanks)."""
+      curved face (the 3-D bolt's helical flanks);
+    - each step clipped to the unit cube, which keeps the iterates out of the region where the map folds; where
+      that stalls (a valid but strongly curved cell whose straight inverse lies far outside, so that the clip holds
+      the iterate at a corner: a sliver tetrahedron made valid by its curved mid-side nodes at the 3-D bolt's
+      roots), the cell's points are solved again from the same start without the clip and accepted only if they
+      land in the reference tetrahedron (within :data:`INSIDE_TOL`)."""
 
     def invF(self, x, tind=None, newton_max_iters=50, newton_tol=1e-10):
-        X = self._straight_inverse(x, tind)
-        if X is None:
+        X0 = self._straight_inverse(x, tind)
+        if X0 is None:
             return super().invF(x, tind=tind, newton_max_iters=newton_max_iters, newton_tol=newton_tol)
-        for _ in range(newton_max_iters):
+        X, done = self._newton(x, tind, X0, newton_max_iters, newton_tol, clip=True)
+        if not done.all():
+            cells = (np.arange(x.shape[1]) if tind is None else np.asarray(tind))[~done]
+            Y, free_done = self._newton(x[:, ~done], cells, X0[:, ~done], newton_max_iters, newton_tol, clip=False)
+            inside = (Y.min(axis=0) > -INSIDE_TOL).all(axis=1) & (Y.sum(axis=0) < 1 + INSIDE_TOL).all(axis=1)
+            if not (free_done & inside).all():
+                raise Exception(f"Newton iteration didn't converge up to TOL={newton_tol}")
+            X[:, ~done] = Y
+        return X
+
+    def _newton(self, x, tind, X, max_iters, tol, clip):
+        """Newton's iterates of invF from X, clipped to the unit cube after each step or not, and per cell
+        whether its last step was below ``tol``."""
+        for _ in range(max_iters):
             dX = np.einsum("ijkl,jkl->ikl", self.invDF(X, tind), x - self.F(X, tind))
-            X = np.clip(X + dX, 0.0, 1.0)
-            if (np.linalg.norm(dX, 1, (0, 2)) < newton_tol).all():
-                return X
-        raise Exception(f"Newton iteration didn't converge up to TOL={newton_tol}")
+            X = np.clip(X + dX, 0.0, 1.0) if clip else X + dX
+            done = np.linalg.norm(dX, 1, (0, 2)) < tol
+            if done.all():
+                break
+        return X, done
 
     def _straight_inverse(self, x, tind):
         """(dim, n_cells, n_points) reference coordinates of x (dim, n_cells, n_points) in the straight simplices
