@@ -46,8 +46,8 @@ def inverse(L: np.ndarray, overwrite: bool = False) -> np.ndarray:
     L = np.asarray(L)
     lower = L.flags.f_contiguous
     # a C-ordered L is, read in LAPACK's column order, the upper factor U = L^T (S = U^T U): no transposing copy.
-    # One BLAS thread: OpenBLAS's threaded potri (trtri, lauum) took 1.3 to 9 s CPU at 2,400 rows against 0.22 s
-    # on one thread, the machine's two cores shared (docs/bolt-study.md, "Where the time goes")
+    # One BLAS thread: with the second core busy, OpenBLAS's threaded potri (trtri, lauum) took 6 to 35 times one
+    # thread's CPU time at 2,400 rows and 2.1 to 3.6 times its wall time at 8,000 (docs/solver.md)
     with one_blas_thread():
         inv, info = la.lapack.dpotri(L if lower else L.T, lower=int(lower), overwrite_c=int(overwrite))
     if info != 0:
