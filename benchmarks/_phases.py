@@ -68,20 +68,23 @@ class Phases:
             self.parts[name] = (pstats.Stats(profile), time.process_time() - cpu, time.perf_counter() - wall)
 
     @staticmethod
-    def cumulative(stats: pstats.Stats, path: str, function: str, caller: str | None) -> float:
-        """CPU seconds in ``function`` of a file ending in ``path`` (all its callers, or only ``caller``)."""
-        total = 0.0
-        for (filename, _, name), (_, _, _, ct, callers) in stats.stats.items():
+    def cumulative(stats: pstats.Stats, path: str, function: str, caller: str | None) -> tuple[float, int]:
+        """CPU seconds in ``function`` of a file ending in ``path`` (all its callers, or only ``caller``) and its
+        number of calls."""
+        total, calls = 0.0, 0
+        for (filename, _, name), (_, nc, _, ct, callers) in stats.stats.items():
             if not (filename.endswith(path) and name == function):
                 continue
             if caller is None:
-                total += ct
+                total, calls = total + ct, calls + nc
             else:
-                total += sum(edge[3] for (_, _, called_by), edge in callers.items() if called_by == caller)
-        return total
+                edges = [edge for (_, _, called_by), edge in callers.items() if called_by == caller]
+                total, calls = total + sum(e[3] for e in edges), calls + sum(e[1] for e in edges)
+        return total, calls
 
     def table(self, spec: dict = PHASES, kinds: dict | None = None) -> str:
-        """One line per phase: CPU seconds and share of its part; ``kinds`` maps a part's name to its spec key."""
+        """One line per phase: CPU seconds, share of its part and calls; ``kinds`` maps a part's name to its spec
+        key."""
         lines = []
         for name, (stats, cpu, wall) in self.parts.items():
             lines.append(f"{name}: {cpu:.2f} s CPU ({wall:.2f} s wall)")
@@ -89,7 +92,9 @@ class Phases:
                 if not functions:
                     lines.append(f"    {label}")
                     continue
-                seconds = sum(self.cumulative(stats, *f) for f in functions)
+                found = [self.cumulative(stats, *f) for f in functions]
+                seconds, calls = sum(f[0] for f in found), sum(f[1] for f in found)
                 if seconds > 0:
-                    lines.append(f"    {label:<48} {seconds:8.2f} s  {100 * seconds / max(cpu, 1e-12):5.1f} %")
+                    lines.append(f"    {label:<48} {seconds:8.2f} s  {100 * seconds / max(cpu, 1e-12):5.1f} %  "
+                                 f"{calls:6d} calls")
         return "\n".join(lines)
