@@ -11,12 +11,16 @@ there, or read from there when it exists (the build takes minutes). Run it under
 ``--central A D`` then checks the sensitivities of the observations and reactions to those zones against central
 differences (step 1e-4) at the end of the load path.
 
+``--phases`` profiles the build, Problem.build, the forward solve and forward + sensitivities (cProfile with the
+process's CPU time as its clock, benchmarks/_phases.py) and prints the CPU time of each phase and its share.
+
 ``--orderings scotch pord metis amd`` instead condenses the model once per MUMPS ordering, each in a process of its
 own (its peak is its own; the inputs of the condensation are assembled once and handed over in a file), and prints
 the condensation's wall and CPU time and peak per ordering; no load path.
 """
 
 import argparse
+import contextlib
 import json
 import pickle
 import subprocess
@@ -28,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from _measure import peak_memory_mb, timed
+from _phases import Phases
 from frictionid.builders.bolt import bolt_layout, bolt_model
 from frictionid.builders.bolt3d import measurement_points_3d
 from frictionid.fem.problem import Problem
@@ -88,14 +93,17 @@ def central_differences(problem, mu: np.ndarray, solution, zones: list[str], nam
                   f"|analytic - central| {np.abs(analytic - central).max():.3e} {unit}", flush=True)
 
 
-def main(options: dict, cache: str | None = None, factorisation: str = "auto", central: list[str] = ()):
+def main(options: dict, cache: str | None = None, factorisation: str = "auto", central: list[str] = (),
+         phases: Phases | None = None):
     figures = {}
     options = {"model": "3d", **options}
-    model = built(options, cache, figures)
+    part = phases.part if phases is not None else lambda name: contextlib.nullcontext()
+    with part("build"):
+        model = built(options, cache, figures)
     print(f"3-D M20 bolt-nut {json.dumps(options)}: {model.mesh.n_nodes:,} nodes, {3 * model.mesh.n_nodes:,} dofs;"
           f" build {figures['build']:.1f} s, peak so far {peak_memory_mb():.0f} MB", flush=True)
     start_cpu = time.process_time()
-    with timed(figures, "condense"):
+    with timed(figures, "condense"), part("Problem.build"):
         problem = Problem.build(model, factorisation=factorisation, **observed(options))
     cpu = time.process_time() - start_cpu
     n_pairs = problem.pairs.n_pairs
@@ -105,14 +113,18 @@ def main(options: dict, cache: str | None = None, factorisation: str = "auto", c
     print("\n".join(body_lines(problem.condensed)), flush=True)
     mu = np.full(len(model.zone_names), 0.15)
     start, cpu = time.perf_counter(), time.process_time()
-    forward = problem.solve(mu)
+    with part("forward"):
+        forward = problem.solve(mu)
     figures["forward"], forward_cpu = time.perf_counter() - start, time.process_time() - cpu
     start, cpu = time.perf_counter(), time.process_time()
-    solution = problem.solve(mu, sensitivities=True)
+    with part("forward + sensitivities"):
+        solution = problem.solve(mu, sensitivities=True)
     figures["sensitivities"], sensitivities_cpu = time.perf_counter() - start, time.process_time() - cpu
     print(f"  forward {figures['forward']:.1f} s ({forward_cpu:.1f} s CPU, {forward.n_newton.sum()} Newton "
           f"iterations), forward + sensitivities {figures['sensitivities']:.1f} s ({sensitivities_cpu:.1f} s CPU), "
-          f"peak {peak_memory_mb():.0f} MB")
+          f"peak {peak_memory_mb():.0f} MB", flush=True)
+    if phases is not None:
+        print(phases.table(kinds={"forward": "solve", "forward + sensitivities": "solve"}), flush=True)
     central_differences(problem, mu, solution, central, model.zone_names)
 
 
@@ -168,6 +180,7 @@ if __name__ == "__main__":
     parser.add_argument("--factorisation", default="auto")
     parser.add_argument("--orderings", nargs="+")
     parser.add_argument("--central", nargs="+", default=[])
+    parser.add_argument("--phases", action="store_true")
     parser.add_argument("--condense-once", nargs=2, help=argparse.SUPPRESS)
     arguments = parser.parse_args()
     if arguments.condense_once:
@@ -175,4 +188,5 @@ if __name__ == "__main__":
     elif arguments.orderings:
         orderings(json.loads(arguments.options), arguments.cache, arguments.orderings)
     else:
-        main(json.loads(arguments.options), arguments.cache, arguments.factorisation, arguments.central)
+        main(json.loads(arguments.options), arguments.cache, arguments.factorisation, arguments.central,
+             Phases() if arguments.phases else None)

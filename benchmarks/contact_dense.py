@@ -1,6 +1,7 @@
 """How the dense contact operations grow with the number of contact dofs n_w = dim n_c: the condensation's dense
-part for a two-body interface (per body: the triangular solve of its trailing factor block with the contact rows,
-then T K^-1 B^T = Z^T Z) and the load path's stuck contact Jacobian's inverse
+part for a two-body interface (per body, node-to-node contact rows T on its Schur complement S = L L^T: the
+product's S^-1 from L and T S^-1 T^T, fem/condense.py; and, for comparison, the triangular solves Z = L^-1 T^T and
+Z^T Z it replaced, BLAS's default threads) and the load path's stuck contact Jacobian's inverse
 (:meth:`frictionid.fem.updated_jacobian.StuckInverse.build`, the product's code), on a synthetic SPD W of size n_w.
 
 One size per process, so that the peak resident memory is that size's (ru_maxrss). The sparse factorisation of K
@@ -25,22 +26,43 @@ from pathlib import Path
 
 import numpy as np
 import scipy.linalg as la
+import scipy.sparse as sp
+
+
+def node_rows(n_w: int, rng) -> sp.csr_matrix:
+    """(n_w, n_w) contact rows of one body as node-to-node pairs make them: each pair's normal and tangents (a
+    random rotation) on the three dofs of its node, the nodes in random order among the body's Schur dofs."""
+    n_c = n_w // 3
+    frames = np.linalg.qr(rng.standard_normal((n_c, 3, 3)))[0]                 # (n_c, 3, 3) orthonormal
+    nodes = rng.permutation(n_c)
+    rows = np.repeat(np.arange(n_w), 3)
+    cols = (3 * nodes[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1).ravel()
+    return sp.csr_matrix((frames.ravel(), (rows, cols)), shape=(n_w, n_w))
 
 
 def one(n_w: int) -> None:
+    from frictionid.fem.condense import _add_products
     from frictionid.fem.updated_jacobian import StuckInverse
     rng = np.random.default_rng(0)
     s = n_w                                       # one body's contact dofs (the other body's block: the same)
-    cpu, wall = time.process_time(), time.perf_counter()
-    out = np.zeros((n_w, n_w))
+    seconds = {"solves": [0.0, 0.0], "inverse": [0.0, 0.0]}
+    out, got = np.zeros((n_w, n_w)), np.zeros((n_w, n_w))
     for _ in range(2):                            # bolt side, nut side
-        L = np.tril(rng.standard_normal((s, s))) + s * np.eye(s)
-        rows = rng.standard_normal((s, n_w))
-        Z = la.solve_triangular(L, rows, lower=True, check_finite=False)
-        del rows, L
+        L = np.asfortranarray(np.tril(rng.standard_normal((s, s))) + s * np.eye(s))
+        T = node_rows(n_w, rng)
+        cpu, wall = time.process_time(), time.perf_counter()
+        Z = la.solve_triangular(L, T.T.toarray(), lower=True, check_finite=False)
         out += Z.T @ Z
         del Z
-    condense_cpu, condense_wall = time.process_time() - cpu, time.perf_counter() - wall
+        seconds["solves"][0] += time.process_time() - cpu
+        seconds["solves"][1] += time.perf_counter() - wall
+        cpu, wall = time.process_time(), time.perf_counter()
+        _add_products(got, T, L, True, n_w)      # the product's kernel (fem/condense.py)
+        seconds["inverse"][0] += time.process_time() - cpu
+        seconds["inverse"][1] += time.perf_counter() - wall
+        del L
+    difference = np.abs(got - out).max() / np.abs(out).max()
+    del got
     W = 0.5 * (out + out.T) / n_w
     del out
     cpu, wall = time.process_time(), time.perf_counter()
@@ -49,9 +71,11 @@ def one(n_w: int) -> None:
     stuck_cpu, stuck_wall = time.process_time() - cpu, time.perf_counter() - wall
     assert stuck is not None
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
-    print(f"n_w {n_w:6d} (n_c {n_w // 3:5d}): dense condensation {condense_cpu:7.1f} s CPU ({condense_wall:7.1f} s "
-          f"wall), stuck inverse {stuck_cpu:7.1f} s CPU ({stuck_wall:7.1f} s wall), peak {peak:5.2f} GB = "
-          f"{peak * 2**30 / (8.0 * n_w ** 2):.1f} n_w^2 doubles", flush=True)
+    (old_cpu, old_wall), (new_cpu, new_wall) = seconds["solves"], seconds["inverse"]
+    print(f"n_w {n_w:6d} (n_c {n_w // 3:5d}): dense condensation by triangular solves {old_cpu:7.1f} s CPU "
+          f"({old_wall:7.1f} s wall), by S^-1 {new_cpu:7.1f} s CPU ({new_wall:7.1f} s wall), largest difference "
+          f"{difference:.1e} of the largest entry; stuck inverse {stuck_cpu:7.1f} s CPU ({stuck_wall:7.1f} s wall), "
+          f"peak {peak:5.2f} GB = {peak * 2**30 / (8.0 * n_w ** 2):.1f} n_w^2 doubles", flush=True)
 
 
 def stuck_only(n_w: int, names=("lu", "auto")) -> None:

@@ -212,3 +212,17 @@ def test_w_is_held_once_with_floating_bodies_and_after_pickling():
         assert np.array_equal(getattr(again, name), getattr(ops, name)), name
     assert np.shares_memory(again.on_lam, again.full)
     assert np.array_equal(again.on_lam @ np.arange(n_w), ops.on_lam @ np.arange(n_w))
+
+
+@pytest.mark.parametrize("order", ["F", "C"])
+def test_the_inverse_from_a_cholesky_factor_is_the_full_symmetric_inverse(order):
+    """cholesky.inverse (LAPACK's potri, the condensation's S^-1 per body) from a lower factor in either memory
+    order: the whole symmetric inverse, to 1e-12 of its largest entry (both triangles: potri fills one)."""
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(1100, 1100))                     # more than one block of cholesky.symmetrise
+    S = X @ X.T + 1100 * np.eye(1100)
+    L = np.array(np.linalg.cholesky(S), order=order)
+    got = cholesky.inverse(L)
+    expected = np.linalg.inv(S)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    np.testing.assert_array_equal(L, np.array(np.linalg.cholesky(S), order=order))      # L kept

@@ -293,8 +293,11 @@ def test_with_mumps_the_check_makes_no_factor_again_and_finds_what_the_whole_fie
         with monkeypatch.context() as m:
             m.setattr(Condensed, "displacement_at", lambda *args: None)
             full = problem.gap_errors(solution)
-        assert [(f["interface"], f["increment"], f["worst"], f["unmeasured"]) for f in fast] == \
-            [(f["interface"], f["increment"], f["worst"], f["unmeasured"]) for f in full]
+        # the worst pair where the errors are above round-off: in the press (increment 0) every error is 1e-17 mm,
+        # zero to the check (its mean 0), and which pair's round-off is largest differs between the two routes
+        assert [(f["interface"], f["increment"], f["worst"] if f["mean"] > 0 else None, f["unmeasured"])
+                for f in fast] == \
+            [(f["interface"], f["increment"], f["worst"] if f["mean"] > 0 else None, f["unmeasured"]) for f in full]
         for a, b in zip(fast, full):
             for key in ("mean", "spread", "ratio", "largest"):
                 assert a[key] == pytest.approx(b[key], rel=1e-9, abs=1e-15), key

@@ -379,3 +379,40 @@ def test_a_solver_with_iterated_solves_is_freed_without_the_garbage_collector(pl
         assert freed() is None
     finally:
         gc.enable()
+
+
+def test_a_singular_state_predictor_is_not_tried_again_for_the_same_states(plane_strain, monkeypatch):
+    """A state predictor found singular (its capacitance matrix's condition estimate, a factorisation) is not made
+    again in later increments with the same contact states: every predictor made singular here, it is estimated
+    once per distinct state, and the solution is the one that estimates it every increment (Newton starts from
+    the previous solution either way)."""
+    estimates, states = [], []
+    monkeypatch.setattr(UpdatedSolver, "rcond", lambda self, P, Q: estimates.append(1) or 0.0)
+    original = loadpath.LoadPathSolver._predictor
+
+    def predictor(self, inc, held, mu=None, path=None):
+        if path is not None:
+            states.append(path.state.tobytes())
+        return original(self, inc, held, mu, path)
+
+    monkeypatch.setattr(loadpath.LoadPathSolver, "_predictor", predictor)
+    remembered = plane_strain.solve([0.3, 0.2], sensitivities=True)
+    n_stick = len(remembered.n_newton)                    # one stick predictor per increment, never remembered
+    assert len(states) > len(set(states))                 # the same states met again (gross slip)
+    assert len(estimates) == n_stick + len(set(states))
+
+    class Forgetful(set):
+        def add(self, item):
+            pass
+
+    init = loadpath.LoadPathSolver.__init__
+
+    def forgetful_init(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        self.singular_states = Forgetful()
+
+    monkeypatch.setattr(loadpath.LoadPathSolver, "__init__", forgetful_init)
+    estimates.clear(), states.clear()
+    every = plane_strain.solve([0.3, 0.2], sensitivities=True)
+    assert len(estimates) == n_stick + len(states) > n_stick + len(set(states))
+    _assert_same(every, remembered, rtol=0.0)

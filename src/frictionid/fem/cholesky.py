@@ -5,8 +5,9 @@ With the dofs s ordered last, P K P^T = L L^T and L = [[L_ii, 0], [L_si, L_ss]] 
 
     S = K_ss - K_si K_ii^-1 K_is = L_ss L_ss^T,        (K^-1)_ss = S^-1 = L_ss^-T L_ss^-1,
 
-so every operator T K^-1 B^T whose rows T and B live on s is (L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T): dense triangular
-solves of size |s| instead of one sparse solve per column. The supernodal factorisation runs in BLAS.
+so every operator T K^-1 B^T whose rows T and B live on s is T_s S^-1 B_s^T: S^-1 from L_ss (LAPACK's potri,
+:func:`inverse`) and products with the sparse rows, instead of one sparse solve per column. The supernodal
+factorisation runs in BLAS.
 """
 
 from __future__ import annotations
@@ -16,9 +17,43 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numpy as np
+import scipy.linalg as la
 import scipy.sparse as sp
 
+from .threads import one_blas_thread
+
 log = logging.getLogger(__name__)
+
+#: columns per block where a symmetric matrix's upper triangle is copied to its lower one
+_BLOCK = 1024
+
+
+def symmetrise(A: np.ndarray) -> None:
+    """Copy the upper triangle of a Fortran-ordered square A to its lower triangle, in place, block by block (no
+    n x n temporary)."""
+    n = len(A)
+    for start in range(0, n, _BLOCK):
+        end = min(start + _BLOCK, n)
+        A[start:end, start:end] = np.triu(A[start:end, start:end]) + np.triu(A[start:end, start:end], 1).T
+        A[end:, start:end] = A[start:end, end:].T
+
+
+def inverse(L: np.ndarray, overwrite: bool = False) -> np.ndarray:
+    """S^-1 (n, n), Fortran order, symmetric, from the lower Cholesky factor L of S = L L^T (LAPACK's potri:
+    2 n^3 / 3 flops; ``overwrite``: in L's memory where L is Fortran-ordered). Products of S^-1 with sparse rows
+    then cost their nonzeros times n, where the triangular solves L^-1 T^T and the product of their results cost
+    n^2 |T| + n |T|^2 flops."""
+    L = np.asarray(L)
+    lower = L.flags.f_contiguous
+    # a C-ordered L is, read in LAPACK's column order, the upper factor U = L^T (S = U^T U): no transposing copy.
+    # One BLAS thread: with the second core busy, OpenBLAS's threaded potri (trtri, lauum) took 6 to 35 times one
+    # thread's CPU time at 2,400 rows and 2.1 to 3.6 times its wall time at 8,000 (docs/solver.md)
+    with one_blas_thread():
+        inv, info = la.lapack.dpotri(L if lower else L.T, lower=int(lower), overwrite_c=int(overwrite))
+    if info != 0:
+        raise np.linalg.LinAlgError(f"potri: the factor is singular (info {info})")
+    symmetrise(inv.T if lower else inv)
+    return inv
 
 
 def available() -> bool:

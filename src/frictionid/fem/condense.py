@@ -206,10 +206,10 @@ class GeneralisedInverse:
         return out
 
     def _from_schur(self, rows: sp.csr_matrix, n_w: int) -> np.ndarray | None:
-        """(L_ss^-1 T_s^T)^T (L_ss^-1 B_s^T), summed over the bodies (the connected parts of K: L_ss has no
-        coupling between them, :meth:`~frictionid.fem.cholesky.Cholesky.trailing`; MUMPS's per body), checked on
-        one column against a solve with the factor (None if it disagrees: the factor's order was not the one asked
-        for)."""
+        """T_s S^-1 B_s^T, S^-1 from L_ss (:func:`~frictionid.fem.cholesky.inverse`), summed over the bodies (the
+        connected parts of K: L_ss has no coupling between them, :meth:`~frictionid.fem.cholesky.Cholesky.trailing`;
+        MUMPS's per body), checked on one column against a solve with the factor (None if it disagrees: the
+        factor's order was not the one asked for)."""
         schur = self.cholesky if self.bodies is None else self.bodies
         last = schur.last
         if len(last) == 0:
@@ -233,18 +233,36 @@ class GeneralisedInverse:
         got = np.zeros(len(last))
         with blas_threads_for(max(len(b) for b in blocks)):       # one thread for small blocks (fem/threads.py)
             for block, L_bb in zip(blocks, factors):
-                Z = la.solve_triangular(L_bb, T[:, block].T.toarray(), lower=True, check_finite=False)
-                out += Z.T @ Z[:, :n_w]
-                del Z
+                # MUMPS's Schur factors are kept (displacement_at), CHOLMOD's blocks are not
+                column = _add_products(out, T[:, block].tocsr(), L_bb, self.bodies is None, n_w)
                 if block[-1] == len(last) - 1:
-                    e = np.zeros(len(block))
-                    e[-1] = 1.0
-                    got[block] = la.solve_triangular(L_bb, la.solve_triangular(L_bb, e, lower=True), lower=True,
-                                                     trans="T")
+                    got[block] = column
         if not np.allclose(got, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max()):
             log.warning("the factor's trailing block is not the Schur complement asked for: condensing by solves")
             return None
         return out
+
+
+def _add_products(out: np.ndarray, T_b: sp.csr_matrix, L: np.ndarray, overwrite: bool, n_w: int) -> np.ndarray:
+    """out += T_b S^-1 T_b[:n_w]^T in place, on the rows T_b touches, for S = L L^T (n_b, n_b), S^-1 by
+    :func:`~frictionid.fem.cholesky.inverse` (``overwrite``: in L's memory); S^-1's last column (n_b,). At most two
+    n_b-sized dense arrays besides ``out`` and L."""
+    S_inv = cholesky.inverse(L, overwrite)
+    last = S_inv[:, -1].copy()
+    used = np.flatnonzero(np.diff(T_b.indptr))                   # rows touching this body, the contact rows first
+    n_used_w = int(np.searchsorted(used, n_w))
+    T_u = T_b[used]
+    # S_inv.T is S^-1 in C order (symmetric): scipy's sparse-times-dense reads the dense rows contiguously
+    right = T_u[:n_used_w] @ S_inv.T                             # (n_used_w, n_b) T_w S^-1
+    del S_inv
+    right = np.ascontiguousarray(right.T)                        # S^-1 T_w^T in C order
+    block = T_u @ right                                          # (n_used, n_used_w)
+    del right
+    if len(used) == out.shape[0] and n_used_w == n_w:
+        out += block
+    else:
+        out[np.ix_(used, used[:n_used_w])] += block
+    return last
 
 
 _SINGULAR = ("model: the stiffness matrix is singular: a body is not held by supports or contact in some "

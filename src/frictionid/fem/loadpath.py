@@ -91,6 +91,11 @@ class LoadPathSolver:
         #: UpdatedSolver's interface: fem/contact_krylov.py); None: dense solves
         self.updated = linear if linear is not None else UpdatedSolver(stuck) if stuck is not None \
             and stuck.base is not None and _LINEAR == "updated" else None
+        #: contact states (bytes of the state array) whose state predictor was singular: not tried again. Where
+        #: every closed pair slips, the predictor's rows fix lam_T by lam_N alone and leave the floating bodies'
+        #: tangential motion free (the full M6 nut in gross slip: reciprocal condition 3e-19 at each increment,
+        #: each estimate a capacitance factorisation, 19 % of the solve; docs/bolt-study.md)
+        self.singular_states: set[bytes] = set()
 
     def start(self) -> _Path:
         """The unloaded state the load path starts from."""
@@ -120,6 +125,9 @@ class LoadPathSolver:
         pairs closed (g = 0) and slipping in their last direction t (lam_T = mu lam_N t), the others as above. Where the
         states and (in 2-D) the slip directions stay, as in gross slip, it is the increment's solution."""
         n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
+        state = None if path is None else path.state.tobytes()
+        if state in self.singular_states:
+            return None
         s = self.updated.inverses.base                  # its stuck rows (held gaps: open rows)
         P = np.where(held[:, None, None], s.P0, np.eye(dim))
         Q = np.where(held[:, None, None], s.Q0, 0.0)
@@ -132,6 +140,8 @@ class LoadPathSolver:
             Q[slip, 1:, 0] = self.r * mu[slip, None] * path.direction[slip]
             Q[slip, 1:, 1:] = 0.0
         if self.updated.rcond(P, Q) < np.finfo(float).eps:
+            if state is not None:
+                self.singular_states.add(state)
             return None
         target = (np.column_stack([-self.pairs.gap, inc.w_prev_T]).ravel() - inc.w0).reshape(n_pairs, dim)
         if self.free_T is not None:

@@ -37,11 +37,14 @@ import numpy as np
 import scipy.linalg as la
 
 from .capacitance import Fresh, Iterated, Updated
+from .cholesky import symmetrise
 from .contact import jacobian
 from .replaced_rows import ReplacedRows, gather
 from .threads import large_kernel
 
 log = logging.getLogger(__name__)
+#: columns per block of the 1-norm of an n x n matrix (no n x n temporary)
+_BLOCK = 1024
 
 #: how A is made: "auto" (from the Cholesky factor of r W_CC where J0 allows it, module docstring; else LU) or
 #: "lu" (an LU factorisation of J0 always: the previous path, kept for the equality tests and benchmarks)
@@ -122,19 +125,6 @@ class StuckInverse:
         return cls(open_pairs.copy(), A, P0, Q0, Wfull[rows], Wfull[rows] @ A, open_rows, float(r))
 
 
-#: columns per block where the inverse's upper triangle is copied to its lower one
-_BLOCK = 1024
-
-
-def _symmetrise(A: np.ndarray) -> None:
-    """Copy the upper triangle of a Fortran-ordered square A to its lower triangle, in place, block by block."""
-    n = len(A)
-    for start in range(0, n, _BLOCK):
-        end = min(start + _BLOCK, n)
-        A[start:end, start:end] = np.triu(A[start:end, start:end]) + np.triu(A[start:end, start:end], 1).T
-        A[end:, start:end] = A[start:end, end:].T
-
-
 def _stuck_inverse(P0, Q0, Wfull, Wa_T, r: float, held_gap, dim: int, symmetric: bool) -> np.ndarray | None:
     """J0^-1 for :meth:`StuckInverse.build`: by :func:`symmetric_inverse` where ``symmetric`` allows and it
     succeeds, else by an LU factorisation of J0; None where J0 is too ill-conditioned."""
@@ -192,7 +182,7 @@ def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -
     del c
     if info != 0:
         return None
-    _symmetrise(M_inv)
+    symmetrise(M_inv)
     if every and n == n_w:
         return M_inv
     modes, held = np.arange(n_w, n), np.flatnonzero(opened)
