@@ -115,7 +115,7 @@ def test_bolt_elongation_against_the_rings_averaged_over_the_helix_phases(helix_
     """Bolt elongation (the change of uy averaged over the bolt's sections from 0.5 mm below the head's top face
     to 0.5 mm inside its end, benchmarks/bolt3d_vs_axisymmetric.py's measure) within 1 % of the ring model's
     averaged over the same 16 phases (5.880 um; 5.843-5.993 um over the phases). Measured: 5.834 um, -0.78 %.
-    On the coarser mesh before (roots 0.3 mm, no head size: 35,767 nodes) it was -1.10 %, and this test failed.
+    On the coarse mesh (roots 0.3 mm, no head size: 35,767 nodes) it is -1.10 %, and this check fails there.
 
     Segment by segment, the head (y -3.5 to 0), the shank (0 to 9.8) and the rest: the head is a hexagon in 3-D
     and the ring of the same area in axisymmetry; the rings' head with the hexagon's inscribed or circumscribed
