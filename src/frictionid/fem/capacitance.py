@@ -258,51 +258,75 @@ KRYLOV_RTOL = 1e-13
 
 
 def gmres(C: np.ndarray, v: np.ndarray, precondition, rtol: float = KRYLOV_RTOL,
-          max_iterations: int = MAX_KRYLOV) -> tuple[np.ndarray | None, int]:
-    """(x, iterations) with C x = v by GMRES right-preconditioned by ``precondition`` (an approximate C^-1),
-    restarted when its residual estimate is met and the true residual is not; x None where |C x - v| did not
-    reach ``rtol`` (|C| |x| + |v|) (maximum norms) in ``max_iterations``. v (k,)."""
+          max_iterations: int = MAX_KRYLOV) -> tuple[np.ndarray | None, int | np.ndarray]:
+    """(x, iterations) with C x = v by GMRES right-preconditioned by ``precondition`` (an approximate C^-1 of a
+    (k, n) block), restarted where the residual estimate is met and the true residual is not; x None where
+    |C x - v| did not reach ``rtol`` (|C| |x| + |v|) (maximum norms) in ``max_iterations``. v (k,), or (k, n): each
+    column in its own Krylov space (the iterations of a column alone, to round-off), the products with C and the
+    preconditioner made for the columns still iterating at once (one pass over C and the factors for all: the
+    sensitivities' n_z right-hand sides); iterations then per column, x None where any column did not converge."""
+    V = v.reshape(len(v), -1)
     norm_C = np.abs(C).sum(axis=1).max(initial=0.0)
-    x = precondition(v)
-    used = 0
+    x = precondition(V)
+    used = np.zeros(V.shape[1], dtype=int)
     while True:
-        r = v - C @ x
-        scale = rtol * (norm_C * np.abs(x).max(initial=0.0) + np.abs(v).max(initial=0.0))
-        if np.abs(r).max(initial=0.0) <= scale:
-            return x, used
-        if used >= max_iterations or not np.all(np.isfinite(r)):
-            return None, used
-        size = max_iterations - used
-        basis, H, g = [r / np.linalg.norm(r)], np.zeros((size + 1, size)), np.zeros(size + 1)
-        g[0] = np.linalg.norm(r)
-        rotations: list[tuple[float, float]] = []
-        for j in range(size):
-            w = C @ precondition(basis[j])
-            for i, q in enumerate(basis):                                 # modified Gram-Schmidt
-                H[i, j] = q @ w
-                w -= H[i, j] * q
-            below = np.linalg.norm(w)
-            for i, (c, s) in enumerate(rotations):                        # the earlier rotations on column j
-                H[i, j], H[i + 1, j] = c * H[i, j] + s * H[i + 1, j], -s * H[i, j] + c * H[i + 1, j]
-            c, s = _givens(H[j, j], below)
-            rotations.append((c, s))
-            H[j, j] = c * H[j, j] + s * below
-            g[j], g[j + 1] = c * g[j], -s * g[j]
-            used += 1
-            if abs(g[j + 1]) <= 0.5 * scale or below == 0.0:
-                break
-            basis.append(w / below)
-        k = len(rotations)
-        y = la.solve_triangular(H[:k, :k], g[:k], check_finite=False)
-        if not np.all(np.isfinite(y)):
-            return None, used
-        x = x + precondition(np.column_stack(basis[:k]) @ y)
+        r = V - C @ x
+        scale = rtol * (norm_C * np.abs(x).max(axis=0, initial=0.0) + np.abs(V).max(axis=0, initial=0.0))
+        active = np.flatnonzero(np.abs(r).max(axis=0, initial=0.0) > scale)
+        if not len(active):
+            return (x, used) if v.ndim > 1 else (x[:, 0], int(used[0]))
+        if np.any(used[active] >= max_iterations) or not np.all(np.isfinite(r[:, active])):
+            return None, used if v.ndim > 1 else int(used[0])
+        x[:, active] += precondition(_arnoldi(C, r[:, active], precondition, scale[active], used, active,
+                                              max_iterations))
 
 
-def _givens(a: float, b: float) -> tuple[float, float]:
-    """(c, s) with [c s; -s c] [a; b] = [h; 0]."""
-    h = np.hypot(a, b)
-    return (1.0, 0.0) if h == 0.0 else (a / h, b / h)
+def _arnoldi(C, r, precondition, scale, used, active, max_iterations) -> np.ndarray:
+    """One GMRES cycle from residuals ``r`` (k, n_a), column by column as in :func:`gmres` (modified Gram-Schmidt,
+    Givens rotations), the products for the columns still iterating made together: the combination of each
+    column's basis that minimises its residual estimate (before the preconditioner). ``used`` (iterations per
+    column of the whole block) is counted up for the ``active`` columns."""
+    n_a = r.shape[1]
+    size = max_iterations - int(used[active].min())
+    norms = np.linalg.norm(r, axis=0)
+    basis = [r / norms]
+    H, g = np.zeros((n_a, size + 1, size)), np.zeros((n_a, size + 1))
+    g[:, 0] = norms
+    c, s = np.zeros((n_a, size)), np.zeros((n_a, size))
+    steps = np.zeros(n_a, dtype=int)
+    live = np.flatnonzero(used[active] < max_iterations)
+    for j in range(size):
+        w = C @ precondition(basis[j][:, live])
+        for i, q in enumerate(basis):                                     # modified Gram-Schmidt
+            H[live, i, j] = np.einsum("kc,kc->c", q[:, live], w)
+            w -= H[live, i, j] * q[:, live]
+        below = np.linalg.norm(w, axis=0)
+        for i in range(j):                                                # the earlier rotations on column j
+            upper, lower = H[live, i, j], H[live, i + 1, j]
+            H[live, i, j], H[live, i + 1, j] = c[live, i] * upper + s[live, i] * lower, \
+                -s[live, i] * upper + c[live, i] * lower
+        h = np.hypot(H[live, j, j], below)
+        nonzero = h > 0.0
+        c[live, j] = np.where(nonzero, H[live, j, j] / np.where(nonzero, h, 1.0), 1.0)
+        s[live, j] = np.where(nonzero, below / np.where(nonzero, h, 1.0), 0.0)
+        H[live, j, j] = c[live, j] * H[live, j, j] + s[live, j] * below
+        g[live, j + 1], g[live, j] = -s[live, j] * g[live, j], c[live, j] * g[live, j]
+        used[active[live]] += 1
+        steps[live] += 1
+        stop = (np.abs(g[live, j + 1]) <= 0.5 * scale[live]) | (below == 0.0) | \
+            (used[active[live]] >= max_iterations)
+        following = np.zeros_like(r)
+        following[:, live] = w / np.where(below > 0.0, below, 1.0)
+        basis.append(following)
+        live = live[~stop]
+        if not len(live):
+            break
+    out = np.zeros_like(r)
+    for a in range(n_a):
+        k = steps[a]
+        y = la.solve_triangular(H[a, :k, :k], g[a, :k], check_finite=False)
+        out[:, a] = np.column_stack([q[:, a] for q in basis[:k]]) @ y
+    return out
 
 
 class Iterated:
@@ -311,9 +335,9 @@ class Iterated:
     :func:`gmres` preconditioned by the base's LU factors, factorised afresh (``fallback``) where it does not
     converge in :data:`MAX_KRYLOV` iterations; ``fell_back`` says GMRES did not converge (a factorisation made for
     :meth:`rcond` and then used by the solves does not set it).
-    ``counted(n)`` is told each solve's iterations. ``context``: what the owner needs to make the factorisation its
-    base (plain data: no reference back to the owner, whose arrays a reference cycle would keep until the garbage
-    collector runs)."""
+    ``counted(n)`` is told each right-hand side's iterations. ``context``: what the owner needs to make the
+    factorisation its base (plain data: no reference back to the owner, whose arrays a reference cycle would keep
+    until the garbage collector runs)."""
 
     def __init__(self, K, P_K, Q_K, C: np.ndarray, base: Fresh, counted=None, context=None):
         self.K, self.P_K, self.Q_K, self.C, self.base = K, P_K, Q_K, C, base
@@ -329,19 +353,14 @@ class Iterated:
     def solve(self, v: np.ndarray) -> np.ndarray:
         """C^-1 v, v (k,) or (k, n_rhs)."""
         if self.fallback is None:
-            columns = v.reshape(len(v), -1)
-            out = np.empty_like(columns)
-            for i in range(columns.shape[1]):
-                x, n = gmres(self.C, columns[:, i], self.base.precondition)
-                self.iterations.append(n)
+            x, n = gmres(self.C, v.reshape(len(v), -1), self.base.precondition)
+            for each in n:
+                self.iterations.append(int(each))
                 if self._counted is not None:
-                    self._counted(n)
-                if x is None:
-                    self.fell_back = True
-                    break
-                out[:, i] = x
-            else:
-                return out.reshape(v.shape)
+                    self._counted(int(each))
+            if x is not None:
+                return x.reshape(v.shape)
+            self.fell_back = True
         return self.fresh().solve(v)
 
     def fresh(self) -> Fresh:

@@ -31,6 +31,10 @@ MAX_CUTS = 8
 #: inverse, fem/updated_jacobian.py) or "dense" (a fresh LU factorisation each time: the previous path, kept for
 #: the equality tests and benchmarks/contact_solves.py)
 _LINEAR = "updated"
+#: Newton starts from the secant of the last two increments where the state predictor is singular or not made
+#: (:meth:`LoadPathSolver._secant`); False: the stick predictor there (the previous path, kept for the equality
+#: tests and benchmarks)
+SECANT = True
 
 
 def contact_scale(condensed: Condensed) -> float:
@@ -62,6 +66,8 @@ class _Path:
     #: (n_pairs, dim - 1, n_z) derivative of w_T; None: W S (a caller that changes the coupling between
     #: increments sets it, fem/sliding.py)
     dw_T: np.ndarray | None = None
+    #: (amplitude, x) of the converged increment before x, the secant start's other point (None: unknown)
+    before: tuple[np.ndarray, np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -161,7 +167,7 @@ class LoadPathSolver:
                     np.max(np.abs(inc.h0), initial=0.0), 1e-300)
         return self.rtol * scale
 
-    def _newton(self, path: _Path, amplitude, mu) -> NewtonResult:
+    def _newton(self, path: _Path, start, amplitude, mu) -> NewtonResult:
         """Newton from the predictors of :meth:`_starts`, each tried when the one before failed."""
         inc = self._increment(amplitude, path.w_T)
         if path.state is None:
@@ -169,7 +175,7 @@ class LoadPathSolver:
             held = self.pairs.gap <= 1e-9 * (extent or 1.0)
         else:
             held = path.state != OPEN
-        for x0 in self._starts(path, inc, held, mu):
+        for x0 in self._starts(path, inc, held, mu, start, amplitude):
             result = newton(x0, inc, self.Wfull, self.Wa_T, self.pairs.gap, mu, self.r, self._atol(inc, x0),
                             free_T=self.free_T, solve=self._step)
             if not result.converged and result.residual <= self._atol(inc, result.x):
@@ -179,20 +185,46 @@ class LoadPathSolver:
                 return result
         return result
 
-    def _starts(self, path: _Path, inc: Increment, held: np.ndarray, mu):
+    def _starts(self, path: _Path, inc: Increment, held: np.ndarray, mu, start, amplitude):
         """Newton's starts, each made when the one before failed: the state predictor (updated solves, after
-        the first increment), the stick predictor, the previous solution."""
+        the first increment), where it is singular or not made the secant start (:meth:`_secant`), the stick
+        predictor, the previous solution."""
         if self.updated is None:
-            starts = [lambda: stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held,
-                                              self.free_T)]
+            x0 = stick_predictor(inc, self.Wfull, self.Wa_T, self.pairs.gap, self.r, held, self.free_T)
         else:
-            starts = [lambda: self._predictor(inc, held, mu, path)] if path.state is not None else []
-            starts.append(lambda: self._predictor(inc, held))
-        for start in starts:
-            x0 = start()
+            x0 = self._predictor(inc, held, mu, path) if path.state is not None else None
+            if x0 is None and SECANT:
+                x0 = self._secant(path, start, amplitude)
             if x0 is not None:
                 yield x0
+            x0 = self._predictor(inc, held)
+        if x0 is not None:
+            yield x0
         yield path.x
+
+    @staticmethod
+    def _secant(path: _Path, start, amplitude) -> np.ndarray | None:
+        """The solution extrapolated along the secant of the last two converged increments, x + c (x - x_before),
+        where the load moves on along the same direction (amplitude - start = c (start - amplitude_before),
+        c > 0: proportional loading, or one channel ramped with the others held); None elsewhere.
+
+        Where every closed pair of a floating body slips, the state predictor is singular (it leaves the body's
+        tangential motion free) and the stick predictor starts far from the solution: in 3-D each of its Newton
+        steps has other replaced rows and slip directions, a fresh capacitance factorisation each
+        (docs/bolt-study.md). In gross slip from the first increment under a proportional load and zero initial
+        gaps the secant start is the increment's solution (x and w_T grow in proportion, the slip directions
+        stay); elsewhere a start near it, which Newton corrects."""
+        if path.before is None:
+            return None
+        amplitude_before, x_before = path.before
+        last, step = np.asarray(start, float) - amplitude_before, np.asarray(amplitude, float) - start
+        size = float(last @ last)
+        if size == 0.0:
+            return None
+        c = float(step @ last) / size
+        if not c > 0.0 or np.max(np.abs(step - c * last), initial=0.0) > 1e-12 * np.max(np.abs(step), initial=0.0):
+            return None
+        return path.x + c * (path.x - x_before)
 
     def _sensitivity(self, path: _Path, lin: Linearisation, zone_share) -> np.ndarray:
         n_pairs, dim = self.pairs.n_pairs, self.pairs.dim
@@ -228,7 +260,7 @@ class LoadPathSolver:
         n_newton = n_cuts = 0
         while pending:
             a, b, depth = pending.pop()
-            result = self._newton(path, b, mu)
+            result = self._newton(path, a, b, mu)
             n_newton += result.n_iterations
             if not result.converged:
                 if depth >= MAX_CUTS:
@@ -245,6 +277,7 @@ class LoadPathSolver:
             if sensitivities:
                 path.S, path.dw_T = self._sensitivity(path, result.lin, self.pairs.zone_share), None
             w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
+            path.before = (np.asarray(a, float), path.x)
             path.x, path.w_T, path.state = result.x, w[:, 1:], result.lin.state
             path.direction = result.lin.direction
         return StepResult(path.state, n_newton, n_cuts)

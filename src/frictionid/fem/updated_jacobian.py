@@ -284,7 +284,7 @@ class UpdatedSolver:
         #: the last :data:`KEEP_BASES` fresh factorisations, the bases of iterated solves (:class:`Iterated`)
         self._bases: list[Fresh] = []
         self.n_factorisations = self.n_updates = self.n_dense = self.n_switches = self.n_iterated = 0
-        #: Krylov iterations of each iterated solve
+        #: Krylov iterations of each right-hand side of the iterated solves
         self.krylov_iterations: list[int] = []
 
     def __call__(self, P, Q, b, check: bool = True) -> np.ndarray:
