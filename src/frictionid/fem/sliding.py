@@ -87,6 +87,10 @@ def coupling_builder(space: Space, model: Model) -> CouplingBuilder:
     if model.kind not in ("plane_strain", "axisymmetric", "3d"):
         raise InputError(f"[solver] sliding = 'finite' needs a plane-strain, axisymmetric or 3-D model, got kind "
                          f"{model.kind!r}; use sliding = 'small'")
+    adjusted = [i.name for i in model.interfaces if i.adjust]
+    if adjusted:
+        raise InputError(f"[solver] sliding = 'finite': interface(s) {adjusted} set their initial gaps to zero "
+                         "(adjust), which the re-coupling at the deformed positions does not; use sliding = 'small'")
     return mortar_builder(space, model)
 
 
