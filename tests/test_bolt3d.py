@@ -247,11 +247,11 @@ def test_separate_nut_is_coupled_by_mortar_with_the_zones_on_its_flanks():
     """``nut_mesh = "separate"``: four bodies; the thread a mortar interface whose contact side (zones, pairs) is
     the nut's load flanks and whose target "bolt_contact" is the bolt's, both sides the same area (one helicoid,
     within 1 %); the pairs follow the nut's flank_size, not the bolt's root refinement (fewer than 0.7 times the
-    bolt's flank nodes: 314 against 562). The meshes' initial gaps (curved mid-side nodes kept on one side and not
+    bolt's flank nodes: 363 against 562). The meshes' initial gaps (curved mid-side nodes kept on one side and not
     on the other) are tens of um at most, far from the next turn's flank 0.87 P = 866 um behind the nut's tooth,
-    which is not coupled; the builder sets them to zero (``adjust``). Measured: gaps -31.4 to +5.1 um; the
-    segment integration on the curved flank facets leaves 58 of 372 nodes below the coverage rule (the pairs' area
-    90 % of the zones'): checked at least 85 %."""
+    which is not coupled; the builder sets them to zero (``adjust``). Measured: gaps -27.2 to +3.6 um (RMS 3.8);
+    9 of the 372 nut flank nodes fall below the mortar's coverage rule, the pairs' area is 99.6 % of the zones'
+    (90 % when the clipping took the curved facets' corner triangles: 58 nodes left out): checked 98 %."""
     from frictionid.fem.interface import interface_pairs
     from frictionid.fem.mortar3d import dual_coefficients, mortar_pairs_3d
 
@@ -270,7 +270,7 @@ def test_separate_nut_is_coupled_by_mortar_with_the_zones_on_its_flanks():
     assert np.all(np.isin(pairs.nodes, zone_nodes))
     area = [dual_coefficients(mesh.points[np.vstack([mesh.boundary(b) for b in names])], "triangle6")[1].sum()
             for names in (thread.zones, ("bolt_contact",))]
-    assert area[0] == pytest.approx(area[1], rel=0.01) and 0.85 * area[0] < pairs.weight.sum() <= area[0] * 1.001
+    assert area[0] == pytest.approx(area[1], rel=0.01) and 0.98 * area[0] < pairs.weight.sum() <= area[0] * 1.001
     assert pairs.n_pairs < 0.7 * len(target)
     geometric = mortar_pairs_3d(space, model, 0, search_distance=thread.gap_tolerance).gap
     assert np.abs(geometric).max() < 0.1 * 1.0

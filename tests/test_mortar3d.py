@@ -62,7 +62,8 @@ def test_linear_fields_are_coupled_exactly(case):
     pairs = mortar_pairs_3d(Space.build(mesh, "3d"), model, 0)
     assert np.array_equal(pairs.nodes, np.unique(np.vstack([mesh.boundary("A"), mesh.boundary("B")])))
     assert pairs.B.getnnz(axis=1).max() > 3 * 3                            # coupled to several target nodes
-    np.testing.assert_allclose(pairs.B @ _linear_field(mesh.points), 0.0, atol=1e-12)
+    # round-off: up to 3.4e-12 with a quadratic facet pair's 16 pieces
+    np.testing.assert_allclose(pairs.B @ _linear_field(mesh.points), 0.0, atol=1e-11)
     assert np.all(pairs.weight > 0) and pairs.weight.sum() == pytest.approx(4.0, rel=1e-12)
     np.testing.assert_allclose(pairs.zone_share.sum(axis=1), 1.0, rtol=1e-12)
     area = {z: np.sum(pairs.zone_share[:, i] * pairs.weight) for i, z in enumerate("AB")}
