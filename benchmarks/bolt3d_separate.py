@@ -54,9 +54,10 @@ def main(options: dict):
                         ("separate, gaps as meshed", dataclasses.replace(
                             separate, interfaces=(unadjusted,) + separate.interfaces[1:]))):
         uy, n_pairs, n_open = solved(model, points, regions)
+        change = uy[machine].mean() / reference[machine].mean() - 1
         print(f"  {name}: {n_pairs} thread pairs ({n_open} open at the end), ten points' uy off by at most "
               f"{100 * np.abs(uy[ten] - reference[ten]).max() / span:.1f} % of the range, machine "
-              f"{1e3 * uy[machine].mean():.4f} um ({100 * (uy[machine].mean() / reference[machine].mean() - 1):+.2f} %)")
+              f"{1e3 * uy[machine].mean():.4f} um ({100 * change:+.2f} %)")
 
 
 if __name__ == "__main__":

@@ -96,7 +96,7 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
                          "the helix's lead on node-to-node pairs: expected nut_mesh = \"conforming\" with tightening")
     root_size = ROOT_FRACTION * layout.size.root_radius if root_size is None else root_size
     options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
-                        math.radians(JAW_ANGLE), root_size, head_size, nut_mesh)
+                        math.radians(JAW_ANGLE), root_size, head_size)
     mesh = separate_mesh(layout, options, engaged_top) if nut_mesh == "separate" else \
         bolt3d_mesh(layout, options, engaged_top)
     return bolt3d_model_on(mesh, layout, values, n_increments, jaws, load)

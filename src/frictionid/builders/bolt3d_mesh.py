@@ -45,9 +45,7 @@ log = logging.getLogger(__name__)
 class Options3d:
     """What the 3-D mesh needs beyond the layout: sizes [mm], the window (None: no cut-out), the angle of the
     section that equals the axisymmetric one (the window's centre), the normal angle [rad] of the flat the jaws
-    hold (the hexagons' flats are at this angle + k 60 deg), the size in the bolt's head (None: no own size) and
-    how the nut is meshed ("conforming": with the bolt, :func:`bolt3d_mesh`; "separate": on its own,
-    :mod:`frictionid.builders.bolt3d_separate`)."""
+    hold (the hexagons' flats are at this angle + k 60 deg) and the size in the bolt's head (None: no own size)."""
 
     flank_size: float
     contact_size: float
@@ -57,7 +55,6 @@ class Options3d:
     jaw_angle: float
     root_size: float
     head_size: float | None = None
-    nut_mesh: str = "conforming"
 
 
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
