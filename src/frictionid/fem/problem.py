@@ -66,6 +66,15 @@ def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix,
     return sp.csr_matrix((np.concatenate(values), (rows, cols)), shape=(len(labels), len(prescribed))), labels
 
 
+def _contact_dofs(model: Model, n_components: int) -> np.ndarray:
+    """The dofs of the nodes of every interface's zones (the contact sides)."""
+    zones = [zone for interface in model.interfaces for zone in interface.zones]
+    if not zones:
+        return np.zeros(0, dtype=int)
+    nodes = np.unique(np.concatenate([model.mesh.boundary_nodes(zone) for zone in zones]))
+    return (n_components * nodes[:, None] + np.arange(n_components)).ravel()
+
+
 def compressed(observe: sp.spmatrix | None) -> tuple[sp.csr_matrix | None, sp.csr_matrix | None]:
     """Observation rows as (rows to condense, expansion): the dofs the rows touch and the rows on those dofs,
     when there are fewer such dofs than rows, else (the rows, None).
@@ -266,9 +275,12 @@ class Problem:
             (contact == "auto" and sliding == "small" and pairs.B.shape[0] > IMPLICIT_ABOVE)
         if implicit and sliding == "finite":
             raise InputError("`contact` 'implicit' takes small sliding only ([solver] sliding = \"small\")")
+        # the small-sliding check reads the interfaces' displacements from the Schur factors where it can
+        # (interface_displacement): contact nodes a mortar coupling leaves out are eliminated last too
+        extra = {} if implicit or sliding == "finite" else {"last": _contact_dofs(model, space.n_components)}
         condensed = (condense_implicit if implicit else condense)(
             stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
-            factorisation=factorisation)
+            factorisation=factorisation, **extra)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
     def displacement(self, solution: Solution, increment=-1) -> np.ndarray:
