@@ -66,12 +66,18 @@ def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix,
     return sp.csr_matrix((np.concatenate(values), (rows, cols)), shape=(len(labels), len(prescribed))), labels
 
 
-def _contact_dofs(model: Model, n_components: int) -> np.ndarray:
-    """The dofs of the nodes of every interface's zones (the contact sides)."""
-    zones = [zone for interface in model.interfaces for zone in interface.zones]
-    if not zones:
-        return np.zeros(0, dtype=int)
-    nodes = np.unique(np.concatenate([model.mesh.boundary_nodes(zone) for zone in zones]))
+def _contact_dofs(model: Model, B: sp.csr_matrix, n_components: int) -> np.ndarray:
+    """The dofs of the nodes of every interface's zones (the contact sides) and of its target's facets that have a
+    node the pairs' rows B touch (a mortar coupling's edge: not the rest of a larger target)."""
+    mesh = model.mesh
+    touched = np.zeros(mesh.n_nodes, dtype=bool)
+    touched[np.asarray(B.indices) // n_components] = True
+    parts = [np.zeros(0, dtype=int)]
+    for interface in model.interfaces:
+        parts += [mesh.boundary_nodes(zone) for zone in interface.zones]
+        facets = mesh.boundary(interface.target)
+        parts.append(facets[touched[facets].any(axis=1)].ravel())
+    nodes = np.unique(np.concatenate(parts))
     return (n_components * nodes[:, None] + np.arange(n_components)).ravel()
 
 
@@ -276,8 +282,9 @@ class Problem:
         if implicit and sliding == "finite":
             raise InputError("`contact` 'implicit' takes small sliding only ([solver] sliding = \"small\")")
         # the small-sliding check reads the interfaces' displacements from the Schur factors where it can
-        # (interface_displacement): contact nodes a mortar coupling leaves out are eliminated last too
-        extra = {} if implicit or sliding == "finite" else {"last": _contact_dofs(model, space.n_components)}
+        # (interface_displacement): the nodes a mortar coupling leaves out at its edges are eliminated last too
+        extra = {} if implicit or sliding == "finite" else {"last": _contact_dofs(model, pairs.B,
+                                                                                   space.n_components)}
         condensed = (condense_implicit if implicit else condense)(
             stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
             factorisation=factorisation, **extra)
