@@ -6,7 +6,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from frictionid.fem.facet_shapes import CORNERS, geometry, project_along, shape_functions
+from frictionid.fem.facet_shapes import CORNERS, SUBFACETS, geometry, project_along, shape_functions
 from frictionid.fem.mortar3d import _SLIVER, _TRI_POINTS, _TRI_WEIGHTS, dual_coefficients, local_transform
 
 
@@ -61,17 +61,20 @@ def _pieces(polygon):
 
 def _clipped(slave, s, master, candidates):
     x0, axes = slave.centre[s], _plane(slave.normal[s])
-    polygon = counter_clockwise((slave.coords[s, :CORNERS[slave.facet_type]] - x0) @ axes.T)
+    whole = signed_area(counter_clockwise((slave.coords[s, :CORNERS[slave.facet_type]] - x0) @ axes.T))
     points, weights, owners = [np.zeros((0, 2))], [np.zeros(0)], [np.zeros(0, int)]
     for m in candidates:
-        window = (master.coords[m, :CORNERS[master.facet_type]] - x0) @ axes.T
-        piece = clip(counter_clockwise(window), polygon, tol=1e-10 * slave.radius[s])
-        if len(piece) == 0 or signed_area(piece) < _SLIVER * signed_area(polygon):
-            continue
-        plane_points, weight = _pieces(piece)
-        points.append(plane_points)
-        weights.append(weight)
-        owners.append(np.full(len(weight), m))
+        for own in SUBFACETS[slave.facet_type]:
+            polygon = counter_clockwise((slave.coords[s, list(own)] - x0) @ axes.T)
+            for other in SUBFACETS[master.facet_type]:
+                window = (master.coords[m, list(other)] - x0) @ axes.T
+                piece = clip(counter_clockwise(window), polygon, tol=1e-10 * slave.radius[s])
+                if len(piece) == 0 or signed_area(piece) < _SLIVER * whole:
+                    continue
+                plane_points, weight = _pieces(piece)
+                points.append(plane_points)
+                weights.append(weight)
+                owners.append(np.full(len(weight), m))
     return x0 + np.concatenate(points) @ axes, np.concatenate(weights), np.concatenate(owners)
 
 

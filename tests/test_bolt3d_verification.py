@@ -1,7 +1,8 @@
 """Issue 29's verifications of the 3-D bolt-nut model in tension on the smallest M6 models with the helix and the
 seed's layout (no window, no jaws, mu 0.15 everywhere, 1,500 N): against CalculiX on the same mesh (the seed's ten
 points, the machine; threads engaged over two pitches) and against the axisymmetric model of the same layout (load
-share per engaged thread, bolt elongation; the full nut, five threads). The measurements and the larger runs are
+share per engaged thread, bolt elongation; the full nut, five threads), the full nut also with the nut meshed on
+its own (``nut_mesh = "separate"``, the thread by dual mortar) against both. The measurements and the larger runs are
 in docs/bolt-study.md ("Against the axisymmetric model", "Against CalculiX on the same mesh"); the functions are
 the benchmarks' (benchmarks/bolt3d_vs_axisymmetric.py, benchmarks/bolt3d_calculix.py)."""
 
@@ -70,24 +71,46 @@ N_PHASES = 16
 
 
 @pytest.fixture(scope="module")
-def helix_and_rings():
-    """The 3-D full nut and the axisymmetric model of its layout at mu = MU, both with the thread's load per turn
-    (below the first cut, the five turns, above the last; shares of the thread force) and uy's changes between the
-    STATIONS [mm]; the axisymmetric ones averaged over N_PHASES phases of its teeth (the helix's sections)."""
+def rings():
+    """The axisymmetric model of the full nut's layout at mu = MU: the layout, the cut y_start [mm] and the number
+    of rings n (benchmarks/bolt3d_vs_axisymmetric.py), the thread's load per turn (below the first cut, the five
+    turns, above the last; shares of the thread force) and uy's changes between the STATIONS [mm], both averaged
+    over N_PHASES phases of its teeth (the helix's sections)."""
     compare = _benchmark("bolt3d_vs_axisymmetric")
     from frictionid.builders.bolt import bolt_model
     from frictionid.report.bolt import ring_gap, thread_loads
     layout = _benchmark("bolt3d").layout_of(FULL_NUT)
     axi = {k: v for k, v in FULL_NUT.items() if k not in compare.AXISYMMETRIC_ONLY + ("model", "cutout", "jaws")}
-    rings = bolt_model(**axi)
-    solution, _ = compare.solved(rings, layout, 2)
-    P, n = layout.size.P, thread_loads(rings, solution).n_threads
-    y_start = ring_gap(rings, solution, P)
+    model = bolt_model(**axi)
+    solution, _ = compare.solved(model, layout, 2)
+    P, n = layout.size.P, thread_loads(model, solution).n_threads
+    y_start = ring_gap(model, solution, P)
     shares, changes = compare.phase_average(axi, layout, y_start, n, N_PHASES, heights=STATIONS)
-    helix = bolt_model(**FULL_NUT)
-    solution3, changes3 = compare.solved(helix, layout, 3, "mumps", heights=STATIONS)
-    return {"helix": compare.shares_3d(helix, solution3, y_start, P, n)["turn, ends apart"],
-            "rings": shares.mean(axis=0), "changes3": changes3, "changes": changes.mean(axis=0)}
+    return layout, y_start, n, shares.mean(axis=0), changes.mean(axis=0)
+
+
+def _helix(options: dict, rings) -> dict:
+    """The 3-D model of ``options`` at mu = MU: its load per turn counted as the rings' ("turn, ends apart"), uy's
+    changes between the STATIONS (section averages) and uy at the seed's ten points P1-P5 of flanks 1 and 2."""
+    compare = _benchmark("bolt3d_vs_axisymmetric")
+    from frictionid.builders.bolt import bolt_model
+    from frictionid.fem.problem import Problem
+    layout, y_start, n = rings[:3]
+    model = bolt_model(**options)
+    points, weights = compare.elongation_points(layout, 3, STATIONS)
+    ten = _benchmark("bolt3d").ten_points(layout)
+    problem = Problem.build(model, points=np.vstack([points, ten]), quantities=("uy",),
+                            regions=["bolt"] * (len(points) + len(ten)), factorisation="mumps")
+    solution = problem.solve(np.full(len(model.zone_names), MU))
+    uy = np.asarray(solution.observations[-1])
+    return {"helix": compare.shares_3d(model, solution, y_start, layout.size.P, n)["turn, ends apart"],
+            "changes3": np.diff(uy[:len(points)].reshape(-1, len(weights)) @ weights), "ten": uy[len(points):]}
+
+
+@pytest.fixture(scope="module")
+def helix_and_rings(rings):
+    """The conforming 3-D full nut (:func:`_helix`) and the rings' averages ("rings", "changes")."""
+    return {**_helix(FULL_NUT, rings), "rings": rings[3], "changes": rings[4]}
 
 
 @pytest.mark.slow
@@ -128,3 +151,29 @@ def test_bolt_elongation_against_the_rings_averaged_over_the_helix_phases(helix_
     assert abs(three.sum() / rings.sum() - 1) < 0.01
     head, shank, thread = (three[k].sum() / rings[k].sum() - 1 for k in (slice(0, 1), slice(1, 3), slice(3, 4)))
     assert abs(head) < 0.04 and abs(shank) < 0.005 and -0.02 < thread < 0
+
+
+@pytest.fixture(scope="module")
+def separate_nut(rings):
+    """The full nut with ``nut_mesh = "separate"`` (:func:`_helix`): 75,868 nodes, 896 thread pairs by dual mortar
+    on the nut's flanks where the conforming mesh has 1,997 on the bolt's."""
+    return _helix({**FULL_NUT, "nut_mesh": "separate"}, rings)
+
+
+@pytest.mark.slow
+def test_separate_nut_against_the_rings_and_the_conforming_helix(separate_nut, helix_and_rings):
+    """The nut meshed on its own and coupled by dual mortar: the load per turn within the issue's 5 % of the first
+    share of the ring model averaged over the helix's phases (measured 4.09 %; the conforming mesh 3.34 %, which
+    its test holds to 4 %: the two 3-D models differ by at most 0.22 points, 0.75 % of the first share), the bolt
+    elongation within 1 % (measured -0.870 %) and its parts as the conforming test bounds them (head -2.92 %,
+    shank -0.05 %, threaded part -1.32 %); the seed's ten points' uy within 5 % of their range (0.516 um) of the
+    conforming model's (measured 2.7 %). A wrong coupling shows: with the mortar's normals turned inwards on the
+    flanks' slivers the elongation was -1.08 % and the ten points 31 % off; with the curved facets clipped by
+    their corner triangles (58 of 372 nodes uncoupled on the small M6) the ten points were 8.3 % off."""
+    separate, conforming = separate_nut, helix_and_rings
+    rings, changes, three = conforming["rings"], conforming["changes"], separate["changes3"]
+    assert np.abs(separate["helix"] - rings).max() < 0.05 * (rings[0] + rings[1])
+    assert abs(three.sum() / changes.sum() - 1) < 0.01
+    head, shank, thread = (three[k].sum() / changes[k].sum() - 1 for k in (slice(0, 1), slice(1, 3), slice(3, 4)))
+    assert abs(head) < 0.04 and abs(shank) < 0.005 and -0.02 < thread < 0
+    assert np.abs(separate["ten"] - conforming["ten"]).max() < 0.05 * np.ptp(conforming["ten"])

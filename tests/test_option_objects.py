@@ -40,7 +40,7 @@ DICTS = {
     "backends.calculix.parse:DatFile.contact": PER_NAME,
     "builders.arguments:checked_table.table": ONE_KEY + " (a builder option's table)",
     "builders.arguments:checked_table.allowed": PER_NAME,
-    "builders.bolt3d_mesh:separate_bodies.owner": PER_NAME,
+    "builders.bolt3d_mesh:separate_bodies.owner": PER_NAME, "builders.bolt3d_mesh:classify_faces.volumes": PER_NAME,
     "builders.mesh:MeshFile.regions": PER_NAME, "builders.mesh:MeshFile.boundaries": PER_NAME,
     "builders.mesh:MeshFile.node_sets": PER_NAME,
     "builders.mesh_inp:InpSets.elsets": PER_NAME, "builders.mesh_inp:InpSets.nsets": PER_NAME,

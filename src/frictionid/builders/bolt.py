@@ -66,7 +66,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
                model: str = "axisymmetric", cutout=True, jaws: bool | None = None,
                thread_length: float | None = None, root_size: float | None = None,
-               head_size: float | None = None) -> Model:
+               head_size: float | None = None, nut_mesh: str = "conforming") -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -128,6 +128,10 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     head_size : float [mm], 3-D only, optional
         Element size in the bolt's head (and its bearing face), growing to ``mesh_size`` over k/2 outside it;
         default none (the head meshed by the other sizes).
+    nut_mesh : "conforming" | "separate", 3-D only
+        "conforming" (default): the nut meshed with the bolt, node-to-node pairs on the thread. "separate": the nut
+        and plate 1 meshed on their own, without the bolt's root refinement, the thread coupled by dual mortar
+        with the zones on the nut's load flanks (target "bolt_contact"); not with ``load`` = "tightening".
     torques : sequence of float [N m], optional
         Wrench torque at the end of each stage instead of ``angles``: a uniform circumferential traction on
         "nut_outer" (the hexagon ring, one radius) whose moment about the axis is the torque; the nut's rotation
@@ -154,7 +158,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         root_size = None if root_size is None else positive("root_size", root_size)
         head_size = None if head_size is None else positive("head_size", head_size)
         return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
-                         (load, angles, torques), cutout, jaws, (root_size, head_size))
+                         (load, angles, torques), cutout, jaws, (root_size, head_size, nut_mesh))
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -182,7 +186,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
 
 
 def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, loading, cutout, jaws,
-              local_sizes: tuple[float | None, float | None]) -> Model:
+              local: tuple) -> Model:
     from .bolt3d import bolt3d_model
     load, angles, torques = loading
     if load not in ("tension", "tightening"):
@@ -199,10 +203,10 @@ def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, l
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name} in 3-D: expected "
                          f"at most P = {layout.size.P:g} mm")
     engaged = layout.size.nut_m if engaged_length is None else engaged_length
-    root_size, head_size = local_sizes
+    root_size, head_size, nut_mesh = local
     return bolt3d_model(layout, layout.y_bearing + engaged, values, count("n_increments", n_increments, 1, 1000),
                         flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size, load,
-                        head_size)
+                        head_size, nut_mesh)
 
 
 def _angles(values, name: str) -> tuple[float, ...]:

@@ -3,8 +3,9 @@
 The set-up is the axisymmetric one's (:mod:`frictionid.builders.bolt_layout`: heights, plates, 6g/6H clearance
 as a radial shift of the bolt profile) with real hexagons for head and nut. The section through the window's
 centre is the axisymmetric section (same tooth phases), so the seed's measurement points P1-P5 of flanks 1 and 2
-lie where the axisymmetric model has them. Every interface is conforming (node-to-node pairs at zero gap, the
-nodes duplicated per body, :mod:`frictionid.builders.bolt3d_mesh`); the nut's teeth are the bolt grooves'
+lie where the axisymmetric model has them. By default every interface is conforming (node-to-node pairs at zero
+gap, the nodes duplicated per body, :mod:`frictionid.builders.bolt3d_mesh`); with ``nut_mesh`` = "separate" the
+thread is not (:mod:`frictionid.builders.bolt3d_separate`). The nut's teeth are the bolt grooves'
 complement outside the nut crest D1/2, so free flanks and the nut root touch the bolt with separate nodes and
 no contact (in tension they open).
 """
@@ -21,6 +22,7 @@ from .arguments import checked_table, positive
 from .bolt import STEEL, measurement_points
 from .bolt3d_geometry import Window, to_xyz
 from .bolt3d_mesh import Options3d, bolt3d_mesh
+from .bolt3d_separate import BOLT_CONTACT, separate_mesh
 from .bolt_layout import BoltLayout
 
 #: the window's default angular width [deg] (the seed's Fig. 3 and 8 show a narrow slot; its text gives no size)
@@ -30,6 +32,8 @@ WINDOW_CENTRE = 0.0
 #: angle [deg] of the normal of the flat the jaws hold (and of the opposite one): +-z, either side of the window;
 #: the hexagons' flats are at this angle + k 60 deg, so the window faces a corner
 JAW_ANGLE = 90.0
+#: how the nut is meshed: with the bolt (conforming, node-to-node thread) or on its own (mortar thread)
+NUT_MESHES = ("conforming", "separate")
 #: default element size at the bolt's roots facing the nut crest, in units of the root radius R = H/6
 ROOT_FRACTION = 0.5
 
@@ -55,7 +59,8 @@ def window_of(layout: BoltLayout, cutout) -> Window | None:
 
 def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ...], n_increments: int,
                  flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool,
-                 root_size: float | None = None, load: str = "tension", head_size: float | None = None) -> Model:
+                 root_size: float | None = None, load: str = "tension", head_size: float | None = None,
+                 nut_mesh: str = "conforming") -> Model:
     """The 3-D tensile test, or with ``load`` = "tightening" the tightening test (options as
     :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d"); ``values`` the stages' machine forces [N] or
     nut rotations [deg].
@@ -66,6 +71,11 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
     opposite the window to the seam), "plate1_rim" (loaded in +y), "plate2_rim" (held), "nut_jaws" (the two
     flats normal to z (held in z when ``jaws``)), "window_nut", "window_bolt" (the window's DIC surfaces),
     "nut_outer" and "head_side" (the six flats of nut and head).
+
+    ``nut_mesh`` = "separate": the nut (with plate 1) meshed on its own, without the bolt's root refinement
+    (:mod:`frictionid.builders.bolt3d_separate`); the interface "thread" is then a dual mortar one with the zones
+    and "thread_<i>" on the nut's load flanks (the contact side), target "bolt_contact" (the bolt's load flanks).
+    Not with ``load`` = "tightening", whose lead needs node-to-node pairs.
 
     Tightening (ISO 16047 like, as the axisymmetric model's): both plates' rims held (x, y, z; the clamp force is
     the reaction "plate1_rim.y"), the head held against turning at its flats (x, z), the nut's flats turned as a
@@ -79,10 +89,17 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
     window = window_of(layout, cutout)
     if not isinstance(jaws, bool):
         raise InputError(f"`jaws` must be true or false, got {jaws!r}")
+    if nut_mesh not in NUT_MESHES:
+        raise InputError(f"`nut_mesh` must be one of {list(NUT_MESHES)}, got {nut_mesh!r}")
+    if nut_mesh == "separate" and load == "tightening":
+        raise InputError("`nut_mesh` = \"separate\" couples the thread by mortar, and load = \"tightening\" needs "
+                         "the helix's lead on node-to-node pairs: expected nut_mesh = \"conforming\" with tightening")
     root_size = ROOT_FRACTION * layout.size.root_radius if root_size is None else root_size
     options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
                         math.radians(JAW_ANGLE), root_size, head_size)
-    return bolt3d_model_on(bolt3d_mesh(layout, options, engaged_top), layout, values, n_increments, jaws, load)
+    mesh = separate_mesh(layout, options, engaged_top) if nut_mesh == "separate" else \
+        bolt3d_mesh(layout, options, engaged_top)
+    return bolt3d_model_on(mesh, layout, values, n_increments, jaws, load)
 
 
 def bolt3d_model_on(mesh: Mesh, layout: BoltLayout, values: tuple[float, ...], n_increments: int, jaws: bool,
@@ -99,7 +116,14 @@ def bolt3d_model_on(mesh: Mesh, layout: BoltLayout, values: tuple[float, ...], n
         loads, names = (SurfaceForce("plate1_rim", 1, values),), [f"F{i + 1}" for i in range(len(values))]
     zones = tuple(z for z in layout.thread_zones if z in mesh.boundaries)
     lead = layout.size.P if load == "tightening" else 0.0
-    interfaces = (ContactInterface("thread", zones, "nut_contact", "node-to-node", lead),
+    if BOLT_CONTACT in mesh.boundaries:
+        # separate nut: one helicoid meshed twice, the gaps are the meshes' (adjusted to zero); coupled within P/4,
+        # the next turn's flank lies 0.87 P behind the nut's tooth
+        thread = ContactInterface("thread", zones, BOLT_CONTACT, "mortar", gap_tolerance=layout.size.P / 4,
+                                  adjust=True)
+    else:
+        thread = ContactInterface("thread", zones, "nut_contact", "node-to-node", lead)
+    interfaces = (thread,
                   ContactInterface("head", ("head_plate",), "plate2_head", "node-to-node"),
                   ContactInterface("nut_bearing", ("nut_plate",), "plate1_nut", "node-to-node"))
     return Model(mesh=mesh, kind="3d", materials={name: STEEL for name in ("bolt", "nut", "plate1", "plate2")},

@@ -108,7 +108,7 @@ def _plates(layout: BoltLayout) -> tuple[list, list]:
     return out[0], out[1]
 
 
-def _fragment(layout: BoltLayout, options: Options3d, engaged_top: float) -> dict[str, list[int]]:
+def fragment_bodies(layout: BoltLayout, options: Options3d, engaged_top: float) -> dict[str, list[int]]:
     """Volume tags of each body after the fragment; the bolt keeps the part of the nut blank it fills."""
     bolt = _bolt(layout, options.theta_match)
     nut = _nut(layout, options.window, options.jaw_angle, engaged_top)
@@ -158,7 +158,7 @@ def flank_tooth(layout: BoltLayout, points: np.ndarray, theta_match: float, flan
     return None
 
 
-def _classify(layout: BoltLayout, options: Options3d, volumes: dict) -> dict[str, list[int]]:
+def classify_faces(layout: BoltLayout, options: Options3d, volumes: dict) -> dict[str, list[int]]:
     """Named faces: zones and thread_<i> (bolt load flanks shared with the nut, by turn from the bearing face),
     nut_contact, bolt_free (the free flanks facing the nut, touching it without contact), the bearing contacts, the plates' rims, the nut's jaw flats, the window's faces."""
     faces = {body: _faces(tags) for body, tags in volumes.items()}
@@ -238,7 +238,7 @@ def _nut_faces(layout: BoltLayout, options: Options3d, faces: dict) -> dict[str,
     return out
 
 
-def _distance_field(faces: list[int], size_min: float, size_max: float, growth: float = SIZE_GROWTH) -> int:
+def distance_field(faces: list[int], size_min: float, size_max: float, growth: float = SIZE_GROWTH) -> int:
     """Size ``size_min`` on the faces, growing by ``growth`` per mm up to ``size_max``."""
     field = gmsh.model.mesh.field
     near = field.add("Distance")
@@ -252,7 +252,7 @@ def _distance_field(faces: list[int], size_min: float, size_max: float, growth: 
     return threshold
 
 
-def _head_field(layout: BoltLayout, size: float, size_max: float) -> int:
+def head_field(layout: BoltLayout, size: float, size_max: float) -> int:
     """Size ``size`` in the box around the bolt's head (y from -k to the bearing face, |x|, |z| up to the
     hexagon's corner radius), growing linearly to ``size_max`` over HEAD_TRANSITION k outside it."""
     s, field = layout.size, gmsh.model.mesh.field
@@ -288,7 +288,7 @@ def separate_bodies(mesh: Mesh, owner: dict[str, str]) -> Mesh:
                 boundaries=boundaries)
 
 
-def _owner(name: str) -> str:
+def body_of(name: str) -> str:
     """The body a named face belongs to: targets and nut faces to the nut or a plate, the rest to the bolt."""
     for prefix, body in (("nut_contact", "nut"), ("nut_", "nut"), ("window_nut", "nut"), ("plate1_", "plate1"),
                          ("plate2_", "plate2")):
@@ -339,14 +339,14 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
     source = f"3-D bolt model {layout.size.name}"
 
     def make():
-        volumes = _fragment(layout, options, engaged_top)
-        names = _classify(layout, options, volumes)
+        volumes = fragment_bodies(layout, options, engaged_top)
+        names = classify_faces(layout, options, volumes)
         root = min(options.flank_size, options.root_size)
-        fields = [_distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
-                  _distance_field(names["head_plate"] + names["nut_plate"], options.contact_size, options.mesh_size),
-                  _distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH)]
+        fields = [distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
+                  distance_field(names["head_plate"] + names["nut_plate"], options.contact_size, options.mesh_size),
+                  distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH)]
         if options.head_size is not None:
-            fields.append(_head_field(layout, options.head_size, options.mesh_size))
+            fields.append(head_field(layout, options.head_size, options.mesh_size))
         use_size_fields(*fields)
         gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
         for body, tags in volumes.items():
@@ -356,4 +356,4 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
                 gmsh.model.addPhysicalGroup(2, tags, name=name)
 
     mesh = mesh_with_fallback(make, lambda: curved_tetra10(source), source)
-    return separate_bodies(mesh, {name: _owner(name) for name in mesh.boundaries})
+    return separate_bodies(mesh, {name: body_of(name) for name in mesh.boundaries})

@@ -377,7 +377,7 @@ def partition(K: sp.spmatrix, B: sp.spmatrix, channels: LoadChannels, modes: np.
 
 def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: np.ndarray,
              observe: sp.csr_matrix, reaction_sums: sp.csr_matrix, dim: int = 2,
-             factorisation: str = "auto") -> Condensed:
+             factorisation: str = "auto", last: np.ndarray | None = None) -> Condensed:
     """Condense the model onto the contact pairs.
 
     Parameters
@@ -386,6 +386,9 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     modes : (n_dofs, m) rigid modes vanishing on prescribed dofs
     observe : (n_obs, n_dofs) observation rows; reaction_sums : (n_reac, n_prescribed) sums of reactions
     factorisation : one of :data:`FACTORISATIONS` (see the module docstring)
+    last : dofs that "mumps" eliminates last besides those B and the rows touch, so that
+        :meth:`Condensed.displacement_at` gives them from the Schur factors (the interfaces' contact nodes a
+        mortar coupling leaves out)
     """
     f, p, K_ff, K_fp, K_pf, K_pp, R, B_f, B_p, O_f, O_p = partition(K, B, channels, modes, observe)
     del K          # the caller's temporary: its partition is all that is used, and the factor needs the memory
@@ -396,7 +399,8 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     elif name == "cholmod_solves":
         inverse = GeneralisedInverse(K_ff, R, last=np.zeros(0, int), nodes=f // dim)
     elif name == "mumps":
-        inverse = GeneralisedInverse(K_ff, R, last=np.unique(rows.indices), solver="mumps")
+        extra = np.zeros(0, int) if last is None else np.searchsorted(f, np.intersect1d(last, f))
+        inverse = GeneralisedInverse(K_ff, R, last=np.union1d(rows.indices, extra), solver="mumps")
     else:
         # SuperLU orderings measured here: 2-D 52k dofs COLAMD factors in 0.45 s vs 1.8 s (MMD), same solves;
         # 3-D 17k dofs MMD_AT_PLUS_A solves 363 right-hand sides in 2.1 s vs 13 s (COLAMD)

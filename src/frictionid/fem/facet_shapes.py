@@ -13,6 +13,11 @@ from skfem.refdom import RefTri
 
 #: number of corners of each facet type
 CORNERS = {"triangle": 3, "triangle6": 3, "quad": 4, "quad9": 4}
+#: the flat pieces (local node lists) a facet stands for in a plane clipping: a quadratic facet is split at its
+#: mid-side nodes into four, so that the pieces' outlines follow its curved edges (chords of half the edge)
+SUBFACETS = {"triangle": ((0, 1, 2),), "quad": ((0, 1, 2, 3),),
+             "triangle6": ((0, 3, 5), (3, 1, 4), (5, 4, 2), (3, 4, 5)),
+             "quad9": ((0, 4, 8, 7), (4, 1, 5, 8), (8, 5, 2, 6), (7, 8, 6, 3))}
 #: parameters (n_facet_nodes, 2) of each facet type's nodes
 NODE_PARAMETERS = {
     "triangle": np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),

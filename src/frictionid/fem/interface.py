@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import weakref
 
 import numpy as np
@@ -12,6 +14,8 @@ from .contact_map import InterfaceMap, contact_map
 from .node_to_node import MeshesDoNotMatch, node_to_node_pairs
 from .pairs import ContactPairs
 from .space import Space
+
+logger = logging.getLogger(__name__)
 
 
 #: what :func:`contact_setup` built last: (weak reference to the model, (kind, element), space, pairs), which
@@ -40,7 +44,7 @@ def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
                          "3-D (conforming meshes); its meshes do not match or it asks for mortar")
     if space.dim == 3:
         from .mortar3d import mortar_pairs_3d
-        return mortar_pairs_3d(space, model, index)
+        return mortar_pairs_3d(space, model, index, search_distance=interface.gap_tolerance)
     from .mortar import mortar_pairs
     return mortar_pairs(space, model, index)
 
@@ -71,13 +75,22 @@ def interface_pairs(space: Space, model: Model, index: int) -> tuple[ContactPair
     :mod:`frictionid.fem.contact_map` (a contact node facing no target, an initial gap beyond gap_tolerance)."""
     interface = model.interfaces[index]
     if interface.discretisation == "mortar":
-        return _mortar(space, model, index), "mortar"
+        return _adjusted(_mortar(space, model, index), interface), "mortar"
     try:
-        return node_to_node_pairs(space, model, index), "node-to-node"
+        return _adjusted(node_to_node_pairs(space, model, index), interface), "node-to-node"
     except MeshesDoNotMatch:
         if interface.discretisation == "node-to-node":
             raise
-    return _mortar(space, model, index), "mortar"
+    return _adjusted(_mortar(space, model, index), interface), "mortar"
+
+
+def _adjusted(pairs: ContactPairs, interface) -> ContactPairs:
+    """The pairs with their initial gaps set to zero where the interface asks (``adjust``), else as they are."""
+    if not interface.adjust or not pairs.n_pairs:
+        return pairs
+    logger.info("interface %r: initial gaps adjusted to zero (they were %.3g to %.3g mm, RMS %.3g mm)",
+                interface.name, pairs.gap.min(), pairs.gap.max(), np.sqrt(np.mean(pairs.gap ** 2)))
+    return dataclasses.replace(pairs, gap=np.zeros_like(pairs.gap))
 
 
 def contact_setup(model: Model) -> tuple[InterfaceMap, ...]:

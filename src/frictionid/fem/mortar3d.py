@@ -5,8 +5,9 @@ The contact side of an interface (the union of its zones) is the slave side and 
 target is the master side. Slave facet by slave facet (Puso & Laursen 2004; Popp, Gee & Wall 2010):
 
 1. an auxiliary plane through the slave facet's centre, normal n0 its outward normal there;
-2. the corner polygons of the slave facet and of each facing master facet nearby projected onto it along n0,
-   the master polygon clipped by the slave one (:func:`frictionid.fem.clipping.clip`);
+2. the flat pieces of the slave facet and of each facing master facet nearby (the facet itself, a quadratic one
+   split at its mid-side nodes into four, :data:`~frictionid.fem.facet_shapes.SUBFACETS`) projected onto it
+   along n0, each master piece clipped by each slave piece (:func:`frictionid.fem.clipping.clip`);
 3. the clipped polygon split into triangles, integrated with a degree-10 rule; each integration point projected
    back along n0 onto the slave facet (parameter xi) and the master facet (eta), its weight divided by
    ``|n_slave(xi) . n0|`` so that it measures slave surface area (exact on flat facets).
@@ -22,8 +23,9 @@ the slave facet's basis N^, ``D_e`` its row sums) the pair quantities are those 
 n(xi) is the interpolated averaged nodal normal of the slave side (outward of the contact body); the pair frame
 normal is ``-n`` at the node. On 6-node triangles N^ is the transformed basis of dual quadratic mortar
 (:func:`frictionid.fem.node_to_node.surface_transform`, corner areas positive) and u^ = P u the transformed slave
-values; on the other facet types N^ = N, u^ = u. The corner polygons stand for quadratic facets in the clipping
-only: on curved quadratic facets the pieces' outlines are chords (a second-order error in the facet size).
+values; on the other facet types N^ = N, u^ = u. On curved quadratic facets the pieces' outlines are chords of
+half edges (a second-order error in the facet size); the corner polygons alone, as before, covered a thin curved
+facet of a thread flank (55 um wide, mid-side nodes 20 um off its chords) by half its area on matching meshes.
 
 References: Puso & Laursen, CMAME 193 (2004) 601-629; Popp, Gee & Wall, IJNME 79 (2009) 1354-1391;
 Popp, Gitterle, Gee & Wall, IJNME 83 (2010) 1428-1465 (3-D dual mortar, segment-based integration);
@@ -42,8 +44,8 @@ from ..errors import InputError
 from ..model import Model
 from ..model.mesh import CELL_FACETS
 from .clipping import clip, counter_clockwise, signed_areas
-from .facet_shapes import CENTRE, CORNERS, NODE_PARAMETERS, facet_quadrature, geometry, project_along, \
-    shape_functions, triangle_quadrature
+from .facet_shapes import CENTRE, CORNERS, NODE_PARAMETERS, SUBFACETS, facet_quadrature, geometry, \
+    project_along, shape_functions, triangle_quadrature
 from .node_to_node import TRI6_ALPHA, surface_transform
 from .pairs import ContactPairs, tangent_frames
 from .space import Space
@@ -67,7 +69,12 @@ def local_transform(facet_type: str, alpha: float = TRI6_ALPHA) -> np.ndarray:
 
 
 def _outward_sign(mesh, facets: np.ndarray) -> np.ndarray:
-    """(n_facets,) +1 where a facet's parameter normal points out of its adjacent cell, else -1."""
+    """(n_facets,) +1 where a facet's parameter normal points out of its adjacent cell, else -1.
+
+    Decided on the straight cell (its corners off the facet against the facet's corner plane: the sign of a valid
+    cell's volume), then the parameter normal at the facet's centre against the corner plane's: a curved facet's
+    centre may bulge further into a flat cell than the mean of the cell's corners lies above the facet's plane (a
+    quarter of the cell's height: on a thread flank cells 26-35 um high under bulges of 7-9 um)."""
     n_corners = CORNERS[mesh.facet_type]
     cell_corners = mesh.cells[:, :4 if mesh.cell_type.startswith("tetra") else 8]
     on = np.zeros(mesh.n_nodes, bool)
@@ -81,9 +88,15 @@ def _outward_sign(mesh, facets: np.ndarray) -> np.ndarray:
     cells = cell_of[same[len(faces):]]
     if np.any(cells < 0):
         raise InputError("mortar: a contact or target facet is not a face of any cell")
-    centre, _, normal = geometry_many(mesh.points[facets], mesh.facet_type, CENTRE[mesh.facet_type])
-    inward = mesh.points[cell_corners[cells]].mean(axis=1) - centre
-    return np.where(np.einsum("fd,fd->f", normal, inward) < 0, 1.0, -1.0)
+    _, _, normal = geometry_many(mesh.points[facets], mesh.facet_type, CENTRE[mesh.facet_type])
+    corners = mesh.points[facets[:, :n_corners]]
+    flat = np.cross(corners[:, 2] - corners[:, 0], corners[:, -1] - corners[:, 1]) if n_corners == 4 else \
+        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    off = ~(cell_corners[cells][:, :, None] == facets[:, None, :n_corners]).any(axis=2)
+    inward = (mesh.points[cell_corners[cells]] * off[..., None]).sum(axis=1) / off.sum(axis=1, keepdims=True) \
+        - corners.mean(axis=1)
+    outward_flat = np.where(np.einsum("fd,fd->f", flat, inward) < 0, 1.0, -1.0)
+    return outward_flat * np.where(np.einsum("fd,fd->f", normal, flat) < 0, -1.0, 1.0)
 
 
 def geometry_many(coords: np.ndarray, facet_type: str, rs):
@@ -170,18 +183,28 @@ def _candidates(slave: _Side, master: _Side, search_distance: float):
 
 def _clipped(slave: _Side, master: _Side, s: np.ndarray, m: np.ndarray):
     """Integration points (q, 3) [mm] on the slave facets' planes, their weights (q,) [mm^2] and pair (q,) (an
-    index into s, m): the pieces of the master facets m's projections that the slave facets s's projections clip,
-    each split into a fan of triangles. Pieces smaller than :data:`_SLIVER` of the slave facet are dropped."""
+    index into s, m; non-decreasing): the pieces of the master facets m's flat pieces (:data:`SUBFACETS`)
+    projected onto the slave facets s's planes that the slave facets' projected flat pieces clip, each split into a
+    fan of triangles. Pieces smaller than :data:`_SLIVER` of the slave facet are dropped."""
     x0, axes = slave.centre[s], _planes(slave.normal)[s]
-    to_plane = lambda coords: np.einsum("pkd,ped->pke", coords - x0[:, None], axes)   # noqa: E731
-    polygon = counter_clockwise(to_plane(slave.coords[s, :CORNERS[slave.facet_type]]))
-    window = counter_clockwise(to_plane(master.coords[m, :CORNERS[master.facet_type]]))
-    piece, count = clip(window, polygon, tol=1e-10 * slave.radius[s])
-    count = np.where(signed_areas(piece, count) < _SLIVER * signed_areas(polygon), 0, count)
+    to_plane = lambda coords: np.einsum("pskd,ped->pske", coords - x0[:, None, None], axes)   # noqa: E731
+    own, other = np.array(SUBFACETS[slave.facet_type]), np.array(SUBFACETS[master.facet_type])
+    n_own, n_other = len(own), len(other)
+    polygons = to_plane(slave.coords[s][:, own])                                  # (p, n_own, k, 2)
+    windows = to_plane(master.coords[m][:, other])
+    polygon = np.broadcast_to(polygons[:, :, None], (len(s), n_own, n_other, *polygons.shape[2:]))
+    window = np.broadcast_to(windows[:, None], (len(s), n_own, n_other, *windows.shape[2:]))
+    polygon = counter_clockwise(polygon.reshape(-1, *polygons.shape[2:]))
+    window = counter_clockwise(window.reshape(-1, *windows.shape[2:]))
+    parent = np.repeat(np.arange(len(s)), n_own * n_other)
+    piece, count = clip(window, polygon, tol=1e-10 * slave.radius[s][parent])
+    whole = np.abs(signed_areas(to_plane(slave.coords[s][:, None, :CORNERS[slave.facet_type]])[:, 0]))
+    count = np.where(signed_areas(piece, count) < _SLIVER * whole[parent], 0, count)
     # fan: triangle t has the vertices 0, t + 1, t + 2 of the piece
-    pair, t = np.nonzero(np.arange(piece.shape[1] - 2) < count[:, None] - 2)
-    triangles = piece[pair[:, None], np.column_stack([np.zeros_like(t), t + 1, t + 2])]         # (n_tri, 3, 2)
+    cut, t = np.nonzero(np.arange(piece.shape[1] - 2) < count[:, None] - 2)
+    triangles = piece[cut[:, None], np.column_stack([np.zeros_like(t), t + 1, t + 2])]           # (n_tri, 3, 2)
     area = np.abs(signed_areas(triangles))
+    pair = parent[cut]
     points = np.einsum("qa,tae->tqe", _TRI_POINTS, triangles)
     plane = x0[pair][:, None] + np.einsum("tqe,ted->tqd", points, axes[pair])
     return plane.reshape(-1, 3), (area[:, None] * _TRI_WEIGHTS).ravel(), np.repeat(pair, len(_TRI_WEIGHTS))
@@ -267,7 +290,9 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
         Index into ``model.interfaces``; its zones are the slave side, its target the master side.
     search_distance : float [mm], optional
         A slave facet is coupled to a facing master facet only where the normal gap over their overlap stays
-        within this distance. Default: the largest facet diameter of either side.
+        within this distance (the interface's ``gap_tolerance`` when it states one: on a thin-walled part such as
+        a thread tooth, a second sheet of the target lies behind the contact side, e.g. the next turn's flank).
+        Default: twice the largest facet radius of either side.
     min_coverage : float
         Slave nodes with ``S_i / D_i`` below this (the share of their support the master covers) are left out.
 

@@ -66,6 +66,21 @@ def _reaction_sums(model: Model, prescribed: np.ndarray) -> tuple[sp.csr_matrix,
     return sp.csr_matrix((np.concatenate(values), (rows, cols)), shape=(len(labels), len(prescribed))), labels
 
 
+def _contact_dofs(model: Model, B: sp.csr_matrix, n_components: int) -> np.ndarray:
+    """The dofs of the nodes of every interface's zones (the contact sides) and of its target's facets that have a
+    node the pairs' rows B touch (a mortar coupling's edge: not the rest of a larger target)."""
+    mesh = model.mesh
+    touched = np.zeros(mesh.n_nodes, dtype=bool)
+    touched[np.asarray(B.indices) // n_components] = True
+    parts = [np.zeros(0, dtype=int)]
+    for interface in model.interfaces:
+        parts += [mesh.boundary_nodes(zone) for zone in interface.zones]
+        facets = mesh.boundary(interface.target)
+        parts.append(facets[touched[facets].any(axis=1)].ravel())
+    nodes = np.unique(np.concatenate(parts))
+    return (n_components * nodes[:, None] + np.arange(n_components)).ravel()
+
+
 def compressed(observe: sp.spmatrix | None) -> tuple[sp.csr_matrix | None, sp.csr_matrix | None]:
     """Observation rows as (rows to condense, expansion): the dofs the rows touch and the rows on those dofs,
     when there are fewer such dofs than rows, else (the rows, None).
@@ -266,9 +281,13 @@ class Problem:
             (contact == "auto" and sliding == "small" and pairs.B.shape[0] > IMPLICIT_ABOVE)
         if implicit and sliding == "finite":
             raise InputError("`contact` 'implicit' takes small sliding only ([solver] sliding = \"small\")")
+        # the small-sliding check reads the interfaces' displacements from the Schur factors where it can
+        # (interface_displacement): the nodes a mortar coupling leaves out at its edges are eliminated last too
+        extra = {} if implicit or sliding == "finite" else {"last": _contact_dofs(model, pairs.B,
+                                                                                   space.n_components)}
         condensed = (condense_implicit if implicit else condense)(
             stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
-            factorisation=factorisation)
+            factorisation=factorisation, **extra)
         return cls(model, space, pairs, channels, condensed, labels_obs, labels, expand, sliding, dofs)
 
     def displacement(self, solution: Solution, increment=-1) -> np.ndarray:

@@ -87,14 +87,22 @@ def coupling_builder(space: Space, model: Model) -> CouplingBuilder:
     if model.kind not in ("plane_strain", "axisymmetric", "3d"):
         raise InputError(f"[solver] sliding = 'finite' needs a plane-strain, axisymmetric or 3-D model, got kind "
                          f"{model.kind!r}; use sliding = 'small'")
+    adjusted = [i.name for i in model.interfaces if i.adjust]
+    if adjusted:
+        raise InputError(f"[solver] sliding = 'finite': interface(s) {adjusted} set their initial gaps to zero "
+                         "(adjust), which the re-coupling at the deformed positions does not; use sliding = 'small'")
     return mortar_builder(space, model)
 
 
 def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
     """Coupling builder: dual mortar on every interface (fem/mortar.py in 2-D, fem/mortar3d.py in 3-D) at the
-    given coordinates."""
+    given coordinates; in 3-D within an interface's ``gap_tolerance`` where it gives one, as its pairs are
+    (:func:`frictionid.fem.interface.interface_pairs`)."""
     if model.kind == "3d":
-        from .mortar3d import mortar_pairs_3d as pairs_of
+        from .mortar3d import mortar_pairs_3d
+
+        def pairs_of(space, deformed, index):
+            return mortar_pairs_3d(space, deformed, index, search_distance=model.interfaces[index].gap_tolerance)
     else:
         from .mortar import mortar_pairs as pairs_of
 

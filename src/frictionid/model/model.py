@@ -178,6 +178,9 @@ class ContactInterface:
     size, :func:`frictionid.fem.contact_map.gap_tolerance`); a larger one is refused before any solve.
     ``coefficients``: the name of the friction coefficient of each zone (default: the zone's own name); zones of
     several interfaces that share a coefficient name share one coefficient (``[friction] merge``).
+    ``adjust``: the pairs' initial gaps (all within ``gap_tolerance``) are set to zero, as CalculiX's *CONTACT PAIR
+    ADJUST moves the slave nodes onto the master surface: for two discretisations of one surface (a thread meshed
+    on both sides independently), whose gaps are the meshes' and not the geometry's.
     """
 
     name: str
@@ -187,6 +190,7 @@ class ContactInterface:
     lead: float = 0.0
     gap_tolerance: float | None = None
     coefficients: tuple[str, ...] = ()
+    adjust: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "zones", tuple(self.zones))
@@ -201,6 +205,8 @@ class ContactInterface:
                              f"got {tolerance!r}")
         if isinstance(self.lead, bool) or not isinstance(self.lead, (int, float)) or not np.isfinite(self.lead):
             raise InputError(f"interface {self.name!r}: lead must be a number of mm, got {self.lead!r}")
+        if not isinstance(self.adjust, bool):
+            raise InputError(f"interface {self.name!r}: adjust must be true or false, got {self.adjust!r}")
         if self.discretisation not in ("auto", "node-to-node", "mortar"):
             raise InputError(f"interface {self.name!r}: discretisation {self.discretisation!r} is not one of "
                              "'auto', 'node-to-node', 'mortar'")

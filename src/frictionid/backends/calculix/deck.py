@@ -124,6 +124,9 @@ def _contact(model: Model, mu: np.ndarray, contact: ContactSettings) -> list[str
     out = []
     zone_index = 0
     for interface in model.interfaces:
+        if interface.adjust:
+            raise InputError(f"interface {interface.name!r} sets its initial gaps to zero (adjust), which the "
+                             "CalculiX deck does not write: compare with CalculiX on a conforming mesh")
         target = f"ST{model.interfaces.index(interface) + 1}"
         for zone, coefficient in zip(interface.zones, interface.coefficients):
             zone_index += 1
