@@ -24,8 +24,8 @@ n(xi) is the interpolated averaged nodal normal of the slave side (outward of th
 normal is ``-n`` at the node. On 6-node triangles N^ is the transformed basis of dual quadratic mortar
 (:func:`frictionid.fem.node_to_node.surface_transform`, corner areas positive) and u^ = P u the transformed slave
 values; on the other facet types N^ = N, u^ = u. On curved quadratic facets the pieces' outlines are chords of
-half edges (a second-order error in the facet size); the corner polygons alone, as before, covered a thin curved
-facet of a thread flank (55 um wide, mid-side nodes 20 um off its chords) by half its area on matching meshes.
+half edges (a second-order error in the facet size). The corner polygons alone would cover a thin curved facet of
+a thread flank (55 um wide, mid-side nodes 20 um off its chords) by about half its area on matching meshes.
 
 References: Puso & Laursen, CMAME 193 (2004) 601-629; Popp, Gee & Wall, IJNME 79 (2009) 1354-1391;
 Popp, Gitterle, Gee & Wall, IJNME 83 (2010) 1428-1465 (3-D dual mortar, segment-based integration);
