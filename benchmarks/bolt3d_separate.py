@@ -39,8 +39,7 @@ def main(options: dict):
     conforming = bolt_model(**options)
     separate = bolt_model(**options, nut_mesh="separate")
     thread = separate.interfaces[0]
-    gap = mortar_pairs_3d(Space.build(separate.mesh, "3d", separate.element), separate, 0,
-                          search_distance=thread.gap_tolerance).gap
+    gap = mortar_pairs_3d(Space.build(separate.mesh, "3d", separate.element), separate, 0).gap
     print(f"{json.dumps(options)}: conforming {conforming.mesh.n_nodes:,} nodes, separate {separate.mesh.n_nodes:,}")
     print(f"  the thread's initial gaps as meshed [um]: {1e3 * gap.min():.2f} to {1e3 * gap.max():.2f}, RMS "
           f"{1e3 * np.sqrt(np.mean(gap ** 2)):.2f}, 95 % within {1e3 * np.quantile(np.abs(gap), 0.95):.2f}")

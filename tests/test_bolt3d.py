@@ -272,7 +272,7 @@ def test_separate_nut_is_coupled_by_mortar_with_the_zones_on_its_flanks():
             for names in (thread.zones, ("bolt_contact",))]
     assert area[0] == pytest.approx(area[1], rel=0.01) and 0.98 * area[0] < pairs.weight.sum() <= area[0] * 1.001
     assert pairs.n_pairs < 0.7 * len(target)
-    geometric = mortar_pairs_3d(space, model, 0, search_distance=thread.gap_tolerance).gap
+    geometric = mortar_pairs_3d(space, model, 0).gap
     assert np.abs(geometric).max() < 0.1 * 1.0
     # the nut flank nodes the mortar leaves out are eliminated last as well: the small-sliding check reads the
     # interfaces from the Schur factors ("mumps") instead of making every body's factor again

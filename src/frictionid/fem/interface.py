@@ -44,7 +44,7 @@ def _mortar(space: Space, model: Model, index: int) -> ContactPairs:
                          "3-D (conforming meshes); its meshes do not match or it asks for mortar")
     if space.dim == 3:
         from .mortar3d import mortar_pairs_3d
-        return mortar_pairs_3d(space, model, index, search_distance=interface.gap_tolerance)
+        return mortar_pairs_3d(space, model, index)
     from .mortar import mortar_pairs
     return mortar_pairs(space, model, index)
 

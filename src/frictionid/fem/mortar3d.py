@@ -290,9 +290,9 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
         Index into ``model.interfaces``; its zones are the slave side, its target the master side.
     search_distance : float [mm], optional
         A slave facet is coupled to a facing master facet only where the normal gap over their overlap stays
-        within this distance (the interface's ``gap_tolerance`` when it states one: on a thin-walled part such as
-        a thread tooth, a second sheet of the target lies behind the contact side, e.g. the next turn's flank).
-        Default: twice the largest facet radius of either side.
+        within this distance. Default: the interface's ``gap_tolerance`` where it states one (on a thin-walled
+        part such as a thread tooth a second sheet of the target lies behind the contact side, e.g. the next
+        turn's flank), else twice the largest facet radius of either side.
     min_coverage : float
         Slave nodes with ``S_i / D_i`` below this (the share of their support the master covers) are left out.
 
@@ -308,6 +308,8 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
     >>> pairs.weight.sum()   # interface area [mm^2]  # doctest: +SKIP
     """
     slave, master, zone_columns = _sides(model, interface_index)
+    if search_distance is None:
+        search_distance = model.interfaces[interface_index].gap_tolerance
     if search_distance is None:
         search_distance = float(2 * max(slave.radius.max(), master.radius.max()))
     mesh = model.mesh

@@ -96,13 +96,9 @@ def coupling_builder(space: Space, model: Model) -> CouplingBuilder:
 
 def mortar_builder(space: Space, model: Model) -> CouplingBuilder:
     """Coupling builder: dual mortar on every interface (fem/mortar.py in 2-D, fem/mortar3d.py in 3-D) at the
-    given coordinates; in 3-D within an interface's ``gap_tolerance`` where it gives one, as its pairs are
-    (:func:`frictionid.fem.interface.interface_pairs`)."""
+    given coordinates."""
     if model.kind == "3d":
-        from .mortar3d import mortar_pairs_3d
-
-        def pairs_of(space, deformed, index):
-            return mortar_pairs_3d(space, deformed, index, search_distance=model.interfaces[index].gap_tolerance)
+        from .mortar3d import mortar_pairs_3d as pairs_of
     else:
         from .mortar import mortar_pairs as pairs_of
 
