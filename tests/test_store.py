@@ -77,6 +77,25 @@ def test_iterations_status_and_result_survive_reopening(tmp_path):
         assert store.result() == {"status": "failed", "parameters": {"A": {"value": 0.2}}, "ci": [0.0, 0.0]}
 
 
+def test_a_write_interrupted_between_its_begin_and_commit_does_not_block_the_next_write(tmp_path):
+    """Ctrl-C can land right after a write's BEGIN (CI saw "cannot start a transaction within a transaction" when
+    the interrupted run then wrote its status): the half-done write is rolled back, the next one commits."""
+    class Interrupting:
+        def __array__(self, *args, **kwargs):
+            raise KeyboardInterrupt
+
+    with open_store(tmp_path) as store:
+        store.record([0.1, 0.1], "forward", {"u": np.ones(2)})
+        with pytest.raises(KeyboardInterrupt):          # inside the transaction's body
+            store.record([0.2, 0.2], "forward", {"u": Interrupting()})
+        store._conn.execute("BEGIN IMMEDIATE")          # as left by an interrupt between BEGIN and the body
+        store._conn.execute("INSERT INTO iterations VALUES (7, x'00', 1.0, '{}', 'now')")
+        store.set_status("interrupted", "stopped by the user; continue with --resume")
+    with open_store(tmp_path, resume=True) as store:
+        assert store.status() == ("interrupted", "stopped by the user; continue with --resume")
+        assert store.n_evaluations() == 1 and store.iterations() == []
+
+
 def test_resume_serves_the_same_lookups(tmp_path):
     rng = np.random.default_rng(1)
     points = rng.uniform(0, 1, (5, 4))

@@ -230,12 +230,18 @@ def _create(conn: sqlite3.Connection, config_text: str, fingerprint: str) -> Non
 
 @contextmanager
 def _transaction(conn: sqlite3.Connection):
-    """One write transaction, committed on leaving (the reason every write is durable when its call returns)."""
-    conn.execute("BEGIN IMMEDIATE")
+    """One write transaction, committed on leaving (the reason every write is durable when its call returns).
+
+    A transaction still open on entry is one whose write was interrupted (Ctrl-C between its BEGIN and its COMMIT
+    or ROLLBACK): that write never returned, so it is rolled back here and the new one starts clean."""
+    if conn.in_transaction:
+        conn.execute("ROLLBACK")
     try:
+        conn.execute("BEGIN IMMEDIATE")
         yield conn
     except BaseException:
-        conn.execute("ROLLBACK")
+        if conn.in_transaction:
+            conn.execute("ROLLBACK")
         raise
     conn.execute("COMMIT")
 
