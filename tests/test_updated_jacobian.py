@@ -268,6 +268,17 @@ def test_cholesky_stuck_inverse_refuses_an_indefinite_block():
     assert updated_jacobian.symmetric_inverse(Wfull, Wa_T, 1.0, np.zeros(10, dtype=bool), 3) is None
 
 
+def test_no_closed_pair_and_an_empty_factor_print_nothing(capfd):
+    """Every pair held open (a meshed gap before the load closes it): the LU path decides, and the empty factor
+    gives an empty inverse, without LAPACK's "DPOTRI parameter number 4 had an illegal value" on the console."""
+    from frictionid.fem.cholesky import inverse
+
+    Wfull, Wa_T = _random_operators(10, 0, seed=3)
+    assert updated_jacobian.symmetric_inverse(Wfull, Wa_T, 1.0, np.ones(10, dtype=bool), 3) is None
+    assert inverse(np.zeros((0, 0), order="F")).shape == (0, 0)
+    assert capfd.readouterr().out == ""
+
+
 def test_block_3d_path_with_the_cholesky_inverse_same_as_with_lu(monkeypatch):
     """The whole load path of the 3-D block (three floating modes; stick, partial slip, gross slip and lift-off),
     sensitivities included, with the stuck inverse from the Cholesky factor against the one from LU: equal to

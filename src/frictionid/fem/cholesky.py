@@ -44,6 +44,8 @@ def inverse(L: np.ndarray, overwrite: bool = False) -> np.ndarray:
     then cost their nonzeros times n, where the triangular solves L^-1 T^T and the product of their results cost
     n^2 |T| + n |T|^2 flops."""
     L = np.asarray(L)
+    if not L.size:                      # LAPACK's potri refuses n = 0 (and prints so)
+        return np.zeros(L.shape, order="F")
     lower = L.flags.f_contiguous
     # a C-ordered L is, read in LAPACK's column order, the upper factor U = L^T (S = U^T U): no transposing copy.
     # One BLAS thread: with the second core busy, OpenBLAS's threaded potri (trtri, lauum) took 6 to 35 times one

@@ -166,6 +166,8 @@ def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -
     opened = np.repeat(open_pairs, dim)
     closed = np.flatnonzero(~opened)
     every = len(closed) == n_w
+    if not len(closed):                 # all held open: the LU path (LAPACK's potri refuses n = 0, printing so)
+        return None
     # W is symmetric: its transpose, Fortran-ordered, is the same block without a transposing copy
     M = np.array(Wfull[:, :n_w].T, order="F") if every else Wfull[np.ix_(closed, closed)].T
     M *= r
