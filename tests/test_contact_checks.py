@@ -135,6 +135,46 @@ def test_an_open_gap_within_the_stated_tolerance_is_mapped_with_its_size_and_sta
     assert entry.gap_tolerance == gap + 0.1
 
 
+def test_adjust_sets_meshed_gaps_to_zero_and_the_map_names_them_as_meshed(tmp_path):
+    """``adjust = true`` in [[model.interfaces]]: pads meshed 0.05 mm off the strip (two meshes of one surface
+    that do not meet) are solved as touching: the contact forces and the reactions equal the touching clamp's (the
+    pads' rigid offset changes no stiffness) and so do the pairs' normal approaches, which with the gap kept
+    are 0.05 mm larger; and the map, its console line, result.json's entry and the report
+    say the gaps were set to zero from 0.05 mm as meshed."""
+    from frictionid.fem.problem import Problem
+
+    def solved(gap, adjust):
+        options = model_options(write_clamp(tmp_path / f"clamp_{gap}.inp", size=1.0, gap=gap), True)
+        options["interfaces"][0].update(adjust=adjust, gap_tolerance=0.1)
+        model = build_model(ModelSpec.from_table(options))
+        (entry,) = contact_setup(model)
+        return entry, Problem.build(model).solve(dict(TRUE))
+
+    touching, meshed_apart, apart = solved(0.0, False), solved(0.05, True), solved(0.05, False)
+    entry = meshed_apart[0]
+    assert entry.gap == (0.0, 0.0) and entry.adjusted_from == pytest.approx((0.05, 0.05), rel=1e-9)
+    assert entry.state["closed"] == entry.n_pairs and touching[0].adjusted_from is None
+    assert "initial gap 0 to 0 mm (tolerance 0.1, set to zero from 0.05 to 0.05 mm as meshed)" in entry.line()
+    assert entry.as_dict()["adjusted_from"] == pytest.approx([0.05, 0.05]) and touching[0].as_dict()["adjusted_from"] is None
+    page = report_html({"status": "converged", "parameters": {}, "model": {"contact": [entry.as_dict()]}}, {})
+    assert "0 to 0 (set to zero from 0.05 to 0.05 as meshed)" in page
+    reference, adjusted, gap = (solution for _, solution in (touching, meshed_apart, apart))
+    scale = np.abs(reference.lam).max()
+    np.testing.assert_allclose(adjusted.lam, reference.lam, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(adjusted.reactions, reference.reactions, rtol=0,
+                               atol=1e-9 * np.abs(reference.reactions).max())
+    np.testing.assert_allclose(adjusted.w, reference.w, rtol=0, atol=1e-12)
+    # kept, the gap is closed first: the pads' normal approach is 0.05 mm larger (forces alike: load-controlled)
+    np.testing.assert_allclose(gap.w[..., 0] - reference.w[..., 0], -0.05, atol=1e-9)
+
+
+def test_adjust_in_the_config_must_be_true_or_false(tmp_path):
+    options = model_options(write_clamp(tmp_path / "clamp.inp", size=1.0), True)
+    options["interfaces"][0]["adjust"] = "yes"
+    with pytest.raises(InputError, match=r"\[\[model.interfaces\]\] 1 adjust: must be true .* got 'yes'"):
+        build_model(ModelSpec.from_table(options))
+
+
 # ---------------------------------------------------------------------------------------- bad input, exit 2
 
 def _folder(tmp_path, gap: float = 0.0, interfaces: str | None = None, one_target: bool = True,

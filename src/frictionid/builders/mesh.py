@@ -315,7 +315,8 @@ def _load(source: MeshFile, entry, index: int, n_stages: int, used: dict, ruled:
 def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> ContactInterface:
     where = f"[[model.interfaces]] {index}"
     entry = checked_table(entry, {"name": f"interface {index}", "zones": None, "contact": None, "zone_rules": None,
-                                  "target": ..., "discretisation": "auto", "gap_tolerance": None}, where)
+                                  "target": ..., "discretisation": "auto", "gap_tolerance": None,
+                                  "adjust": False}, where)
     zones = entry["zones"]
     if zones is None and entry["zone_rules"] is None and entry["contact"] is None:
         raise InputError(f"{where}: needs zones (boundaries on the contact side, one per friction zone) or contact "
@@ -330,7 +331,11 @@ def _interface(source: MeshFile, entry, index: int, used: dict, ruled: dict) -> 
                                   or not math.isfinite(tolerance) or tolerance <= 0):
         raise InputError(f"{where} gap_tolerance: must be a positive number of mm (the largest initial gap of a "
                          f"contact pair), got {tolerance!r}")
-    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"], gap_tolerance=tolerance)
+    if not isinstance(entry["adjust"], bool):
+        raise InputError(f"{where} adjust: must be true (set the pairs' initial gaps, all within gap_tolerance, to "
+                         f"zero) or false, got {entry['adjust']!r}")
+    return ContactInterface(str(entry["name"]), zones, target, entry["discretisation"], gap_tolerance=tolerance,
+                            adjust=entry["adjust"])
 
 
 def _ruled_zones(source: MeshFile, entry: dict, where: str, used: dict, ruled: dict, zones: tuple) -> tuple:

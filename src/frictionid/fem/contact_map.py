@@ -69,6 +69,8 @@ class InterfaceMap:
     n_pairs : pairs (contact nodes that carry a constraint); n_left_out : contact nodes without one (mortar:
         not covered by the target)
     gap : (smallest, largest) initial gap [mm]; negative: an interference
+    adjusted_from : (smallest, largest) initial gap as meshed [mm] where the interface set the gaps to zero
+        (``adjust``; ``gap`` is then 0 to 0), else None
     gap_tolerance : [mm] the largest |gap| accepted
     facing_deg : largest angle [deg] between the contact normal and the reversed target normal (NaN: not given)
     state : number of pairs initially "closed", "open", "interference"
@@ -85,20 +87,24 @@ class InterfaceMap:
     facing_deg: float
     state: dict
     zones: dict
+    adjusted_from: tuple[float, float] | None = None
 
     def line(self) -> str:
         """One line for the console: pairs, initial gap range, facing check."""
         facing = "" if np.isnan(self.facing_deg) else f", facing within {self.facing_deg:.3g} deg"
         left = f" ({self.n_left_out} contact nodes not covered)" if self.n_left_out else ""
+        adjusted = ("" if self.adjusted_from is None else
+                    f", set to zero from {self.adjusted_from[0]:.3g} to {self.adjusted_from[1]:.3g} mm as meshed")
         return (f"contact {self.name!r}: {self.n_pairs} pairs {self.discretisation}{left} on target "
                 f"{self.target!r}, initial gap {self.gap[0]:.3g} to {self.gap[1]:.3g} mm (tolerance "
-                f"{self.gap_tolerance:.3g}){facing}; " + ", ".join(f"{n} {k}" for k, n in self.state.items() if n))
+                f"{self.gap_tolerance:.3g}{adjusted}){facing}; " + ", ".join(f"{n} {k}" for k, n in self.state.items() if n))
 
     def as_dict(self) -> dict:
         """The entry of result.json ``model.contact``."""
         return {"name": self.name, "target": self.target, "discretisation": self.discretisation,
                 "n_pairs": self.n_pairs, "n_left_out": self.n_left_out, "gap": list(self.gap),
                 "gap_tolerance": self.gap_tolerance,
+                "adjusted_from": None if self.adjusted_from is None else list(self.adjusted_from),
                 "facing_deg": None if np.isnan(self.facing_deg) else self.facing_deg,
                 "state": dict(self.state), "zones": {z: dict(v) for z, v in self.zones.items()}}
 
@@ -137,4 +143,4 @@ def _interface_map(model: Model, interface: ContactInterface, pairs: ContactPair
         gap_tolerance=gap_tolerance(model.mesh, interface),
         facing_deg=float(np.nanmax(facing)) if np.isfinite(facing).any() else np.nan,
         state={"closed": int(np.sum(state == 0)), "open": int(np.sum(state == 1)),
-               "interference": int(np.sum(state == -1))}, zones=zones)
+               "interference": int(np.sum(state == -1))}, zones=zones, adjusted_from=pairs.meshed_gap)

@@ -90,7 +90,8 @@ def _adjusted(pairs: ContactPairs, interface) -> ContactPairs:
         return pairs
     logger.info("interface %r: initial gaps adjusted to zero (they were %.3g to %.3g mm, RMS %.3g mm)",
                 interface.name, pairs.gap.min(), pairs.gap.max(), np.sqrt(np.mean(pairs.gap ** 2)))
-    return dataclasses.replace(pairs, gap=np.zeros_like(pairs.gap))
+    return dataclasses.replace(pairs, gap=np.zeros_like(pairs.gap),
+                               meshed_gap=(float(pairs.gap.min()), float(pairs.gap.max())))
 
 
 def contact_setup(model: Model) -> tuple[InterfaceMap, ...]:

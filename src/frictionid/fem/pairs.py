@@ -42,6 +42,8 @@ class ContactPairs:
     facing : (n_pairs,) [deg] or None
         Angle between the contact side's outward normal and the reversed outward normal of the target where the
         pair couples (0: the surfaces face each other exactly); NaN where the discretisation does not give it.
+    meshed_gap : (smallest, largest) [mm] or None
+        The initial gaps as meshed where the interface set them to zero (``ContactInterface.adjust``), else None.
     """
 
     nodes: np.ndarray
@@ -53,6 +55,7 @@ class ContactPairs:
     B: sp.csr_matrix
     interface: np.ndarray
     facing: np.ndarray | None = None
+    meshed_gap: tuple[float, float] | None = None
 
     @property
     def n_pairs(self) -> int:

@@ -248,6 +248,11 @@ def _identifiability(result: dict) -> str:
     return _section("Identifiability", "\n".join(parts))
 
 
+def _adjusted(meshed) -> str:
+    """The note on an interface whose initial gaps were set to zero (``adjust``), naming the gaps as meshed."""
+    return "" if meshed is None else f" (set to zero from {meshed[0]:.3g} to {meshed[1]:.3g} as meshed)"
+
+
 def _contact(model: dict | None) -> str:
     """The contact map checked at model build (result.json ``model.contact``): per interface its pairs, initial
     gaps, facing check and state, then its zones."""
@@ -255,7 +260,8 @@ def _contact(model: dict | None) -> str:
     if not interfaces:
         return _section("Contact set-up", _missing("no contact map in this result"))
     rows = [[_e(c["name"]), _e(c["target"]), _e(c["discretisation"]), c["n_pairs"], c["n_left_out"],
-             f"{_num(c['gap'][0], '.3g')} to {_num(c['gap'][1], '.3g')}", _num(c["gap_tolerance"], ".3g"),
+             f"{_num(c['gap'][0], '.3g')} to {_num(c['gap'][1], '.3g')}" + _adjusted(c.get("adjusted_from")),
+             _num(c["gap_tolerance"], ".3g"),
              _num(c["facing_deg"], ".3g"), _e(", ".join(f"{n} {k}" for k, n in c["state"].items() if n))]
             for c in interfaces]
     zones = [[_e(c["name"]), _e(zone), _e(z["coefficient"]), z["pairs"], _num(z["area"], ".4g"),
