@@ -39,6 +39,12 @@ def hertz_reference(force: float) -> tuple[float, float]:
     return a, 2 * force / (np.pi * a)
 
 
+def _arc_gap(x: float) -> float:
+    """[mm] The curved body's initial gap to the flat at x [mm] from the axis, x^2 / (2 R): with x beyond the
+    contact zone's last node, the geometry's gap tolerance (the set-up check's default, half a facet, is less)."""
+    return x ** 2 / (2 * RADIUS)
+
+
 def _size_field(h: float, point: int, near: float = A, far: float = 2.0) -> int:
     """Size h within 1.6 near [mm] of point, growing to far [mm] at 8 near."""
     field = gmsh.model.mesh.field
@@ -118,7 +124,8 @@ def hertz_model(h: float, order: int = 2, depth: float = DEPTH, n_increments: in
                  supports=(Support("bottom", (0, 1, 2)), Support("x0", (0,)), Support("z0", (2,)),
                            Support("z1", (2,))),
                  loads=(Displacement("top", "y", (-depth,)),), stages=(Stage("press", n_increments),),
-                 interfaces=(ContactInterface("hertz", ("contact",), "target", "mortar"),))
+                 interfaces=(ContactInterface("hertz", ("contact",), "target", "mortar",
+                                              gap_tolerance=_arc_gap(2 * A)),))
 
 
 # ------------------------------------------------------------------------------ point contact: a sphere on a flat
@@ -191,4 +198,5 @@ def sphere_model(h: float, order: int = 2, n_increments: int = 2) -> Model:
                  supports=(Support("bottom", (2,)), Support("x0", (0,)), Support("y0", (1,))),
                  loads=(Displacement("top", "z", (-SPHERE_A ** 2 / RADIUS,)),),
                  stages=(Stage("press", n_increments),),
-                 interfaces=(ContactInterface("hertz", ("contact",), "target", "mortar"),))
+                 interfaces=(ContactInterface("hertz", ("contact",), "target", "mortar",
+                                              gap_tolerance=_arc_gap(2 * SPHERE_A)),))

@@ -329,6 +329,29 @@ def test_vectorised_coupling_equals_the_facet_by_facet_integration(case, change)
     np.testing.assert_array_equal(got[2], expected[2])
 
 
+def test_a_mortar_gap_beyond_the_default_tolerance_is_refused_as_in_2d():
+    """The set-up check of docs/models.md in 3-D mortar too: the upper body tilted by 0.2 (gaps to 0.38 mm, within
+    the default search distance of twice the largest facet radius) is refused against the default tolerance, half
+    the median facet size (0.25 mm), naming the interface, the count and the largest gap; stated as the geometry's
+    (gap_tolerance 0.5) it is coupled."""
+    from dataclasses import replace
+    from frictionid.fem.sliding import mortar_builder
+
+    mesh = _tilted(_mesh("tetra10-free"), 0.2)
+    model = Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface())
+    space = Space.build(mesh, "3d")
+    with pytest.raises(InputError, match=r"'stack': 34 of 92 contact pairs \(mortar\) have an initial gap beyond "
+                                         r"gap_tolerance = 0.25 mm, the largest 0.38"):
+        mortar_pairs_3d(space, model, 0)
+    stated = replace(model, interfaces=(replace(model.interfaces[0], gap_tolerance=0.5),))
+    pairs = mortar_pairs_3d(space, stated, 0)
+    assert pairs.n_pairs == 92 and 0.38 < pairs.gap.max() <= 0.5
+    # finite sliding re-couples at deformed positions, where the gaps are the solution's: no set-up check there
+    flat = Model(_mesh("tetra10-free"), "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface())
+    deformed = mortar_builder(space, flat)(mesh.points)
+    np.testing.assert_array_equal(deformed.gap, mortar_pairs_3d(space, model, 0, gap_check=False).gap)
+
+
 def test_gap_tolerance_bounds_the_coupling_and_adjust_zeroes_the_gaps():
     """An interface's ``gap_tolerance`` is the mortar's search distance in 3-D: on the tilted stack (gaps growing
     to 0.02 mm) 0.01 mm couples the part within it only, as mortar_pairs_3d with that search distance does (a

@@ -305,7 +305,7 @@ def _padded_rows(mortar: sp.csr_matrix, nodes: np.ndarray, scale: np.ndarray):
 
 
 def mortar_pairs(space: Space, model: Model, interface_index: int, *, search_distance: float | None = None,
-                 min_coverage: float = 0.5) -> ContactPairs:
+                 min_coverage: float = 0.5, gap_check: bool = True) -> ContactPairs:
     """Dual mortar contact pairs of one interface of a 2-D model (plane strain or axisymmetric).
 
     Parameters
@@ -321,6 +321,9 @@ def mortar_pairs(space: Space, model: Model, interface_index: int, *, search_dis
     min_coverage : float
         Slave nodes with ``S_i / D_i`` below this (share of their support the master covers; 1 = fully covered)
         are left out, as are nodes of zero weight (line3 corner nodes on the axis, r = 0).
+    gap_check : bool
+        Refuse gaps beyond the interface's tolerance (the set-up check, :func:`~frictionid.fem.contact_map.
+        check_gaps`); False for a coupling at deformed positions (finite sliding), whose gaps are the solution's.
 
     Returns
     -------
@@ -355,7 +358,8 @@ def mortar_pairs(space: Space, model: Model, interface_index: int, *, search_dis
     target_nodes, target_weights = _padded_rows(mortar, nodes, covered[nodes])
     gap = gap_integral[nodes] / covered[nodes]
     interface = model.interfaces[interface_index]
-    check_gaps(interface, gap, model.mesh.points[nodes], gap_tolerance(model.mesh, interface), "mortar")
+    if gap_check:
+        check_gaps(interface, gap, model.mesh.points[nodes], gap_tolerance(model.mesh, interface), "mortar")
     return ContactPairs(
         nodes=nodes,
         position=np.array(model.mesh.points[nodes]),

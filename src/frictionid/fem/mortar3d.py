@@ -44,6 +44,7 @@ from ..errors import InputError
 from ..model import Model
 from ..model.mesh import CELL_FACETS
 from .clipping import clip, counter_clockwise, signed_areas
+from .contact_map import check_gaps, gap_tolerance
 from .facet_shapes import CENTRE, CORNERS, NODE_PARAMETERS, SUBFACETS, facet_quadrature, geometry, \
     project_along, shape_functions, triangle_quadrature
 from .node_to_node import TRI6_ALPHA, surface_transform
@@ -279,7 +280,7 @@ def _operator(frames: np.ndarray, rows: sp.csr_matrix, dim: int) -> sp.csr_matri
 
 
 def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_distance: float | None = None,
-                    min_coverage: float = 0.5) -> ContactPairs:
+                    min_coverage: float = 0.5, gap_check: bool = True) -> ContactPairs:
     """Dual mortar contact pairs of one interface of a 3-D model (any of the supported facet types).
 
     Parameters
@@ -295,6 +296,9 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
         turn's flank), else twice the largest facet radius of either side.
     min_coverage : float
         Slave nodes with ``S_i / D_i`` below this (the share of their support the master covers) are left out.
+    gap_check : bool
+        Refuse gaps beyond the interface's tolerance (the set-up check, as in 2-D); False for a coupling at
+        deformed positions (finite sliding), whose gaps are the solution's.
 
     Returns
     -------
@@ -334,8 +338,12 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
     frames = tangent_frames(-slave.node_normal[nodes])
     zone_share = np.zeros((len(nodes), model.n_zones))
     zone_share[:, zone_columns] = by_zone[nodes] / weight_all[nodes, None]
+    gap = gap_integral[nodes] / covered[nodes]
+    interface = model.interfaces[interface_index]
+    if gap_check:
+        check_gaps(interface, gap, mesh.points[nodes], gap_tolerance(mesh, interface), "mortar")
     return ContactPairs(
         nodes=nodes, position=np.array(mesh.points[nodes]), frames=frames, weight=weight_all[nodes],
-        zone_share=zone_share, gap=gap_integral[nodes] / covered[nodes],
+        zone_share=zone_share, gap=gap,
         B=_operator(frames, sp.csr_matrix(rows), space.dim),
         interface=np.full(len(nodes), interface_index, dtype=np.int64))
