@@ -6,8 +6,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from frictionid.fem.facet_shapes import CORNERS, SUBFACETS, geometry, project_along, shape_functions
-from frictionid.fem.mortar3d import _SLIVER, _TRI_POINTS, _TRI_WEIGHTS, dual_coefficients, local_transform
+from frictionid.fem.facet_shapes import (CORNERS, SUBFACETS, geometry, project_along, shape_functions,
+                                        triangle_quadrature)
+from frictionid.fem.mortar3d import _SLIVER, DEGREE, dual_coefficients, local_transform
 
 
 def signed_area(polygon):
@@ -54,8 +55,9 @@ def _pieces(polygon):
     points, weights = [], []
     for i in range(1, len(polygon) - 1):
         triangle = polygon[[0, i, i + 1]]
-        points.append(_TRI_POINTS @ triangle)
-        weights.append(_TRI_WEIGHTS * abs(signed_area(triangle)))
+        rule, rule_weights = triangle_quadrature(DEGREE)
+        points.append(rule @ triangle)
+        weights.append(rule_weights * abs(signed_area(triangle)))
     return np.concatenate(points), np.concatenate(weights)
 
 

@@ -91,9 +91,9 @@ def facet_quadrature(facet_type: str):
     return np.column_stack([np.repeat(x, 6), np.tile(x, 6)]), np.repeat(w, 6) * np.tile(w, 6)
 
 
-def triangle_quadrature():
-    """Points (q, 3) as barycentric weights and weights (q,) summing to 1 on a triangle, degree 10."""
-    points, weights = get_quadrature(RefTri, 10)
+def triangle_quadrature(degree: int = 10):
+    """Points (q, 3) as barycentric weights and weights (q,) summing to 1 on a triangle, exact to ``degree``."""
+    points, weights = get_quadrature(RefTri, degree)
     return np.column_stack([1 - points[0] - points[1], points[0], points[1]]), 2 * weights
 
 

@@ -55,7 +55,8 @@ logger = logging.getLogger(__name__)
 
 #: clipped pieces smaller than this fraction of the slave facet's area are dropped
 _SLIVER = 1e-12
-_TRI_POINTS, _TRI_WEIGHTS = triangle_quadrature()
+#: the degree of the triangle rule on the clipped pieces: 10 (25 points) for the solver's coupling
+DEGREE = 10
 
 
 def local_transform(facet_type: str, alpha: float = TRI6_ALPHA) -> np.ndarray:
@@ -182,11 +183,12 @@ def _candidates(slave: _Side, master: _Side, search_distance: float):
     return s[near], m[near]
 
 
-def _clipped(slave: _Side, master: _Side, s: np.ndarray, m: np.ndarray):
+def _clipped(slave: _Side, master: _Side, s: np.ndarray, m: np.ndarray, degree: int = DEGREE):
     """Integration points (q, 3) [mm] on the slave facets' planes, their weights (q,) [mm^2] and pair (q,) (an
     index into s, m; non-decreasing): the pieces of the master facets m's flat pieces (:data:`SUBFACETS`)
     projected onto the slave facets s's planes that the slave facets' projected flat pieces clip, each split into a
-    fan of triangles. Pieces smaller than :data:`_SLIVER` of the slave facet are dropped."""
+    fan of triangles (the triangle rule exact to ``degree`` on each). Pieces smaller than :data:`_SLIVER` of the
+    slave facet are dropped."""
     x0, axes = slave.centre[s], _planes(slave.normal)[s]
     to_plane = lambda coords: np.einsum("pskd,ped->pske", coords - x0[:, None, None], axes)   # noqa: E731
     own, other = np.array(SUBFACETS[slave.facet_type]), np.array(SUBFACETS[master.facet_type])
@@ -206,19 +208,21 @@ def _clipped(slave: _Side, master: _Side, s: np.ndarray, m: np.ndarray):
     triangles = piece[cut[:, None], np.column_stack([np.zeros_like(t), t + 1, t + 2])]           # (n_tri, 3, 2)
     area = np.abs(signed_areas(triangles))
     pair = parent[cut]
-    points = np.einsum("qa,tae->tqe", _TRI_POINTS, triangles)
+    rule, weights = triangle_quadrature(degree)
+    points = np.einsum("qa,tae->tqe", rule, triangles)
     plane = x0[pair][:, None] + np.einsum("tqe,ted->tqd", points, axes[pair])
-    return plane.reshape(-1, 3), (area[:, None] * _TRI_WEIGHTS).ravel(), np.repeat(pair, len(_TRI_WEIGHTS))
+    return plane.reshape(-1, 3), (area[:, None] * weights).ravel(), np.repeat(pair, len(weights))
 
 
-def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float, n_zones: int):
+def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float, n_zones: int,
+               degree: int = DEGREE):
     """Mortar matrix (n_nodes, n_nodes), gap integrals (n_nodes,) and int N^_i split by zone (n_nodes, n_zones).
 
     Every candidate pair of slave and master facets at once. A pair is dropped where one of its points does not
     project onto the master facet or its gap exceeds search_distance."""
     dual, integral = dual_coefficients(slave.coords, slave.facet_type)
     s, m = _candidates(slave, master, search_distance)
-    points, weight, pair = _clipped(slave, master, s, m)
+    points, weight, pair = _clipped(slave, master, s, m, degree)
     s_q, m_q, n0 = s[pair], m[pair], slave.normal[s[pair]]
     xi = project_along(slave.coords[s_q], slave.facet_type, points, n0)
     eta = project_along(master.coords[m_q], master.facet_type, points, n0)
@@ -280,7 +284,7 @@ def _operator(frames: np.ndarray, rows: sp.csr_matrix, dim: int) -> sp.csr_matri
 
 
 def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_distance: float | None = None,
-                    min_coverage: float = 0.5, gap_check: bool = True) -> ContactPairs:
+                    min_coverage: float = 0.5, gap_check: bool = True, degree: int = DEGREE) -> ContactPairs:
     """Dual mortar contact pairs of one interface of a 3-D model (any of the supported facet types).
 
     Parameters
@@ -299,6 +303,8 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
     gap_check : bool
         Refuse gaps beyond the interface's tolerance (the set-up check, as in 2-D); False for a coupling at
         deformed positions (finite sliding), whose gaps are the solution's.
+    degree : int
+        The triangle rule's degree on the clipped pieces (:data:`DEGREE` for the solver's coupling).
 
     Returns
     -------
@@ -317,7 +323,8 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
     if search_distance is None:
         search_distance = float(2 * max(slave.radius.max(), master.radius.max()))
     mesh = model.mesh
-    mortar, gap_integral, by_zone = _integrate(slave, master, mesh.n_nodes, search_distance, len(zone_columns))
+    mortar, gap_integral, by_zone = _integrate(slave, master, mesh.n_nodes, search_distance, len(zone_columns),
+                                               degree)
     weight_all = by_zone.sum(axis=1)
     covered = np.asarray(mortar.sum(axis=1)).ravel()
     nodes = np.unique(slave.facets)

@@ -425,10 +425,10 @@ class Problem:
         does not measure, :meth:`check_small_sliding`, left out of the mean), ``unmeasured_slip`` (their largest
         slip in local element lengths, 0 without them) and ``unmeasured_worst`` (its pair index); the search stops
         at the first ratio above ``tolerance``."""
-        from .sliding import UNCOVERED_GAP, mortar_builder, pairing_gap_error
+        from .sliding import UNCOVERED_GAP, check_builder, pairing_gap_error
         slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
-        builder = builder or mortar_builder(self.space, self.model)
+        builder = builder or check_builder(self.space, self.model)
         checked = [int(rows[np.argmax(slip[rows].max(axis=1))])
                    for rows in (np.flatnonzero(solution.stage == stage) for stage in np.unique(solution.stage))]
         checked = [inc for inc in checked if slip[inc].max() > 0.0]
@@ -544,8 +544,8 @@ class Problem:
     def _coupled_gap(self) -> np.ndarray:
         """(n_pairs,) [mm] the gap of the deformed-configuration coupling (fem/sliding.py) at the undeformed
         configuration, made at the first small-sliding check and kept: the reference of its gap errors."""
-        from .sliding import aligned, mortar_builder
-        return aligned(self.pairs, mortar_builder(self.space, self.model)(self.model.mesh.points)).gap
+        from .sliding import aligned, check_builder
+        return aligned(self.pairs, check_builder(self.space, self.model)(self.model.mesh.points)).gap
 
     def __getstate__(self):
         state = dict(self.__dict__)
