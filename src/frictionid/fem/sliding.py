@@ -64,9 +64,8 @@ COUPLING_STEP = 1e-6
 #: gap [mm] given to a pair whose node the target no longer covers: it stays open
 UNCOVERED_GAP = 1e12
 #: the small-sliding check's 3-D triangle rule on the clipped pieces: degree 4, exact for a quadratic dual
-#: function times a quadratic gap on a flat piece (6 points instead of the solver's 25). On the full M6 nut with
-#: the nut meshed on its own (docs/bolt-study.md) its mean gap error is that of degree 10 within 7e-5 of it, at
-#: 2.19 s instead of 7.47 s CPU for the check
+#: function times a quadratic gap on a flat piece (6 points instead of the solver's 25); measured against degree
+#: 10 by benchmarks/check_quadrature.py (docs/solver.md)
 CHECK_DEGREE = 4
 
 #: deformed nodal coordinates (n_nodes, dim) [mm] -> contact pairs in that configuration
