@@ -28,6 +28,16 @@ def fit_as_identify(backend, model, model_table: dict, params, obs: Observations
     """(the optimiser's outcome, :class:`~frictionid.inverse.statistics.FitStatistics`) of a trf fit of ``obs``
     with ``backend``; ``mode``: identify.model_error ("off", "estimate", "include"), estimated on the model
     built from ``model_table``."""
+    return fits_as_identify(backend, model, model_table, params, obs, (mode,), resolution)[mode]
+
+
+def fits_as_identify(backend, model, model_table: dict, params, obs: Observations, modes: tuple[str, ...],
+                     resolution: float) -> dict:
+    """{mode: :func:`fit_as_identify`'s (outcome, statistics)} for "off" and at most one other mode of the same
+    ``obs``, sharing the least-squares fit every mode starts with (identify fits so: the model error's estimate
+    and refit continue from it); "off"'s statistics are taken before the refit reweighs the evaluator."""
+    others = [mode for mode in modes if mode != "off"]
+    assert len(others) <= 1 and len(set(modes)) == len(modes), modes
     evaluator = Evaluator(backend, obs, params)
 
     def fit(x0):
@@ -36,8 +46,9 @@ def fit_as_identify(backend, model, model_table: dict, params, obs: Observations
         return optimise(problem, "trf"), problem
 
     outcome, problem = fit(params.x0)
-    error = None
-    if mode != "off":
+    out = {"off": (outcome, fit_statistics(evaluator, problem, outcome.x, resolution, None))} if "off" in modes else {}
+    for mode in others:
         error, outcome = with_model_error(evaluator, params, ModelSpec.from_table(model_table), model, outcome, mode,
                                           lambda x0, offset: fit(x0)[0])
-    return outcome, fit_statistics(evaluator, problem, outcome.x, resolution, error)
+        out[mode] = outcome, fit_statistics(evaluator, problem, outcome.x, resolution, error)
+    return out
