@@ -1,9 +1,10 @@
 """The 8-turn 3-D M20 (the whole nut, window and jaws, nut meshed on its own): the ten points' discretisation error
 against a finer mesh, and a whole identification of zones A-F from them, run the way a user runs it.
 
-Layout: the default M20 of docs/models.md (``model = "3d"``, ``nut_mesh = "separate"``, 10 and 30 kN in 3
-increments each), zones A-F at frictionid.studies.bolt's TRUE_MU, head and nut bearing held at 0.15. The fitted
-model has the sizes ``--fit`` (JSON, bolt_model options), the data model the finer ``--data``. Data: uy at the
+Layout: the default 3-D M20's (docs/models.md: eight turns, window and jaws, 10 and 30 kN in 3 increments each)
+with the nut meshed on its own (``nut_mesh = "separate"``), zones A-F at frictionid.studies.bolt's TRUE_MU, head
+and nut bearing held at 0.15. The fitted model has the sizes ``--fit`` (JSON, bolt_model options), the data model
+the finer ``--data``. Data: uy at the
 ten points P1-P5 of flanks 1 and 2 (frictionid.builders.bolt3d.measurement_points_3d, depth 0.1 mm) at both
 stages, solved on the data mesh at the truth, noise-free (measured_exact.csv) and with 0.5 um Gaussian noise
 (measured.csv); the fits weight them by 0.5 um. Steps:
