@@ -171,7 +171,7 @@ def show(step: str, out: dict) -> None:
         return
     print(f"  {out['nodes']:,} nodes, {out['pairs']:,} pairs; build {out['build_cpu_s']:.0f} s CPU, condensation "
           f"{out['condense_cpu_s']:.0f} s CPU ({out['condense_wall_s']:.0f} s wall), solve {out['solve_cpu_s']:.0f} s"
-          f" CPU; peak so far {out['peak_mb_so_far'] / 1e3:.2f} GB")
+          f" CPU; peak so far {out['peak_mb_so_far'] / 1024:.2f} GiB")
     for s, uy in enumerate(out["uy_um"]):
         print(f"  stage {s + 1} uy [um]: {np.array2string(np.array(uy), precision=4)}")
     if step == "mesh_error":
