@@ -124,9 +124,10 @@ def _contact(model: Model, mu: np.ndarray, contact: ContactSettings) -> list[str
     out = []
     zone_index = 0
     for interface in model.interfaces:
-        if interface.adjust:
+        if interface.adjust and contact.pair_type != "SURFACE TO SURFACE":
             raise InputError(f"interface {interface.name!r} sets its initial gaps to zero (adjust), which the "
-                             "CalculiX deck does not write: compare with CalculiX on a conforming mesh")
+                             f"CalculiX deck writes as *CLEARANCE, for SURFACE TO SURFACE pairs only (got "
+                             f"{contact.pair_type}): use [solver] contact = \"surface-to-surface\"")
         target = f"ST{model.interfaces.index(interface) + 1}"
         for zone, coefficient in zip(interface.zones, interface.coefficients):
             zone_index += 1
@@ -138,6 +139,9 @@ def _contact(model: Model, mu: np.ndarray, contact: ContactSettings) -> list[str
             if value > 0:
                 out += ["*FRICTION", f"{value:.13g}, {contact.stick_slope:.13g}"]
             out += [f"*CONTACT PAIR, INTERACTION=I{zone_index}, TYPE={contact.pair_type}", f"SZ{zone_index}, {target}"]
+            if interface.adjust:
+                # ccx 2.20 manual, *CLEARANCE: the value replaces the gap at each slave integration point (face-to-face)
+                out.append(f"*CLEARANCE, MASTER={target}, SLAVE=SZ{zone_index}, VALUE=0")
     return out
 
 
