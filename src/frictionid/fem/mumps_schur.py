@@ -32,6 +32,8 @@ import scipy.linalg as la
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .threads import cholesky_threads
+
 log = logging.getLogger(__name__)
 
 VERSION = "5.2.1"
@@ -216,7 +218,8 @@ class SchurFactor:
             K = sp.coo_matrix((self._data, (self._rows - 1, self._cols - 1)), shape=(self.n,) * 2).toarray()
             K = np.tril(K) + np.tril(K, -1).T
             try:
-                L = la.cholesky(K[np.ix_(self.schur_dofs, self.schur_dofs)], lower=True, check_finite=False)
+                with cholesky_threads(m):
+                    L = la.cholesky(K[np.ix_(self.schur_dofs, self.schur_dofs)], lower=True, check_finite=False)
             except la.LinAlgError:
                 raise MumpsError("the matrix is not positive definite") from None
             return L, Statistics("none", 0, 0, 0, 0.0, m)
@@ -243,7 +246,8 @@ class SchurFactor:
         # symmetric matrices: MUMPS fills one triangle (by rows, as C reads it the upper one is empty); the lower
         # Cholesky factor L (S = L L^T) overwrites it in place
         try:
-            return la.cholesky(schur, lower=True, overwrite_a=True, check_finite=False) if m else schur, stats
+            with cholesky_threads(m):
+                return la.cholesky(schur, lower=True, overwrite_a=True, check_finite=False) if m else schur, stats
         except la.LinAlgError:
             raise MumpsError("the Schur complement is not positive definite") from None
 

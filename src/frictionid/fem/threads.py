@@ -25,6 +25,13 @@ SMALL = 2000
 #: before the solve (module docstring: from about 6,000 rows they pay idle and cost little with a core busy)
 LARGE = 6000
 
+#: OpenBLAS 0.3.30 and 0.3.31 (the scipy and numpy wheels) crash (SIGSEGV) in a threaded Cholesky factorisation
+#: (potrf, and potri after it) of n rows once n^2 / threads passes about 1.2e8: measured on this machine, 2 threads
+#: 15,500 rows fine and 15,800 crash, 3 threads 17,000 / 20,000, 4 threads 20,000 / 24,000, one thread 24,000 fine
+#: (OpenBLAS issue #2562 reports it for 2 threads at 32,768). From half that bound :func:`cholesky_threads` runs
+#: the factorisation on one thread.
+CHOLESKY_THREADED_MAX = 6e7
+
 #: the BLAS thread counts in force before each :func:`one_blas_thread` entered and not yet left, innermost last
 _outside: list[int] = []
 
@@ -59,6 +66,15 @@ def large_kernel(n: int):
     if n < LARGE or not _outside or _outside[-1] <= 1:
         return contextlib.nullcontext()
     return _controller().limit(limits=_outside[-1], user_api="blas")
+
+
+def cholesky_threads(n: int):
+    """The context for a dense Cholesky factorisation or inversion (potrf, potri) of ``n`` rows: one BLAS thread
+    where n^2 / threads reaches :data:`CHOLESKY_THREADED_MAX` (OpenBLAS's threaded potrf crashes beyond about
+    twice that), else no change."""
+    threads = _blas_threads()
+    return one_blas_thread() if threads > 1 and n * n / threads >= CHOLESKY_THREADED_MAX else \
+        contextlib.nullcontext()
 
 
 def blas_threads_for(n: int):

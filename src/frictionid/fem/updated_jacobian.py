@@ -40,7 +40,7 @@ from .capacitance import Fresh, Iterated, Updated
 from .cholesky import symmetrise
 from .contact import jacobian
 from .replaced_rows import ReplacedRows, gather
-from .threads import large_kernel
+from .threads import cholesky_threads, large_kernel
 
 log = logging.getLogger(__name__)
 #: columns per block of the 1-norm of an n x n matrix (no n x n temporary)
@@ -173,14 +173,16 @@ def symmetric_inverse(Wfull, Wa_T, r: float, open_pairs: np.ndarray, dim: int) -
     M *= r
     norm = max((np.abs(M[:, start:start + _BLOCK]).sum(axis=0).max() for start in range(0, len(M), _BLOCK)),
                default=0.0)                                  # 1-norm by blocks of columns: no n x n temporary
-    c, info = la.lapack.dpotrf(M, lower=0, clean=0, overwrite_a=1)
+    with cholesky_threads(len(M)):
+        c, info = la.lapack.dpotrf(M, lower=0, clean=0, overwrite_a=1)
     if info != 0:
         return None
     rcond = la.lapack.dpocon(c, norm)[0] if len(c) else 1.0
     if not rcond >= RCOND_MIN:
         log.debug("stuck Jacobian's block ill-conditioned (rcond %.3g): LU", rcond)
         return None
-    M_inv, info = la.lapack.dpotri(c, lower=0, overwrite_c=1)
+    with cholesky_threads(len(c)):
+        M_inv, info = la.lapack.dpotri(c, lower=0, overwrite_c=1)
     del c
     if info != 0:
         return None
