@@ -28,8 +28,8 @@ LARGE = 6000
 #: OpenBLAS 0.3.30 and 0.3.31 (the scipy and numpy wheels) crash (SIGSEGV) in a threaded Cholesky factorisation
 #: (potrf, and potri after it) of n rows once n^2 / threads passes about 1.2e8: measured on this machine, 2 threads
 #: 15,500 rows fine and 15,800 crash, 3 threads 17,000 / 20,000, 4 threads 20,000 / 24,000, one thread 24,000 fine
-#: (OpenBLAS issue #2562 reports it for 2 threads at 32,768). From half that bound :func:`cholesky_threads` runs
-#: the factorisation on one thread.
+#: (OpenBLAS issue #2562 reports it for 2 threads at 32,768; the 2-thread case is tests/test_blas_threads.py's slow
+#: test). From half that bound :func:`cholesky_threads` runs the factorisation on one thread.
 CHOLESKY_THREADED_MAX = 6e7
 
 #: the BLAS thread counts in force before each :func:`one_blas_thread` entered and not yet left, innermost last
