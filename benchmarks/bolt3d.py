@@ -62,7 +62,6 @@ def built(options: dict, cache: str | None, figures: dict):
     return model
 
 
-
 def roots_from_thread_start():
     """A patch of the 3-D mesher's root test (frictionid.builders.bolt3d_mesh._is_root): the bolt's roots are
     refined at ``root_size`` from the thread's start (y_thread), not only from a pitch below the nut's bearing face
@@ -72,6 +71,7 @@ def roots_from_thread_start():
     def is_root(layout, points):
         return original(dataclasses.replace(layout, y_bearing=layout.y_thread + layout.size.P), points)
     return mock.patch.object(bolt3d_mesh, "_is_root", is_root)
+
 
 def layout_of(options: dict):
     """The layout of :func:`frictionid.builders.bolt.bolt_model` with these options."""

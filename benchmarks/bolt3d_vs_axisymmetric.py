@@ -304,7 +304,6 @@ def _flag(args: list[str], name: str, convert):
     return convert(args[at + 1]), args[:at] + args[at + 2:]
 
 
-
 if __name__ == "__main__":
     args = sys.argv[1:]
     phases, args = _flag(args, "--phases", int)
