@@ -30,6 +30,8 @@ REFERENCE_ERROR = 0.25
 FINEST_SPACING = 0.045
 #: redraws of a reference whose data mesh does not converge above FINEST_SPACING
 REDRAWS = 30
+#: noise-free data of tests/test_coverage_population.py's references as :func:`clean_data` wrote them (README there)
+STORED = Path(__file__).parent / "fixtures" / "population"
 
 
 def draw(index: int, seed: int, attempt: int = 0) -> dict:
@@ -58,6 +60,12 @@ def draw(index: int, seed: int, attempt: int = 0) -> dict:
             "stages": [2] if rng.random() < 0.7 else [1, 2], "u_noise": float(rng.choice([2e-4, 5e-4, 1e-3]))}
 
 
+def stored_data(seed: int, index: int) -> Path:
+    """The file of reference ``index`` of the population ``seed`` in :data:`STORED`: what :func:`clean_data` wrote
+    for the draw and data mesh tests/test_coverage_population.py's CHOSEN gives it."""
+    return STORED / f"seed{seed}_reference{index:02d}.csv"
+
+
 def clean_data(case: dict, folder: Path) -> Measurements:
     """The data mesh's solution at the truth at the case's points (``frictionid simulate``)."""
     points = folder / "points.csv"
@@ -72,18 +80,19 @@ def clean_data(case: dict, folder: Path) -> Measurements:
     return read_measurements(simulate(config, folder / "clean.csv"))
 
 
-def reference(index: int, seed: int, folder: Path, check: bool = True,
-              chosen: tuple[int, float] | None = None) -> tuple[dict, Measurements]:
+def reference(index: int, seed: int, folder: Path | None, check: bool = True,
+              chosen: tuple[int, float] | None = None, stored: bool = False) -> tuple[dict, Measurements]:
     """Reference ``index`` of the population ``seed`` and its noise-free data, converged to :data:`REFERENCE_ERROR`
     (:func:`converged`): the first of its draws (attempt 0, then redraws) whose data mesh converges.
     ``case["data_check"]`` records each pair of data meshes compared, and their differences. ``check`` False: the
     first draw with its drawn data mesh, unchecked. ``chosen`` (attempt, data mesh size): the draw and data mesh
-    the check chose before (:func:`choices`), not checked again (``data_check`` "stored")."""
+    the check chose before (:func:`choices`), not checked again (``data_check`` "stored"); with ``stored`` also its
+    data as ``frictionid simulate`` wrote them before (:func:`stored_data`), not solved again."""
     if chosen is not None:
         attempt, size = chosen
         drawn = draw(index, seed, attempt)
         case = dict(drawn, data={**drawn["data"], "mesh_size": size}, data_check="stored")
-        return case, clean_data(case, folder)
+        return case, read_measurements(stored_data(seed, index)) if stored else clean_data(case, folder)
     if not check:
         drawn = draw(index, seed)
         return dict(drawn, data_check=[]), clean_data(drawn, folder)
