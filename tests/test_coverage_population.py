@@ -24,7 +24,7 @@ SEED, N_REFERENCES, N_REPLICATES = 3, 30, 2
 #: {reference: (attempt, data mesh size [mm])} the convergence check chose (population_case.reference; 9 min of CPU,
 #: so not made again here; tests/test_population_case.py tests the rule). Remade by
 #: ``PYTHONPATH=src:tests python tests/population_case.py 3 30``; the references' noise-free data on those meshes
-#: (150 s of CPU) are stored too (tests/fixtures/population, remade by its generate.py) and checked against
+#: (163 s of CPU) are stored too (tests/fixtures/population, remade by its generate.py) and checked against
 #: ``frictionid simulate`` on two of them (:func:`test_stored_references_are_what_simulate_writes`)
 CHOSEN = {0: (3, 0.125), 1: (2, 0.16666666666666666), 2: (2, 0.125), 3: (1, 0.08333333333333333),
           4: (4, 0.16666666666666666), 5: (1, 0.0625), 6: (0, 0.09375), 7: (3, 0.08333333333333333), 8: (0, 0.0625),
@@ -65,7 +65,7 @@ def test_claimed_intervals_hold_the_truth_over_a_population_of_references(claims
     assert np.median(error / stderr) > 0.15
 
 
-#: references whose data mesh is among the cheapest to solve (2.6 and 4.6 s of CPU), one of each order
+#: references whose data mesh is among the cheapest to solve (about 3 and 5 s of CPU), one of each element order
 CHECKED = (1, 3)
 
 
