@@ -171,8 +171,8 @@ class EmbeddedBackend:
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
         solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments, max_slip=None)
-        # kept for check_sliding at the same mu (simulate's one solve; a fit's last solve, often at its answer):
-        # the contact unknowns and the observation rows per increment, without the displacement field
+        # kept for check_sliding and fields at the same mu (simulate's one solve; a fit's last solve, often at its
+        # answer): the contact unknowns and the observation rows per increment, without the displacement field
         self._last = (mu.copy(), solution)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
@@ -204,11 +204,15 @@ class EmbeddedBackend:
         return self.problem.solve(mu, increments=self.increments, max_slip=None).stick_thresholds(movable)
 
     def fields(self, mu):
-        """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
-        :func:`frictionid.fem.fields.solution_fields`)."""
+        """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve, or none where
+        :meth:`predict` solved at ``mu`` last (see :func:`frictionid.fem.fields.solution_fields`)."""
         from ..fem.fields import solution_fields
 
-        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments, max_slip=None))
+        if self._last is not None and np.array_equal(self._last[0], self.model.coefficients(mu)):
+            solution = self._last[1]
+        else:
+            solution = self.problem.solve(mu, increments=self.increments, max_slip=None)
+        return solution_fields(self.problem, solution)
 
     def check_sliding(self, mu: np.ndarray) -> None:
         """Raise :class:`~frictionid.errors.SolverError` when the solution at ``mu`` lies beyond small sliding
