@@ -1,7 +1,13 @@
-"""`frictionid simulate` on the block twin's set-up (frictionid.studies.block) as tests/test_block_twin.py's fixture
-runs it: wall and CPU time, the process's peak and the CHOLMOD factorisations made (docs/solver.md, "Condensation of
-large models"). Usage: kept_factor.py id|data [FOLDER]; "data" is the finer data mesh (49.9k dofs), "id" the
-identification mesh."""
+"""Displacements after the condensation without factorising the stiffness again (docs/solver.md, "Condensation of
+large models"): the factorisations a run makes, its times and its peak.
+
+Usage: kept_factor.py MODE [FOLDER]
+- "id" / "data": `frictionid simulate` on the block twin's set-up (frictionid.studies.block) as
+  tests/test_block_twin.py's fixture runs it, on the identification mesh / the finer data mesh (49.9k dofs);
+- "m6": the M6 3-D bolt of tests/test_bolt3d_verification.py (SMALL) with `factorisation = "mumps"` through the
+  embedded backend: build, predict with sensitivities, the small-sliding check, fields;
+- "m6-keep": the same with MUMPS's factors of the interiors never freed (what keeping them costs).
+"""
 
 import resource
 import sys
@@ -9,34 +15,81 @@ import tempfile
 import time
 from pathlib import Path
 
-from frictionid.config import read_config
-from frictionid.fem import cholesky
-from frictionid.simulation import simulate
-from frictionid.studies import block as twin
+import numpy as np
+
+from frictionid.fem import cholesky, mumps_schur
+
+#: tests/test_bolt3d_verification.py's SMALL
+M6 = {"size": "M6", "model": "3d", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5, "n_axial": 2,
+      "flank_size": 1.0, "contact_size": 3.0, "root_size": 0.3, "mesh_size": 4.0, "forces": [1500.0],
+      "n_increments": 1, "cutout": False, "jaws": False}
 
 
-def main(mesh: str, folder: Path) -> None:
-    made = []
-    original = cholesky.Cholesky._factor
+def _counted(made: list) -> None:
+    """Record every factorisation: CHOLMOD's ("cholmod", s CPU), MUMPS's (dofs, Schur dofs, s CPU)."""
+    cholmod, mumps = cholesky.Cholesky._factor, mumps_schur.SchurFactor._factor_timed
 
-    def counted(self):
+    def cholmod_counted(self):
         start = time.process_time()
-        factor = original(self)
-        made.append(time.process_time() - start)
+        factor = cholmod(self)
+        made.append(("cholmod", round(time.process_time() - start, 2)))
         return factor
 
-    cholesky.Cholesky._factor = counted
+    def mumps_counted(self):
+        start = time.process_time()
+        out = mumps(self)
+        made.append((self.n, len(self.schur_dofs), round(time.process_time() - start, 2)))
+        return out
+
+    cholesky.Cholesky._factor, mumps_schur.SchurFactor._factor_timed = cholmod_counted, mumps_counted
+
+
+def _peak() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+
+
+def twin(mesh: str, folder: Path, made: list) -> None:
+    from frictionid.config import read_config
+    from frictionid.simulation import simulate
+    from frictionid.studies import block as study
     folder.mkdir(parents=True, exist_ok=True)
-    twin.write_points(folder / "points.csv")
-    config = twin.config(folder, "truth", twin.DATA_MESH if mesh == "data" else twin.ID_MESH,
-                         twin.goal_coefficients(), "points.csv")
+    study.write_points(folder / "points.csv")
+    config = study.config(folder, "truth", study.DATA_MESH if mesh == "data" else study.ID_MESH,
+                          study.goal_coefficients(), "points.csv")
     wall, cpu = time.perf_counter(), time.process_time()
     simulate(read_config(config), folder / "simulated.csv", print)
     print(f"simulate ({mesh} mesh): {time.perf_counter() - wall:.1f} s wall, {time.process_time() - cpu:.1f} s CPU, "
-          f"peak {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB; CHOLMOD factorisations "
-          f"{len(made)} ({', '.join(f'{t:.1f}' for t in made)} s CPU)")
+          f"peak {_peak():.2f} GB; factorisations {made}")
+
+
+def m6(keep: bool, made: list) -> None:
+    from frictionid.backends.embedded import EmbeddedBackend
+    from frictionid.builders.bolt import bolt_model
+    if keep:
+        mumps_schur.SchurFactor.free = lambda self, schur=False: None
+    model = bolt_model(**M6)
+    cpu = time.process_time()
+    backend = EmbeddedBackend(model, None, (), factorisation="mumps", keep=False)
+    print(f"M6, {model.mesh.n_nodes} nodes: build {time.process_time() - cpu:.1f} s CPU, factorisations {made}, "
+          f"peak {_peak():.2f} GB")
+    mu, seen = np.full(len(model.zone_names), 0.15), len(made)
+    for what, call in (("predict", lambda: backend.predict(mu, sensitivities=True)),
+                       ("check", lambda: backend.check_sliding(mu)), ("fields", lambda: backend.fields(mu))):
+        wall, cpu = time.perf_counter(), time.process_time()
+        call()
+        print(f"{what}: {time.process_time() - cpu:.1f} s CPU, {time.perf_counter() - wall:.1f} s wall, "
+              f"factorisations {made[seen:]}, peak {_peak():.2f} GB")
+        seen = len(made)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "id",
-         Path(sys.argv[2]) if len(sys.argv) > 2 else Path(tempfile.mkdtemp(prefix="kept_factor_")))
+    mode = sys.argv[1] if len(sys.argv) > 1 else "id"
+    factorisations = []
+    _counted(factorisations)
+    if mode in ("id", "data"):
+        twin(mode, Path(sys.argv[2]) if len(sys.argv) > 2 else Path(tempfile.mkdtemp(prefix="kept_factor_")),
+             factorisations)
+    elif mode in ("m6", "m6-keep"):
+        m6(mode == "m6-keep", factorisations)
+    else:
+        sys.exit(f"unknown mode {mode!r}: id, data, m6 or m6-keep")

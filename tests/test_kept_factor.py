@@ -5,6 +5,7 @@ import pickle
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from frictionid.builders.block import block_model
 from frictionid.errors import SolverError
@@ -65,7 +66,6 @@ def test_the_check_and_the_fields_use_the_condensations_factor(factorisations, p
 def test_the_kept_factor_solves_and_gives_the_same_blocks_before_and_after_scaling(factorisations):
     """SparseFactor's solve equals CHOLMOD's on the same matrix (to 1e-12), and its dense blocks are L's before and
     after the first solve scales its columns (to round-off)."""
-    import scipy.sparse as sp
     rng = np.random.default_rng(3)
     n = 300
     A = sp.random(n, n, density=0.03, random_state=4)
@@ -110,3 +110,36 @@ def test_fields_after_a_predict_at_the_same_mu_solve_nothing_again(monkeypatch):
     other = backend.fields(0.5 * mu)
     assert len(solves) == 3
     assert np.abs(other.stages[-1].traction - reused.stages[-1].traction).max() > 1.0
+
+
+def test_with_mumps_the_field_factorises_the_interiors_alone_once(monkeypatch):
+    """"mumps" frees its factors of the interiors before the condensation's dense part and keeps the Schur
+    complements' Cholesky factors: the whole field then factorises each body's interior alone (no Schur complement
+    made again, nor its dense factor; once, kept for the next field) and equals SuperLU's field to 1e-10 of its
+    largest value."""
+    from frictionid.fem import mumps_schur
+    if not mumps_schur.available():
+        pytest.skip("python-mumps (MUMPS) is not installed")
+    made = []
+    original = mumps_schur.SchurFactor._factor_timed
+    monkeypatch.setattr(mumps_schur.SchurFactor, "_factor_timed",
+                        lambda self: made.append(len(self.schur_dofs)) or original(self))
+    model = block_model(mesh_size=5.0)
+    problem = Problem.build(model, factorisation="mumps")
+    n_bodies = len(made)
+    assert n_bodies == 2 and min(made) > 0
+    solution = problem.solve(MU, max_slip=None)
+    ends = [solution.stage_end(stage) for stage in range(model.n_stages)]
+    field = problem.displacement(solution, ends)
+    assert made[n_bodies:] == [0] * n_bodies                   # each body's interior, without a Schur complement
+    np.testing.assert_array_equal(problem.displacement(solution, ends), field)
+    assert len(made) == 2 * n_bodies
+    expected = Problem.build(model, factorisation="superlu").displacement(solution, ends)
+    np.testing.assert_allclose(field, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    # a right-hand side with interior loads too: K^-1 b through the interior factor against a direct solve
+    factor = problem.condensed.inverse.bodies.factors[0]
+    K = sp.coo_matrix((factor._data, (factor._rows - 1, factor._cols - 1)), shape=(factor.n,) * 2).tocsr()
+    K = K + sp.triu(K.T, 1)
+    b = np.random.default_rng(5).normal(size=(factor.n, 2))
+    x = factor.solve(b)
+    np.testing.assert_allclose(K @ x, b, rtol=0, atol=1e-9 * np.abs(b).max())
