@@ -143,3 +143,18 @@ def test_with_mumps_the_field_factorises_the_interiors_alone_once(monkeypatch):
     b = np.random.default_rng(5).normal(size=(factor.n, 2))
     x = factor.solve(b)
     np.testing.assert_allclose(K @ x, b, rtol=0, atol=1e-9 * np.abs(b).max())
+
+
+def test_a_new_condensation_frees_the_kept_builds_factors(monkeypatch, factorisations):
+    """The session's kept builds (backends/embedded.py) hold no factor beside a new condensation: their kept
+    factors are freed first, and made again where a field is asked of them."""
+    from frictionid.backends import embedded
+    monkeypatch.setattr(embedded, "_RECENT", {})
+    first = embedded.EmbeddedBackend(block_model(mesh_size=5.0), None, ()).problem
+    assert first.condensed.inverse.cholesky.sparse is not None
+    solution = first.solve(MU, max_slip=None)
+    kept = first.displacement(solution)
+    embedded.EmbeddedBackend(block_model(mesh_size=5.0, pull=0.1), None, (), keep=False)
+    assert first.condensed.inverse.cholesky.sparse is None and len(factorisations) == 2
+    np.testing.assert_allclose(first.displacement(solution), kept, rtol=0, atol=1e-12 * np.abs(kept).max())
+    assert len(factorisations) == 3

@@ -83,6 +83,8 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None, 
                 return problem
         except Exception as exc:                              # a truncated or stale file: build anew
             log.warning("condensation cache %s unreadable (%s); building it again", path, exc)
+    for kept in _RECENT.values():       # their factors (kept for the displacement field) not beside a new one
+        kept.condensed.inverse.release()
     problem = Problem.build(model, points=points, quantities=quantities, regions=regions, window=window,
                             factorisation=factorisation, sliding=sliding)
     if path is not None:
@@ -107,7 +109,8 @@ def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: boo
     """Problem.build, reusing a recent build when model and observation points are the same in content.
 
     Runs of one session (a study's several identifications, an example's methods) share the condensation;
-    at most :data:`N_KEPT` builds are kept, so memory holds few factorisations besides the ones in use.
+    at most :data:`N_KEPT` builds are kept, and a new condensation frees their factors (kept for the displacement
+    field, made again where it is asked for), so memory holds no factorisation besides the one being made.
     ``keep=False``: a one-off build (e.g. a refined mesh for an error estimate) that uses a kept build if there
     is one but neither stores itself nor pushes a kept build out. With :func:`use_cache` the builds are also
     stored on disk and read back in later sessions. ``factorisation``: how the condensation factorises the

@@ -151,6 +151,14 @@ class GeneralisedInverse:
     def __getstate__(self):
         return {**self.__dict__, "lu": None}
 
+    def release(self) -> None:
+        """Free what the solves after the condensation use, CHOLMOD's kept factor (fem/cholesky.SparseFactor)
+        and MUMPS's factors (the Schur complements' Cholesky factors stay): a later solve factorises again."""
+        if self.cholesky is not None:
+            self.cholesky.sparse = None
+        if self.bodies is not None:
+            self.bodies.free(schur=False)
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         out = np.zeros((self.n,) + b.shape[1:])
         if self.cholesky is not None or self.bodies is not None:
