@@ -155,6 +155,8 @@ class SparseFactor:
     def solve(self, b: np.ndarray) -> np.ndarray:
         """K^-1 b for b (n,) or (n, k): P^T L^-T L^-1 P b."""
         A = self.matrix
+        if np.size(b) == 0:
+            return np.zeros(np.shape(b))
         if not self.scaled:
             for start in range(0, A.shape[0], _GATHER):         # L1 = L D^-1, in place, by chunks of columns
                 end = min(start + _GATHER, A.shape[0])

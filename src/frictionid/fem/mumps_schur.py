@@ -181,7 +181,7 @@ class SchurFactor:
         interior = getattr(self, "_interior", None)
         if interior is not None:
             interior[0].free()
-            self._interior = None
+        self._interior = None
         if schur:
             self.schur_cholesky = None
 
