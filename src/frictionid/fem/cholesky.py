@@ -261,8 +261,8 @@ class Cholesky:
         square instead of |last|^2.
 
         kvxopt's getfactor takes the numbers out of CHOLMOD's factor (which its solve then refuses): they are
-        kept as :attr:`sparse`, 12 bytes per entry against the 16 of getfactor's copy, which the blocks were
-        gathered from before; the solves use it."""
+        kept as :attr:`sparse` (12 bytes per entry; getfactor's own copy, 16 bytes per entry, is freed at once),
+        which the blocks are gathered from and the solves use."""
         m = len(self.last)
         blocks = [np.arange(m)] if blocks is None else blocks
         if self.sparse is None:
