@@ -6,7 +6,8 @@ Usage: kept_factor.py MODE [FOLDER]
   tests/test_block_twin.py's fixture runs it, on the identification mesh / the finer data mesh (49.9k dofs);
 - "m6": the M6 3-D bolt of tests/test_bolt3d_verification.py (SMALL) with `factorisation = "mumps"` through the
   embedded backend: build, predict with sensitivities, the small-sliding check, fields;
-- "m6-keep": the same with MUMPS's factors of the interiors never freed (what keeping them costs).
+- "m6-keep": the same with MUMPS's factors of the interiors never freed (what keeping them costs);
+- "m6-simulate-mumps" / "m6-simulate-cholmod": `frictionid simulate` on that M6 with 3 points, fields written.
 """
 
 import resource
@@ -82,6 +83,21 @@ def m6(keep: bool, made: list) -> None:
         seen = len(made)
 
 
+def m6_simulate(factorisation: str, folder: Path, made: list) -> None:
+    from frictionid.cli import main
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "points.csv").write_text("point,x,y,z,stage\nP1,0.5,5.0,0.0,1\nP2,0.0,10.0,0.5,1\nP3,0.5,15.0,0.5,1\n")
+    model = "\n".join(f"{k} = {str(v).lower() if isinstance(v, bool) else repr(v)}" for k, v in M6.items())
+    (folder / "m6.toml").write_text(
+        f'[model]\nbuilder = "bolt"\n{model}\n[friction]\nzones = {{ A = 0.15, B = 0.15, C = 0.15, D = 0.15 }}\n'
+        f'fixed = {{ head_plate = 0.15, nut_plate = 0.15 }}\n[solver]\nfactorisation = "{factorisation}"\n'
+        '[data]\nfile = "points.csv"\nobservables = ["ux", "uy", "uz"]\nstages = [1]\n')
+    wall, cpu = time.perf_counter(), time.process_time()
+    assert main(["simulate", str(folder / "m6.toml"), "--out", str(folder / "simulated.csv")]) == 0
+    print(f"simulate (M6, {factorisation}): {time.perf_counter() - wall:.1f} s wall, "
+          f"{time.process_time() - cpu:.1f} s CPU, peak {_peak():.2f} GB; factorisations {made}")
+
+
 if __name__ == "__main__":
     mode = sys.argv[1] if len(sys.argv) > 1 else "id"
     factorisations = []
@@ -91,5 +107,8 @@ if __name__ == "__main__":
              factorisations)
     elif mode in ("m6", "m6-keep"):
         m6(mode == "m6-keep", factorisations)
+    elif mode.startswith("m6-simulate-"):
+        m6_simulate(mode.rsplit("-", 1)[1], Path(sys.argv[2]) if len(sys.argv) > 2 else
+                    Path(tempfile.mkdtemp(prefix="kept_factor_")), factorisations)
     else:
-        sys.exit(f"unknown mode {mode!r}: id, data, m6 or m6-keep")
+        sys.exit(f"unknown mode {mode!r}: id, data, m6, m6-keep, m6-simulate-mumps or m6-simulate-cholmod")
