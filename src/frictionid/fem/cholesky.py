@@ -135,7 +135,8 @@ class SparseFactor:
             raise ValueError("the factor's columns do not start at their diagonal")
         self.perm = perm
         self.diagonal = values[colptr[:-1]].copy()
-        self.matrix = sp.csc_array((values, rows.astype(np.int32), colptr.astype(np.int32)), shape=(n, n))
+        index = np.int32 if colptr[-1] < np.iinfo(np.int32).max else np.int64       # 64-bit past 2^31 entries
+        self.matrix = sp.csc_array((values, rows.astype(index), colptr.astype(index)), shape=(n, n))
         self.scaled = False
 
     @classmethod
