@@ -111,9 +111,10 @@ def test_cholmod_solves_gives_superlus_operators_by_solves(monkeypatch):
 
 
 def test_the_displacement_field_after_the_factor_was_dropped(both):
-    """Condensing drops the CHOLMOD factor (kvxopt's getfactor spoils it); the field needs it again."""
+    """Condensing takes the factor out of CHOLMOD (kvxopt's getfactor) and keeps it as a SparseFactor, which the
+    field solves with; unpickled, without it, the field makes CHOLMOD's factor again."""
     problem, args, lu, chol = both
-    assert chol.inverse.cholesky.factor is None
+    assert chol.inverse.cholesky.factor is None and chol.inverse.cholesky.sparse is not None
     rng = np.random.default_rng(1)
     n_w, m = args[1].shape[0], chol.n_modes
     x, amplitude = rng.normal(size=n_w + m), rng.normal(size=args[2].amplitudes.shape[1])

@@ -83,6 +83,8 @@ def _load_or_build(key, model: Model, points, quantities, regions, window=None, 
                 return problem
         except Exception as exc:                              # a truncated or stale file: build anew
             log.warning("condensation cache %s unreadable (%s); building it again", path, exc)
+    for kept in _RECENT.values():       # their factors (kept for the displacement field) not beside a new one
+        kept.condensed.inverse.release()
     problem = Problem.build(model, points=points, quantities=quantities, regions=regions, window=window,
                             factorisation=factorisation, sliding=sliding)
     if path is not None:
@@ -107,7 +109,8 @@ def _built(model: Model, points, quantities: tuple[str, ...], regions, keep: boo
     """Problem.build, reusing a recent build when model and observation points are the same in content.
 
     Runs of one session (a study's several identifications, an example's methods) share the condensation;
-    at most :data:`N_KEPT` builds are kept, so memory holds few factorisations besides the ones in use.
+    at most :data:`N_KEPT` builds are kept, and a new condensation frees their factors (kept for the displacement
+    field, made again where it is asked for), so memory holds no factorisation besides the one being made.
     ``keep=False``: a one-off build (e.g. a refined mesh for an error estimate) that uses a kept build if there
     is one but neither stores itself nor pushes a kept build out. With :func:`use_cache` the builds are also
     stored on disk and read back in later sessions. ``factorisation``: how the condensation factorises the
@@ -171,8 +174,8 @@ class EmbeddedBackend:
             with np.load(path) as stored:
                 return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
         solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments, max_slip=None)
-        # kept for check_sliding at the same mu (simulate's one solve; a fit's last solve, often at its answer):
-        # the contact unknowns and the observation rows per increment, without the displacement field
+        # kept for check_sliding and fields at the same mu (simulate's one solve; a fit's last solve, often at its
+        # answer): the contact unknowns and the observation rows per increment, without the displacement field
         self._last = (mu.copy(), solution)
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
         values = np.hstack([solution.observations[ends], solution.reactions[ends][:, self._reaction_rows]])
@@ -204,11 +207,15 @@ class EmbeddedBackend:
         return self.problem.solve(mu, increments=self.increments, max_slip=None).stick_thresholds(movable)
 
     def fields(self, mu):
-        """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve (see
-        :func:`frictionid.fem.fields.solution_fields`)."""
+        """Displacement, strain and contact fields at every stage end at ``mu``: one forward solve, or none where
+        :meth:`predict` solved at ``mu`` last (see :func:`frictionid.fem.fields.solution_fields`)."""
         from ..fem.fields import solution_fields
 
-        return solution_fields(self.problem, self.problem.solve(mu, increments=self.increments, max_slip=None))
+        if self._last is not None and np.array_equal(self._last[0], self.model.coefficients(mu)):
+            solution = self._last[1]
+        else:
+            solution = self.problem.solve(mu, increments=self.increments, max_slip=None)
+        return solution_fields(self.problem, solution)
 
     def check_sliding(self, mu: np.ndarray) -> None:
         """Raise :class:`~frictionid.errors.SolverError` when the solution at ``mu`` lies beyond small sliding

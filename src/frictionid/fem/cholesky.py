@@ -7,7 +7,9 @@ With the dofs s ordered last, P K P^T = L L^T and L = [[L_ii, 0], [L_si, L_ss]] 
 
 so every operator T K^-1 B^T whose rows T and B live on s is T_s S^-1 B_s^T: S^-1 from L_ss (LAPACK's potri,
 :func:`inverse`) and products with the sparse rows, instead of one sparse solve per column. The supernodal
-factorisation runs in BLAS.
+factorisation runs in BLAS. Taking L_ss out of CHOLMOD takes the whole factor out (kvxopt's getfactor); it is kept
+as a :class:`SparseFactor`, so that later solves (the displacement field, the small-sliding check) need no
+factorisation again.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from contextlib import contextmanager
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve_triangular
 
 from .threads import one_blas_thread
 
@@ -26,6 +29,8 @@ log = logging.getLogger(__name__)
 
 #: columns per block where a symmetric matrix's upper triangle is copied to its lower one
 _BLOCK = 1024
+#: columns per chunk where a dense block is gathered from a SparseFactor (bounds the index temporaries)
+_GATHER = 256
 
 
 def symmetrise(A: np.ndarray) -> None:
@@ -114,13 +119,90 @@ def fill_reducing_order(K: sp.spmatrix, nodes: np.ndarray) -> np.ndarray:
     return np.lexsort((np.arange(n), rank[node_of_row]))
 
 
+class SparseFactor:
+    """L of P K P^T = L L^T (n, n) in CSC with 32-bit indices: 12 bytes per entry (kvxopt's getfactor hands out
+    16). Solves by two sparse triangular solves (scipy's spsolve_triangular) with L = L1 D, L1 unit lower
+    triangular and D the diagonal: at the first solve L's columns are scaled to L1 in place (before it,
+    :meth:`block` reads L's numbers as CHOLMOD made them).
+
+    ``colptr``, ``rows``, ``values``: L's compressed columns with sorted rows, the diagonal first in each column;
+    ``perm``: the permutation (row i of P K P^T is row perm[i] of K).
+    """
+
+    def __init__(self, colptr: np.ndarray, rows: np.ndarray, values: np.ndarray, perm: np.ndarray):
+        n = len(colptr) - 1
+        if not np.array_equal(rows[colptr[:-1]], np.arange(n)):
+            raise ValueError("the factor's columns do not start at their diagonal")
+        self.perm = perm
+        self.diagonal = values[colptr[:-1]].copy()
+        index = np.int32 if colptr[-1] < np.iinfo(np.int32).max else np.int64       # 64-bit past 2^31 entries
+        self.matrix = sp.csc_array((values, rows.astype(index), colptr.astype(index)), shape=(n, n))
+        self.scaled = False
+
+    @classmethod
+    def taken(cls, factor, perm: np.ndarray) -> "SparseFactor":
+        """The factor taken out of CHOLMOD's ``factor`` (which kvxopt's getfactor leaves symbolic only)."""
+        from kvxopt import cholmod
+        L = cholmod.getfactor(factor)
+        colptr, rows, values = (np.asarray(a).ravel() for a in L.CCS)        # copies of L's arrays
+        del L
+        return cls(colptr, rows, values, perm)
+
+    @property
+    def nbytes(self) -> int:
+        A = self.matrix
+        return A.data.nbytes + A.indices.nbytes + A.indptr.nbytes + self.diagonal.nbytes
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """K^-1 b for b (n,) or (n, k): P^T L^-T L^-1 P b."""
+        A = self.matrix
+        if np.size(b) == 0:
+            return np.zeros(np.shape(b))
+        if not self.scaled:
+            for start in range(0, A.shape[0], _GATHER):         # L1 = L D^-1, in place, by chunks of columns
+                end = min(start + _GATHER, A.shape[0])
+                cut = slice(A.indptr[start], A.indptr[end])
+                A.data[cut] /= np.repeat(self.diagonal[start:end], np.diff(A.indptr[start:end + 1]))
+            self.scaled = True
+        d = self.diagonal if np.ndim(b) == 1 else self.diagonal[:, None]
+        # L1's unit diagonal is stored: spsolve_triangular's setdiag(1) changes nothing, and with overwrite_A it
+        # neither copies L1 nor scales it (L1.T is a CSR view of the same arrays)
+        y = spsolve_triangular(A, np.asarray(b, dtype=float)[self.perm], lower=True, overwrite_A=True,
+                               overwrite_b=True, unit_diagonal=True)
+        x = spsolve_triangular(A.T, y / d**2, lower=False, overwrite_A=True, overwrite_b=True, unit_diagonal=True)
+        out = np.empty_like(x)
+        out[self.perm] = x
+        return out
+
+    def block(self, positions: np.ndarray) -> np.ndarray:
+        """L[positions][:, positions] (len(positions) squared, Fortran order) for ascending ``positions``."""
+        m, A = len(positions), self.matrix
+        at = np.full(A.shape[0], -1)
+        at[positions] = np.arange(m)
+        out = np.zeros((m, m), order="F")
+        for start in range(0, m, _GATHER):
+            cols = positions[start:start + _GATHER]
+            first, counts = A.indptr[cols].astype(np.int64), np.diff(A.indptr)[cols].astype(np.int64)
+            entries = np.repeat(first - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+            rows = at[A.indices[entries]]
+            column = np.repeat(np.arange(start, start + len(cols)), counts)
+            kept = rows >= 0
+            values = A.data[entries[kept]]
+            out[rows[kept], column[kept]] = values * self.diagonal[positions[column[kept]]] if self.scaled else values
+        return out
+
+
 class Cholesky:
     """P K P^T = L L^T of a symmetric positive definite K with the rows ``last`` ordered last, the others in a
     fill-reducing order (:func:`fill_reducing_order`).
 
-    Raises ``ArithmeticError`` if K is not positive definite. Pickled without its factor, which is computed
+    Raises ``ArithmeticError`` if K is not positive definite. After :meth:`trailing` the factor lives on as
+    :attr:`sparse` (:class:`SparseFactor`), which the solves use. Pickled without either, the factor is computed
     again at the first solve after unpickling.
     """
+
+    #: the factor once :meth:`trailing` took it out of CHOLMOD
+    sparse: SparseFactor | None = None
 
     def __init__(self, K: sp.spmatrix, last: np.ndarray, nodes: np.ndarray):
         n = K.shape[0]
@@ -146,11 +228,13 @@ class Cholesky:
         return factor
 
     def __getstate__(self):
-        return {**self.__dict__, "factor": None}
+        return {**self.__dict__, "factor": None, "sparse": None}
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """K^-1 b for b (n,) or (n, k)."""
         from kvxopt import cholmod, matrix
+        if self.factor is None and self.sparse is not None:
+            return self.sparse.solve(b)
         if self.factor is None:
             self.factor = self._factor()
         x = matrix(np.asfortranarray(np.reshape(b, (b.shape[0], -1)), dtype=float))
@@ -161,6 +245,8 @@ class Cholesky:
         """K^-1 b (n, k) dense for a sparse b (n, k): CHOLMOD's sparse solve, half the time per column of
         :meth:`solve` on unit columns (benchmarks/cholmod_rhs.py)."""
         from kvxopt import cholmod, matrix, spmatrix
+        if self.factor is None and self.sparse is not None:
+            return self.sparse.solve(sp.csc_matrix(b).toarray())
         if self.factor is None:
             self.factor = self._factor()
         coo = sp.coo_matrix(b)
@@ -175,21 +261,18 @@ class Cholesky:
         so each block is the factor of its own Schur complement and the dense memory is the largest block's
         square instead of |last|^2.
 
-        kvxopt's getfactor turns the factor into a simplicial one in place, which its solve refuses: the factor
-        is dropped here and computed again at the next :meth:`solve`."""
-        from kvxopt import cholmod, matrix
-        n, m = self.matrix.shape[0], len(self.last)
+        kvxopt's getfactor takes the numbers out of CHOLMOD's factor (which its solve then refuses): they are
+        kept as :attr:`sparse` (12 bytes per entry; getfactor's own copy, 16 bytes per entry, is freed at once),
+        which the blocks are gathered from and the solves use."""
+        m = len(self.last)
         blocks = [np.arange(m)] if blocks is None else blocks
-        if self.factor is None:
-            self.factor = self._factor()
-        L = cholmod.getfactor(self.factor)
-        self.factor = None
-        log.info("Cholesky factor: %d rows, %d entries; the Schur complement onto %d of them in %d block(s)",
-                 n, len(L), m, len(blocks))
+        if self.sparse is None:
+            if self.factor is None:
+                self.factor = self._factor()
+            self.sparse = SparseFactor.taken(self.factor, self.perm)
+            self.factor = None
+        n = self.matrix.shape[0]
+        log.info("Cholesky factor: %d rows, %d entries (%.3g GB kept); the Schur complement onto %d of them in %d "
+                 "block(s)", n, self.sparse.matrix.nnz, self.sparse.nbytes / 1e9, m, len(blocks))
         for block in blocks:
-            rows = matrix(np.asarray(n - m + block, dtype=np.int64))
-            sparse = L[rows, rows]
-            dense = matrix(sparse)
-            del sparse
-            # a view of kvxopt's column-major buffer, not a copy
-            yield np.asarray(dense)
+            yield self.sparse.block(n - m + np.asarray(block))

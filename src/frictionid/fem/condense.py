@@ -11,7 +11,8 @@ computed once per geometry, W and G as T K^g B_f^T with sparse rows T = [B_f; O_
 
 - "cholmod" (the default where kvxopt is installed): one sparse Cholesky factorisation with the dofs that T
   touches ordered last; T K^g B_f^T then comes from the Schur complement onto those dofs, which is the factor's
-  trailing block (fem/cholesky.py), by dense triangular solves;
+  trailing block (fem/cholesky.py), by dense triangular solves; the factor is kept for the solves after the
+  condensation (the displacement field);
 - "superlu" (the fallback): one sparse LU factorisation and n_w = d * n_pairs solves, in blocks of columns;
 - "cholmod_solves": CHOLMOD's factor in a fill-reducing order of all dofs and the n_w solves in blocks of columns.
   Ordering thousands of contact dofs last makes the factor of a 3-D model far larger: the short 3-D bolt (132k
@@ -150,6 +151,14 @@ class GeneralisedInverse:
     def __getstate__(self):
         return {**self.__dict__, "lu": None}
 
+    def release(self) -> None:
+        """Free what the solves after the condensation use, CHOLMOD's kept factor (fem/cholesky.SparseFactor)
+        and MUMPS's factors (the Schur complements' Cholesky factors stay): a later solve factorises again."""
+        if self.cholesky is not None:
+            self.cholesky.sparse = None
+        if self.bodies is not None:
+            self.bodies.free(schur=False)
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         out = np.zeros((self.n,) + b.shape[1:])
         if self.cholesky is not None or self.bodies is not None:
@@ -193,7 +202,7 @@ class GeneralisedInverse:
         """(K^g b)[last] (m,) or (m, k) for b nonzero on ``last`` only (``b_last`` its values there): S^-1 b_s per
         body by the Schur complements' Cholesky factors L_ss, no solve with the interior (for the kept dofs
         ordered [interior i, last s], K x = b with b_i = 0 gives x_s = S^-1 b_s). None where those factors are
-        not kept (CHOLMOD, whose factor :meth:`coupled` drops, SuperLU, or after unpickling)."""
+        not kept (CHOLMOD, whose solves use its whole kept factor instead, SuperLU, or after unpickling)."""
         if self.bodies is None:
             return None
         out = np.zeros(np.shape(b_last))
@@ -407,7 +416,7 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
         inverse = GeneralisedInverse(K_ff, R, "COLAMD" if dim == 2 else "MMD_AT_PLUS_A")
     b = channels.forces[:, f].T - K_fp @ channels.displacements.T          # (n_f, n_channels)
     # the reaction sums' rows S_r K_pf touch every dof next to a supported face: solved for (n_reac columns),
-    # not ordered last; before `coupled`, which may drop the Cholesky factor
+    # not ordered last; before `coupled`, which takes the factor out of CHOLMOD (kept: cholesky.SparseFactor)
     sums_K = (reaction_sums @ K_pf).tocsr()
     solved = inverse.solve(np.hstack([b, sums_K.T.toarray()]))
     Y, X_sums = solved[:, :b.shape[1]], solved[:, b.shape[1]:]
@@ -415,7 +424,7 @@ def condense(K: sp.csr_matrix, B: sp.csr_matrix, channels: LoadChannels, modes: 
     coupled = inverse.coupled(rows, n_w)
     if inverse.bodies is not None:
         # MUMPS's factors (5.5 GB on the short 3-D bolt at 1.25 mm) are not needed by the load path: made again if
-        # the displacement field is asked for, as CHOLMOD's factor is after `coupled`; the Schur complements'
+        # the displacement field is asked for (CHOLMOD's factor is kept); the Schur complements'
         # factors (sum of n_s^2 doubles) are kept: displacements on `last` need no more (Condensed.displacement_at)
         inverse.bodies.free(schur=False)
     W, G = coupled[:n_w], coupled[n_w:]

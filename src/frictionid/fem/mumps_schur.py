@@ -8,7 +8,9 @@ for: 1.8 times the factor entries on the 3-D bolt's bolt, docs/bolt-study.md) re
 
 with s eliminated last inside the factorisation (ICNTL(19)), so the interior is ordered for fill alone; the
 factor of K_ii is kept for solves: K^-1 b by MUMPS's reduction (ICNTL(26) = 1: y_s = b_s - K_si K_ii^-1 b_i), a
-dense solve with S and the expansion (ICNTL(26) = 2).
+dense solve with S and the expansion (ICNTL(26) = 2). Once that factor is freed (the condensation frees it before
+its dense part) and S's Cholesky factor kept, a solve factorises K_ii alone (:meth:`SchurFactor.free`): no Schur
+complement made again, no dense factorisation of it.
 
 The wheel's own Python module is compiled against NumPy 1 and does not import under NumPy 2; its bundled
 libraries (MUMPS 5.2.1, SCOTCH, METIS, PORD, OpenBLAS) do, and are called here through ctypes with the C structure
@@ -156,10 +158,11 @@ class SchurFactor:
         self._cols = (lower.col + 1).astype(np.int32)
         self._data = lower.data.astype(float)
         self._struc = None
+        self._interior = None
         self.schur_cholesky, self.stats = self._factor() if factorise else (None, None)
 
     def __getstate__(self):
-        return {**self.__dict__, "_struc": None, "schur_cholesky": None}
+        return {**self.__dict__, "_struc": None, "schur_cholesky": None, "_interior": None}
 
     def __del__(self):
         try:
@@ -168,12 +171,17 @@ class SchurFactor:
             pass
 
     def free(self, schur: bool = False) -> None:
-        """Release MUMPS's memory (the factor) and with ``schur`` the Schur complement's factor; a later solve
-        factorises again."""
+        """Release MUMPS's memory (the factor) and with ``schur`` the Schur complement's factor. A later solve
+        factorises again: the interior K_ii alone where the Schur complement's factor is kept (its MUMPS factor
+        then kept for the next solves, until freed), else the whole as at first."""
         if getattr(self, "_struc", None) is not None:
             self._struc.job = -2
             _library().dmumps_c(ctypes.byref(self._struc))
             self._struc = None
+        interior = getattr(self, "_interior", None)
+        if interior is not None:
+            interior[0].free()
+        self._interior = None
         if schur:
             self.schur_cholesky = None
 
@@ -257,6 +265,8 @@ class SchurFactor:
             x = np.zeros((self.n, np.reshape(b, (self.n, -1)).shape[1]))
             x[self.schur_dofs] = la.cho_solve((self.schur_factor(), True), np.reshape(b, (self.n, -1))[self.schur_dofs])
             return x.reshape(b.shape)
+        if self._struc is None and self.schur_cholesky is not None and len(self.schur_dofs):
+            return self._solve_by_interior(b)
         if self._struc is None or self.schur_cholesky is None:
             self.free()
             self.schur_cholesky, self.stats = self._factor()
@@ -276,6 +286,27 @@ class SchurFactor:
         self._call(3)
         s.icntl[25] = 0
         return rhs.reshape(b.shape)
+
+    def _solve_by_interior(self, b: np.ndarray) -> np.ndarray:
+        """K^-1 b from the kept Cholesky factor L of S and MUMPS's factor of K_ii alone (made at the first call,
+        kept): x_s = S^-1 (b_s - K_si K_ii^-1 b_i), x_i = K_ii^-1 (b_i - K_is x_s); one interior solve where b_i is
+        zero (the contact forces' right-hand sides)."""
+        s = self.schur_dofs
+        if self._interior is None:
+            K = sp.coo_matrix((self._data, (self._rows - 1, self._cols - 1)), shape=(self.n,) * 2).tocsr()
+            K = K + sp.triu(K.T, 1)                                          # the stored lower triangle, mirrored
+            inner = np.setdiff1d(np.arange(self.n), s)
+            self._interior = (SchurFactor(K[inner][:, inner], np.zeros(0, int), self.ordering), inner,
+                              K[s][:, inner].tocsr())
+        interior, inner, K_si = self._interior
+        b2 = np.reshape(b, (self.n, -1))
+        b_i = b2[inner]
+        loaded = bool(np.any(b_i))
+        y_s = b2[s] - K_si @ interior.solve(b_i) if loaded else b2[s]
+        x = np.zeros(b2.shape)
+        x[s] = la.cho_solve((self.schur_cholesky, True), y_s, check_finite=False)
+        x[inner] = interior.solve(b_i - K_si.T @ x[s])
+        return x.reshape(np.shape(b))
 
     def schur_factor(self) -> np.ndarray:
         """L (m, m) dense lower triangular, L L^T = S, in the order of ``schur``; factorised again if dropped."""

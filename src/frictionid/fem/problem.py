@@ -314,8 +314,8 @@ class Problem:
         the interfaces' zones and targets, and whether they come without the field elsewhere: from the Schur
         complements' factors where the condensation eliminated those nodes' dofs last and kept them
         (:meth:`Condensed.displacement_at`; "mumps"), each other node then taking its nearest interface node's
-        (:meth:`interface_field`); else the whole field (one solve with the stored factor, which "mumps" and
-        "cholmod" make again after the condensation)."""
+        (:meth:`interface_field`); else the whole field (one solve with the stored factor: "cholmod" keeps its
+        factor, "mumps" makes its factors of the interiors again)."""
         index = np.atleast_1d(increments)
         dofs = self._interface_sources[0]
         on = self.condensed.displacement_at(dofs, *self._loads(solution, index))
@@ -384,7 +384,7 @@ class Problem:
         from the Schur complements' factors, no factor of the stiffness made again, where the condensation
         eliminated the interfaces' dofs last; off the interfaces each node then takes its nearest interface
         node's, which the coupling reads only to orient the facets (the adjacent cells' corners: the same side
-        while the strains are small).
+        while the strains are small); with "cholmod" the whole field, from the factor the condensation kept.
         A pair the deformed coupling does not measure is held to one local element length of slip instead: where,
         undeformed, the coupling does not find the pair's own gap (within :data:`MATCHED` of the local element
         length: it projects onto another facet, as on a coarse helical thread whose flank is narrower than an
