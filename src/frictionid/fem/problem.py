@@ -237,7 +237,8 @@ class Problem:
             :func:`compressed`; a full field); False: always the rows.
         factorisation : "auto" | "cholmod" | "superlu" | "cholmod_solves" | "mumps"
             How the stiffness is factorised for the condensation (:func:`frictionid.fem.condense.condense`;
-            [solver] factorisation).
+            [solver] factorisation); "auto": :func:`frictionid.fem.memory.automatic` (CHOLMOD, or MUMPS where
+            CHOLMOD's estimate exceeds the default max_memory).
         sliding : "small" | "finite"
             Contact pairs fixed in the undeformed configuration, or re-coupled in the deformed configuration at
             every increment (:mod:`frictionid.fem.sliding`; plane strain, axisymmetric and 3-D, dual mortar on every
@@ -285,6 +286,9 @@ class Problem:
         # (interface_displacement): the nodes a mortar coupling leaves out at its edges are eliminated last too
         extra = {} if implicit or sliding == "finite" else {"last": _contact_dofs(model, pairs.B,
                                                                                    space.n_components)}
+        if factorisation == "auto":
+            from .memory import automatic
+            factorisation = automatic(model)
         condensed = (condense_implicit if implicit else condense)(
             stiffness(space, model), coupled, channels, modes, observe, sums, space.n_components,
             factorisation=factorisation, **extra)
