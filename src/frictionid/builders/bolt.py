@@ -114,9 +114,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         then not used).
     model : "axisymmetric" | "3d"
         "3d": the helical thread, real hexagons, the nut's window and jaws (:mod:`frictionid.builders.bolt3d`,
-        quadratic tetrahedra; bearings node-to-node, the thread as ``nut_mesh`` says). Tightening in 3-D: the nut's six flats
-        "nut_outer" turned rigidly by ``angles`` (u_x = -z a, u_z = x a; ``torques`` not taken), the head's six
-        flats "head_side" held in x and z, both plates' rims held; the helix is in the mesh (no ``lead``).
+        quadratic tetrahedra; bearings node-to-node, the thread as ``nut_mesh`` says). Tightening in 3-D: the nut's
+        six flats "nut_outer" turned rigidly by ``angles`` (u_x = -z a, u_z = x a; ``torques`` not taken), the
+        head's six flats "head_side" held in x and z, both plates' rims held; the helix is in the mesh (no ``lead``).
     cutout : bool or table, 3-D only
         The nut's window: true (default: 60 deg wide, from the flats down to the nut crest D1/2), false (none), or
         ``{ width = deg, depth = mm }`` (depth from the flats' radius s/2 inwards).
