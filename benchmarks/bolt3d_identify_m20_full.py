@@ -175,12 +175,15 @@ def identify_step(options: dict, work: Path, data_file: str, settings: dict) -> 
     start = time.perf_counter()
     child = subprocess.Popen([sys.executable, "-u", "-c", CLI, "identify", config.name], cwd=work, text=True,
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    lines = [(time.perf_counter() - start, cpu_seconds(child.pid), text.rstrip("\n")) for text in child.stdout]
+    lines = []
+    with open(work / f"identify_{name}.log", "w") as log:      # as the lines come: an interrupted run keeps them
+        for text in child.stdout:
+            lines.append((time.perf_counter() - start, cpu_seconds(child.pid), text.rstrip("\n")))
+            log.write("[{:7.1f} s wall {:7.1f} s CPU] {}\n".format(*lines[-1]))
+            log.flush()
     child.wait(timeout=7200)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    (work / f"identify_{name}.log").write_text("".join(f"[{w:7.1f} s wall {c:7.1f} s CPU] {text}\n"
-                                                       for w, c, text in lines))
     out = {"exit": child.returncode, "wall_s": wall, "user_s": after.ru_utime - before.ru_utime,
            "system_s": after.ru_stime - before.ru_stime, "peak_gb": after.ru_maxrss * 1024 / 1e9,
            "settings": settings, "phases": phases(lines)}
