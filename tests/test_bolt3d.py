@@ -404,6 +404,28 @@ def test_volume_mesher_falls_back_to_frontal(monkeypatch, caplog):
     assert "box: gmsh's Delaunay 3-D mesher failed (PLC Error" in caplog.text and "trying Frontal" in caplog.text
 
 
+def test_volume_mesher_tries_frontal_when_the_mesh_read_is_refused(caplog):
+    """A volume mesh that gmsh makes without an error but that the reader refuses (on the separate nut's M36 bolt
+    with the 3-D defaults, Frontal left nodes of a face in no cell) is a failure of that algorithm as well."""
+    reads = []
+
+    def read():
+        reads.append(gmsh.option.getNumber("Mesh.Algorithm3D"))
+        if len(reads) == 1:
+            raise InputError("box: boundary 'side' has nodes that belong to no cell")
+        return _tetrahedra()
+
+    with caplog.at_level(logging.WARNING, logger="frictionid.builders.bolt3d_mesh"):
+        assert mesh_with_fallback(_box, read, "box") > 0
+    assert reads == [1, 4] and "Delaunay 3-D mesher failed (box: boundary 'side'" in caplog.text
+
+    def refused():
+        raise InputError("box: boundary 'side' has nodes that belong to no cell")
+
+    with pytest.raises(InputError, match=r"Delaunay: box: boundary 'side'.*Frontal: box: boundary 'side'.*nut_mesh"):
+        mesh_with_fallback(_box, refused, "box")
+
+
 def test_volume_mesher_says_when_every_algorithm_fails(monkeypatch):
     tried = _failing_mesher(monkeypatch, 2)
     with pytest.raises(InputError, match=r"box: gmsh could not mesh the volumes \(Delaunay: PLC Error.*Frontal: PLC"):

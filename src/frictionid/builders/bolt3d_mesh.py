@@ -317,9 +317,11 @@ def curved_tetra10(source: str) -> Mesh:
 
 def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
     """``read()`` of the volume mesh of the gmsh model that ``make()`` sets up in a fresh gmsh session, meshed by
-    the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds. A failure is logged and the next
-    algorithm starts from a new session (after a failed Delaunay, Frontal in the same session, mesh cleared,
-    returned no tetrahedra). InputError naming ``source`` when every algorithm fails."""
+    the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds: gmsh meshes without an error and
+    ``read()`` accepts the mesh (an InputError from it, e.g. a face's nodes in no cell where gmsh left a volume
+    unmeshed, counts as a failure). A failure is logged and the next algorithm starts from a new session (after a
+    failed Delaunay, Frontal in the same session, mesh cleared, returned no tetrahedra). InputError naming
+    ``source`` when every algorithm fails."""
     failures = []
     for i, (number, name) in enumerate(algorithms):
         with gmsh_session(source):
@@ -328,14 +330,20 @@ def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
             try:
                 gmsh.model.mesh.generate(3)
             except Exception as error:  # gmsh raises a bare Exception with its own message
-                failures.append(f"{name}: {str(error).strip()}")
-                following = f"; trying {algorithms[i + 1][1]}" if i + 1 < len(algorithms) else ""
-                log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, name, str(error).strip(), following)
-                continue
-            log.info("%s: meshed by gmsh's %s 3-D mesher", source, name)
-            return read()
+                failure = str(error).strip()
+            else:
+                try:
+                    mesh = read()
+                except InputError as error:     # e.g. a face's nodes in no cell: gmsh left a volume unmeshed
+                    failure = str(error).strip()
+                else:
+                    log.info("%s: meshed by gmsh's %s 3-D mesher", source, name)
+                    return mesh
+            failures.append(f"{name}: {failure}")
+            following = f"; trying {algorithms[i + 1][1]}" if i + 1 < len(algorithms) else ""
+            log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, name, failure, following)
     raise InputError(f"{source}: gmsh could not mesh the volumes ({'; '.join(failures)}); other element sizes "
-                     "(flank_size, contact_size, mesh_size) may mesh")
+                     "(flank_size, contact_size, mesh_size, root_size) or nut_mesh may mesh")
 
 
 def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> Mesh:
