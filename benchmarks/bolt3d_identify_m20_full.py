@@ -17,7 +17,8 @@ truth, noise-free (measured_exact.csv) and with 0.5 um Gaussian noise (measured.
   scratch, trf, analytic sensitivities; ``--settings`` the config's other tables, default none: the defaults):
   wall, CPU (the child's rusage), peak (its largest resident set), iterations, coefficients, and the wall and CPU
   time at each line the run prints (the child's /proc stat when the line arrives), from which the phases: build
-  (to "model:"), condensation (to "... backend ready"), fit (to the last iteration line), fields (to "fields:").
+  (to "model:"), control and condensation (to "... backend ready"), resolution and suggestions (to its table),
+  fit (to the last iteration line), fields (to "fields:").
 Each step writes DIR/<step>.json and is read back when present; models are pickled in DIR.
 
 Run (from benchmarks/): ../.venv/bin/python bolt3d_identify_m20_full.py --work DIR [--fit JSON] [--data JSON]
@@ -150,8 +151,10 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-#: the phases of a run: (name, the start of the line that ends it; the last such line for the fit)
-PHASES = (("build", "model:"), ("condensation", "embedded backend ready"), ("fit", "iter "), ("fields", "fields:"))
+#: the phases of a run: (name, the start of the line that ends it; the last such line for the fit); the
+#: discretisation control, when on, runs between the build and "backend ready" (and condenses the model for it)
+PHASES = (("build", "model:"), ("control and condensation", "embedded backend ready"),
+          ("resolution and suggestions", "[[Resolution before fitting]]"), ("fit", "iter "), ("fields", "fields:"))
 
 
 def phases(lines: list) -> dict:
