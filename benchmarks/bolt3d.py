@@ -18,14 +18,10 @@ process's CPU time as its clock, benchmarks/_phases.py) and prints the CPU time 
 own (its peak is its own; the inputs of the condensation are assembled once and handed over in a file), and prints
 the condensation's wall and CPU time and peak per ordering; no load path.
 
-``--roots-from-thread-start`` builds the model with the bolt's roots refined at ``root_size`` from the thread's start
-instead of from a pitch below the nut (an experiment on the free thread below the nut; the builder has no such
-option).
 """
 
 import argparse
 import contextlib
-import dataclasses
 import json
 import pickle
 import subprocess
@@ -33,13 +29,11 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from unittest import mock
 
 import numpy as np
 
 from _measure import peak_memory_mb, timed
 from _phases import Phases
-from frictionid.builders import bolt3d_mesh
 from frictionid.builders.bolt import bolt_layout, bolt_model
 from frictionid.builders.bolt3d import measurement_points_3d
 from frictionid.fem.problem import Problem
@@ -60,17 +54,6 @@ def built(options: dict, cache: str | None, figures: dict):
     if cache:
         Path(cache).write_bytes(pickle.dumps(model))
     return model
-
-
-def roots_from_thread_start():
-    """A patch of the 3-D mesher's root test (frictionid.builders.bolt3d_mesh._is_root): the bolt's roots are
-    refined at ``root_size`` from the thread's start (y_thread), not only from a pitch below the nut's bearing face
-    to a pitch above its top."""
-    original = bolt3d_mesh._is_root
-
-    def is_root(layout, points):
-        return original(dataclasses.replace(layout, y_bearing=layout.y_thread + layout.size.P), points)
-    return mock.patch.object(bolt3d_mesh, "_is_root", is_root)
 
 
 def layout_of(options: dict):
@@ -199,11 +182,8 @@ if __name__ == "__main__":
     parser.add_argument("--orderings", nargs="+")
     parser.add_argument("--central", nargs="+", default=[])
     parser.add_argument("--phases", action="store_true")
-    parser.add_argument("--roots-from-thread-start", action="store_true")
     parser.add_argument("--condense-once", nargs=2, help=argparse.SUPPRESS)
     arguments = parser.parse_args()
-    if arguments.roots_from_thread_start:
-        roots_from_thread_start().start()
     if arguments.condense_once:
         print(json.dumps(condense_once(*arguments.condense_once)))
     elif arguments.orderings:

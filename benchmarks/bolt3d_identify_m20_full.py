@@ -1,29 +1,35 @@
 """The 8-turn 3-D M20 (the whole nut, window and jaws, nut meshed on its own): the ten points' discretisation error
-against a finer mesh, and a whole identification of zones A-F from them, run the way a user runs it.
+against another mesh, and a whole identification of zones A-F from them, run the way a user runs it.
 
-Layout: the default 3-D M20's (docs/models.md: eight turns, window and jaws, 10 and 30 kN in 3 increments each)
-with the nut meshed on its own (``nut_mesh = "separate"``), zones A-F at frictionid.studies.bolt's TRUE_MU, head
-and nut bearing held at 0.15. The fitted model has the sizes ``--fit`` (JSON, bolt_model options), the data model
-the finer ``--data``. Data: uy at the
-ten points P1-P5 of flanks 1 and 2 (frictionid.builders.bolt3d.measurement_points_3d, depth 0.1 mm) at both
-stages, solved on the data mesh at the truth, noise-free (measured_exact.csv) and with 0.5 um Gaussian noise
-(measured.csv); the fits weight them by 0.5 um. Steps:
+Layout: the default 3-D M20's (docs/models.md: eight turns, window and jaws, 10 and 30 kN in 3 increments each),
+zones A-F at frictionid.studies.bolt's TRUE_MU, head and nut bearing held at 0.15. The fitted model has the
+builder options ``--fit`` (JSON, bolt_model options; default none: the builder's 3-D defaults), the data model
+those of ``--data`` (default: the defaults with flanks 2.5 and bearings 5.0 mm, a coarser mesh; a finer one does
+not fit this machine's memory beside the fit). Data: uy at the ten points P1-P5 of flanks 1 and 2
+(frictionid.builders.bolt3d.measurement_points_3d, depth 0.1 mm) at both stages, solved on the data mesh at the
+truth, noise-free (measured_exact.csv) and with 0.5 um Gaussian noise (measured.csv); the fits weight them by
+0.5 um. Steps:
 - data: the data model's condensation and solve at the truth;
 - mesh_error: the fit model at the truth with sensitivities: the ten points' difference from the data (um, % of
   each stage's range, noise levels), the zones' predicted standard errors at 0.5 um and the linearised shift of
   the fitted coefficients that the difference alone causes (J^+ applied to it);
-- identify: ``frictionid identify config.toml`` in a subprocess under /usr/bin/time -v (the model built, condensed
-  and fitted from scratch, trf, analytic sensitivities): wall, CPU, peak, iterations, coefficients.
+- identify: ``frictionid identify config.toml`` in a subprocess (the model built, condensed and fitted from
+  scratch, trf, analytic sensitivities; ``--settings`` the config's other tables, default none: the defaults):
+  wall, CPU (the child's rusage), peak (its largest resident set), iterations, coefficients, and the wall and CPU
+  time at each line the run prints (the child's /proc stat when the line arrives), from which the phases: build
+  (to "model:"), control and condensation (to "... backend ready"), resolution and suggestions (to its table),
+  fit (to the last iteration line), fields (to "fields:").
 Each step writes DIR/<step>.json and is read back when present; models are pickled in DIR.
 
 Run (from benchmarks/): ../.venv/bin/python bolt3d_identify_m20_full.py --work DIR [--fit JSON] [--data JSON]
-[--steps data mesh_error identify] [--file measured_exact.csv]
+[--steps data mesh_error identify] [--file measured_exact.csv] [--settings '{"solver": {"factorisation": "mumps"}}']
 """
 
 import argparse
 import json
+import os
 import pickle
-import re
+import resource
 import subprocess
 import sys
 import time
@@ -39,8 +45,8 @@ from frictionid.fem.problem import Problem
 from frictionid.inverse.resolution import resolution
 from frictionid.studies.bolt import FORCES, NOISE, START, TRUE_MU
 
-FIT = {"flank_size": 2.5, "contact_size": 5.0, "root_size": 0.3, "nut_mesh": "separate"}
-DATA = {"flank_size": 1.875, "contact_size": 3.75, "root_size": 0.3, "nut_mesh": "separate"}
+FIT: dict = {}
+DATA = {"flank_size": 2.5, "contact_size": 5.0}
 ZONES = tuple(TRUE_MU)
 #: the console script `frictionid` of this checkout (PYTHONPATH), as a user runs it
 CLI = "import sys; from frictionid.cli import main; sys.exit(main(sys.argv[1:]))"
@@ -120,34 +126,70 @@ def mesh_error_step(options: dict, work: Path) -> dict:
             "shift_from_mesh_error": dict(zip(ZONES, shift.tolist()))}
 
 
-def config_text(options: dict, data_file: str, run_dir: str) -> str:
-    sizes = "\n".join(f"{k} = {json.dumps(v)}" for k, v in options.items())
+def config_text(options: dict, data_file: str, run_dir: str, settings: dict) -> str:
+    """The identification's config: [model] the builder's 3-D bolt with ``options``, the data, trf with the
+    analytic Jacobian; ``settings`` ({table: {key: value}}) adds keys to [solver], [identify] or [run]."""
+    def keys(table: dict) -> str:
+        return "".join(f"{k} = {json.dumps(v)}\n" for k, v in table.items())
     zones = ", ".join(f"{z} = {START}" for z in ZONES)
     fixed = ", ".join(f"{z} = {v}" for z, v in fixed_friction().items())
-    return (f'[model]\nbuilder = "bolt"\nmodel = "3d"\n{sizes}\n'
+    return (f'[model]\nbuilder = "bolt"\nmodel = "3d"\n{keys(options)}'
             f"[friction]\nzones = {{ {zones} }}\nfixed = {{ {fixed} }}\n"
             f'[data]\nfile = "{data_file}"\nobservables = ["uy"]\nstages = [1, 2]\nnoise = {{ u = {NOISE} }}\n'
             f'regions = {{ "*" = "bolt" }}\n'
-            f'[solver]\nfactorisation = "mumps"\n'
-            f'[identify]\nmethod = "trf"\njacobian = "analytic"\nrefine_target = 0\nsuggestions = 0\n'
-            f'[run]\ndir = "{run_dir}"\n')
+            f'[solver]\n{keys(settings.get("solver", {}))}'
+            f'[identify]\nmethod = "trf"\njacobian = "analytic"\n{keys(settings.get("identify", {}))}'
+            f'[run]\ndir = "{run_dir}"\n{keys(settings.get("run", {}))}')
 
 
-def identify_step(options: dict, work: Path, data_file: str) -> dict:
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time [s] of a running process (all its threads), from /proc/<pid>/stat."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+#: the phases of a run: (name, the start of the line that ends it; the last such line for the fit); the
+#: discretisation control, when on, runs between the build and "backend ready" (and condenses the model for it)
+PHASES = (("build", "model:"), ("control and condensation", "embedded backend ready"),
+          ("resolution and suggestions", "[[Resolution before fitting]]"), ("fit", "iter "), ("fields", "fields:"))
+
+
+def phases(lines: list) -> dict:
+    """Wall and CPU time [s] of each of :data:`PHASES` from the stamped lines (wall, CPU, text) of a run."""
+    out, previous = {}, (0.0, 0.0)
+    for name, marker in PHASES:
+        ends = [(w, c) for w, c, text in lines if text.startswith(marker)]
+        if not ends:
+            continue
+        end = ends[-1] if name == "fit" else ends[0]
+        out[name] = {"wall_s": end[0] - previous[0], "cpu_s": end[1] - previous[1]}
+        previous = end
+    return out
+
+
+def identify_step(options: dict, work: Path, data_file: str, settings: dict) -> dict:
     name = Path(data_file).stem
     config = work / f"identify_{name}.toml"
-    config.write_text(config_text(options, data_file, f"runs/{name}"))
-    command = ["/usr/bin/time", "-v", sys.executable, "-c", CLI, "identify", config.name]
+    config.write_text(config_text(options, data_file, f"runs/{name}", settings))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run(command, cwd=work, capture_output=True, text=True, timeout=7200, check=False)
+    child = subprocess.Popen([sys.executable, "-u", "-c", CLI, "identify", config.name], cwd=work, text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    lines = []
+    with open(work / f"identify_{name}.log", "w") as log:      # as the lines come: an interrupted run keeps them
+        for text in child.stdout:
+            lines.append((time.perf_counter() - start, cpu_seconds(child.pid), text.rstrip("\n")))
+            log.write("[{:7.1f} s wall {:7.1f} s CPU] {}\n".format(*lines[-1]))
+            log.flush()
+    child.wait(timeout=7200)
     wall = time.perf_counter() - start
-    (work / f"identify_{name}.log").write_text(done.stdout + done.stderr)
-    times = dict(re.findall(r"^\s*(User time \(seconds\)|System time \(seconds\)|Maximum resident set size "
-                            r"\(kbytes\)|Elapsed \(wall clock\) time \(h:mm:ss or m:ss\)): (\S+)$", done.stderr,
-                            re.MULTILINE))
-    out = {"exit": done.returncode, "wall_s": wall, "user_s": float(times.get("User time (seconds)", "nan")),
-           "system_s": float(times.get("System time (seconds)", "nan")),
-           "peak_gb": float(times.get("Maximum resident set size (kbytes)", "nan")) * 1024 / 1e9}
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    out = {"exit": child.returncode, "wall_s": wall, "user_s": after.ru_utime - before.ru_utime,
+           "system_s": after.ru_stime - before.ru_stime, "peak_gb": after.ru_maxrss * 1024 / 1e9,
+           "settings": settings, "phases": phases(lines)}
     result = work / "runs" / name / "result.json"
     if result.exists():
         r = json.loads(result.read_text())
@@ -165,6 +207,8 @@ def show(step: str, out: dict) -> None:
               f"{out.get('n_forward_solves')} forward + {out.get('n_sensitivity_solves')} sensitivity solves; "
               f"wall {out['wall_s']:.0f} s, CPU {out['user_s'] + out['system_s']:.0f} s (user {out['user_s']:.0f})"
               f", peak {out['peak_gb']:.2f} GB")
+        for phase, t in out.get("phases", {}).items():
+            print(f"  {phase}: {t['wall_s']:.0f} s wall, {t['cpu_s']:.0f} s CPU")
         for z, p in (out.get("parameters") or {}).items():
             print(f"  {z}: true {TRUE_MU[z]:.3f}, fitted {p['value']:.4f} +/- {p['stderr']}, "
                   f"identifiable {p['identifiable']}{'' if not p.get('why') else ' (' + p['why'] + ')'}")
@@ -192,12 +236,13 @@ def main(argv=None) -> None:
     parser.add_argument("--data", default=json.dumps(DATA))
     parser.add_argument("--steps", nargs="+", default=["data", "mesh_error", "identify"])
     parser.add_argument("--file", default="measured_exact.csv")
+    parser.add_argument("--settings", default="{}", help="the config's other keys, {table: {key: value}}")
     args = parser.parse_args(argv)
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     fit, data = json.loads(args.fit), json.loads(args.data)
     steps = {"data": lambda: data_step(data, work), "mesh_error": lambda: mesh_error_step(fit, work),
-             "identify": lambda: identify_step(fit, work, args.file)}
+             "identify": lambda: identify_step(fit, work, args.file, json.loads(args.settings))}
     for step in ("data", "mesh_error", "identify"):
         path = work / (f"{step}.json" if step != "identify" else f"identify_{Path(args.file).stem}.json")
         if not path.exists() and step in args.steps:

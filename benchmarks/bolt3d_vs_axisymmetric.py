@@ -14,7 +14,7 @@ passes at theta = 0, the axisymmetric section); the helix's part turns below the
 bearing face) and above the last (up to its top) are counted to the first and last thread, and apart.
 
 Run: .venv/bin/python benchmarks/bolt3d_vs_axisymmetric.py '<bolt_model options as JSON>' [model.pkl [factorisation]]
-         [--phases N] [--axisymmetric-only] [--axis Y1,Y2,... [--head-radius R]] [--roots-from-thread-start]
+         [--phases N] [--axisymmetric-only] [--axis Y1,Y2,... [--head-radius R]]
 (options for both models; the 3-D one gets model = "3d", cutout = false, jaws = false; a second argument as in
 benchmarks/bolt3d.py; the third the 3-D model's factorisation, e.g. "mumps"). Run it under
 /usr/bin/time -v for the peak. ``--phases N`` also solves the axisymmetric model with its bolt and nut teeth
@@ -24,12 +24,9 @@ with the ring model of its centre's phase; ``--axisymmetric-only`` stops before 
 instead compares the change of uy's section average between those stations [mm], with ``--phases N`` also against
 the ring model averaged over the N phases, ``--head-radius R`` with the ring model's head of radius R [mm]
 instead of the hexagon's area-equivalent ring (the hexagon lies between R = s/2 and s/sqrt 3), and
-``--axisymmetric-only`` with the ring model alone. ``--roots-from-thread-start`` builds the 3-D model with the bolt's
-roots refined at ``root_size`` from the thread's start instead of from a pitch below the nut (an experiment on the
-free thread below the nut; the builder has no such option).
+``--axisymmetric-only`` with the ring model alone.
 """
 
-import contextlib
 import dataclasses
 import json
 import sys
@@ -40,7 +37,7 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 
 from _measure import peak_memory_mb
-from bolt3d import built, layout_of, roots_from_thread_start
+from bolt3d import built, layout_of
 from frictionid.builders.bolt import bolt_model
 from frictionid.builders.thread import ThreadSize, engaged_flanks, nut_bore
 from frictionid.fem.problem import Problem
@@ -48,7 +45,8 @@ from frictionid.report.bolt import (fit_sopwith, flank_of_pairs, pair_forces, pi
                                     thread_loads)
 
 MU = 0.15
-AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size", "head_size")
+AXISYMMETRIC_ONLY = ("flank_size", "contact_size", "mesh_size", "root_size", "head_size", "root_refinement",
+                     "nut_mesh")
 
 
 #: the sections averaged: a disc of SECTION_FRACTION of the bolt's radius there (the shank's below the thread's
@@ -309,11 +307,10 @@ if __name__ == "__main__":
     phases, args = _flag(args, "--phases", int)
     heights, args = _flag(args, "--axis", lambda v: [float(y) for y in v.split(",")])
     head_radius, args = _flag(args, "--head-radius", float)
-    only, roots = "--axisymmetric-only" in args, "--roots-from-thread-start" in args
-    args = [a for a in args if a not in ("--axisymmetric-only", "--roots-from-thread-start")]
-    with roots_from_thread_start() if roots else contextlib.nullcontext():
-        if heights is not None:
-            axis(json.loads(args[0]), heights, *args[1:3], n_phases=phases or 0, head_radius=head_radius,
-                 axisymmetric_only=only)
-        else:
-            main(json.loads(args[0]), *args[1:3], n_phases=phases or 0, axisymmetric_only=only)
+    only = "--axisymmetric-only" in args
+    args = [a for a in args if a != "--axisymmetric-only"]
+    if heights is not None:
+        axis(json.loads(args[0]), heights, *args[1:3], n_phases=phases or 0, head_radius=head_radius,
+             axisymmetric_only=only)
+    else:
+        main(json.loads(args[0]), *args[1:3], n_phases=phases or 0, axisymmetric_only=only)

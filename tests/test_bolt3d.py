@@ -7,6 +7,7 @@ CAD and mesh take minutes on a shared machine, so the tests that need it are mar
 
 import logging
 import math
+from dataclasses import replace
 
 import gmsh
 import numpy as np
@@ -26,9 +27,11 @@ from frictionid.fem.space import Space
 from frictionid.fem.node_to_node import node_to_node_pairs
 from frictionid.options import ModelSpec
 
-#: the short model: M20, threads engaged over two pitches, bolt threaded from 1.2 pitches below the nut
+#: the short model: M20, threads engaged over two pitches, bolt threaded from 1.2 pitches below the nut, the nut
+#: meshed with the bolt (node-to-node thread), the roots around the nut at R/2
 SHORT = dict(size="M20", model="3d", engaged_length=5.0, thread_length=30.5, n_axial=2, flank_size=0.625,
-             forces=(10000.0,), n_increments=2)
+             forces=(10000.0,), n_increments=2, nut_mesh="conforming", root_refinement="engaged",
+             root_size=bolt_layout("M20").size.root_radius / 2)
 SQRT3 = math.sqrt(3.0)
 
 
@@ -114,12 +117,67 @@ def test_helix_starts_at_the_thread_plane_as_the_rings_do():
     ({"model": "3d", "flank_size": 3.0}, "`flank_size`"),
     ({"model": "3d", "head_size": 0.0}, "`head_size`"),
     ({"model": "3d", "nut_mesh": "apart"}, "`nut_mesh`"),
+    ({"model": "3d", "root_refinement": "nut"}, "`root_refinement`"),
     ({"model": "3d", "load": "tightening", "nut_mesh": "separate"}, "`nut_mesh` = \"separate\""),
     ({"thread_length": 10.0}, "`thread_length`"),
 ])
 def test_bad_options_name_the_key(options, message):
     with pytest.raises(InputError, match=message.replace("(", r"\(")):
         build_model(ModelSpec.from_table({"builder": "bolt", **options}))
+
+
+class _Meshed(Exception):
+    """Raised by the mesher's stand-in: the options the 3-D builder meshes with, and which mesher."""
+
+
+def _meshing(monkeypatch) -> None:
+    from frictionid.builders import bolt3d
+
+    for name in ("bolt3d_mesh", "separate_mesh"):
+        monkeypatch.setattr(bolt3d, name, lambda layout, options, top, name=name: (_ for _ in ()).throw(
+            _Meshed(name, options)))
+
+
+def _meshed_with(**options) -> tuple[str, "bolt3d_mesh.Options3d"]:
+    with pytest.raises(_Meshed) as meshed:
+        bolt_model(model="3d", **options)
+    return meshed.value.args
+
+
+def test_3d_defaults_separate_nut_in_tension_conforming_in_tightening_roots_from_the_thread(monkeypatch):
+    """The 3-D defaults (docs/models.md): flanks 0.75 P, bearings 1.5 P, largest 2 P, roots 0.12 P (M20: 1.875,
+    3.75, 5.0, 0.3 mm) refined from the thread's start; the nut meshed on its own in tension and with the bolt in
+    tightening; an explicit choice wins."""
+    _meshing(monkeypatch)
+    layout = bolt_layout("M20")
+    mesher, options = _meshed_with()
+    assert mesher == "separate_mesh"
+    assert (options.flank_size, options.contact_size, options.mesh_size, options.root_size) == (1.875, 3.75, 5.0, 0.3)
+    assert options.root_start == layout.y_thread
+    assert _meshed_with(load="tightening")[0] == "bolt3d_mesh"
+    assert _meshed_with(nut_mesh="conforming")[0] == "bolt3d_mesh"
+    assert _meshed_with(root_refinement="engaged")[1].root_start is None
+    assert _meshed_with(size="M6")[1].root_size == pytest.approx(0.12)
+
+
+def test_root_refinement_thread_reaches_the_thread_start_engaged_the_nut_only():
+    """The faces meshed at ``root_size`` (:func:`bolt3d_mesh.classify_faces`' "bolt_root") on an M6 threaded 12 mm
+    (from y 12; the nut's bearing face at 15.8, P 1): with "thread" (root_start at the thread's start) they reach
+    down to the thread's start, with "engaged" (None) only to about a pitch below the nut (measured 13.8, a face
+    reaching the range with some of its points); both up to a pitch above the nut's top."""
+    layout = bolt_layout("M6", length=24.0, thread_length=12.0)
+    lowest, highest = {}, {}
+    with gmsh_session("roots"):
+        options = bolt3d_mesh.Options3d(0.75, 1.5, 2.0, None, 0.0, math.pi / 2, 0.12)
+        volumes = bolt3d_mesh.fragment_bodies(layout, options, layout.y_top)
+        for start in (layout.y_thread, None):
+            names = bolt3d_mesh.classify_faces(layout, replace(options, root_start=start), volumes)
+            y = np.concatenate([bolt3d_mesh.face_points(f, 6)[:, 1] for f in names["bolt_root"]])
+            lowest[start], highest[start] = y.min(), y.max()
+    P = layout.size.P
+    assert lowest[layout.y_thread] < layout.y_thread + P / 4
+    assert layout.y_bearing - 3 * P < lowest[None] < layout.y_bearing
+    assert highest[None] == highest[layout.y_thread] > layout.y_top
 
 
 def test_measurement_points_are_the_axisymmetric_ones_in_the_window(layout):
@@ -239,7 +297,7 @@ def test_window_and_jaw_faces(model, layout):
 #: the M6 of tests/test_bolt3d_verification.py (SMALL) with the nut meshed on its own
 SEPARATE = dict(size="M6", model="3d", length=24.0, engaged_length=2.0, thread_length=9.5, n_axial=2, flank_size=1.0,
                 contact_size=3.0, root_size=0.3, mesh_size=4.0, forces=(1500.0,), n_increments=1, cutout=False,
-                jaws=False, nut_mesh="separate")
+                jaws=False, nut_mesh="separate", root_refinement="engaged")
 
 
 @pytest.mark.slow
@@ -344,6 +402,28 @@ def test_volume_mesher_falls_back_to_frontal(monkeypatch, caplog):
         n_tets = mesh_with_fallback(_box, _tetrahedra, "box")
     assert tried == [1, 4] and n_tets > 0
     assert "box: gmsh's Delaunay 3-D mesher failed (PLC Error" in caplog.text and "trying Frontal" in caplog.text
+
+
+def test_volume_mesher_tries_frontal_when_the_mesh_read_is_refused(caplog):
+    """A volume mesh that gmsh makes without an error but that the reader refuses (on the separate nut's M36 bolt
+    with the 3-D defaults, Frontal left nodes of a face in no cell) is a failure of that algorithm as well."""
+    reads = []
+
+    def read():
+        reads.append(gmsh.option.getNumber("Mesh.Algorithm3D"))
+        if len(reads) == 1:
+            raise InputError("box: boundary 'side' has nodes that belong to no cell")
+        return _tetrahedra()
+
+    with caplog.at_level(logging.WARNING, logger="frictionid.builders.bolt3d_mesh"):
+        assert mesh_with_fallback(_box, read, "box") > 0
+    assert reads == [1, 4] and "Delaunay 3-D mesher failed (box: boundary 'side'" in caplog.text
+
+    def refused():
+        raise InputError("box: boundary 'side' has nodes that belong to no cell")
+
+    with pytest.raises(InputError, match=r"Delaunay: box: boundary 'side'.*Frontal: box: boundary 'side'.*nut_mesh"):
+        mesh_with_fallback(_box, refused, "box")
 
 
 def test_volume_mesher_says_when_every_algorithm_fails(monkeypatch):

@@ -79,8 +79,8 @@ def test_a_3d_lead_needs_node_to_node_pairs():
 #: a flank (flank_size = P); 49,364 nodes, 1,022 pairs; build 67 s and condensation 54 s CPU, the module's slow
 #: tests 164 s CPU together (a shorter bolt, length 32, meshed to more nodes: 54,267)
 SMALL = dict(size="M8", model="3d", load="tightening", engaged_length=2.5, thread_length=13.05, n_axial=2,
-             flank_size=1.25, contact_size=2.5, mesh_size=4.0, root_size=0.25, cutout=False,
-             angles=(0.05, 0.1), n_increments=1)
+             flank_size=1.25, contact_size=2.5, mesh_size=4.0, root_size=0.25, root_refinement="engaged",
+             cutout=False, angles=(0.05, 0.1), n_increments=1)
 
 
 @pytest.fixture(scope="module")

@@ -171,7 +171,7 @@ def test_a_coarse_curved_cylinder_keeps_its_volume_and_skin():
 #: it (both)
 M6 = {"size": "M6", "model": "3d", "length": 24.0, "thread_length": 9.5, "n_axial": 2, "flank_size": 1.0,
       "contact_size": 3.0, "root_size": 0.3, "mesh_size": 4.0, "forces": [1500.0], "n_increments": 1,
-      "cutout": False, "jaws": False}
+      "cutout": False, "jaws": False, "nut_mesh": "conforming", "root_refinement": "engaged"}
 
 
 @pytest.mark.slow

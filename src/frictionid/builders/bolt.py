@@ -31,9 +31,10 @@ PLATE_MU = 0.15
 SIZE_DIVISORS = {"contact_size": 40, "mesh_size": 8}
 #: default flank size [mm] of the axisymmetric model; the 3-D model takes :data:`SIZE_PITCHES_3D`
 FLANK_SIZE = 0.1
-#: default element sizes of the 3-D model in pitches: flanks P / 2 (the dense contact operator's size, docs/
-#: models.md), bearing contacts P / 2, largest element 2 P
-SIZE_PITCHES_3D = {"flank_size": 0.5, "contact_size": 0.5, "mesh_size": 2.0}
+#: default element sizes of the 3-D model in pitches: flanks 0.75 P, bearing contacts 1.5 P, largest element 2 P,
+#: the bolt's roots 0.12 P (0.83 R, R = H/6 the root radius): the M20 (P 2.5) gets 1.875, 3.75, 5.0 and 0.3 mm,
+#: the sizes verified against the axisymmetric model and timed (docs/bolt-study.md, "The 3-D default")
+SIZE_PITCHES_3D = {"flank_size": 0.75, "contact_size": 1.5, "mesh_size": 2.0, "root_size": 0.12}
 
 
 def _forces(forces) -> tuple[float, ...]:
@@ -45,13 +46,13 @@ def _forces(forces) -> tuple[float, ...]:
 
 
 def default_sizes(size: str = "M20", model: str = "axisymmetric") -> dict[str, float]:
-    """The element sizes [mm] :func:`bolt_model` takes when ``flank_size``, ``contact_size`` or ``mesh_size`` is
-    not given.
+    """The element sizes [mm] :func:`bolt_model` takes when ``flank_size``, ``contact_size`` or ``mesh_size`` (and
+    in 3-D ``root_size``) is not given.
 
     >>> default_sizes("M20")
     {'contact_size': 0.5, 'mesh_size': 2.5, 'flank_size': 0.1}
     >>> default_sizes("M20", "3d")
-    {'flank_size': 1.25, 'contact_size': 1.25, 'mesh_size': 5.0}
+    {'flank_size': 1.875, 'contact_size': 3.75, 'mesh_size': 5.0, 'root_size': 0.3}
     """
     s = thread_size(size)
     if model == "3d":
@@ -66,7 +67,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
                model: str = "axisymmetric", cutout=True, jaws: bool | None = None,
                thread_length: float | None = None, root_size: float | None = None,
-               head_size: float | None = None, nut_mesh: str = "conforming") -> Model:
+               head_size: float | None = None, nut_mesh: str | None = None, root_refinement: str = "thread") -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -80,9 +81,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         Increments per stage.
     flank_size : float [mm], optional
         Element size on the engaged thread (node spacing on the contact flanks, both sides); default 0.1
-        (axisymmetric), P / 2 (3-D).
+        (axisymmetric), 0.75 P (3-D: 1.875 for M20).
     contact_size : float [mm], optional
-        Node spacing on the head-plate and nut-plate contacts; default d / 40 (0.5 for M20), 3-D P / 2.
+        Node spacing on the head-plate and nut-plate contacts; default d / 40 (0.5 for M20), 3-D 1.5 P (3.75).
     mesh_size : float [mm], optional
         Largest element size; default d / 8, 3-D 2 P.
     n_radial, n_axial : int
@@ -113,9 +114,9 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         then not used).
     model : "axisymmetric" | "3d"
         "3d": the helical thread, real hexagons, the nut's window and jaws (:mod:`frictionid.builders.bolt3d`,
-        quadratic tetrahedra, conforming node-to-node interfaces). Tightening in 3-D: the nut's six flats
-        "nut_outer" turned rigidly by ``angles`` (u_x = -z a, u_z = x a; ``torques`` not taken), the head's six
-        flats "head_side" held in x and z, both plates' rims held; the helix is in the mesh (no ``lead``).
+        quadratic tetrahedra; bearings node-to-node, the thread as ``nut_mesh`` says). Tightening in 3-D: the nut's
+        six flats "nut_outer" turned rigidly by ``angles`` (u_x = -z a, u_z = x a; ``torques`` not taken), the
+        head's six flats "head_side" held in x and z, both plates' rims held; the helix is in the mesh (no ``lead``).
     cutout : bool or table, 3-D only
         The nut's window: true (default: 60 deg wide, from the flats down to the nut crest D1/2), false (none), or
         ``{ width = deg, depth = mm }`` (depth from the flats' radius s/2 inwards).
@@ -123,15 +124,20 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         True (default with ``load`` = "tension"): the nut's two flats normal to z are held in z (jaws against
         rotation); false (default with "tightening", where the nut is turned): free.
     root_size : float [mm], 3-D only, optional
-        Element size at the bolt's roots where the nut crest faces them (the size grows from there by 2.5 mm per
-        mm); default R/2 (R = H/6 the root radius).
+        Element size at the bolt's roots (where ``root_refinement`` says; the size grows from there by 2.5 mm per
+        mm); default 0.12 P (0.83 R, R = H/6 the root radius): 0.3 mm for M20, the size verified on it.
+    root_refinement : "thread" | "engaged", 3-D only
+        How far along the bolt the roots are meshed at ``root_size``, up to a pitch above the nut's top: "thread"
+        (default) from the thread's start, so that the free thread below the nut is not too stiff; "engaged"
+        from a pitch below the nut's bearing face.
     head_size : float [mm], 3-D only, optional
         Element size in the bolt's head (and its bearing face), growing to ``mesh_size`` over k/2 outside it;
         default none (the head meshed by the other sizes).
-    nut_mesh : "conforming" | "separate", 3-D only
-        "conforming" (default): the nut meshed with the bolt, node-to-node pairs on the thread. "separate": the nut
-        and plate 1 meshed on their own, without the bolt's root refinement, the thread coupled by dual mortar
-        with the zones on the nut's load flanks (target "bolt_contact"); not with ``load`` = "tightening".
+    nut_mesh : "conforming" | "separate", 3-D only, optional
+        "conforming": the nut meshed with the bolt, node-to-node pairs on the thread. "separate": the nut and
+        plate 1 meshed on their own, without the bolt's root refinement, the thread coupled by dual mortar with
+        the zones on the nut's load flanks (target "bolt_contact"); not with ``load`` = "tightening". Default
+        "separate" with ``load`` = "tension", "conforming" with "tightening".
     torques : sequence of float [N m], optional
         Wrench torque at the end of each stage instead of ``angles``: a uniform circumferential traction on
         "nut_outer" (the hexagon ring, one radius) whose moment about the axis is the torque; the nut's rotation
@@ -155,10 +161,10 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
     contact_size = defaults["contact_size"] if contact_size is None else positive("contact_size", contact_size)
     mesh_size = defaults["mesh_size"] if mesh_size is None else positive("mesh_size", mesh_size)
     if model == "3d":
-        root_size = None if root_size is None else positive("root_size", root_size)
+        root_size = defaults["root_size"] if root_size is None else positive("root_size", root_size)
         head_size = None if head_size is None else positive("head_size", head_size)
         return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
-                         (load, angles, torques), cutout, jaws, (root_size, head_size, nut_mesh))
+                         (load, angles, torques), cutout, jaws, (root_size, head_size, nut_mesh, root_refinement))
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -203,10 +209,12 @@ def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, l
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name} in 3-D: expected "
                          f"at most P = {layout.size.P:g} mm")
     engaged = layout.size.nut_m if engaged_length is None else engaged_length
-    root_size, head_size, nut_mesh = local
+    root_size, head_size, nut_mesh, root_refinement = local
+    if nut_mesh is None:
+        nut_mesh = "separate" if load == "tension" else "conforming"
     return bolt3d_model(layout, layout.y_bearing + engaged, values, count("n_increments", n_increments, 1, 1000),
                         flank_size, contact_size, max(mesh_size, flank_size), cutout, jaws, root_size, load,
-                        head_size, nut_mesh)
+                        head_size, nut_mesh, root_refinement)
 
 
 def _angles(values, name: str) -> tuple[float, ...]:

@@ -34,8 +34,9 @@ WINDOW_CENTRE = 0.0
 JAW_ANGLE = 90.0
 #: how the nut is meshed: with the bolt (conforming, node-to-node thread) or on its own (mortar thread)
 NUT_MESHES = ("conforming", "separate")
-#: default element size at the bolt's roots facing the nut crest, in units of the root radius R = H/6
-ROOT_FRACTION = 0.5
+#: how far along the bolt its roots are meshed at ``root_size`` (up to a pitch above the nut's top): from the
+#: thread's start, or from a pitch below the nut's bearing face (the engaged part)
+ROOT_REFINEMENTS = ("thread", "engaged")
 
 
 def window_of(layout: BoltLayout, cutout) -> Window | None:
@@ -59,11 +60,12 @@ def window_of(layout: BoltLayout, cutout) -> Window | None:
 
 def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ...], n_increments: int,
                  flank_size: float, contact_size: float, mesh_size: float, cutout, jaws: bool,
-                 root_size: float | None = None, load: str = "tension", head_size: float | None = None,
-                 nut_mesh: str = "conforming") -> Model:
+                 root_size: float, load: str = "tension", head_size: float | None = None,
+                 nut_mesh: str = "conforming", root_refinement: str = "thread") -> Model:
     """The 3-D tensile test, or with ``load`` = "tightening" the tightening test (options as
     :func:`frictionid.builders.bolt.bolt_model`, ``model`` = "3d"); ``values`` the stages' machine forces [N] or
-    nut rotations [deg].
+    nut rotations [deg]. ``root_refinement``: the bolt's roots meshed at ``root_size`` from the thread's start
+    ("thread") or from a pitch below the nut's bearing face ("engaged"), up to a pitch above the nut's top.
 
     Regions "bolt", "nut", "plate1", "plate2"; interfaces "thread" (zones on the bolt's load flanks, target
     "nut_contact"), "head" ("head_plate" on "plate2_head"), "nut_bearing" ("nut_plate" on "plate1_nut").
@@ -94,9 +96,11 @@ def bolt3d_model(layout: BoltLayout, engaged_top: float, values: tuple[float, ..
     if nut_mesh == "separate" and load == "tightening":
         raise InputError("`nut_mesh` = \"separate\" couples the thread by mortar, and load = \"tightening\" needs "
                          "the helix's lead on node-to-node pairs: expected nut_mesh = \"conforming\" with tightening")
-    root_size = ROOT_FRACTION * layout.size.root_radius if root_size is None else root_size
+    if root_refinement not in ROOT_REFINEMENTS:
+        raise InputError(f"`root_refinement` must be one of {list(ROOT_REFINEMENTS)}, got {root_refinement!r}")
     options = Options3d(flank_size, contact_size, mesh_size, window, math.radians(WINDOW_CENTRE),
-                        math.radians(JAW_ANGLE), root_size, head_size)
+                        math.radians(JAW_ANGLE), root_size, head_size,
+                        layout.y_thread if root_refinement == "thread" else None)
     mesh = separate_mesh(layout, options, engaged_top) if nut_mesh == "separate" else \
         bolt3d_mesh(layout, options, engaged_top)
     return bolt3d_model_on(mesh, layout, values, n_increments, jaws, load)

@@ -23,9 +23,9 @@ from .thread import NUT_ROOT_CLEARANCE, SQRT3
 BODIES = ("bolt", "nut", "plate1", "plate2")
 #: element size growth per mm of distance from the refined faces
 SIZE_GROWTH = 0.3
-#: growth per mm of the size away from the bolt's roots inside the nut, which are meshed at R/2 (R = H/6 the root
-#: radius): coarser, a root face's triangles spanned the gap below the nut crest corner to corner and lay on the
-#: nut crest's own triangles (gmsh refused the overlapping facets)
+#: growth per mm of the size away from the bolt's roots, which are meshed at ``root_size`` (inside the nut: left at
+#: the sizes near them, a root face's triangles spanned the gap below the nut crest corner to corner and lay on the
+#: nut crest's own triangles, and gmsh refused the overlapping facets)
 ROOT_GROWTH = 2.5
 #: a window reaching within this many pitches of the nut crest D1/2 is cut through to the bore
 THROUGH = 0.1
@@ -45,7 +45,9 @@ log = logging.getLogger(__name__)
 class Options3d:
     """What the 3-D mesh needs beyond the layout: sizes [mm], the window (None: no cut-out), the angle of the
     section that equals the axisymmetric one (the window's centre), the normal angle [rad] of the flat the jaws
-    hold (the hexagons' flats are at this angle + k 60 deg) and the size in the bolt's head (None: no own size)."""
+    hold (the hexagons' flats are at this angle + k 60 deg), the size in the bolt's head (None: no own size) and
+    the height y [mm] from which the bolt's roots are meshed at ``root_size`` (up to a pitch above the nut's top;
+    None: from a pitch below the nut's bearing face)."""
 
     flank_size: float
     contact_size: float
@@ -55,6 +57,7 @@ class Options3d:
     jaw_angle: float
     root_size: float
     head_size: float | None = None
+    root_start: float | None = None
 
 
 def _bolt(layout: BoltLayout, theta_match: float) -> list[tuple[int, int]]:
@@ -160,7 +163,8 @@ def flank_tooth(layout: BoltLayout, points: np.ndarray, theta_match: float, flan
 
 def classify_faces(layout: BoltLayout, options: Options3d, volumes: dict) -> dict[str, list[int]]:
     """Named faces: zones and thread_<i> (bolt load flanks shared with the nut, by turn from the bearing face),
-    nut_contact, bolt_free (the free flanks facing the nut, touching it without contact), the bearing contacts, the plates' rims, the nut's jaw flats, the window's faces."""
+    nut_contact, bolt_free (the free flanks facing the nut, touching it without contact), the bearing contacts, the
+    plates' rims, the nut's jaw flats, the window's faces, bolt_root (the roots meshed at ``root_size``)."""
     faces = {body: _faces(tags) for body, tags in volumes.items()}
     thread = faces["bolt"] & faces["nut"]
     flanks: dict[int, list[tuple[int, float]]] = {}
@@ -186,18 +190,20 @@ def classify_faces(layout: BoltLayout, options: Options3d, volumes: dict) -> dic
         names[f"{body}_rim"] = [f for f in faces[body]
                                 if np.allclose(np.hypot(*face_points(f)[:, [0, 2]].T), layout.r_outer, atol=_TOL)]
     names.update(_nut_faces(layout, options, faces))
-    names["bolt_root"] = [f for f in sorted(faces["bolt"] - thread) if _is_root(layout, face_points(f, 6))]
+    start = layout.y_bearing - layout.size.P if options.root_start is None else options.root_start
+    names["bolt_root"] = [f for f in sorted(faces["bolt"] - thread) if _is_root(layout, face_points(f, 6), start)]
     return names
 
 
-def _is_root(layout: BoltLayout, points: np.ndarray) -> bool:
-    """Whether a face reaches a bolt thread root (below the nut crest D1/2) inside the nut: some of its points.
-    (Above ``engaged_length`` too: the refinement around these roots also keeps the bolt crest apart from the
-    relieved bore, H/16 away; without it gmsh's volume mesher met intersecting facets there.)"""
+def _is_root(layout: BoltLayout, points: np.ndarray, start: float) -> bool:
+    """Whether a face reaches a bolt thread root (below the nut crest D1/2) between the height ``start`` [mm] and a
+    pitch above the nut's top: some of its points. (Above ``engaged_length`` too: the refinement around these roots
+    also keeps the bolt crest apart from the relieved bore, H/16 away; without it gmsh's volume mesher met
+    intersecting facets there.)"""
     r = np.hypot(points[:, 0], points[:, 2])
     s = layout.size
     root = (r < s.d1 / 2) & (r > s.d3 / 2 - layout.shift - _TOL)
-    return bool(np.any(root & (points[:, 1] > layout.y_bearing - s.P) & (points[:, 1] < layout.y_top + s.P)))
+    return bool(np.any(root & (points[:, 1] > start) & (points[:, 1] < layout.y_top + s.P)))
 
 
 def _on_flats(points: np.ndarray, s: float, angle0: float, k=range(6)) -> bool:
@@ -311,9 +317,11 @@ def curved_tetra10(source: str) -> Mesh:
 
 def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
     """``read()`` of the volume mesh of the gmsh model that ``make()`` sets up in a fresh gmsh session, meshed by
-    the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds. A failure is logged and the next
-    algorithm starts from a new session (after a failed Delaunay, Frontal in the same session, mesh cleared,
-    returned no tetrahedra). InputError naming ``source`` when every algorithm fails."""
+    the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds: gmsh meshes without an error and
+    ``read()`` accepts the mesh (an InputError from it, e.g. a face's nodes in no cell where gmsh left a volume
+    unmeshed, counts as a failure). A failure is logged and the next algorithm starts from a new session (after a
+    failed Delaunay, Frontal in the same session, mesh cleared, returned no tetrahedra). InputError naming
+    ``source`` when every algorithm fails."""
     failures = []
     for i, (number, name) in enumerate(algorithms):
         with gmsh_session(source):
@@ -322,14 +330,20 @@ def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
             try:
                 gmsh.model.mesh.generate(3)
             except Exception as error:  # gmsh raises a bare Exception with its own message
-                failures.append(f"{name}: {str(error).strip()}")
-                following = f"; trying {algorithms[i + 1][1]}" if i + 1 < len(algorithms) else ""
-                log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, name, str(error).strip(), following)
-                continue
-            log.info("%s: meshed by gmsh's %s 3-D mesher", source, name)
-            return read()
+                failure = str(error).strip()
+            else:
+                try:
+                    mesh = read()
+                except InputError as error:     # e.g. a face's nodes in no cell: gmsh left a volume unmeshed
+                    failure = str(error).strip()
+                else:
+                    log.info("%s: meshed by gmsh's %s 3-D mesher", source, name)
+                    return mesh
+            failures.append(f"{name}: {failure}")
+            following = f"; trying {algorithms[i + 1][1]}" if i + 1 < len(algorithms) else ""
+            log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, name, failure, following)
     raise InputError(f"{source}: gmsh could not mesh the volumes ({'; '.join(failures)}); other element sizes "
-                     "(flank_size, contact_size, mesh_size) may mesh")
+                     "(flank_size, contact_size, mesh_size, root_size) or nut_mesh may mesh")
 
 
 def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> Mesh:

@@ -29,9 +29,11 @@ from ..identification import identify
 from ..inverse.parameters import Parameter, Parameters
 from .bolt import NOISE, OPTIONS, START, TRUE_MU, _cell, demo_folder
 
-#: the short layout's options besides the mesh sizes (docs/bolt-study.md, "The 3-D model")
+#: the short layout's options besides the mesh sizes (docs/bolt-study.md, "The 3-D model"): the nut meshed with the
+#: bolt, the roots refined around the nut only
 SHORT = {"model": "3d", "size": "M20", "engaged_length": 5.0, "thread_length": 30.5, "n_axial": 2,
-         "root_size": 0.3, "forces": [10000.0], "n_increments": 2, "cutout": True, "jaws": True}
+         "root_size": 0.3, "root_refinement": "engaged", "nut_mesh": "conforming", "forces": [10000.0],
+         "n_increments": 2, "cutout": True, "jaws": True}
 ZONES = ("A", "B", "C", "D")
 TRUE = {z: TRUE_MU[z] for z in ZONES}
 #: the runs: name, data file, method, Jacobian (both fits weight the noise-free data by the DIC noise, so their
