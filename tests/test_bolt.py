@@ -261,6 +261,8 @@ def test_points_off_the_flanks_are_refused():
     ({"n_axial": 8}, r"`n_axial` must be an integer in \[1, 7\]"),
     ({"bearing_diameter": 21.0}, r"`bearing_diameter` must be \"dw\" or a number of mm in \(22, 31.5\]"),
     ({"clearance": -0.01}, r"`clearance` must be a number of mm in \[0, H/4 = 0.541\)"),
+    ({"nut_mesh": "separate"}, r"`nut_mesh`: 3-D only"),
+    ({"root_size": 0.2, "root_refinement": "engaged"}, r"`root_size`, `root_refinement`: 3-D only"),
 ])
 def test_bad_options_name_the_key(options, message):
     with pytest.raises(InputError, match=message):

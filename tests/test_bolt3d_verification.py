@@ -16,7 +16,7 @@ from helpers import benchmark as _benchmark
 #: nodes, 833 contact pairs (build 41 s CPU, gmsh's Delaunay fails and Frontal meshes it)
 SMALL = {"size": "M6", "model": "3d", "length": 24.0, "engaged_length": 2.0, "thread_length": 9.5, "n_axial": 2,
          "flank_size": 1.0, "contact_size": 3.0, "root_size": 0.3, "mesh_size": 4.0, "forces": [1500.0],
-         "n_increments": 1, "cutout": False, "jaws": False}
+         "n_increments": 1, "cutout": False, "jaws": False, "nut_mesh": "conforming", "root_refinement": "engaged"}
 MU = 0.15
 
 

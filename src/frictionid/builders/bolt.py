@@ -67,7 +67,7 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
                bearing_diameter: float | str | None = None, load: str = "tension", angles=(2.0, 4.0), torques=None,
                model: str = "axisymmetric", cutout=True, jaws: bool | None = None,
                thread_length: float | None = None, root_size: float | None = None,
-               head_size: float | None = None, nut_mesh: str | None = None, root_refinement: str = "thread") -> Model:
+               head_size: float | None = None, nut_mesh: str | None = None, root_refinement: str | None = None) -> Model:
     """The axisymmetric bolt-nut tensile test (reference test 2, docs/models.md) for a coarse M size.
 
     Parameters
@@ -165,6 +165,11 @@ def bolt_model(size: str = "M20", forces=(10000.0, 30000.0), n_increments: int =
         head_size = None if head_size is None else positive("head_size", head_size)
         return _model_3d(layout, engaged_length, forces, n_increments, (flank_size, contact_size, mesh_size),
                          (load, angles, torques), cutout, jaws, (root_size, head_size, nut_mesh, root_refinement))
+    given = [key for key, value in (("root_size", root_size), ("head_size", head_size), ("nut_mesh", nut_mesh),
+                                    ("root_refinement", root_refinement)) if value is not None]
+    if given:
+        raise InputError(f"{', '.join(f'`{key}`' for key in given)}: 3-D only (model = \"3d\"); the axisymmetric "
+                         "model has no separate root, head or nut mesh options")
     if flank_size > layout.size.P / 4:
         raise InputError(f"`flank_size` = {flank_size:g} mm is too coarse for {layout.size.name}: expected at most "
                          f"P/4 = {layout.size.P / 4:g} mm (a flank is about 0.6 P long)")
@@ -210,6 +215,7 @@ def _model_3d(layout: BoltLayout, engaged_length, forces, n_increments, sizes, l
                          f"at most P = {layout.size.P:g} mm")
     engaged = layout.size.nut_m if engaged_length is None else engaged_length
     root_size, head_size, nut_mesh, root_refinement = local
+    root_refinement = "thread" if root_refinement is None else root_refinement
     if nut_mesh is None:
         nut_mesh = "separate" if load == "tension" else "conforming"
     return bolt3d_model(layout, layout.y_bearing + engaged, values, count("n_increments", n_increments, 1, 1000),
