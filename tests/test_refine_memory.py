@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from block2d_case import REGION_TABLE, data_table, points_csv
+import frictionid.inverse.discretisation_control as control_module
 from frictionid.builders.registry import build_model
 from frictionid.cli import main
 from frictionid.fem import memory
@@ -72,6 +73,25 @@ def test_a_refinement_over_the_memory_allowed_is_not_condensed_and_the_record_sa
     record = json.loads((measured / "runs/memory/result.json").read_text())["model"]
     assert record["discretisation"]["status"] == "skipped" and re.match(line, record["discretisation"]["why"])
     assert record["mesh_size"] == 2.0
+
+
+@pytest.mark.discretisation_control
+def test_a_refinement_over_the_memory_allowed_at_its_least_growth_is_not_even_built(measured, capsys, monkeypatch):
+    # allowed: 1.2 times the fitted model's condensation; every size halved gives at least twice its nodes in 2-D
+    # (memory.check_growth's least growth), over that, so the refined mesh is refused before it is built
+    monkeypatch.setattr(memory, "resident", lambda: memory.GB)
+    model = build_model(ModelSpec.from_table({"builder": "block2d", "mesh_size": 2.0, "height": 4.0, "order": 1}))
+    allowed = 1.0 + 1.2 * memory.condensation_bytes(2 * model.mesh.n_nodes, 2) / memory.GB
+    config = _config(measured, "least", "refine_target = 1\nrefine_budget = 2\n",
+                     f"[solver]\nmax_memory = {allowed:.6f}\n")
+    built = []
+    monkeypatch.setattr(control_module, "build_model", lambda *args: built.append(args) or build_model(*args))
+    assert main(["identify", str(config)]) == 0
+    out = capsys.readouterr().out
+    line = (r"discretisation control: element sizes x2 \(at least\): [\d,]+ nodes, [\d,]+ dofs, estimated memory "
+            r"[\d.]+ GB of [\d.]+ GB allowed: more than \[solver\] max_memory allows, not built")
+    assert re.search(line + "; the model is fitted as it is", out), out
+    assert built == []
 
 
 @pytest.mark.parametrize("value", ["-1", "0", '"8 GB"'])

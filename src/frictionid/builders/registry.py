@@ -16,9 +16,10 @@ from .mesh import mesh_model, source_files
 
 BUILDERS = {"block": block_model, "block2d": block_model_2d, "bolt": bolt_model, "mesh": mesh_model}
 #: the element-size options [mm] :func:`refined` divides, per builder; block2d's ``contact_size`` left out
-#: follows its ``mesh_size``
+#: follows its ``mesh_size``; the 3-D bolt's ``root_size`` (and ``head_size`` where given) too, so that every
+#: size of its mesh is halved
 SIZE_OPTIONS = {"block": ("mesh_size",), "block2d": ("mesh_size", "contact_size"),
-                "bolt": ("flank_size", "contact_size", "mesh_size")}
+                "bolt": ("flank_size", "contact_size", "mesh_size", "root_size", "head_size")}
 #: element-count options :func:`refined` multiplies, per builder
 COUNT_OPTIONS = {"block": ("block_divisions",)}
 
@@ -102,7 +103,7 @@ def _default(name: str, options: dict, key: str):
     if value is None and name == "bolt":
         signature = inspect.signature(bolt_model).parameters
         return default_sizes(options.get("size", signature["size"].default),
-                             options.get("model", signature["model"].default))[key]
+                             options.get("model", signature["model"].default)).get(key)
     return value
 
 
@@ -116,9 +117,9 @@ def refined(spec: ModelSpec, factor: int = 2, where: str = "[model]") -> ModelSp
     """The [model] of the same builder with every element size divided by ``factor``.
 
     block: ``mesh_size`` / factor and ``block_divisions`` * factor (when given); block2d: ``mesh_size`` and
-    ``contact_size`` / factor; bolt: ``flank_size``, ``contact_size`` and ``mesh_size`` / factor. A size the
-    options leave out is taken from the builder's default (block2d's ``contact_size`` then stays out: it follows
-    ``mesh_size``). Other options are unchanged.
+    ``contact_size`` / factor; bolt: ``flank_size``, ``contact_size`` and ``mesh_size`` (3-D also ``root_size`` and
+    a given ``head_size``) / factor. A size the options leave out is taken from the builder's default (block2d's
+    ``contact_size`` then stays out: it follows ``mesh_size``). Other options are unchanged.
 
     Raises
     ------

@@ -249,6 +249,8 @@ def directional(model_options: ModelSpec, model, observations, mu, coarse: np.nd
     for d, name in enumerate(names):
         kept = None if memo is None else memo.get(name)
         if kept is None:
+            if len(names) == 1:         # every size halved: the least growth is known before the mesh is built
+                _least(model, name, max_memory, factorisation, ratios)
             difference, step = _direction(model_options, observations, mu, coarse, d, window, max_memory,
                                           factorisation, ratios, progress)
             if memo is not None:
@@ -264,6 +266,17 @@ def directional(model_options: ModelSpec, model, observations, mu, coarse: np.nd
         progress(f"discretisation control: error from the {name}{part}: {_rms_text(steps[-1]['rms'])} noise levels "
                  f"RMS ({steps[-1]['seconds']:.1f} s)")
     return differences, terms, sizes, steps
+
+
+def _least(model, name: str, max_memory, factorisation: str, ratios) -> None:
+    """Raise :class:`TooLarge`, before its mesh is built, for a model with every element size halved whose
+    condensation would exceed ``max_memory`` even at the least growth of a graded mesh, 2^(dim - 1) times the
+    nodes (:func:`frictionid.fem.memory.check_growth`; on the 3-D M20 meshing the refinement took 150 s CPU)."""
+    dim = 3 if model.kind == "3d" else 2
+    cost = memory.estimate(model, f"discretisation control: {name} x2 (at least)", max_memory, factorisation,
+                           n_nodes=model.mesh.n_nodes * 2 ** (dim - 1), scale=_scale(ratios))
+    if not cost.fits:
+        raise TooLarge(f"{cost.line()}: more than [solver] max_memory allows, not built")
 
 
 def _direction(model_options, observations, mu, coarse, d, window, max_memory, factorisation, ratios, progress):
