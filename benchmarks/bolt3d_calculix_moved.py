@@ -1,0 +1,183 @@
+"""The separately meshed M6 nut against CalculiX with the nut's flank nodes moved onto the bolt's flank, so that
+both codes solve one geometry with (nearly) zero initial gaps and no gap adjustment (no `adjust` in the embedded
+model, no *CLEARANCE in ccx's deck).
+
+On the stored separate-nut mesh (tests/fixtures/bolt3d_calculix, `mesh_separate.npz`) the thread's two meshes of
+one helicoid differ by -7.4 to +0.2 um. The embedded mortar zeroes those gaps (`adjust`), ccx's `*CLEARANCE,
+VALUE=0` replaces the gap at each slave integration point; the two adjusted problems disagree (the fixture's
+README). Here every node of the nut's load flanks (corner and mid-side) is moved along its averaged outward normal
+onto the bolt's quadratic flank facets (`facet_shapes.project_along`; where no facet lies along the normal, onto a
+facet's extension past the flank's edge), the moves spread smoothly into the nut within SPREAD of the flank; the
+flank nodes of slivers lying on the flank (valid only by their curved mid-side nodes, which the move would turn
+inside out) stay where they are, so a few pairs keep their meshed gap. The two codes are compared on that mesh.
+
+Run (from the repository's root):
+    nice -n 10 /usr/bin/time -v .venv/bin/python benchmarks/bolt3d_calculix_moved.py [--stiffness S [S ...]]
+    [--order N [N ...]] [--work DIR] [--mesh-only]
+prints the nodes' moves, the embedded model's initial mortar gaps on the moved mesh, and the comparison
+(benchmarks/bolt3d_calculix.py's `report`) per ccx penalty S [N/mm^3] and embedded quadrature order.
+"""
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.spatial import cKDTree
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+import bolt3d_calculix as calculix                       # noqa: E402
+from fixtures import bolt3d_calculix as fixture          # noqa: E402
+from frictionid.backends.calculix.backend import CalculixSettings     # noqa: E402
+from frictionid.fem.facet_shapes import project_along, shape_functions    # noqa: E402
+from frictionid.fem.mortar3d import _Side               # noqa: E402
+
+#: [mm] how far into the nut the flank's moves spread (about two flank elements)
+SPREAD = 1.0
+#: a move may shrink no cell's smallest Jacobian determinant below this fraction of its own
+KEEP = 0.5
+#: the candidates per node: the bolt facets with the nearest centres
+CANDIDATES = 12
+#: the largest move [mm]: the meshes' gaps are a few um; a longer line reaches another turn's flank
+REACH = 0.02
+#: a parameter this far outside the reference triangle still counts as on the facet
+INSIDE = 1e-9
+#: how far past a facet's edge (in its parameters) a node may land where no facet lies along its normal
+EXTENDED = 0.25
+
+
+def moved_model(verbose: bool = True):
+    """The stored separate-nut model with the nut's flank nodes on the bolt's flank and ``adjust`` off."""
+    model = fixture.stored_model(calculix.layout_of(fixture.OPTIONS), fixture.mesh_file("separate"))
+    mesh, thread = model.mesh, model.interfaces[0]
+    nut = np.vstack([mesh.boundaries[z] for z in thread.zones])
+    bolt = mesh.boundaries[thread.target]
+    side = _Side(mesh, nut, np.zeros(len(nut), int))
+    nodes = np.unique(nut)
+    normals = side.node_normal[nodes]
+    coords = mesh.points[bolt]
+    _, near = cKDTree(coords.mean(axis=1)).query(mesh.points[nodes], k=CANDIDATES)
+    best_t = np.full(len(nodes), np.nan)
+    for margin in (INSIDE, EXTENDED):          # on a facet first; the rest onto a facet's extension past its edge
+        for k in range(CANDIDATES):
+            rs = project_along(coords[near[:, k]], mesh.facet_type, mesh.points[nodes], normals)
+            inside = np.all(rs >= -margin, axis=1) & (rs.sum(axis=1) <= 1 + margin)
+            x = np.einsum("qk,qkd->qd", _shape(rs), coords[near[:, k]])
+            t = np.einsum("qd,qd->q", x - mesh.points[nodes], normals)
+            better = inside & (np.abs(t) <= REACH) & \
+                (np.isnan(best_t) | (np.abs(t) < np.abs(np.nan_to_num(best_t, nan=np.inf))))
+            if margin != INSIDE:
+                better &= ~on_facet
+            best_t[better] = t[better]
+        if margin == INSIDE:
+            on_facet = np.isfinite(best_t)
+    found = np.isfinite(best_t)
+    move = np.zeros_like(mesh.points)
+    move[nodes[found]] = best_t[found, None] * normals[found]
+    flank = np.zeros(mesh.n_nodes, bool)
+    flank[nodes] = True
+    before = _smallest_jacobian(mesh, mesh.points)
+    held = np.zeros(mesh.n_nodes, bool)
+    while True:
+        # a sliver whose four corners lie on the curved flank is valid by its mid-side nodes alone: moving them
+        # normal to the flank by more than its thickness turns it inside out; such a cell's flank nodes stay
+        extended = _extended(mesh, np.where(held[:, None], 0.0, move), flank)
+        ratio = _smallest_jacobian(mesh, mesh.points + extended) / before
+        spoilt = mesh.cells[ratio < KEEP].ravel()
+        if not len(spoilt):
+            break
+        held[spoilt[flank[spoilt]]] = True
+    points = mesh.points + extended
+    if verbose:
+        moved = found & ~held[nodes]
+        size = np.abs(best_t[moved]) * 1e3
+        print(f"nut flank nodes {len(nodes):,}: {moved.sum():,} moved along their normals by {size.min():.3f} to "
+              f"{size.max():.3f} um ({int(np.sum(moved & ~on_facet))} of them onto a facet's extension past the "
+              f"flank's edge), {int(held.sum())} of slivers kept in place, {int(np.sum(~found))} with no bolt flank "
+              f"facet along the normal within {1e3 * REACH:g} um; the moves spread into the nut within {SPREAD:g} mm "
+              f"of its flanks; the cells' smallest Jacobian determinants keep at least {ratio.min():.3f} of their "
+              "own", flush=True)
+    moved = dataclasses.replace(mesh, points=points)
+    interfaces = (dataclasses.replace(thread, adjust=False),) + model.interfaces[1:]
+    return dataclasses.replace(model, mesh=moved, interfaces=interfaces)
+
+
+def _extended(mesh, move: np.ndarray, flank: np.ndarray) -> np.ndarray:
+    """The flank nodes' moves spread smoothly into the nut: the graph Laplacian's harmonic extension over the nut's
+    cells (every two nodes of a cell neighbours), held at the flank's moves and at zero beyond SPREAD [mm] from the
+    flank, so that each small cell moves nearly as a rigid body (a sliver on the flank keeps its shape)."""
+    cells = mesh.cells[mesh.regions["nut"]]
+    inner = np.unique(cells)
+    far = cKDTree(mesh.points[flank]).query(mesh.points[inner])[0] > SPREAD
+    fixed = np.zeros(mesh.n_nodes, bool)
+    fixed[inner[far]] = True
+    fixed |= flank
+    k = cells.shape[1]
+    rows, cols = np.repeat(cells, k, axis=1).ravel(), np.tile(cells, (1, k)).ravel()
+    A = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(mesh.n_nodes,) * 2)
+    A.setdiag(0)
+    A.data[:] = 1.0
+    L = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
+    free = np.setdiff1d(inner, np.flatnonzero(fixed))
+    out = move.copy()
+    solve = spla.factorized(L[free][:, free].tocsc())
+    rhs = -(L[free][:, np.flatnonzero(fixed)] @ move[fixed])
+    for d in range(3):
+        out[free, d] = solve(np.ascontiguousarray(rhs[:, d]))
+    return out
+
+
+def _smallest_jacobian(mesh, points) -> np.ndarray:
+    """(n_cells,) each cell's smallest Jacobian determinant at the product's quadrature points."""
+    from frictionid.fem.space import Space
+    basis = Space.build(dataclasses.replace(mesh, points=points), "3d").scalar
+    return basis.mapping.detDF(basis.X).min(axis=1)
+
+
+def _shape(rs):
+    return shape_functions(np.nan_to_num(rs), "triangle6")[0]
+
+
+def initial_gaps(model) -> np.ndarray:
+    """The embedded thread's initial mortar gaps [mm] on the model's mesh."""
+    from frictionid.fem.mortar3d import mortar_pairs_3d
+    from frictionid.fem.space import Space
+    return mortar_pairs_3d(Space.build(model.mesh, "3d"), model, 0).gap
+
+
+def main(stiffness: list[float], orders: list[int], work: str | None, mesh_only: bool) -> None:
+    model = moved_model()
+    gap = initial_gaps(model)
+    print(f"embedded thread pairs on the moved mesh: {len(gap):,}, initial gaps {1e3 * gap.min():+.4f} .. "
+          f"{1e3 * gap.max():+.4f} um, {np.sum(np.abs(gap) > 5e-4)} beyond 0.5 um", flush=True)
+    if mesh_only:
+        return
+    points, regions = calculix.observed(fixture.OPTIONS)
+    results = [calculix.embedded_result(model, points, regions, fixture.MU, "mumps", order) for order in orders]
+    runs = []
+    for s in stiffness:
+        settings = CalculixSettings(normal_stiffness=s, stick_slope=s, timeout=7200, work_dir=work,
+                                    keep_work=work is not None)
+        runs.append(calculix.ccx_result(model, points, regions, fixture.MU, settings))
+        for result in results:
+            calculix.report(model, result, runs[-1])
+            print(flush=True)
+    if len(runs) > 1:
+        limit = {key: calculix.penalty_limit(runs, key) for key in ("ccx", "ccx_reactions", "ccx_zones", "ccx_axial")}
+        for result in results:
+            calculix.report(model, result, {**runs[-1], **limit}, "ccx extrapolated to an infinite penalty from the "
+                            "two stiffest runs (d = d0 + c / k):")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stiffness", type=float, nargs="+", default=[1e7])
+    parser.add_argument("--order", type=int, nargs="+", default=[2, 4])
+    parser.add_argument("--work", default=None)
+    parser.add_argument("--mesh-only", action="store_true")
+    a = parser.parse_args()
+    main(a.stiffness, a.order, a.work, a.mesh_only)
