@@ -189,6 +189,19 @@ class EmbeddedBackend:
             partial.replace(path)
         return Prediction(values, derivatives)
 
+    def point_sensitivities(self, mu: np.ndarray, points, quantities: tuple[str, ...], regions=None):
+        """(n_stages, n_points * n_quantities, n_zones) derivatives of ``quantities`` at other points than the
+        observed ones at ``mu`` (point-major; strains pointwise: scattered points make no DIC window), from this
+        backend's condensation: no second condensation, the solve of the last :meth:`predict` where it was at
+        ``mu`` with sensitivities, else one solve with sensitivities (:meth:`Problem.point_sensitivities`). None
+        where the condensation cannot give them (finite sliding): make a backend for the points instead."""
+        mu = np.asarray(mu, dtype=float)
+        if self._last is not None and np.array_equal(self._last[0], mu) and self._last[1].d_x is not None:
+            solution = self._last[1]
+        else:
+            solution = self.problem.solve(mu, sensitivities=True, increments=self.increments, max_slip=None)
+        return self.problem.point_sensitivities(solution, points, quantities, regions)
+
     def contact_states(self, mu: np.ndarray) -> list[dict[str, dict[str, float]]]:
         """Per stage end: each zone's area fractions open / stick / slip and its normal force [N] at ``mu``."""
         solution = self.problem.solve(mu, increments=self.increments, max_slip=None)

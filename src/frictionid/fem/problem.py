@@ -303,6 +303,27 @@ class Problem:
         u = u.reshape(len(index), -1, self.space.n_components)
         return u if many else u[0]
 
+    def point_sensitivities(self, solution: Solution, points, quantities: Sequence[str],
+                            regions=None) -> np.ndarray | None:
+        """(n_stages, n_points * n_quantities, n_zones) derivatives of ``quantities`` at ``points`` at each stage
+        end of a solution with sensitivities (point-major, as :meth:`build`'s observation rows, regions as there;
+        strains pointwise, no DIC window), from the condensation already made: the displacement field's
+        sensitivity is the field of the contact unknowns' sensitivities (``solution.d_x``) under no load, one
+        solve with the kept factor for all zones and stages. None where the solution has no ``d_x`` (solved
+        without sensitivities, or with finite sliding).
+        """
+        if solution.d_x is None:
+            return None
+        from .points import point_operator
+
+        ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
+        n_zones = solution.d_x.shape[2]
+        x = np.moveaxis(solution.d_x[ends], 2, 1).reshape(len(ends) * n_zones, -1)   # (stage, zone) rows
+        no_load = np.zeros((len(x), self.channels.amplitudes.shape[1]))
+        du = self.condensed.displacement(self.pairs.B, self.channels.displacements, no_load, x)
+        rows = point_operator(self.space, points, quantities, regions, self.model.materials) @ du.T
+        return np.moveaxis(rows.reshape(rows.shape[0], len(ends), n_zones), 1, 0)
+
     def _loads(self, solution: Solution, index: np.ndarray) -> tuple:
         """(B, the channels' prescribed displacements, amplitudes, x) of the increments ``index`` of a solution:
         the arguments of :meth:`Condensed.displacement`."""
@@ -598,7 +619,7 @@ class Problem:
         X = np.array([r[0] for r in records])
         outputs = {name: np.array([ops(a, x) for a, x in zip(amps, X)])
                    for name, ops in (("w", c.gap_ops), ("obs", c.obs_ops), ("reac", c.reac_ops))}
-        d_obs = d_reac = None
+        d_obs = d_reac = S = None
         if sensitivities:
             S = np.array([r[2] for r in records])                               # (n_inc, n_x, n_z)
             d_obs = c.obs_ops.full @ S                                           # (n_inc, n_obs, n_z)
@@ -613,4 +634,5 @@ class Problem:
             w=outputs["w"].reshape(len(X), pairs.n_pairs, pairs.dim),
             state=np.array([r[1] for r in records]), observations=outputs["obs"], reactions=outputs["reac"],
             d_observations=d_obs, d_reactions=d_reac,
-            n_newton=np.array([r[3] for r in records]), n_cuts=np.array([r[4] for r in records]), pairs=pairs)
+            n_newton=np.array([r[3] for r in records]), n_cuts=np.array([r[4] for r in records]), pairs=pairs,
+            d_x=S)

@@ -70,6 +70,10 @@ class Solution:
     interface_forces : (n_inc, n_interface_dofs) [N] or None
         Finite sliding (fem/sliding.py): the contact forces on the interface dofs (``Problem.interface_dofs``),
         ``lam`` being in the frames of each increment's coupling; None for small sliding.
+    d_x : (n_inc, n_pairs * dim + m, n_zones) or None
+        The sensitivities of (lam, alpha) with respect to the zone coefficients (small sliding with
+        sensitivities; None otherwise): with the condensation they give the sensitivities of the displacement
+        field, so of any point's quantities (:meth:`Problem.point_sensitivities`).
     """
 
     mu: np.ndarray
@@ -90,6 +94,7 @@ class Solution:
     n_cuts: np.ndarray
     pairs: ContactPairs
     interface_forces: np.ndarray | None = None
+    d_x: np.ndarray | None = None
 
     @property
     def n_increments(self) -> int:

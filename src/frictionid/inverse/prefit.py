@@ -105,8 +105,19 @@ def _sigma_of(obs: Observations, quantity: str) -> float | None:
     return float(np.median(obs.sigma[at_points][same])) if same.any() else None
 
 
-def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.ndarray, free: np.ndarray,
-                      n_points: int):
+def _derivatives_at(backend, backend_factory, model: Model, points, quantities, regions, mu) -> np.ndarray:
+    """(n_stages, n_points * n_quantities, n_zones) derivatives at ``points``: from the fit's own backend where it
+    gives them without condensing again (the embedded backend's point_sensitivities), else from a backend made for
+    the points by ``backend_factory``."""
+    at_points = getattr(backend, "point_sensitivities", None)
+    derivatives = None if at_points is None else at_points(mu, points, quantities, regions)
+    if derivatives is None:
+        derivatives = backend_factory(model, points, quantities, regions).predict(mu, True).derivatives
+    return derivatives
+
+
+def _candidate_groups(backend, backend_factory, model: Model, obs: Observations, mu: np.ndarray,
+                      free: np.ndarray, n_points: int):
     """(label, weighted rows) per candidate point and stage: surface points, and the observed points at
     stages not observed; quantities = the observed ones plus every displacement component."""
     quantities = tuple(dict.fromkeys(obs.quantities + DISPLACEMENTS[:model.dim]))
@@ -116,7 +127,7 @@ def _candidate_groups(backend_factory, model: Model, obs: Observations, mu: np.n
     surface, owner = candidate_points(model, obs.points, n_points)
     points = np.concatenate([obs.points, surface])
     regions = list(obs.point_regions) + owner
-    derivatives = backend_factory(model, points, quantities, regions).predict(mu, True).derivatives
+    derivatives = _derivatives_at(backend, backend_factory, model, points, quantities, regions, mu)
     at_points = _point_rows(obs)
     n_q = len(quantities)
     observed = set(zip(obs.point[at_points], obs.stage[at_points]))
@@ -148,7 +159,8 @@ def prefit(evaluator, model: Model, tolerance: float, max_additions: int = 5, ba
     if backend_factory is None or max_additions <= 0:
         return Prefit(found, (), "no candidate observations were evaluated (backend without sensitivities "
                                  "or suggestions switched off)")
-    groups = _candidate_groups(backend_factory, model, obs, params.full(params.x0), params.free, n_points)
+    groups = _candidate_groups(getattr(evaluator, "backend", None), backend_factory, model, obs,
+                               params.full(params.x0), params.free, n_points)
     additions = tuple(suggest(jacobian, groups, tolerance, max_additions))
     note = "" if additions else "no candidate point or stage lowers the unresolved zones' standard errors"
     return Prefit(found, additions, note)
