@@ -84,14 +84,16 @@ def test_a_refinement_over_the_memory_allowed_at_its_least_growth_is_not_even_bu
     allowed = 1.0 + 1.2 * memory.condensation_bytes(2 * model.mesh.n_nodes, 2) / memory.GB
     config = _config(measured, "least", "refine_target = 1\nrefine_budget = 2\n",
                      f"[solver]\nmax_memory = {allowed:.6f}\n")
-    built = []
+    built, solved = [], []
     monkeypatch.setattr(control_module, "build_model", lambda *args: built.append(args) or build_model(*args))
+    values = control_module.values
+    monkeypatch.setattr(control_module, "values", lambda *args, **kw: solved.append(args) or values(*args, **kw))
     assert main(["identify", str(config)]) == 0
     out = capsys.readouterr().out
     line = (r"discretisation control: element sizes x2 \(at least\): [\d,]+ nodes, [\d,]+ dofs, estimated memory "
             r"[\d.]+ GB of [\d.]+ GB allowed: more than \[solver\] max_memory allows, not built")
     assert re.search(line + "; the model is fitted as it is", out), out
-    assert built == []
+    assert built == [] and solved == []          # nor the model solved for the control: the fit's first solve
 
 
 @pytest.mark.parametrize("value", ["-1", "0", '"8 GB"'])

@@ -183,6 +183,11 @@ def control(model_options: ModelSpec | None, model, observations, mu, target: fl
     progress(f"discretisation control: the model's error at the start values by refining it in each of "
              f"{len(names)} direction(s) ({', '.join(names)}), target {target:g} noise levels RMS per quantity kind")
     ratios = []                          # measured / estimated peak of each build (fem/memory.py, Peak)
+    if len(names) == 1:
+        try:                             # uncalibrated (scale 1): a calibrated estimate is never smaller
+            _least(model, names[0], max_memory, factorisation, ratios)
+        except TooLarge as exc:          # nothing solved for the control: the fit condenses the model itself
+            return Control(model_options, model, _skipped(target, str(exc), progress))
     with memory.Peak() as took:
         coarse = values(model, observations, mu, window, keep=True, factorisation=factorisation)
     _calibrate(ratios, took, memory.estimate(model, "model", max_memory, factorisation))
