@@ -157,6 +157,25 @@ def test_an_unmeasured_pair_sliding_past_its_element_is_refused_by_the_slip_rule
         problem.check_small_sliding(solution)
 
 
+def test_another_coupling_is_measured_against_its_own_undeformed_gaps():
+    """gap_errors with a builder of its own (e.g. another quadrature) takes that builder's undeformed coupling as
+    the reference: a builder whose every gap is off by 0.01 mm gives the check's errors, not 0.01 mm more."""
+    from dataclasses import replace
+
+    from frictionid.fem.sliding import check_builder
+
+    model = block_model(pull=0.2, mesh_size=2.5, n_pull=10)
+    problem = Problem.build(model)
+    solution = problem.solve(MU, max_slip=None)
+    check = check_builder(problem.space, model)
+    found = problem.gap_errors(solution)
+    offset = problem.gap_errors(solution, builder=lambda points: replace(check(points), gap=check(points).gap + 0.01))
+    assert found and max(f["mean"] for f in found) > 0
+    for a, b in zip(found, offset):
+        assert (a["interface"], a["increment"], a["worst"]) == (b["interface"], b["increment"], b["worst"])
+        np.testing.assert_allclose([b["mean"], b["largest"]], [a["mean"], a["largest"]], rtol=1e-9, atol=1e-15)
+
+
 @pytest.mark.slow
 def test_edge_elements_shorter_than_the_slip_give_the_same_gap_error_as_the_mesh_as_given():
     """The 3-D block with its footprint's edges split by 3 in a 0.5 mm band (edge elements 0.139 mm, slip 0.14

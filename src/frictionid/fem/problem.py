@@ -449,10 +449,14 @@ class Problem:
         ``uncovered`` (closed pairs the deformed coupling does not cover, left out), ``unmeasured`` (closed pairs it
         does not measure, :meth:`check_small_sliding`, left out of the mean), ``unmeasured_slip`` (their largest
         slip in local element lengths, 0 without them) and ``unmeasured_worst`` (its pair index); the search stops
-        at the first ratio above ``tolerance``."""
-        from .sliding import UNCOVERED_GAP, check_builder, pairing_gap_error
+        at the first ratio above ``tolerance``. ``builder``: the deformed coupling's builder (default the check's,
+        :func:`frictionid.fem.sliding.check_builder`); its own undeformed coupling is then the gaps' reference, so
+        that another quadrature's errors compare like with like."""
+        from .sliding import UNCOVERED_GAP, aligned, check_builder, pairing_gap_error
         slip = np.linalg.norm(solution.slip, axis=2)                     # (n_inc, n_pairs)
         slip[:, np.all(solution.state == 0, axis=0)] = 0.0
+        reference = self._coupled_gap if builder is None else \
+            aligned(self.pairs, builder(self.model.mesh.points)).gap
         builder = builder or check_builder(self.space, self.model)
         checked = [int(rows[np.argmax(slip[rows].max(axis=1))])
                    for rows in (np.flatnonzero(solution.stage == stage) for stage in np.unique(solution.stage))]
@@ -461,7 +465,6 @@ class Problem:
             return []
         pairs, found = self.pairs, []
         length = self.pair_length()
-        reference = self._coupled_gap
         matched = (reference < UNCOVERED_GAP) & (np.abs(reference - pairs.gap) <= MATCHED * length)
         on_interfaces = self._interface_sources[0]
         for inc, u in zip(checked, self.interface_displacement(solution, checked)[0]):
