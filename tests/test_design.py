@@ -8,6 +8,7 @@ import pytest
 
 from frictionid.backends.embedded import EmbeddedBackend
 from frictionid.builders.registry import build_model, refined
+from frictionid import planning
 from frictionid.cli import main
 from frictionid.inverse.design import finest_partition, information_of, merged_stderr, select_points
 from frictionid.inverse.resolution import predicted_stderr
@@ -185,3 +186,28 @@ def test_design_takes_a_plain_points_file_and_prints_regions_as_valid_toml(tmp_p
     labels = [line.split(",")[0] for line in chosen.splitlines()[2:]]
     assert set(labels) & set(points)                      # planned points chosen keep their labels
     assert json.loads((tmp_path / "runs/design/design.json").read_text())["chosen"]["regions"] == regions
+
+
+def test_design_condenses_the_model_once(tmp_path, monkeypatch):
+    """The candidates' sensitivities come from the planned points' condensation and solve
+    (EmbeddedBackend.point_sensitivities), and equal those of a condensation that observes the candidates."""
+    from frictionid.backends import embedded
+    from frictionid.fem import problem as problem_module
+
+    monkeypatch.setattr(embedded, "_RECENT", {})                # no condensation kept by an earlier test
+    builds, rows = [], []
+    build = problem_module.Problem.build.__func__
+    monkeypatch.setattr(problem_module.Problem, "build",
+                        classmethod(lambda cls, *a, **k: builds.append(1) or build(cls, *a, **k)))
+    weighted = planning.weighted_rows
+    monkeypatch.setattr(planning, "weighted_rows", lambda *args: rows.append(args) or weighted(*args))
+    assert main(["design", str(_config(tmp_path)), "--points", "6"]) == 0
+    assert len(builds) == 1
+    backend, points, regions, quantities, stages, sigma, mu, free = rows[0]
+    separate = EmbeddedBackend(backend.model, points, tuple(quantities), list(regions), keep=False)
+    expected = separate.predict(mu, True).derivatives[[s - 1 for s in stages]][..., free]
+    n_q = len(quantities)
+    expected = (expected / np.tile(np.asarray(sigma, float), len(points))[None, :, None]).reshape(
+        len(stages), len(points), n_q, -1).transpose(1, 0, 2, 3).reshape(len(points), len(stages) * n_q, -1)
+    found = weighted(*rows[0])
+    np.testing.assert_allclose(found, expected, rtol=0, atol=1e-8 * np.abs(expected).max())

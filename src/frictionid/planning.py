@@ -76,10 +76,11 @@ def candidate_locations(model: Model, kind: str, n_max: int, regions=None) -> tu
     return np.concatenate(points), owner
 
 
-def weighted_rows(model: Model, points, regions, quantities, stages, sigma, mu, free) -> np.ndarray:
-    """(n_points, n_stages * n_q, n_free) sensitivities of ``quantities`` at the 1-based ``stages`` / sigma."""
-    derivatives = EmbeddedBackend(model, np.asarray(points), tuple(quantities), list(regions),
-                                  keep=False).predict(mu, True).derivatives
+def weighted_rows(backend: EmbeddedBackend, points, regions, quantities, stages, sigma, mu, free) -> np.ndarray:
+    """(n_points, n_stages * n_q, n_free) sensitivities of ``quantities`` at the 1-based ``stages`` / sigma, from
+    the planned points' backend (its condensation and its solve at ``mu``: no second condensation,
+    :meth:`EmbeddedBackend.point_sensitivities`)."""
+    derivatives = backend.point_sensitivities(mu, np.asarray(points), tuple(quantities), list(regions))
     n_q = len(quantities)
     per_stage = derivatives[[s - 1 for s in stages]][:, :len(points) * n_q][..., free]
     per_stage = per_stage / np.tile(np.asarray(sigma, dtype=float), len(points))[None, :, None]
@@ -184,7 +185,7 @@ def design_config(config: Config, n_points: int | None = None, out: Path | None 
 
     points, regions = candidate_locations(model, kind, int(table.n_candidates), table.regions)
     points, regions = np.concatenate([obs.points, points]), list(obs.point_regions) + list(regions)
-    rows = weighted_rows(model, points, regions, quantities, stages, sigma, mu, free)
+    rows = weighted_rows(backend, points, regions, quantities, stages, sigma, mu, free)
     candidates = Candidates(points, tuple(regions), rows)
     chosen = select_points(rows, n_points, table.criterion)
     chosen_info = information_of(rows, chosen)
