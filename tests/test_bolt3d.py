@@ -431,3 +431,26 @@ def test_volume_mesher_says_when_every_algorithm_fails(monkeypatch):
     with pytest.raises(InputError, match=r"box: gmsh could not mesh the volumes \(Delaunay: PLC Error.*Frontal: PLC"):
         mesh_with_fallback(_box, _tetrahedra, "box")
     assert tried == [1, 4]
+
+
+def test_volume_mesher_refines_the_knife_edges_after_the_attempts_without(monkeypatch, caplog):
+    """A model with knife edges (``make`` returns true) is tried as it is by each algorithm first (a model that
+    meshes so keeps its mesh), then with the edges refined; a model without them is not tried twice."""
+    tried = _failing_mesher(monkeypatch, 2)
+    knives = []
+
+    def make(knife):
+        knives.append(knife)
+        _box()
+        return True
+
+    with caplog.at_level(logging.WARNING, logger="frictionid.builders.bolt3d_mesh"):
+        assert mesh_with_fallback(make, _tetrahedra, "box", refinable=True) > 0
+    assert tried == [1, 4, 1] and knives == [False, False, True]
+    assert "Frontal 3-D mesher failed (PLC Error" in caplog.text
+    assert "trying Delaunay (knife edges refined)" in caplog.text
+
+    tried.clear()
+    monkeypatch.setattr(gmsh.model.mesh, "generate", lambda dim: (_ for _ in ()).throw(Exception("PLC Error")))
+    with pytest.raises(InputError, match=r"Delaunay: PLC Error; Frontal: PLC Error\)"):
+        mesh_with_fallback(lambda knife: _box() or False, _tetrahedra, "box", refinable=True)

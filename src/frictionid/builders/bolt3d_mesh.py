@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Mesh
 from .bolt3d_geometry import Window, countersink, cylinder, direction, hexagon_prism, thread_grooves
+from .bolt3d_knife import knife_edges, knife_field
 from .bolt_layout import BoltLayout
 from .curved import curved_where_valid
 from .gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
@@ -315,17 +316,28 @@ def curved_tetra10(source: str) -> Mesh:
                 boundaries=dict(mesh.boundaries))
 
 
-def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
+def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D, refinable: bool = False):
     """``read()`` of the volume mesh of the gmsh model that ``make()`` sets up in a fresh gmsh session, meshed by
     the first of ``algorithms`` ((Mesh.Algorithm3D, name) pairs) that succeeds: gmsh meshes without an error and
     ``read()`` accepts the mesh (an InputError from it, e.g. a face's nodes in no cell where gmsh left a volume
-    unmeshed, counts as a failure). A failure is logged and the next algorithm starts from a new session (after a
-    failed Delaunay, Frontal in the same session, mesh cleared, returned no tetrahedra). InputError naming
-    ``source`` when every algorithm fails."""
-    failures = []
-    for i, (number, name) in enumerate(algorithms):
+    unmeshed, counts as a failure). A failure is logged and the next attempt starts from a new session (after a
+    failed Delaunay, Frontal in the same session, mesh cleared, returned no tetrahedra). With ``refinable``,
+    ``make(knife)`` takes whether to refine the knife edges (:mod:`.bolt3d_knife`) and returns whether the model
+    has any; if it has, the algorithms are then tried again with them refined (after the attempts without, so that
+    a model one of them meshes keeps its mesh). InputError naming ``source`` when every attempt
+    fails."""
+    attempts = [(number, name, False) for number, name in algorithms]
+    failures, decided = [], False
+    while attempts:
+        number, name, knife = attempts.pop(0)
+        label = _label(name, knife)
         with gmsh_session(source):
-            make()
+            if refinable:
+                if make(knife) and not decided:             # knife edges: the algorithms again, refined there
+                    attempts += [(n, a, True) for n, a in algorithms]
+                decided = True
+            else:
+                make()
             gmsh.option.setNumber("Mesh.Algorithm3D", number)
             try:
                 gmsh.model.mesh.generate(3)
@@ -337,13 +349,17 @@ def mesh_with_fallback(make, read, source: str, algorithms=ALGORITHMS_3D):
                 except InputError as error:     # e.g. a face's nodes in no cell: gmsh left a volume unmeshed
                     failure = str(error).strip()
                 else:
-                    log.info("%s: meshed by gmsh's %s 3-D mesher", source, name)
+                    log.info("%s: meshed by gmsh's %s 3-D mesher", source, label)
                     return mesh
-            failures.append(f"{name}: {failure}")
-            following = f"; trying {algorithms[i + 1][1]}" if i + 1 < len(algorithms) else ""
-            log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, name, failure, following)
+            failures.append(f"{label}: {failure}")
+            following = f"; trying {_label(*attempts[0][1:])}" if attempts else ""
+            log.warning("%s: gmsh's %s 3-D mesher failed (%s)%s", source, label, failure, following)
     raise InputError(f"{source}: gmsh could not mesh the volumes ({'; '.join(failures)}); other element sizes "
                      "(flank_size, contact_size, mesh_size, root_size) or nut_mesh may mesh")
+
+
+def _label(name: str, knife: bool) -> str:
+    return f"{name} (knife edges refined)" if knife else name
 
 
 def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> Mesh:
@@ -352,7 +368,7 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
     curved faces where the cells stay valid (:func:`frictionid.builders.curved.curved_where_valid`)."""
     source = f"3-D bolt model {layout.size.name}"
 
-    def make():
+    def make(knife: bool) -> bool:
         volumes = fragment_bodies(layout, options, engaged_top)
         names = classify_faces(layout, options, volumes)
         root = min(options.flank_size, options.root_size)
@@ -361,6 +377,9 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
                   distance_field(names.pop("bolt_root"), root, options.mesh_size, ROOT_GROWTH)]
         if options.head_size is not None:
             fields.append(head_field(layout, options.head_size, options.mesh_size))
+        edges = knife_edges(layout, options.theta_match)
+        if edges and knife:
+            fields.append(knife_field(edges, layout.size.P, options.mesh_size))
         use_size_fields(*fields)
         gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
         for body, tags in volumes.items():
@@ -368,6 +387,7 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
         for name, tags in names.items():
             if tags and name != "thread_shared":
                 gmsh.model.addPhysicalGroup(2, tags, name=name)
+        return bool(edges)
 
-    mesh = mesh_with_fallback(make, lambda: curved_tetra10(source), source)
+    mesh = mesh_with_fallback(make, lambda: curved_tetra10(source), source, refinable=True)
     return separate_bodies(mesh, {name: body_of(name) for name in mesh.boundaries})

@@ -17,6 +17,7 @@ import gmsh
 import numpy as np
 
 from ..model import Mesh
+from .bolt3d_knife import knife_edges, knife_field
 from .bolt3d_mesh import ROOT_GROWTH, Options3d, body_of, classify_faces, curved_tetra10, distance_field, \
     fragment_bodies, head_field, mesh_with_fallback, separate_bodies
 from .bolt_layout import BoltLayout
@@ -48,8 +49,9 @@ def _groups(volumes: dict, names: dict) -> None:
             gmsh.model.addPhysicalGroup(2, tags, name=name)
 
 
-def _bolt_session(layout: BoltLayout, options: Options3d, engaged_top: float):
-    """The gmsh model set-up of bolt and plate 2, sized as in the conforming model."""
+def _bolt_session(layout: BoltLayout, options: Options3d, engaged_top: float, knife: bool = False) -> bool:
+    """The gmsh model set-up of bolt and plate 2, sized as in the conforming model (the knife edges refined if
+    ``knife``); whether it has knife edges (:mod:`.bolt3d_knife`)."""
     volumes = fragment_bodies(layout, options, engaged_top)
     names = classify_faces(layout, options, volumes)
     root = min(options.flank_size, options.root_size)
@@ -60,22 +62,31 @@ def _bolt_session(layout: BoltLayout, options: Options3d, engaged_top: float):
         fields.append(head_field(layout, options.head_size, options.mesh_size))
     kept = {name: names[name] for name in BOLT_NAMES if name in names}
     kept[BOLT_CONTACT] = names["nut_contact"]
-    use_size_fields(*fields)
-    gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
-    _groups(_kept(volumes, ("bolt", "plate2")), kept)
+    return _sized(layout, options, fields, knife, lambda: _groups(_kept(volumes, ("bolt", "plate2")), kept))
 
 
-def _nut_session(layout: BoltLayout, options: Options3d, engaged_top: float):
-    """The gmsh model set-up of nut and plate 1: flanks at flank_size, the bearing at contact_size, no roots."""
+def _nut_session(layout: BoltLayout, options: Options3d, engaged_top: float, knife: bool = False) -> bool:
+    """The gmsh model set-up of nut and plate 1: flanks at flank_size, the bearing at contact_size, no roots (the
+    knife edges refined if ``knife``); whether it has knife edges."""
     volumes = fragment_bodies(layout, options, engaged_top)
     names = classify_faces(layout, options, volumes)
     fields = [distance_field(names["thread_shared"], options.flank_size, options.mesh_size),
               distance_field(names["nut_plate"], options.contact_size, options.mesh_size)]
     zones = [name for name in names if name in layout.thread_zones or name.startswith("thread_")]
     kept = {name: names[name] for name in (*NUT_NAMES, *zones) if name in names and name != "thread_shared"}
+    return _sized(layout, options, fields, knife, lambda: _groups(_kept(volumes, ("nut", "plate1")), kept))
+
+
+def _sized(layout: BoltLayout, options: Options3d, fields: list[int], knife: bool, keep) -> bool:
+    """Keep the session's bodies (``keep()``), then size by the fields and, if ``knife``, by the knife edges left
+    (:mod:`.bolt3d_knife`); whether there are any."""
+    keep()
+    edges = knife_edges(layout, options.theta_match)
+    if edges and knife:
+        fields = [*fields, knife_field(edges, layout.size.P, options.mesh_size)]
     use_size_fields(*fields)
     gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
-    _groups(_kept(volumes, ("nut", "plate1")), kept)
+    return bool(edges)
 
 
 def joined(first: Mesh, second: Mesh) -> Mesh:
@@ -103,7 +114,7 @@ def separate_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) ->
     parts = []
     for name, session in (("bolt", _bolt_session), ("nut", _nut_session)):
         source = f"3-D bolt model {layout.size.name} ({name} on its own)"
-        mesh = mesh_with_fallback(lambda: session(layout, options, engaged_top),
-                                  lambda: curved_tetra10(source), source)
+        mesh = mesh_with_fallback(lambda knife: session(layout, options, engaged_top, knife),
+                                  lambda: curved_tetra10(source), source, refinable=True)
         parts.append(_own_nodes(mesh))
     return joined(*parts)
