@@ -13,7 +13,7 @@ inside out) stay where they are, so a few pairs keep their meshed gap. The two c
 
 Run (from the repository's root):
     nice -n 10 /usr/bin/time -v .venv/bin/python benchmarks/bolt3d_calculix_moved.py [--stiffness S [S ...]]
-    [--order N [N ...]] [--work DIR] [--mesh-only] [--static "INITIAL, 1., MINIMUM, MAXIMUM"]
+    [--order N [N ...]] [--work DIR] [--mesh-only] [--static "INITIAL, 1., MINIMUM, MAXIMUM"] [--stick S]
 prints the nodes' moves, the embedded model's initial mortar gaps on the moved mesh, and the comparison
 (benchmarks/bolt3d_calculix.py's `report`) per ccx penalty S [N/mm^3] and embedded quadrature order.
 """
@@ -204,7 +204,7 @@ def _with_static(static: str):
 
 
 def main(stiffness: list[float], orders: list[int], work: str | None, mesh_only: bool,
-         static: str | None = None) -> None:
+         static: str | None = None, stick: float | None = None) -> None:
     model = moved_model()
     gap = initial_gaps(model)
     print(f"embedded thread pairs on the moved mesh: {len(gap):,}, initial gaps {1e3 * gap.min():+.4f} .. "
@@ -216,7 +216,7 @@ def main(stiffness: list[float], orders: list[int], work: str | None, mesh_only:
     results = [calculix.embedded_result(model, points, regions, fixture.MU, "mumps", order) for order in orders]
     runs = []
     for s in stiffness:
-        settings = CalculixSettings(normal_stiffness=s, stick_slope=s, timeout=7200, work_dir=work,
+        settings = CalculixSettings(normal_stiffness=s, stick_slope=stick or s, timeout=7200, work_dir=work,
                                     keep_work=work is not None)
         runs.append(calculix.ccx_result(model, points, regions, fixture.MU, settings,
                                         None if static is None else _with_static(static)))
@@ -238,5 +238,7 @@ if __name__ == "__main__":
     parser.add_argument("--mesh-only", action="store_true")
     parser.add_argument("--static", default=None, help="ccx's *STATIC data line instead of the deck's, e.g. "
                         "'0.05, 1., 1e-7, 0.25' (initial, period, minimum, maximum increment)")
+    parser.add_argument("--stick", type=float, default=None, help="ccx's stick slope [N/mm^3] (default: each "
+                        "run's --stiffness)")
     a = parser.parse_args()
-    main(a.stiffness, a.order, a.work, a.mesh_only, a.static)
+    main(a.stiffness, a.order, a.work, a.mesh_only, a.static, a.stick)
