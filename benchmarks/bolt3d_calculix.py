@@ -80,10 +80,23 @@ def embedded_result(model, points, regions, mu: float, factorisation: str, order
     return out
 
 
-def ccx_result(model, points, regions, mu: float, settings: CalculixSettings) -> dict:
+class _EditedBackend(CalculixBackend):
+    """The backend with its deck passed through ``edit`` (str -> str) before ccx runs it."""
+
+    def __init__(self, *args, edit, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._edit = edit
+
+    def deck(self, mu) -> str:
+        return self._edit(super().deck(mu))
+
+
+def ccx_result(model, points, regions, mu: float, settings: CalculixSettings, edit=None) -> dict:
     """ccx's results at the last stage end: 'ccx' (n_points, 3) [mm] displacements, reactions [N], zone normal
-    and axial forces [N], its penalty slopes and wall time."""
-    backend = CalculixBackend(model, points, QUANTITIES, regions, settings)
+    and axial forces [N], its penalty slopes and wall time. ``edit`` (str -> str), if given, changes the deck
+    (e.g. its increment control) before ccx runs it."""
+    backend = CalculixBackend(model, points, QUANTITIES, regions, settings) if edit is None else \
+        _EditedBackend(model, points, QUANTITIES, regions, settings, edit=edit)
     ccx = backend.solve(np.full(len(model.zone_names), mu), full_field=False)
     return {"stiffness": (backend.contact.normal_stiffness, backend.contact.stick_slope, backend.contact.pair_type),
             "ccx_seconds": ccx.wall_time, "ccx": ccx.observations[-1].reshape(len(points), 3),

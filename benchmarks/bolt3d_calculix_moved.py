@@ -13,7 +13,7 @@ inside out) stay where they are, so a few pairs keep their meshed gap. The two c
 
 Run (from the repository's root):
     nice -n 10 /usr/bin/time -v .venv/bin/python benchmarks/bolt3d_calculix_moved.py [--stiffness S [S ...]]
-    [--order N [N ...]] [--work DIR] [--mesh-only]
+    [--order N [N ...]] [--work DIR] [--mesh-only] [--static "INITIAL, 1., MINIMUM, MAXIMUM"] [--stick S]
 prints the nodes' moves, the embedded model's initial mortar gaps on the moved mesh, and the comparison
 (benchmarks/bolt3d_calculix.py's `report`) per ccx penalty S [N/mm^3] and embedded quadrature order.
 """
@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import bolt3d_calculix as calculix                       # noqa: E402
 from fixtures import bolt3d_calculix as fixture          # noqa: E402
 from frictionid.backends.calculix.backend import CalculixSettings     # noqa: E402
-from frictionid.fem.facet_shapes import project_along, shape_functions    # noqa: E402
+from frictionid.fem.facet_shapes import project_along, shape_functions, triangle_quadrature    # noqa: E402
 from frictionid.fem.mortar3d import _Side               # noqa: E402
 
 #: [mm] how far into the nut the flank's moves spread (about two flank elements)
@@ -149,20 +149,77 @@ def initial_gaps(model) -> np.ndarray:
     return mortar_pairs_3d(Space.build(model.mesh, "3d"), model, 0).gap
 
 
-def main(stiffness: list[float], orders: list[int], work: str | None, mesh_only: bool) -> None:
+def pointwise_gaps(model, degree: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """The thread's normal gaps [mm] as a face-to-face penalty code sees them: at the points of a triangle rule of
+    ``degree`` on each nut flank facet (the slave side), along the facet's outward normal there, to the bolt's
+    quadratic flank facets (NaN where no bolt facet lies along the normal within REACH). Negative: overlap.
+    Returns gaps (n_facets, n_points) and the points' area weights [mm^2]."""
+    mesh, thread = model.mesh, model.interfaces[0]
+    nut = np.vstack([mesh.boundaries[z] for z in thread.zones])
+    bolt = mesh.points[mesh.boundaries[thread.target]]
+    side = _Side(mesh, nut, np.zeros(len(nut), int), node_normals=False)
+    bary, weights = triangle_quadrature(degree)
+    N, dN = shape_functions(bary[:, 1:], mesh.facet_type)
+    x = np.einsum("qk,fkd->fqd", N, side.coords).reshape(-1, 3)
+    tangents = np.einsum("qkp,fkd->fqdp", dN, side.coords)
+    normal = np.cross(tangents[..., 0], tangents[..., 1])
+    area = np.linalg.norm(normal, axis=-1) * weights / 2
+    normal = (side.sign[:, None, None] * normal / np.linalg.norm(normal, axis=-1, keepdims=True)).reshape(-1, 3)
+    _, near = cKDTree(bolt.mean(axis=1)).query(x, k=CANDIDATES)
+    gap = np.full(len(x), np.nan)
+    for k in range(CANDIDATES):
+        rs = project_along(bolt[near[:, k]], mesh.facet_type, x, normal)
+        inside = np.all(rs >= -INSIDE, axis=1) & (rs.sum(axis=1) <= 1 + INSIDE)
+        t = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", _shape(rs), bolt[near[:, k]]) - x, normal)
+        better = inside & (np.abs(t) <= REACH) & (np.isnan(gap) | (np.abs(t) < np.abs(np.nan_to_num(gap, nan=np.inf))))
+        gap[better] = t[better]
+    return gap.reshape(area.shape), area
+
+
+def _report_pointwise(model, stiffness: list[float]) -> None:
+    gap, area = pointwise_gaps(model)
+    found = np.isfinite(gap)
+    um = 1e3 * gap[found]
+    overlap = np.sum(np.where(found & (gap < 0), -np.nan_to_num(gap), 0.0) * area)
+    worst = np.any(np.nan_to_num(gap) < -5e-4, axis=1)
+    print(f"pointwise gaps at {gap.shape[1]} points per nut flank facet ({found.sum():,} of {gap.size:,} points on a "
+          f"bolt facet): {um.min():+.3f} .. {um.max():+.3f} um, 1st / 99th percentile {np.percentile(um, 1):+.3f} / "
+          f"{np.percentile(um, 99):+.3f} um; {int(worst.sum())} facets overlap beyond 0.5 um somewhere; the overlap's "
+          f"integral {overlap:.3e} mm^3 (times the penalty slope: "
+          + ", ".join(f"{s * overlap:,.0f} N at {s:g}" for s in stiffness) + ")", flush=True)
+
+
+def _with_static(static: str):
+    """A deck edit: every *STATIC data line replaced by ``static`` ("initial, period, minimum, maximum" time
+    increment; the deck's own is the stage's n_increments equal increments)."""
+    def edit(deck: str) -> str:
+        lines = deck.split("\n")
+        at = [k + 1 for k, line in enumerate(lines) if line.strip().upper() == "*STATIC"]
+        if not at:
+            raise ValueError("the deck has no *STATIC line to change")
+        for k in at:
+            lines[k] = static
+        return "\n".join(lines)
+    return edit
+
+
+def main(stiffness: list[float], orders: list[int], work: str | None, mesh_only: bool,
+         static: str | None = None, stick: float | None = None) -> None:
     model = moved_model()
     gap = initial_gaps(model)
     print(f"embedded thread pairs on the moved mesh: {len(gap):,}, initial gaps {1e3 * gap.min():+.4f} .. "
           f"{1e3 * gap.max():+.4f} um, {np.sum(np.abs(gap) > 5e-4)} beyond 0.5 um", flush=True)
+    _report_pointwise(model, stiffness)
     if mesh_only:
         return
     points, regions = calculix.observed(fixture.OPTIONS)
     results = [calculix.embedded_result(model, points, regions, fixture.MU, "mumps", order) for order in orders]
     runs = []
     for s in stiffness:
-        settings = CalculixSettings(normal_stiffness=s, stick_slope=s, timeout=7200, work_dir=work,
+        settings = CalculixSettings(normal_stiffness=s, stick_slope=stick or s, timeout=7200, work_dir=work,
                                     keep_work=work is not None)
-        runs.append(calculix.ccx_result(model, points, regions, fixture.MU, settings))
+        runs.append(calculix.ccx_result(model, points, regions, fixture.MU, settings,
+                                        None if static is None else _with_static(static)))
         for result in results:
             calculix.report(model, result, runs[-1])
             print(flush=True)
@@ -179,5 +236,9 @@ if __name__ == "__main__":
     parser.add_argument("--order", type=int, nargs="+", default=[2, 4])
     parser.add_argument("--work", default=None)
     parser.add_argument("--mesh-only", action="store_true")
+    parser.add_argument("--static", default=None, help="ccx's *STATIC data line instead of the deck's, e.g. "
+                        "'0.05, 1., 1e-7, 0.25' (initial, period, minimum, maximum increment)")
+    parser.add_argument("--stick", type=float, default=None, help="ccx's stick slope [N/mm^3] (default: each "
+                        "run's --stiffness)")
     a = parser.parse_args()
-    main(a.stiffness, a.order, a.work, a.mesh_only)
+    main(a.stiffness, a.order, a.work, a.mesh_only, a.static, a.stick)
