@@ -75,18 +75,3 @@ def knife_edges(layout: BoltLayout, theta_match: float) -> list[int]:
         if any(np.all(on_line(layout, points, line)) for line in lines):
             edges.append(curve)
     return edges
-
-
-def knife_field(curves: list[int], pitch: float, size_max: float) -> int:
-    """A gmsh Threshold field: KNIFE_SIZE pitches on the curves, growing by KNIFE_GROWTH per mm to size_max."""
-    field = gmsh.model.mesh.field
-    near = field.add("Distance")
-    field.setNumbers(near, "CurvesList", list(curves))
-    field.setNumber(near, "Sampling", 100)
-    size = KNIFE_SIZE * pitch
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", near)
-    for name, value in (("SizeMin", size), ("SizeMax", max(size, size_max)), ("DistMin", 0.0),
-                        ("DistMax", max(size_max - size, 1e-9) / KNIFE_GROWTH)):
-        field.setNumber(threshold, name, value)
-    return threshold

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Mesh
 from .bolt3d_geometry import Window, countersink, cylinder, direction, hexagon_prism, thread_grooves
-from .bolt3d_knife import knife_edges, knife_field
+from .bolt3d_knife import KNIFE_GROWTH, KNIFE_SIZE, knife_edges
 from .bolt_layout import BoltLayout
 from .curved import curved_where_valid
 from .gmsh_mesh import gmsh_session, mesh_from_gmsh, use_size_fields
@@ -245,12 +245,14 @@ def _nut_faces(layout: BoltLayout, options: Options3d, faces: dict) -> dict[str,
     return out
 
 
-def distance_field(faces: list[int], size_min: float, size_max: float, growth: float = SIZE_GROWTH) -> int:
-    """Size ``size_min`` on the faces, growing by ``growth`` per mm up to ``size_max``."""
+def distance_field(faces: list[int], size_min: float, size_max: float, growth: float = SIZE_GROWTH,
+                   curves: bool = False) -> int:
+    """Size ``size_min`` on the faces (``curves``: on the curves), growing by ``growth`` per mm up to
+    ``size_max``."""
     field = gmsh.model.mesh.field
     near = field.add("Distance")
-    field.setNumbers(near, "SurfacesList", list(faces))
-    field.setNumber(near, "Sampling", 30)
+    field.setNumbers(near, "CurvesList" if curves else "SurfacesList", list(faces))
+    field.setNumber(near, "Sampling", 100 if curves else 30)
     threshold = field.add("Threshold")
     field.setNumber(threshold, "InField", near)
     for name, value in (("SizeMin", size_min), ("SizeMax", max(size_min, size_max)), ("DistMin", 0.0),
@@ -379,7 +381,8 @@ def bolt3d_mesh(layout: BoltLayout, options: Options3d, engaged_top: float) -> M
             fields.append(head_field(layout, options.head_size, options.mesh_size))
         edges = knife_edges(layout, options.theta_match)
         if edges and knife:
-            fields.append(knife_field(edges, layout.size.P, options.mesh_size))
+            fields.append(distance_field(edges, KNIFE_SIZE * layout.size.P, options.mesh_size, KNIFE_GROWTH,
+                                         curves=True))
         use_size_fields(*fields)
         gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
         for body, tags in volumes.items():

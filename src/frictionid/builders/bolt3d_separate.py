@@ -17,7 +17,7 @@ import gmsh
 import numpy as np
 
 from ..model import Mesh
-from .bolt3d_knife import knife_edges, knife_field
+from .bolt3d_knife import KNIFE_GROWTH, KNIFE_SIZE, knife_edges
 from .bolt3d_mesh import ROOT_GROWTH, Options3d, body_of, classify_faces, curved_tetra10, distance_field, \
     fragment_bodies, head_field, mesh_with_fallback, separate_bodies
 from .bolt_layout import BoltLayout
@@ -83,7 +83,8 @@ def _sized(layout: BoltLayout, options: Options3d, fields: list[int], knife: boo
     keep()
     edges = knife_edges(layout, options.theta_match)
     if edges and knife:
-        fields = [*fields, knife_field(edges, layout.size.P, options.mesh_size)]
+        fields = [*fields, distance_field(edges, KNIFE_SIZE * layout.size.P, options.mesh_size, KNIFE_GROWTH,
+                                          curves=True)]
     use_size_fields(*fields)
     gmsh.option.setNumber("Mesh.MeshSizeMax", options.mesh_size)
     return bool(edges)
