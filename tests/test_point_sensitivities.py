@@ -16,12 +16,6 @@ from frictionid.inverse.parameters import Parameters
 MU = np.array([0.3, 0.15, 0.45, 0.2])
 
 
-def _other_points(model, n: int = 12) -> tuple[np.ndarray, list[str]]:
-    """n points spread over the model's visible surfaces, as the suggestions take them."""
-    points, regions = prefit_module.candidate_points(model, np.zeros((0, model.dim)), n)
-    return points, regions
-
-
 @pytest.mark.parametrize("make, quantities", [
     (lambda: block_model_2d(mesh_size=1.0, n_zones=4), ("ux", "uy", "exx", "exy")),
     (lambda: block_model(mesh_size=2.0), ("ux", "uy", "uz", "ezz")),
@@ -31,7 +25,7 @@ def test_point_sensitivities_equal_those_of_a_condensation_that_observes_the_poi
     d_observations come from the condensed rows: another path through the same equations."""
     model = make()
     mu = MU[:len(model.zone_names)]
-    points, regions = _other_points(model)
+    points, regions = prefit_module.candidate_points(model, np.zeros((0, model.dim)), 12)   # as the suggestions
     observed = Problem.build(model, points=points[:2], quantities=("uy",), regions=regions[:2])
     found = observed.point_sensitivities(observed.solve(mu, sensitivities=True), points, quantities, regions)
     reference = Problem.build(model, points=points, quantities=quantities, regions=regions)
