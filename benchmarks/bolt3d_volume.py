@@ -23,6 +23,7 @@ tests/test_bolt3d_verification.py (SMALL, mu 0.15) and prints the change of uy's
 STATIONS, their sum (the bolt's elongation) and uy at the ten points, as that test measures them.
 """
 
+import contextlib
 import math
 import sys
 from pathlib import Path
@@ -178,8 +179,9 @@ def stiffness() -> None:
 def main(argv) -> None:
     to_end = "--roots-to-end" in argv
     sampling = int(argv[argv.index("--sampling") + 1]) if "--sampling" in argv else None
-    with mock.patch.object(bolt3d_mesh, "_is_root", _roots_to_end) if to_end else mock.MagicMock(), \
-            mock.patch.object(gmsh.model.mesh.field, "setNumber", _sampled(sampling)) if sampling else mock.MagicMock():
+    with mock.patch.object(bolt3d_mesh, "_is_root", _roots_to_end) if to_end else contextlib.nullcontext(), \
+            mock.patch.object(gmsh.model.mesh.field, "setNumber", _sampled(sampling)) if sampling else \
+            contextlib.nullcontext():
         if argv[0] == "--stiffness":
             return stiffness()
         size = argv[0]
@@ -216,6 +218,7 @@ def _root_facets(points: np.ndarray, facets: np.ndarray, layout) -> None:
     edges = np.linalg.norm(x[:, [1, 2, 0]] - x, axis=2).max(axis=1)[np.all(below & free, axis=1)]
     print(f"root facets on the thread below the nut: {len(edges)}, longest edges median "
           f"{np.median(edges) / s.P:.3f} P, largest {edges.max() / s.P:.3f} P")
+
 
 if __name__ == "__main__":
     main(sys.argv[1:])
