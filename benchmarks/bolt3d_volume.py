@@ -26,7 +26,6 @@ STATIONS, their sum (the bolt's elongation) and uy at the ten points, as that te
 import contextlib
 import math
 import sys
-from pathlib import Path
 from unittest import mock
 
 import gmsh
@@ -160,10 +159,11 @@ def stiffness() -> None:
     from bolt3d import layout_of, ten_points
     from bolt3d_vs_axisymmetric import elongation_points
 
+    import _tests  # noqa: F401  (tests/ importable)
+    from test_bolt3d_verification import MU, SMALL, STATIONS
+
     from frictionid.builders.bolt import bolt_model
     from frictionid.fem.problem import Problem
-    sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
-    from test_bolt3d_verification import MU, SMALL, STATIONS
     layout, model = layout_of(SMALL), bolt_model(**SMALL)
     points, weights = elongation_points(layout, 3, STATIONS)
     ten = ten_points(layout)
