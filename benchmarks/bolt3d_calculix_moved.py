@@ -105,9 +105,9 @@ def moved_model(verbose: bool = True):
         print(f"nut flank nodes {len(nodes):,}: {moved.sum():,} moved along their normals by {size.min():.3f} to "
               f"{size.max():.3f} um ({int(np.sum(moved & ~on_facet))} of them onto a facet's extension past the "
               f"flank's edge), {int(held.sum())} kept in place (cells the moves would spoil), {int(np.sum(~found))} "
-              f"with no bolt flank facet along the normal within {1e3 * REACH:g} um; the moves spread into the nut within {SPREAD:g} mm "
-              f"of its flanks; the cells' smallest Jacobian determinants (corners, ccx's and the product's quadrature "
-              f"points) keep at least {ratio.min():.3f} of their own", flush=True)
+              f"with no bolt flank facet along the normal within {1e3 * REACH:g} um; the moves spread into the nut "
+              f"within {SPREAD:g} mm of its flanks; the cells' smallest Jacobian determinants (corners, ccx's and the "
+              f"product's quadrature points) keep at least {ratio.min():.3f} of their own", flush=True)
     moved = dataclasses.replace(mesh, points=points)
     interfaces = (dataclasses.replace(thread, adjust=False),) + model.interfaces[1:]
     return dataclasses.replace(model, mesh=moved, interfaces=interfaces)
