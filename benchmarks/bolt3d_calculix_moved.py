@@ -170,13 +170,16 @@ def _face(points: np.ndarray, cell: np.ndarray, corners: list[int]) -> np.ndarra
 
 def _extended(mesh, move: np.ndarray, flank: np.ndarray) -> np.ndarray:
     """The flank nodes' moves spread smoothly into the nut: the graph Laplacian's harmonic extension over the nut's
-    cells (every two nodes of a cell neighbours), held at the flank's moves and at zero beyond SPREAD [mm] from the
-    flank, so that each small cell moves nearly as a rigid body (a sliver on the flank keeps its shape)."""
+    cells (every two nodes of a cell neighbours), held at the flank's moves, and at zero beyond SPREAD [mm] from the
+    flank and on every other named boundary (the nut's bearing face, whose node-to-node pairs with plate 1 stay
+    coincident), so that each small cell moves nearly as a rigid body."""
     cells = mesh.cells[mesh.regions["nut"]]
     inner = np.unique(cells)
     far = cKDTree(mesh.points[flank]).query(mesh.points[inner])[0] > SPREAD
     fixed = np.zeros(mesh.n_nodes, bool)
     fixed[inner[far]] = True
+    for facets in mesh.boundaries.values():
+        fixed[facets] = True
     fixed |= flank
     k = cells.shape[1]
     rows, cols = np.repeat(cells, k, axis=1).ravel(), np.tile(cells, (1, k)).ravel()
