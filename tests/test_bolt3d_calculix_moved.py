@@ -54,7 +54,7 @@ def test_ten_points_against_calculix(compared):
     solver with ccx's rule against ccx at 1e8, the largest difference within 5 % of the ten points' uy range
     (0.74 um). Not the issue's 1 %: measured 4.03 % (uy; ccx above at every point by 2.5-31 nm, unevenly; the
     README says what of it goes with the penalty); on the conforming nut 0.93 %. With mu 0.3 on the embedded side
-    19.9 % (and the machine's displacement -5.7 %)."""
+    19.9 % (and its machine displacement is 5.7 % below ccx's)."""
     ccx, embedded = compared
     u, u_ccx = embedded["embedded"], np.array(ccx["u"])
     span = np.ptp(u[BOLT, 1])
