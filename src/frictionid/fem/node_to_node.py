@@ -154,8 +154,7 @@ def _pair_normals(offset: np.ndarray, target_normal: np.ndarray, h: float) -> np
     The direction is oriented like the target normal (an interference points the other way). Nodes closer
     than 1e-6 of the facet size ``h`` [mm] count as coincident (their offset is round-off), and so do nodes whose
     offset lies more across the target normal than along it (over 45 deg from it): that is a mismatch of the two
-    meshes along the surface, not a gap, and the line joining them is no normal (a nut's bearing nodes moved 5 nm
-    radially off their partners turned 134 bearing pairs' normals radial and the machine's displacement by -1.7 %).
+    meshes along the surface, not a gap, and the line joining them is no normal (it would lie in the surface).
     """
     length = np.linalg.norm(offset, axis=1)
     along = np.abs(np.sum(offset * target_normal, axis=1))
