@@ -227,3 +227,31 @@ def test_the_inverse_from_a_cholesky_factor_is_the_full_symmetric_inverse(order)
     expected = np.linalg.inv(S)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
     np.testing.assert_array_equal(L, np.array(np.linalg.cholesky(S), order=order))      # L kept
+
+
+@pytest.mark.parametrize("order", ["F", "C"])
+@pytest.mark.parametrize("n_contact", [60, 500])
+def test_products_on_a_schur_block_are_t_s_inverse_t_contact(order, n_contact, monkeypatch):
+    """The condensation's dense part per body, out += T S^-1 T_w^T (T the rows touching the body, T_w its first
+    n_w contact rows), from a lower factor L of S in either memory order: to 1e-12 of its largest entry against the
+    dense product, with S^-1's last column. With few contact rows (60 of 900 dofs: a dense DIC field's observation
+    dofs join the block) by solves with L, S^-1 never formed (potri, made to fail here, is not called); with 500 by
+    S^-1. Rows that do not touch the body stay zero."""
+    rng = np.random.default_rng(7)
+    n_b, n_w, n_obs = 900, n_contact, 300
+    X = rng.normal(size=(n_b, n_b))
+    S = X @ X.T + n_b * np.eye(n_b)
+    L = np.array(np.linalg.cholesky(S), order=order)
+    T = sp.random(n_w + n_obs + 5, n_b, density=0.02, random_state=3, format="lil")
+    T[n_w + 2] = 0                                                           # an observation row off this body
+    T[3] = 0                                                                 # a contact row off this body
+    T = T.tocsr()
+    if n_contact < n_b // 3:
+        monkeypatch.setattr(cholesky, "inverse", lambda *args: pytest.fail("S^-1 formed"))
+    out = np.zeros((T.shape[0], n_w))
+    last = condense_module._add_products(out, T, L, False, n_w)
+    S_inv = np.linalg.inv(S)
+    expected = T @ S_inv @ T[:n_w].T.toarray()
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    np.testing.assert_allclose(last, S_inv[:, -1], rtol=0, atol=1e-12 * np.abs(S_inv).max())
+    assert not out[n_w + 2].any() and not out[:, 3].any()
