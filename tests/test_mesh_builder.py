@@ -297,14 +297,20 @@ def test_relative_file_is_resolved_against_the_config_folder(folder, monkeypatch
     assert read_config(folder / "truth.toml").model.option("file") == str(folder.resolve() / "block.msh")
 
 
+def _two_regions(folder):
+    """The two-region plane-strain deck (its nodes in an *INCLUDE file) written to ``folder`` and its [model]
+    table."""
+    (folder / "nodes.inp").write_text(NODES)
+    path = folder / "two.inp"
+    path.write_text(DECK.format(type="CPE4", nset="fixed"))
+    return path, {"builder": "mesh", "file": str(path), "kind": "plane_strain",
+                  "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
+                  "supports": [{"boundary": "fixed"}]}
+
+
 def test_a_mesh_file_written_again_builds_a_new_model(tmp_path):
     """build_model keeps recent models by their [model] table; a rewritten mesh file must not return the old one."""
-    (tmp_path / "nodes.inp").write_text(NODES)
-    path = tmp_path / "two.inp"
-    path.write_text(DECK.format(type="CPE4", nset="fixed"))
-    table = {"builder": "mesh", "file": str(path), "kind": "plane_strain",
-             "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
-             "supports": [{"boundary": "fixed"}]}
+    path, table = _two_regions(tmp_path)
     first = build_model(ModelSpec.from_table(table))
     assert build_model(ModelSpec.from_table(table)) is first
     (tmp_path / "nodes.inp").write_text(NODES.replace("6, 2, 1", "6, 2, 1.5"))
@@ -313,15 +319,9 @@ def test_a_mesh_file_written_again_builds_a_new_model(tmp_path):
     assert second is not first and second.mesh.points[:, 1].max() == 1.5
 
 
-
 def test_an_included_file_written_again_builds_a_new_model(tmp_path):
     """The deck untouched, only its *INCLUDE file rewritten (same size): a new model, not the kept one."""
-    (tmp_path / "nodes.inp").write_text(NODES)
-    path = tmp_path / "two.inp"
-    path.write_text(DECK.format(type="CPE4", nset="fixed"))
-    table = {"builder": "mesh", "file": str(path), "kind": "plane_strain",
-             "materials": {"left": {"E": 1, "nu": 0.3}, "right": {"E": 1, "nu": 0.3}},
-             "supports": [{"boundary": "fixed"}]}
+    path, table = _two_regions(tmp_path)
     first = build_model(ModelSpec.from_table(table))
     assert source_files(path) == [path, tmp_path / "nodes.inp"]
     (tmp_path / "nodes.inp").write_text(NODES.replace("6, 2, 1", "6, 2, 2"))
