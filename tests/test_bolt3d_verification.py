@@ -2,9 +2,9 @@
 seed's layout (no window, no jaws, mu 0.15 everywhere, 1,500 N) against the axisymmetric model of the same layout
 (load share per engaged thread, bolt elongation; the full nut, five threads), the full nut also with the nut meshed
 on its own (``nut_mesh = "separate"``, the thread by dual mortar) against both. SMALL (threads engaged over two
-pitches) is the model tests/test_bolt3d_calculix_live.py runs CalculiX on. The measurements and the larger runs are
-in docs/bolt-study.md ("Against the axisymmetric model", "Against CalculiX on the same mesh"); the functions are
-the benchmark's (benchmarks/bolt3d_vs_axisymmetric.py)."""
+pitches), with coarser roots and volume, is the model tests/test_bolt3d_calculix_live.py runs CalculiX on. The
+measurements and the larger runs are in docs/bolt-study.md ("Against the axisymmetric model", "Against CalculiX on
+the same mesh"); the functions are the benchmark's (benchmarks/bolt3d_vs_axisymmetric.py)."""
 
 import numpy as np
 import pytest
