@@ -52,10 +52,12 @@ INSIDE = 1e-9
 EXTENDED = 0.25
 
 
-def moved_model(verbose: bool = True):
-    """The stored separate-nut model without its flank slivers (:func:`without_slivers`), with the nut's flank nodes
-    on the bolt's flank and ``adjust`` off."""
-    model = fixture.stored_model(calculix.layout_of(fixture.OPTIONS), fixture.mesh_file("separate"))
+def moved_model(verbose: bool = True, model=None):
+    """The stored separate-nut model (or ``model``, another separate-nut 3-D bolt model, e.g. one with a finer
+    flank) without its flank slivers (:func:`without_slivers`), with the nut's flank nodes on the bolt's flank and
+    ``adjust`` off."""
+    if model is None:
+        model = fixture.stored_model(calculix.layout_of(fixture.OPTIONS), fixture.mesh_file("separate"))
     thread = model.interfaces[0]
     mesh, removed = without_slivers(model.mesh, thread.zones)
     if verbose:

@@ -99,6 +99,25 @@ def test_auto_picks_node_to_node_where_meshes_match_and_mortar_where_not(hexes, 
         contact_pairs(Space.build(different, "3d"), model)
 
 
+@pytest.mark.parametrize("coefficients", [("X", "Y"), ("Y", "X"), ("X", "X")])
+def test_zones_take_their_coefficients_by_name(coefficients):
+    """Zones whose coefficient is not named after them (``[friction] merge`` across interfaces, a user's own
+    names): the coupling is the zones' own, and each pair's zone share goes to its zone's coefficient, summed
+    where two zones share one (as in 2-D and node to node)."""
+    mesh = _mesh("tetra10-free")
+    space = Space.build(mesh, "3d")
+    own = mortar_pairs_3d(space, Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=_interface()), 0)
+    interface = ContactInterface("stack", ("A", "B"), "target", "mortar", coefficients=coefficients)
+    model = Model(mesh, "3d", {"lower": STEEL, "upper": STEEL}, interfaces=(interface,))
+    pairs = mortar_pairs_3d(space, model, 0)
+    assert abs(pairs.B - own.B).max() == 0.0 and np.array_equal(pairs.weight, own.weight)
+    expected = np.zeros((own.n_pairs, model.n_zones))
+    for k, name in enumerate(coefficients):
+        expected[:, model.zone_names.index(name)] += own.zone_share[:, k]
+    assert 0 < own.zone_share[:, 0].sum() < own.n_pairs          # both zones have pairs
+    np.testing.assert_allclose(pairs.zone_share, expected, atol=1e-15)
+
+
 def test_an_interface_whose_sides_do_not_face_is_refused():
     """Bad input: the upper body moved 3 mm sideways (its zones face nothing) and the target swapped for a
     boundary of the same body facing away: each refused by name."""

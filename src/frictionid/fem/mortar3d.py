@@ -44,7 +44,7 @@ from ..errors import InputError
 from ..model import Model
 from ..model.mesh import CELL_FACETS
 from .clipping import clip, counter_clockwise, signed_areas
-from .contact_map import check_gaps, gap_tolerance
+from .contact_map import check_gaps, coefficient_columns, gap_tolerance
 from .facet_shapes import CENTRE, CORNERS, NODE_PARAMETERS, SUBFACETS, facet_quadrature, geometry, \
     project_along, shape_functions, triangle_quadrature
 from .node_to_node import TRI6_ALPHA, surface_transform
@@ -257,7 +257,8 @@ def _integrate(slave: _Side, master: _Side, n_nodes: int, search_distance: float
 
 
 def _sides(model: Model, interface_index: int):
-    """Slave (contact zones) and master (target) sides of an interface, and the model zone index per zone."""
+    """Slave (contact zones) and master (target) sides of an interface, and which of the model's coefficients each
+    zone takes (:func:`~frictionid.fem.contact_map.coefficient_columns`)."""
     if not 0 <= interface_index < len(model.interfaces):
         raise InputError(f"mortar: interface_index {interface_index} is out of range; the model has "
                          f"{len(model.interfaces)} interface(s)")
@@ -273,7 +274,7 @@ def _sides(model: Model, interface_index: int):
         raise InputError(f"interface {interface.name!r}: zones and target {interface.target!r} share nodes; "
                          "the two bodies must have separate nodes at the interface")
     master = _Side(mesh, target, np.zeros(len(target), dtype=int), node_normals=False)
-    return slave, master, [model.zone_names.index(z) for z in interface.zones]
+    return slave, master, coefficient_columns(model, interface)
 
 
 def _operator(frames: np.ndarray, rows: sp.csr_matrix, dim: int) -> sp.csr_matrix:
@@ -317,13 +318,13 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
     >>> pairs = mortar_pairs_3d(Space.build(model.mesh, "3d"), model, 0)  # doctest: +SKIP
     >>> pairs.weight.sum()   # interface area [mm^2]  # doctest: +SKIP
     """
-    slave, master, zone_columns = _sides(model, interface_index)
+    slave, master, columns = _sides(model, interface_index)
     if search_distance is None:
         search_distance = model.interfaces[interface_index].gap_tolerance
     if search_distance is None:
         search_distance = float(2 * max(slave.radius.max(), master.radius.max()))
     mesh = model.mesh
-    mortar, gap_integral, by_zone = _integrate(slave, master, mesh.n_nodes, search_distance, len(zone_columns),
+    mortar, gap_integral, by_zone = _integrate(slave, master, mesh.n_nodes, search_distance, len(columns),
                                                degree)
     weight_all = by_zone.sum(axis=1)
     covered = np.asarray(mortar.sum(axis=1)).ravel()
@@ -343,8 +344,7 @@ def mortar_pairs_3d(space: Space, model: Model, interface_index: int, *, search_
     slave_rows = sp.identity(mesh.n_nodes, format="csr")[nodes] if transform is None else transform[1][nodes]
     rows = slave_rows - sp.diags(1.0 / covered[nodes]) @ mortar[nodes]
     frames = tangent_frames(-slave.node_normal[nodes])
-    zone_share = np.zeros((len(nodes), model.n_zones))
-    zone_share[:, zone_columns] = by_zone[nodes] / weight_all[nodes, None]
+    zone_share = (by_zone[nodes] / weight_all[nodes, None]) @ columns
     gap = gap_integral[nodes] / covered[nodes]
     interface = model.interfaces[interface_index]
     if gap_check:
