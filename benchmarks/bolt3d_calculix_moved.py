@@ -239,6 +239,15 @@ def pointwise_gaps(model, degree: int = 5) -> tuple[np.ndarray, np.ndarray]:
     ``degree`` on each nut flank facet (the slave side), along the facet's outward normal there, to the bolt's
     quadratic flank facets (NaN where no bolt facet lies along the normal within REACH). Negative: overlap.
     Returns gaps (n_facets, n_points) and the points' area weights [mm^2]."""
+    found = flank_projection(model, degree)
+    return found["gap"].reshape(found["area"].shape), found["area"]
+
+
+def flank_projection(model, degree: int = 5) -> dict:
+    """The nut flank's points of :func:`pointwise_gaps` projected onto the bolt's flank: ``nut`` (n_facets, 6) node
+    numbers, ``N`` the facets' shape functions at the points (n_points, 6), ``x`` and ``normal`` (n, 3) the points
+    and their outward unit normals, ``area`` (n_facets, n_points) [mm^2], ``gap`` (n,) [mm], and where a bolt facet
+    was found ``facet`` (n,) its row of the target boundary and ``at`` (n, 2) its parameters there."""
     mesh, thread = model.mesh, model.interfaces[0]
     nut = np.vstack([mesh.boundaries[z] for z in thread.zones])
     bolt = mesh.points[mesh.boundaries[thread.target]]
@@ -251,14 +260,14 @@ def pointwise_gaps(model, degree: int = 5) -> tuple[np.ndarray, np.ndarray]:
     area = np.linalg.norm(normal, axis=-1) * weights / 2
     normal = (side.sign[:, None, None] * normal / np.linalg.norm(normal, axis=-1, keepdims=True)).reshape(-1, 3)
     _, near = cKDTree(bolt.mean(axis=1)).query(x, k=CANDIDATES)
-    gap = np.full(len(x), np.nan)
+    gap, facet, at = np.full(len(x), np.nan), np.zeros(len(x), int), np.zeros((len(x), 2))
     for k in range(CANDIDATES):
         rs = project_along(bolt[near[:, k]], mesh.facet_type, x, normal)
         inside = np.all(rs >= -INSIDE, axis=1) & (rs.sum(axis=1) <= 1 + INSIDE)
         t = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", _shape(rs), bolt[near[:, k]]) - x, normal)
         better = inside & (np.abs(t) <= REACH) & (np.isnan(gap) | (np.abs(t) < np.abs(np.nan_to_num(gap, nan=np.inf))))
-        gap[better] = t[better]
-    return gap.reshape(area.shape), area
+        gap[better], facet[better], at[better] = t[better], near[better, k], rs[better]
+    return {"nut": nut, "N": N, "x": x, "normal": normal, "area": area, "gap": gap, "facet": facet, "at": at}
 
 
 def _report_pointwise(model, stiffness: list[float]) -> None:

@@ -33,8 +33,6 @@ import bolt3d_calculix_moved as moved                    # noqa: E402
 from fixtures import bolt3d_calculix as fixture          # noqa: E402
 from frictionid.backends.calculix.backend import CalculixBackend, CalculixSettings     # noqa: E402
 from frictionid.fem import space                         # noqa: E402
-from frictionid.fem.facet_shapes import project_along, shape_functions, triangle_quadrature    # noqa: E402
-from frictionid.fem.mortar3d import _Side                # noqa: E402
 from frictionid.fem.problem import Problem               # noqa: E402
 
 NUT_FLANK = "nut_flank"
@@ -121,33 +119,14 @@ def deformed_gaps(model, fields: dict, degree: int = 5) -> dict:
     """The thread's normal gaps [mm] at ``degree``'s triangle points on each nut flank facet after the load: the
     initial pointwise gap (``pointwise_gaps``) plus the relative displacement of the bolt's flank (at the point's
     projection along the nut facet's normal) and the nut's, along that normal; per field of ``fields``."""
-    mesh, thread = model.mesh, model.interfaces[0]
-    nut = np.vstack([mesh.boundaries[z] for z in thread.zones])
-    target = mesh.boundaries[thread.target]
-    side = _Side(mesh, nut, np.zeros(len(nut), int), node_normals=False)
-    bary, _ = triangle_quadrature(degree)
-    N, dN = shape_functions(bary[:, 1:], mesh.facet_type)
-    x = np.einsum("qk,fkd->fqd", N, side.coords).reshape(-1, 3)
-    tangents = np.einsum("qkp,fkd->fqdp", dN, side.coords)
-    normal = np.cross(tangents[..., 0], tangents[..., 1])
-    normal = (side.sign[:, None, None] * normal / np.linalg.norm(normal, axis=-1, keepdims=True)).reshape(-1, 3)
-    from scipy.spatial import cKDTree
-    bolt = mesh.points[target]
-    _, near = cKDTree(bolt.mean(axis=1)).query(x, k=moved.CANDIDATES)
-    gap, facet, at = np.full(len(x), np.nan), np.zeros(len(x), int), np.zeros((len(x), 2))
-    for k in range(moved.CANDIDATES):
-        rs = project_along(bolt[near[:, k]], mesh.facet_type, x, normal)
-        inside = np.all(rs >= -moved.INSIDE, axis=1) & (rs.sum(axis=1) <= 1 + moved.INSIDE)
-        t = np.einsum("qd,qd->q", np.einsum("qk,qkd->qd", moved._shape(rs), bolt[near[:, k]]) - x, normal)
-        better = inside & (np.abs(t) <= moved.REACH) & \
-            (np.isnan(gap) | (np.abs(t) < np.abs(np.nan_to_num(gap, nan=np.inf))))
-        gap[better], facet[better], at[better] = t[better], near[better, k], rs[better]
-    on_bolt = moved._shape(at)
-    out = {"initial": gap}
+    found = moved.flank_projection(model, degree)
+    target = model.mesh.boundaries[model.interfaces[0].target]
+    on_bolt = moved._shape(found["at"])
+    out = {"initial": found["gap"]}
     for name, u in fields.items():
-        u_nut = np.einsum("qk,fkd->fqd", N, u[nut]).reshape(-1, 3)
-        u_bolt = np.einsum("qk,qkd->qd", on_bolt, u[target[facet]])
-        out[name] = gap + np.einsum("qd,qd->q", u_bolt - u_nut, normal)
+        u_nut = np.einsum("qk,fkd->fqd", found["N"], u[found["nut"]]).reshape(-1, 3)
+        u_bolt = np.einsum("qk,qkd->qd", on_bolt, u[target[found["facet"]]])
+        out[name] = found["gap"] + np.einsum("qd,qd->q", u_bolt - u_nut, found["normal"])
     return out
 
 
