@@ -38,8 +38,10 @@ class Backend(Protocol):
     has_sensitivities: bool
     model: object
 
-    def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
-        """The observation rows at the zone coefficients ``mu`` (n_zones,), with derivatives if asked."""
+    def predict(self, mu: np.ndarray, sensitivities=False) -> Prediction:
+        """The observation rows at the zone coefficients ``mu`` (n_zones,), with derivatives if asked:
+        ``sensitivities`` True (to every zone), or the indices of the zones they are needed for (a fit's free
+        zones; a backend may leave the others' columns NaN, or give them too)."""
         ...
 
 

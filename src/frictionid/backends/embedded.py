@@ -7,12 +7,13 @@ import hashlib
 import logging
 import os
 import pickle
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from ..fem.problem import SLIP_TOLERANCE, Problem
+from ..fem.problem import SLIP_TOLERANCE, Problem, sensitivity_zones
 from ..model import Model
 from .base import Prediction
 
@@ -165,15 +166,19 @@ class EmbeddedBackend:
         self._key = _key(model, points, tuple(quantities), regions, window, factorisation, sliding) \
             + ((increments,) if increments != "fixed" else ()) if _CACHE else None
 
-    def predict(self, mu: np.ndarray, sensitivities: bool = False) -> Prediction:
-        """The observation rows at ``mu``; with :func:`use_cache` read from (or written to) the cache folder."""
+    def predict(self, mu: np.ndarray, sensitivities: bool | Sequence[int] = False) -> Prediction:
+        """The observation rows at ``mu``; ``sensitivities`` as :meth:`Problem.solve`'s (True, False or the zones'
+        indices: a fit's free zones, the others' derivatives NaN); with :func:`use_cache` read from (or written
+        to) the cache folder."""
         mu = np.asarray(mu, dtype=float)
-        path = None if self._key is None else _cached(self._key, "predicted", mu.tobytes(), bool(sensitivities),
-                                                      self.reactions)
+        zones = sensitivity_zones(sensitivities, self.model.n_zones)
+        taken = zones is not None and (len(zones) == self.model.n_zones or tuple(zones.tolist()))
+        path = None if self._key is None else _cached(self._key, "predicted", mu.tobytes(), taken, self.reactions)
         if path is not None and path.exists():
             with np.load(path) as stored:
-                return Prediction(stored["values"], stored["derivatives"] if sensitivities else None)
-        solution = self.problem.solve(mu, sensitivities=sensitivities, increments=self.increments, max_slip=None)
+                return Prediction(stored["values"], stored["derivatives"] if zones is not None else None)
+        solution = self.problem.solve(mu, sensitivities=zones if zones is not None else False,
+                                      increments=self.increments, max_slip=None)
         # kept for check_sliding and fields at the same mu (simulate's one solve; a fit's last solve, often at its
         # answer): the contact unknowns and the observation rows per increment, without the displacement field
         self._last = (mu.copy(), solution)
@@ -196,7 +201,8 @@ class EmbeddedBackend:
         ``mu`` with sensitivities, else one solve with sensitivities (:meth:`Problem.point_sensitivities`). None
         where the condensation cannot give them (finite sliding): make a backend for the points instead."""
         mu = np.asarray(mu, dtype=float)
-        if self._last is not None and np.array_equal(self._last[0], mu) and self._last[1].d_x is not None:
+        d_x = None if self._last is None or not np.array_equal(self._last[0], mu) else self._last[1].d_x
+        if d_x is not None and np.isfinite(d_x).all():
             solution = self._last[1]
         else:
             solution = self.problem.solve(mu, sensitivities=True, increments=self.increments, max_slip=None)

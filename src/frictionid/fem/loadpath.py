@@ -83,8 +83,11 @@ class LoadPathSolver:
     """Solves a condensed problem along the load path for one vector of zone coefficients."""
 
     def __init__(self, condensed: Condensed, pairs: ContactPairs, rtol: float = 1e-10,
-                 stuck: StuckInverses | None = None, linear=None):
+                 stuck: StuckInverses | None = None, linear=None, zones: np.ndarray | None = None):
         self.c, self.pairs = condensed, pairs
+        #: the pairs' shares of the zones whose coefficients the sensitivities are taken to (``zones``: their
+        #: indices; None: every zone), one column per zone
+        self.share = pairs.zone_share if zones is None else pairs.zone_share[:, zones]
         self.Wfull = condensed.gap_ops.full
         self.Wa_T = condensed.equilibrium.on_lam
         self.r = contact_scale(condensed)
@@ -275,7 +278,7 @@ class LoadPathSolver:
                 pending += [(middle, b, depth + 1), (a, middle, depth + 1)]
                 continue
             if sensitivities:
-                path.S, path.dw_T = self._sensitivity(path, result.lin, self.pairs.zone_share), None
+                path.S, path.dw_T = self._sensitivity(path, result.lin, self.share), None
             w = self.c.gap_ops(b, result.x).reshape(self.pairs.n_pairs, self.pairs.dim)
             path.before = (np.asarray(a, float), path.x)
             path.x, path.w_T, path.state = result.x, w[:, 1:], result.lin.state

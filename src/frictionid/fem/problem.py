@@ -144,6 +144,26 @@ class PointLabels(Sequence):
         return f"PointLabels({self.n_points}, {self.quantities})"
 
 
+def sensitivity_zones(sensitivities, n_zones: int) -> np.ndarray | None:
+    """The sorted indices of the zones a solve takes sensitivities to: None for False, every zone for True, else
+    the listed indices (of ``n_zones``; none listed: None)."""
+    if isinstance(sensitivities, (bool, np.bool_)) or sensitivities is None:
+        return np.arange(n_zones) if sensitivities else None
+    zones = np.unique(np.asarray(sensitivities, dtype=int).ravel())
+    if zones.size and (zones[0] < 0 or zones[-1] >= n_zones):
+        raise ValueError(f"sensitivities: zone indices {zones.tolist()} outside the model's {n_zones} zones")
+    return zones if zones.size else None
+
+
+def _widened(a: np.ndarray, zones: np.ndarray, n_zones: int) -> np.ndarray:
+    """(..., n_zones) of (..., len(zones)): the columns at ``zones``, NaN elsewhere."""
+    if len(zones) == n_zones:
+        return a
+    out = np.full(a.shape[:-1] + (n_zones,), np.nan)
+    out[..., zones] = a
+    return out
+
+
 #: values of Problem.build's ``contact``; "auto" takes "implicit" above
 #: :data:`frictionid.fem.condense_implicit.IMPLICIT_ABOVE` contact dofs
 CONTACT_SOLVES = ("auto", "dense", "implicit")
@@ -309,20 +329,22 @@ class Problem:
         end of a solution with sensitivities (point-major, as :meth:`build`'s observation rows, regions as there;
         strains pointwise, no DIC window), from the condensation already made: the displacement field's
         sensitivity is the field of the contact unknowns' sensitivities (``solution.d_x``) under no load, one
-        solve with the kept factor for all zones and stages. None where the solution has no ``d_x`` (solved
-        without sensitivities, or with finite sliding).
+        solve with the kept factor for all zones and stages (NaN for the zones the solve took none to). None
+        where the solution has no ``d_x`` (solved without sensitivities, or with finite sliding).
         """
         if solution.d_x is None:
             return None
         from .points import point_operator
 
         ends = [solution.stage_end(s) for s in range(self.model.n_stages)]
-        n_zones = solution.d_x.shape[2]
-        x = np.moveaxis(solution.d_x[ends], 2, 1).reshape(len(ends) * n_zones, -1)   # (stage, zone) rows
+        d_x = solution.d_x[ends]
+        zones = np.flatnonzero(np.isfinite(d_x).all(axis=(0, 1)))          # those the solve took them to
+        x = np.moveaxis(d_x[:, :, zones], 2, 1).reshape(len(ends) * len(zones), -1)   # (stage, zone) rows
         no_load = np.zeros((len(x), self.channels.amplitudes.shape[1]))
         du = self.condensed.displacement(self.pairs.B, self.channels.displacements, no_load, x)
         rows = point_operator(self.space, points, quantities, regions, self.model.materials) @ du.T
-        return np.moveaxis(rows.reshape(rows.shape[0], len(ends), n_zones), 1, 0)
+        return _widened(np.moveaxis(rows.reshape(rows.shape[0], len(ends), len(zones)), 1, 0), zones,
+                        d_x.shape[2])
 
     def _loads(self, solution: Solution, index: np.ndarray) -> tuple:
         """(B, the channels' prescribed displacements, amplitudes, x) of the increments ``index`` of a solution:
@@ -532,9 +554,14 @@ class Problem:
             f"{limit:g} x the local element length {length:.3g} mm, the small-sliding range of {where}; reduce the "
             "imposed sliding, coarsen the contact mesh, or set [solver] slip_tolerance = false (no check)")
 
-    def solve(self, mu, sensitivities: bool = False, max_slip: float | None = SLIP_TOLERANCE,
+    def solve(self, mu, sensitivities: bool | Sequence[int] = False, max_slip: float | None = SLIP_TOLERANCE,
               increments: str = "fixed") -> Solution:
         """Run the load path for zone coefficients ``mu`` (array in zone order, or dict zone -> value).
+
+        ``sensitivities``: False (none), True (to every zone's coefficient) or the indices of the zones to take
+        them to (a fit's free zones): the other zones' columns of ``d_x``, ``d_observations`` and ``d_reactions``
+        are NaN. Each zone's column costs a solve with the Jacobian per increment; with finite sliding every
+        zone's are taken.
 
         ``max_slip``: the small-sliding check's tolerance ([solver] slip_tolerance; None: no check), see
         :meth:`check_small_sliding`. ``increments``: "fixed" (each stage's n_increments equal steps) or
@@ -551,8 +578,9 @@ class Problem:
         # threads on an idle machine and lose up to 60x to busy-waiting threads when the cores are shared with
         # another job or another solve (run.workers; benchmarks/blas_threads.py, benchmarks/cli_threads.py); its
         # factorisations of threads.LARGE rows or more take the process's threads back (fem/threads.py)
+        zones = sensitivity_zones(sensitivities, self.model.n_zones)
         with one_blas_thread():
-            return self._solve(self.model.coefficients(mu), sensitivities, max_slip, increments == "adaptive")
+            return self._solve(self.model.coefficients(mu), zones, max_slip, increments == "adaptive")
 
     @functools.cached_property
     def _stuck_inverses(self):
@@ -582,15 +610,19 @@ class Problem:
         state.pop("_interface_sources", None)
         return state
 
-    def _solve(self, mu: np.ndarray, sensitivities: bool, max_slip: float | None, adaptive: bool = False) -> Solution:
+    def _solve(self, mu: np.ndarray, zones: np.ndarray | None, max_slip: float | None,
+               adaptive: bool = False) -> Solution:
+        """The load path at zone coefficients ``mu``, sensitivities to the zones ``zones`` (indices; None: none)."""
         if self.sliding == "finite":
             from .sliding import solve_finite
-            return solve_finite(self, mu, sensitivities)
+            return solve_finite(self, mu, zones is not None)
+        sensitivities = zones is not None
+        taken = None if zones is None or len(zones) == self.model.n_zones else zones
         if is_implicit(self.condensed):
-            solver = LoadPathSolver(self.condensed, self.pairs, linear=self._krylov)
+            solver = LoadPathSolver(self.condensed, self.pairs, linear=self._krylov, zones=taken)
         else:
             stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
-            solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck)
+            solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck, zones=taken)
         path = solver.start()
         mu_pair = self.pairs.mu(mu)
         records, stages, amps = [], [], []
@@ -611,22 +643,22 @@ class Problem:
             previous = amp
             stages.append(stage)
             amps.append(amp)
-        solution = self._solution(mu, np.array(stages), np.array(amps), records, sensitivities)
+        solution = self._solution(mu, np.array(stages), np.array(amps), records, zones)
         if max_slip is not None:
             self.check_small_sliding(solution, max_slip)
         return solution
 
-    def _solution(self, mu, stages, amps, records, sensitivities) -> Solution:
+    def _solution(self, mu, stages, amps, records, zones: np.ndarray | None) -> Solution:
         c, pairs = self.condensed, self.pairs
         n_w = pairs.n_pairs * pairs.dim
         X = np.array([r[0] for r in records])
         outputs = {name: np.array([ops(a, x) for a, x in zip(amps, X)])
                    for name, ops in (("w", c.gap_ops), ("obs", c.obs_ops), ("reac", c.reac_ops))}
         d_obs = d_reac = S = None
-        if sensitivities:
-            S = np.array([r[2] for r in records])                               # (n_inc, n_x, n_z)
-            d_obs = c.obs_ops.full @ S                                           # (n_inc, n_obs, n_z)
-            d_reac = c.reac_ops.full @ S
+        if zones is not None:
+            S = np.array([r[2] for r in records])                               # (n_inc, n_x, n_taken)
+            d_obs, d_reac, S = (_widened(a, zones, self.model.n_zones)          # (n_inc, n_obs, n_z), ...
+                                for a in (c.obs_ops.full @ S, c.reac_ops.full @ S, S))
         if self.expand is not None:
             outputs["obs"] = ExpandedRows(outputs["obs"], self.expand)
             d_obs = None if d_obs is None else ExpandedRows(d_obs, self.expand)

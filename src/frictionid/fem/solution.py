@@ -63,6 +63,7 @@ class Solution:
     state : (n_inc, n_pairs) 0 open, 1 stick, 2 slip
     observations : (n_inc, n_obs); reactions : (n_inc, n_reac) [N]
     d_observations : (n_inc, n_obs, n_zones) or None; d_reactions : (n_inc, n_reac, n_zones) or None
+        (NaN in the columns of the zones a solve took no sensitivities to: ``Problem.solve``'s ``sensitivities``)
         (observations and d_observations are :class:`ExpandedRows` for a problem that condensed the observed
         dofs instead of the rows: index them, e.g. ``[ends]``, or take ``np.asarray``)
     n_newton : (n_inc,) Newton iterations; n_cuts : (n_inc,) increment cuts

@@ -67,7 +67,9 @@ class Evaluator:
             self._memo[(x.tobytes(), sensitivities)] = stored["f"], stored.get("dfdmu")
             return self._memo[(x.tobytes(), sensitivities)]
         mu = np.maximum(self.params.full(x), 0.0)
-        prediction, wall = self.executor.result(self.executor.submit(mu, sensitivities))
+        # derivatives for the free zones only: the held zones' columns are never read
+        wanted = tuple(np.flatnonzero(self.params.free).tolist()) if sensitivities else False
+        prediction, wall = self.executor.result(self.executor.submit(mu, wanted))
         if isinstance(prediction, str) and np.array_equal(x, self.params.x0):
             raise SolverError(prediction)
         return self._keep(x, sensitivities, prediction, wall)

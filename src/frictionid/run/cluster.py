@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 _BACKENDS: dict[str, object] = {}   # on a worker: backends handed over by the plugin, by token
 
 
-def _solve_on_worker(token: str, mu, sensitivities: bool):
+def _solve_on_worker(token: str, mu, sensitivities: bool | tuple[int, ...]):
     return solve(_BACKENDS[token], mu, sensitivities)
 
 
@@ -72,7 +72,7 @@ class DaskExecutor:
     def start(self) -> None:
         """The cluster runs from construction on."""
 
-    def submit(self, mu, sensitivities: bool):
+    def submit(self, mu, sensitivities: bool | tuple[int, ...]):
         return self.client.submit(_solve_on_worker, self._token, mu, sensitivities, pure=False,
                                   retries=self.retries, key=f"frictionid-solve-{uuid.uuid4().hex}")
 

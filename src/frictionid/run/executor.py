@@ -28,7 +28,7 @@ _ADDRESS = re.compile(r"^(tcp|tls)://[^\s:/]+:\d{1,5}$")
 _BACKEND = None   # the backend a forked worker process inherits (fork start method: nothing is pickled)
 
 
-def _solve_forked(mu, sensitivities: bool):
+def _solve_forked(mu, sensitivities: bool | tuple[int, ...]):
     return solve(_BACKEND, mu, sensitivities)
 
 
@@ -48,7 +48,7 @@ class SerialExecutor:
     def start(self) -> None:
         """Nothing to start."""
 
-    def submit(self, mu, sensitivities: bool):
+    def submit(self, mu, sensitivities: bool | tuple[int, ...]):
         return lambda: solve(self.backend, mu, sensitivities)
 
     def result(self, task):
@@ -83,7 +83,7 @@ class ProcessExecutor(SerialExecutor):
                 self.n_workers, multiprocessing.get_context("fork"), initializer=_adopt, initargs=(self.backend,))
             self._pool.submit(int).result()     # a fork pool starts all its processes at the first task
 
-    def submit(self, mu, sensitivities: bool):
+    def submit(self, mu, sensitivities: bool | tuple[int, ...]):
         self.start()
         return self._pool.submit(_solve_forked, mu, sensitivities)
 

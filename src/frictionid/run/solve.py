@@ -19,7 +19,7 @@ class WorkerLost(SolverError):
     unlike a solve that failed to converge, it says nothing about the coefficients."""
 
 
-def solve(backend, mu, sensitivities: bool):
+def solve(backend, mu, sensitivities: bool | tuple[int, ...]):
     """One forward solve: (the backend's Prediction, or the message of its SolverError; wall time [s])."""
     start = time.perf_counter()
     try:
