@@ -78,3 +78,24 @@ def test_a_fit_asks_for_its_free_zones_only():
     jacobian = Evaluator(backend, obs, params).jacobian(np.array([0.2, 0.3]))
     np.testing.assert_allclose(jacobian[:3], A[:, [0, 2]])
     assert backend.asked == [(0, 2)]
+
+
+def test_a_refit_asks_for_the_zones_it_is_given_and_solves_again_where_a_stored_column_is_missing(tmp_path):
+    """The refits of a profile (one zone held each) share their stored evaluations: each asks for the
+    identification's free zones (``sensitive``), and an evaluation stored without one of its free zones' columns
+    (NaN) is solved again instead of being read."""
+    from frictionid.run.store import RunStore
+    A = np.array([[1.0, 0.5, 0.0], [0.0, 2.0, 1.0], [1.0, 0.0, 3.0]])
+    held = Parameters.from_config(("A", "B", "C"), {"B": 0.2, "C": 0.3}, bounds=(0.0, 0.6), fixed={"A": 0.1})
+    obs = Observations(points=np.zeros((3, 2)), point_regions=(None,) * 3, quantities=("ux",), row=np.arange(3),
+                       stage=np.zeros(3, int), y=np.ones(3), sigma=np.ones(3), labels=("0", "1", "2"),
+                       noise_known=True)
+    store = RunStore.open(tmp_path / "run", "", "f", resume=False)
+    x = np.array([0.2, 0.3])
+    partial = A.copy()
+    partial[:, 1] = np.nan                      # stored by a refit that held B
+    store.record(x, "forward+sensitivities", {"f": A @ [0.1, 0.2, 0.3], "dfdmu": partial})
+    backend = _Asked(A)
+    evaluator = Evaluator(backend, obs, held, store, sensitive=np.ones(3, bool))
+    np.testing.assert_allclose(evaluator.jacobian(x)[:3], A[:, 1:])
+    assert backend.asked == [(0, 1, 2)] and evaluator.n_replayed == 0

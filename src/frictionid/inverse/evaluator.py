@@ -37,8 +37,12 @@ class Evaluator:
 
     def __init__(self, backend: Backend, observations: Observations, parameters: Parameters, store=None,
                  jacobian: str = "analytic", step: float = 1e-4, tikhonov: float = 0.0, prior=None,
-                 penalty: float = 0.0, workers: int = 1, executor=None):
+                 penalty: float = 0.0, workers: int = 1, executor=None, sensitive=None):
         self.backend, self.obs, self.params, self.store = backend, observations, parameters, store
+        #: (n_zones,) bool: the zones each solve with sensitivities takes them to (default the free ones; a refit
+        #: with a zone held asks for the identification's free zones, so that the refits of different held zones,
+        #: which share their stored evaluations, each find the columns they need)
+        self.sensitive = np.asarray(parameters.free if sensitive is None else sensitive, dtype=bool)
         self.jacobian_kind, self.step = jacobian, step
         self.tikhonov, self.penalty = tikhonov, penalty
         self.prior = parameters.x0 if prior is None else np.broadcast_to(np.asarray(prior, float), parameters.x0.shape)
@@ -62,13 +66,16 @@ class Evaluator:
                 return self._memo[key]
         kind = "forward+sensitivities" if sensitivities else "forward"
         stored = self._stored(x, kind)
+        if sensitivities and stored is not None and stored.get("dfdmu") is not None and \
+                not np.isfinite(stored["dfdmu"][:, self.params.free]).all():
+            stored = None           # solved without some of these zones' sensitivities: solve again
         if stored is not None:
             self.n_replayed += 1
             self._memo[(x.tobytes(), sensitivities)] = stored["f"], stored.get("dfdmu")
             return self._memo[(x.tobytes(), sensitivities)]
         mu = np.maximum(self.params.full(x), 0.0)
         # derivatives for the free zones only: the held zones' columns are never read
-        wanted = tuple(np.flatnonzero(self.params.free).tolist()) if sensitivities else False
+        wanted = tuple(np.flatnonzero(self.sensitive).tolist()) if sensitivities else False
         prediction, wall = self.executor.result(self.executor.submit(mu, wanted))
         if isinstance(prediction, str) and np.array_equal(x, self.params.x0):
             raise SolverError(prediction)

@@ -17,12 +17,13 @@ from .parameters import Parameters
 
 
 def make_evaluator(backend: Backend, observations: Observations, parameters: Parameters, store, ident: IdentifyOptions,
-                   executor=None, prior=None) -> Evaluator:
+                   executor=None, prior=None, sensitive=None) -> Evaluator:
     """The evaluator of ``parameters``' free coefficients with identify.jacobian, step, tikhonov, penalty and
-    prior (``prior`` given: instead of identify.prior, e.g. a refit's with the held zone left out)."""
+    prior (``prior`` given: instead of identify.prior, e.g. a refit's with the held zone left out); ``sensitive``:
+    as :class:`Evaluator`'s."""
     return Evaluator(backend, observations, parameters, store, ident.jacobian, ident.step,
                      ident.tikhonov, ident.prior if prior is None else prior,
-                     ident.penalty, executor=executor)
+                     ident.penalty, executor=executor, sensitive=sensitive)
 
 
 def make_least_squares(evaluator: Evaluator, ident: IdentifyOptions, on_iteration: Callable = lambda *args: None,

@@ -26,7 +26,8 @@ class HeldRefits:
         ident, evaluator, obs = self.ident, self.evaluator, self.evaluator.obs
         held = profile.held(self.params, zone, value, x0)
         sub = make_evaluator(evaluator.backend, obs, held, profile.HeldStore(self.store, held), ident,
-                             evaluator.executor, np.delete(evaluator.prior, self.names.index(zone)))
+                             evaluator.executor, np.delete(evaluator.prior, self.names.index(zone)),
+                             sensitive=self.params.free)
         problem = make_least_squares(sub, ident)
         x = self.optimise(problem).x
         evaluator.count(sub)
