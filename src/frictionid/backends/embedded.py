@@ -172,7 +172,7 @@ class EmbeddedBackend:
         to) the cache folder."""
         mu = np.asarray(mu, dtype=float)
         zones = sensitivity_zones(sensitivities, self.model.n_zones)
-        taken = zones is not None and (len(zones) == self.model.n_zones or tuple(zones.tolist()))
+        taken = None if zones is None else tuple(zones.tolist())
         path = None if self._key is None else _cached(self._key, "predicted", mu.tobytes(), taken, self.reactions)
         if path is not None and path.exists():
             with np.load(path) as stored:

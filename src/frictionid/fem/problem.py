@@ -617,12 +617,11 @@ class Problem:
             from .sliding import solve_finite
             return solve_finite(self, mu, zones is not None)
         sensitivities = zones is not None
-        taken = None if zones is None or len(zones) == self.model.n_zones else zones
         if is_implicit(self.condensed):
-            solver = LoadPathSolver(self.condensed, self.pairs, linear=self._krylov, zones=taken)
+            solver = LoadPathSolver(self.condensed, self.pairs, linear=self._krylov, zones=zones)
         else:
             stuck = self._stuck_inverses if loadpath._LINEAR == "updated" else None
-            solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck, zones=taken)
+            solver = LoadPathSolver(self.condensed, self.pairs, stuck=stuck, zones=zones)
         path = solver.start()
         mu_pair = self.pairs.mu(mu)
         records, stages, amps = [], [], []
